@@ -1,0 +1,353 @@
+//! The physical model: a tree of rigid bodies connected by one-dof joints.
+//!
+//! Conventions, stated once here and used everywhere:
+//! - SI units; angles in radians (loaders convert MJCF degrees).
+//! - Body 0 is the world. Every other body has a parent with a smaller index.
+//! - A body's frame sits in its parent's frame at `pos`, rotated by `rot`
+//!   (columns of `rot` are the body axes in parent coordinates), when every joint
+//!   of the body is at its reference position `Joint::reference`.
+//! - A body has zero or more joints, applied in order, each in the body's own
+//!   (already moved) frame: a hinge turns the body by `q - reference` about
+//!   `axis` through `anchor`; a slide moves it by `(q - reference) * axis`.
+//!   This is MJCF's meaning; a URDF joint is a body with one joint whose anchor is
+//!   the body origin. A body with no joint is welded to its parent ("fixed").
+//! - Every joint has one dof, so nq = nv and joint i owns q[i] and v[i].
+//! - A body's inertial properties are its mass, its centre of mass `com` in body
+//!   coordinates, and its inertia tensor about the COM in body axes.
+//! - Generalized forces tau have length nv. An actuator maps a control u to
+//!   tau[joint] += gear * u.
+
+pub mod mjcf;
+pub mod urdf;
+
+use nalgebra::{Matrix3, Rotation3, Vector3};
+
+use crate::dynamics::Tree;
+
+/// Errors from building, loading or editing a model.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ModelError {
+    #[error("cannot read {path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{file}: XML syntax error: {message}")]
+    Xml { file: String, message: String },
+    /// A file that parses as XML but describes something we reject.
+    #[error("{file}:{line}: <{element}>: {message}")]
+    Invalid {
+        file: String,
+        line: u32,
+        element: String,
+        message: String,
+    },
+    #[error("unsupported model file extension in {0}: expected .xml (MJCF) or .urdf")]
+    UnknownFormat(String),
+    #[error("model is not physical: {0}")]
+    NotPhysical(String),
+}
+
+/// A rigid body. See the module documentation for frames.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Body {
+    pub name: String,
+    /// Index of the parent body; the world (body 0) is its own parent.
+    pub parent: usize,
+    pub pos: Vector3<f64>,
+    pub rot: Rotation3<f64>,
+    pub mass: f64,
+    pub com: Vector3<f64>,
+    /// Inertia tensor about the COM, in body axes (kg m^2).
+    pub inertia: Matrix3<f64>,
+    /// The joints of this body, as a range of joint (= dof) indices.
+    pub joints: std::ops::Range<usize>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum JointKind {
+    /// Revolute: rotation about an axis (MJCF hinge, URDF revolute/continuous).
+    Hinge,
+    /// Prismatic: translation along an axis (MJCF slide, URDF prismatic).
+    Slide,
+}
+
+/// A one-dof joint. Axis and anchor are in the coordinates of its body's frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Joint {
+    pub name: String,
+    pub kind: JointKind,
+    pub body: usize,
+    /// Unit axis.
+    pub axis: Vector3<f64>,
+    /// A point on the axis (hinges turn about it).
+    pub anchor: Vector3<f64>,
+    /// The q at which the body sits at its `pos`/`rot` (MJCF `ref`, qpos0).
+    pub reference: f64,
+    /// Viscous damping: force -damping * v.
+    pub damping: f64,
+    /// Spring: force -stiffness * (q - springref).
+    pub stiffness: f64,
+    pub springref: f64,
+    /// Rotor inertia added to the mass-matrix diagonal (MuJoCo armature).
+    pub armature: f64,
+    /// Dry friction (stored for later use; not in the smooth dynamics yet).
+    pub frictionloss: f64,
+    /// Position limits, if the joint is limited.
+    pub range: Option<(f64, f64)>,
+}
+
+/// A control input acting on one joint: tau[joint] += gear * u.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Actuator {
+    pub name: String,
+    pub joint: usize,
+    pub gear: f64,
+    pub ctrl_range: Option<(f64, f64)>,
+}
+
+/// Collision and visual shape, in the frame of its body.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shape {
+    /// The z = 0 plane of the geom frame (infinite).
+    Plane,
+    Sphere { radius: f64 },
+    /// Along the geom's z axis; `half_length` of the cylindrical part.
+    Capsule { radius: f64, half_length: f64 },
+    /// Along the geom's z axis.
+    Cylinder { radius: f64, half_length: f64 },
+    Box { half: Vector3<f64> },
+    Ellipsoid { radii: Vector3<f64> },
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Geom {
+    pub name: String,
+    pub body: usize,
+    pub shape: Shape,
+    pub pos: Vector3<f64>,
+    pub rot: Rotation3<f64>,
+    /// MJCF contype/conaffinity bitmasks (URDF collision geoms get 1/1).
+    pub contype: u32,
+    pub conaffinity: u32,
+    /// Sliding, torsional, rolling friction (MJCF order).
+    pub friction: [f64; 3],
+}
+
+/// How velocities and positions advance over one timestep.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Integrator {
+    /// Semi-implicit Euler: v' = v + h a(q, v), q' = q + h v'.
+    Euler,
+    /// Classic fourth-order Runge-Kutta on (q, v); passive forces explicit.
+    Rk4,
+}
+
+/// How joint damping and stiffness enter a semi-implicit Euler step.
+/// (Under RK4 passive forces are always explicit, as in MuJoCo.)
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PassiveMode {
+    /// Forces at the current state: PyBullet, MuJoCo with eulerdamp disabled.
+    Explicit,
+    /// Damping at the next velocity, stiffness at the current position:
+    /// MuJoCo's Euler integrator.
+    ImplicitDamping,
+    /// Damping at the next velocity and stiffness at the next position: DART.
+    ImplicitDampingStiffness,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    pub timestep: f64,
+    pub gravity: Vector3<f64>,
+    pub integrator: Integrator,
+    pub passive: PassiveMode,
+}
+
+impl Default for Options {
+    /// MuJoCo's defaults.
+    fn default() -> Self {
+        Options {
+            timestep: 0.002,
+            gravity: Vector3::new(0.0, 0.0, -9.81),
+            integrator: Integrator::Euler,
+            passive: PassiveMode::ImplicitDamping,
+        }
+    }
+}
+
+/// The whole model: named bodies, joints, actuators, geoms and options, plus the
+/// numeric tree the dynamics run on (rebuilt by [`Model::new`] and after edits).
+#[derive(Clone, Debug)]
+pub struct Model {
+    pub name: String,
+    pub bodies: Vec<Body>,
+    pub joints: Vec<Joint>,
+    pub actuators: Vec<Actuator>,
+    pub geoms: Vec<Geom>,
+    pub opt: Options,
+    tree: Tree<f64>,
+}
+
+impl Model {
+    /// Checks the parts for consistency and builds the dynamics tree.
+    pub fn new(
+        name: String,
+        bodies: Vec<Body>,
+        joints: Vec<Joint>,
+        actuators: Vec<Actuator>,
+        geoms: Vec<Geom>,
+        opt: Options,
+    ) -> Result<Model, ModelError> {
+        let mut model = Model {
+            name,
+            bodies,
+            joints,
+            actuators,
+            geoms,
+            opt,
+            tree: Tree::empty(),
+        };
+        model.validate()?;
+        model.tree = Tree::build(&model);
+        Ok(model)
+    }
+
+    /// Loads an MJCF (`.xml`) or URDF (`.urdf`) file.
+    pub fn load(path: impl AsRef<std::path::Path>) -> Result<Model, ModelError> {
+        let path = path.as_ref();
+        let shown = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| ModelError::Io {
+            path: shown.clone(),
+            source,
+        })?;
+        match path.extension().and_then(|e| e.to_str()) {
+            Some("xml") | Some("mjcf") => mjcf::parse(&text, &shown),
+            Some("urdf") => urdf::parse(&text, &shown),
+            _ => Err(ModelError::UnknownFormat(shown)),
+        }
+    }
+
+    pub fn nq(&self) -> usize {
+        self.joints.len()
+    }
+
+    pub fn nv(&self) -> usize {
+        self.joints.len()
+    }
+
+    pub fn nu(&self) -> usize {
+        self.actuators.len()
+    }
+
+    /// The numeric tree the dynamics algorithms run on.
+    pub fn tree(&self) -> &Tree<f64> {
+        &self.tree
+    }
+
+    /// The configuration at which every body sits at its modelled pose.
+    pub fn reference_q(&self) -> Vec<f64> {
+        self.joints.iter().map(|j| j.reference).collect()
+    }
+
+    pub fn body_index(&self, name: &str) -> Option<usize> {
+        self.bodies.iter().position(|b| b.name == name)
+    }
+
+    pub fn joint_index(&self, name: &str) -> Option<usize> {
+        self.joints.iter().position(|j| j.name == name)
+    }
+
+    /// Generalized forces from actuator controls: tau = sum gear * u on each joint.
+    pub fn actuator_forces(&self, u: &[f64]) -> Vec<f64> {
+        let mut tau = vec![0.0; self.nv()];
+        for (a, &ui) in self.actuators.iter().zip(u) {
+            tau[a.joint] += a.gear * ui;
+        }
+        tau
+    }
+
+    fn validate(&self) -> Result<(), ModelError> {
+        let bad = |msg: String| Err(ModelError::NotPhysical(msg));
+        if self.bodies.is_empty() {
+            return bad("a model needs at least the world body".into());
+        }
+        let o = &self.opt;
+        if !(o.timestep.is_finite() && o.timestep > 0.0) {
+            return bad(format!("timestep must be positive, got {}", o.timestep));
+        }
+        if !o.gravity.iter().all(|g| g.is_finite()) {
+            return bad(format!("gravity must be finite, got {:?}", o.gravity));
+        }
+        let mut next_joint = 0;
+        for (i, b) in self.bodies.iter().enumerate().skip(1) {
+            if b.parent >= i {
+                return bad(format!("body '{}' must come after its parent", b.name));
+            }
+            if b.joints.start != next_joint || b.joints.end < b.joints.start {
+                return bad(format!("joints of body '{}' are not in body order", b.name));
+            }
+            next_joint = b.joints.end;
+            check_inertial(&b.name, b.mass, &b.com, &b.inertia)?;
+        }
+        if next_joint != self.joints.len() {
+            return bad("joint list does not match the bodies' joint ranges".into());
+        }
+        for (i, j) in self.joints.iter().enumerate() {
+            if !self.bodies[j.body].joints.contains(&i) {
+                return bad(format!("joint '{}' does not belong to its body", j.name));
+            }
+            if (j.axis.norm() - 1.0).abs() > 1e-9 {
+                return bad(format!("joint '{}' axis is not a unit vector", j.name));
+            }
+            let passive = [j.damping, j.stiffness, j.armature, j.frictionloss];
+            if passive.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
+                return bad(format!(
+                    "joint '{}': damping, stiffness, armature and frictionloss must be finite and >= 0",
+                    j.name
+                ));
+            }
+        }
+        for a in &self.actuators {
+            if a.joint >= self.joints.len() || !a.gear.is_finite() {
+                return bad(format!("actuator '{}' has a bad joint or gear", a.name));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Checks that a body's inertial properties describe a physical rigid body:
+/// finite, mass >= 0, inertia symmetric positive semi-definite satisfying the
+/// triangle inequality of its principal moments.
+pub fn check_inertial(
+    name: &str,
+    mass: f64,
+    com: &Vector3<f64>,
+    inertia: &Matrix3<f64>,
+) -> Result<(), ModelError> {
+    let bad = |msg: String| Err(ModelError::NotPhysical(format!("body '{name}': {msg}")));
+    if !(mass.is_finite() && mass >= 0.0) {
+        return bad(format!("mass must be finite and >= 0, got {mass}"));
+    }
+    if !com.iter().all(|c| c.is_finite()) || !inertia.iter().all(|c| c.is_finite()) {
+        return bad("COM and inertia must be finite".into());
+    }
+    let scale = inertia.abs().max().max(f64::MIN_POSITIVE);
+    if (inertia - inertia.transpose()).abs().max() > 1e-9 * scale {
+        return bad("inertia tensor is not symmetric".into());
+    }
+    let mut eig: Vec<f64> = inertia.symmetric_eigenvalues().iter().copied().collect();
+    eig.sort_by(f64::total_cmp);
+    let tol = 1e-9 * scale;
+    if eig[0] < -tol {
+        return bad(format!("inertia tensor is not positive semi-definite (eigenvalues {eig:?})"));
+    }
+    if eig[0] + eig[1] < eig[2] - tol {
+        return bad(format!(
+            "principal moments {eig:?} violate the triangle inequality"
+        ));
+    }
+    Ok(())
+}

@@ -1,0 +1,1 @@
+//! Spatial algebra (being written).
