@@ -1,16 +1,70 @@
-//! Dynamics (being written).
-use crate::model::Model;
+//! Rigid-body dynamics on a [`Tree`]: kinematics, inverse dynamics (RNEA), the
+//! mass matrix (CRBA), forward dynamics (ABA), passive forces and the step.
+//!
+//! Every algorithm is generic over the scalar (f64 or dual numbers) and works in
+//! a [`Data`] workspace allocated once per tree, so nothing allocates per call.
+//! The equation of motion is M(q) a = tau + tau_passive - c(q, v), with M
+//! including the joints' armature on its diagonal and c the Coriolis,
+//! centrifugal and gravity forces.
 
-#[derive(Clone, Debug, Default)]
-pub struct Tree<T> {
-    _p: std::marker::PhantomData<T>,
+mod aba;
+mod crba;
+mod kinematics;
+mod passive;
+mod rnea;
+mod step;
+mod tree;
+
+pub use aba::aba;
+pub use crba::crba;
+pub use kinematics::{body_poses, update_transforms};
+pub use passive::passive_forces;
+pub use rnea::{bias_forces, rnea};
+pub use step::{step, StepError};
+pub use tree::{BodyFrame, NodeJoint, Tree};
+
+use crate::spatial::{ArticulatedInertia, Force, Inertia, Motion, Real, Transform};
+use nalgebra::DMatrix;
+
+/// Per-call workspace of the algorithms, sized for one tree.
+#[derive(Clone, Debug)]
+pub struct Data<T: Real> {
+    /// From the parent node's frame to node i's frame at the current q.
+    pub x_up: Vec<Transform<T>>,
+    pub vel: Vec<Motion<T>>,
+    pub acc: Vec<Motion<T>>,
+    pub force: Vec<Force<T>>,
+    /// Velocity-product acceleration v_i x S_i qd_i (ABA's c_i).
+    pub bias_acc: Vec<Motion<T>>,
+    pub art_inertia: Vec<ArticulatedInertia<T>>,
+    pub art_bias: Vec<Force<T>>,
+    /// ABA's U_i = I^A_i S_i, D_i and u_i.
+    pub u_force: Vec<Force<T>>,
+    pub d: Vec<T>,
+    pub u: Vec<T>,
+    pub composite: Vec<Inertia<T>>,
+    pub mass_matrix: DMatrix<T>,
+    /// Scratch vectors of length nv for the step.
+    pub(crate) scratch: [Vec<T>; 8],
 }
 
-impl<T> Tree<T> {
-    pub fn empty() -> Self {
-        Tree { _p: std::marker::PhantomData }
-    }
-    pub fn build(_m: &Model) -> Self {
-        Self::empty()
+impl<T: Real> Data<T> {
+    pub fn new(tree: &Tree<T>) -> Self {
+        let n = tree.nv();
+        Data {
+            x_up: vec![Transform::identity(); n],
+            vel: vec![Motion::zero(); n],
+            acc: vec![Motion::zero(); n],
+            force: vec![Force::zero(); n],
+            bias_acc: vec![Motion::zero(); n],
+            art_inertia: vec![Inertia::zero().into(); n],
+            art_bias: vec![Force::zero(); n],
+            u_force: vec![Force::zero(); n],
+            d: vec![T::zero(); n],
+            u: vec![T::zero(); n],
+            composite: vec![Inertia::zero(); n],
+            mass_matrix: DMatrix::zeros(n, n),
+            scratch: std::array::from_fn(|_| vec![T::zero(); n]),
+        }
     }
 }

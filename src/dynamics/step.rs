@@ -1,0 +1,137 @@
+//! One timestep of the equations of motion.
+
+use super::{aba, passive_forces, Data, Tree};
+use crate::model::{Integrator, Options, PassiveMode};
+use crate::spatial::{lift, Real};
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum StepError {
+    #[error("{name} has length {got}, expected {expected}")]
+    Length {
+        name: &'static str,
+        got: usize,
+        expected: usize,
+    },
+    #[error("{name}[{index}] is not finite")]
+    NotFinite { name: &'static str, index: usize },
+    #[error("the step diverged: the next state is not finite (timestep too large?)")]
+    Diverged,
+}
+
+/// Advances (q, v) by one timestep under generalized forces tau, writing the
+/// next state into (q_next, v_next).
+///
+/// Semi-implicit Euler: v' = v + h qdd, q' = q + h v', where qdd solves
+/// - `Explicit`:                 M qdd = tau - c - D v  - K (q - q_s)
+/// - `ImplicitDamping`:          (M + hD) qdd = tau - c - D v - K (q - q_s),
+///   i.e. damping acts at v' (MuJoCo's Euler)
+/// - `ImplicitDampingStiffness`: (M + hD + h^2 K) qdd = tau - c - D v - K (q + h v - q_s),
+///   i.e. damping at v' and the spring at q' (DART)
+///
+/// RK4 integrates q' = v, v' = M^-1 (tau - c - D v - K (q - q_s)) classically.
+pub fn step<T: Real>(
+    tree: &Tree<T>,
+    opt: &Options,
+    data: &mut Data<T>,
+    (q, v, tau): (&[T], &[T], &[T]),
+    (q_next, v_next): (&mut [T], &mut [T]),
+) -> Result<(), StepError> {
+    let n = tree.nv();
+    for (name, x) in [("q", q), ("v", v), ("tau", tau)] {
+        check(name, x, n)?;
+    }
+    for (name, x) in [("q_next", &*q_next), ("v_next", &*v_next)] {
+        if x.len() != n {
+            return Err(StepError::Length { name, got: x.len(), expected: n });
+        }
+    }
+    let mut scratch = std::mem::take(&mut data.scratch);
+    match opt.integrator {
+        Integrator::Euler => euler(tree, opt, data, &mut scratch, (q, v, tau), (q_next, v_next)),
+        Integrator::Rk4 => rk4(tree, opt.timestep, data, &mut scratch, (q, v, tau), (q_next, v_next)),
+    }
+    data.scratch = scratch;
+    if q_next.iter().chain(v_next.iter()).all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(StepError::Diverged)
+    }
+}
+
+fn check<T: Real>(name: &'static str, x: &[T], n: usize) -> Result<(), StepError> {
+    if x.len() != n {
+        return Err(StepError::Length { name, got: x.len(), expected: n });
+    }
+    match x.iter().position(|xi| !xi.is_finite()) {
+        Some(index) => Err(StepError::NotFinite { name, index }),
+        None => Ok(()),
+    }
+}
+
+fn euler<T: Real>(
+    tree: &Tree<T>,
+    opt: &Options,
+    data: &mut Data<T>,
+    scratch: &mut [Vec<T>; 8],
+    (q, v, tau): (&[T], &[T], &[T]),
+    (q_next, v_next): (&mut [T], &mut [T]),
+) {
+    let h: T = lift(opt.timestep);
+    let [force, extra, qdd, q_spring, ..] = scratch;
+    // The position at which the spring acts, and the implicit diagonal.
+    for i in 0..tree.nv() {
+        let (d, k) = (tree.damping[i], tree.stiffness[i]);
+        (q_spring[i], extra[i]) = match opt.passive {
+            PassiveMode::Explicit => (q[i], T::zero()),
+            PassiveMode::ImplicitDamping => (q[i], h * d),
+            PassiveMode::ImplicitDampingStiffness => (q[i] + h * v[i], h * d + h * h * k),
+        };
+    }
+    passive_forces(tree, q_spring, v, force);
+    for i in 0..tree.nv() {
+        force[i] += tau[i];
+    }
+    let implicit = opt.passive != PassiveMode::Explicit;
+    aba(tree, data, q, v, force, implicit.then_some(&extra[..]), qdd);
+    for i in 0..tree.nv() {
+        v_next[i] = v[i] + h * qdd[i];
+        q_next[i] = q[i] + h * v_next[i];
+    }
+}
+
+/// Classic RK4 on (q, v) with explicit passive forces. The weighted sums of the
+/// stage derivatives accumulate in (q_next, v_next).
+fn rk4<T: Real>(
+    tree: &Tree<T>,
+    timestep: f64,
+    data: &mut Data<T>,
+    scratch: &mut [Vec<T>; 8],
+    (q, v, tau): (&[T], &[T], &[T]),
+    (q_next, v_next): (&mut [T], &mut [T]),
+) {
+    let h: T = lift(timestep);
+    let two = T::one() + T::one();
+    let [force, qdd, q_stage, v_stage, ..] = scratch;
+    q_stage.copy_from_slice(q);
+    v_stage.copy_from_slice(v);
+    q_next.copy_from_slice(q);
+    v_next.copy_from_slice(v);
+    // Stage k is evaluated at (q, v) + step[k] * (previous stage derivative).
+    let step_to_next = [h / two, h / two, h, T::zero()];
+    let weight = [h / (two * lift(3.0)), h / lift(3.0), h / lift(3.0), h / (two * lift(3.0))];
+    for k in 0..4 {
+        passive_forces(tree, q_stage, v_stage, force);
+        for i in 0..tree.nv() {
+            force[i] += tau[i];
+        }
+        aba(tree, data, q_stage, v_stage, force, None, qdd);
+        for i in 0..tree.nv() {
+            // The stage derivative is (v_stage, qdd).
+            q_next[i] += weight[k] * v_stage[i];
+            v_next[i] += weight[k] * qdd[i];
+            q_stage[i] = q[i] + step_to_next[k] * v_stage[i];
+            v_stage[i] = v[i] + step_to_next[k] * qdd[i];
+        }
+    }
+}

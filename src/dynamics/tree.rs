@@ -1,0 +1,174 @@
+//! The numeric form of a model that the algorithms run on, in any scalar.
+//!
+//! Every joint is one dof and one node of the tree. Node i has a frame: its
+//! body's frame after the joints of the body up to and including joint i have
+//! moved it (module `model` defines the order). Node i's parent is the node of
+//! the previous joint on the path to the world, or the world itself (`None`).
+//! A node carries the inertia of its body if it is the body's last joint, plus
+//! the inertia of every body welded (jointless) below that body.
+
+use nalgebra::{Matrix3, Rotation3, Vector3};
+
+use crate::model::{JointKind, Model};
+use crate::spatial::{lift, lift_matrix, lift_vector, Inertia, Motion, Real, Transform};
+
+/// A one-dof joint in its node's frame. Its motion subspace `s` is the same
+/// before and after the joint moves.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NodeJoint<T: Real> {
+    pub kind: JointKind,
+    pub axis: Vector3<T>,
+    pub anchor: Vector3<T>,
+    /// q at which the joint transform is the identity.
+    pub reference: T,
+    pub s: Motion<T>,
+}
+
+impl<T: Real> NodeJoint<T> {
+    fn new(kind: JointKind, axis: Vector3<T>, anchor: Vector3<T>, reference: T) -> Self {
+        let s = match kind {
+            JointKind::Hinge => Motion::new(axis, anchor.cross(&axis)),
+            JointKind::Slide => Motion::new(Vector3::zeros(), axis),
+        };
+        NodeJoint {
+            kind,
+            axis,
+            anchor,
+            reference,
+            s,
+        }
+    }
+
+    /// X_J(q): from the frame before the joint to the frame after it.
+    #[inline]
+    pub fn transform(&self, q: T) -> Transform<T> {
+        let angle = q - self.reference;
+        match self.kind {
+            JointKind::Hinge => {
+                let r = Rotation3::from_axis_angle(
+                    &nalgebra::Unit::new_unchecked(self.axis),
+                    angle,
+                )
+                .into_inner();
+                Transform::from_pose(&r, &(self.anchor - r * self.anchor))
+            }
+            JointKind::Slide => Transform::from_pose(&Matrix3::identity(), &(self.axis * angle)),
+        }
+    }
+}
+
+/// Where a body's frame sits: a fixed offset from a node's frame (or the world's).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BodyFrame<T: Real> {
+    pub node: Option<usize>,
+    /// From the node's frame to the body's frame.
+    pub offset: Transform<T>,
+}
+
+/// The model's tree in scalar T. See the module documentation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tree<T: Real> {
+    pub parent: Vec<Option<usize>>,
+    /// From the parent node's frame (or the world) to node i's frame with its
+    /// joint at the reference position.
+    pub x_tree: Vec<Transform<T>>,
+    pub joint: Vec<NodeJoint<T>>,
+    /// Inertia carried by each node, in the node's frame.
+    pub inertia: Vec<Inertia<T>>,
+    pub damping: Vec<T>,
+    pub stiffness: Vec<T>,
+    pub springref: Vec<T>,
+    pub armature: Vec<T>,
+    pub gravity: Vector3<T>,
+    pub body: Vec<BodyFrame<T>>,
+}
+
+impl<T: Real> Tree<T> {
+    /// A tree with no nodes (placeholder before a model is validated).
+    pub fn empty() -> Self {
+        Tree {
+            parent: vec![],
+            x_tree: vec![],
+            joint: vec![],
+            inertia: vec![],
+            damping: vec![],
+            stiffness: vec![],
+            springref: vec![],
+            armature: vec![],
+            gravity: Vector3::zeros(),
+            body: vec![],
+        }
+    }
+
+    pub fn nv(&self) -> usize {
+        self.parent.len()
+    }
+
+    /// Builds the tree of a validated model, lifting its numbers into T.
+    pub fn build(model: &Model) -> Self {
+        let mut tree = Tree::empty();
+        tree.gravity = lift_vector(&model.opt.gravity);
+        tree.body.push(BodyFrame {
+            node: None,
+            offset: Transform::identity(),
+        });
+        for b in &model.bodies[1..] {
+            let parent = tree.body[b.parent];
+            let place = Transform::from_pose_f64(&b.rot, &b.pos).compose(&parent.offset);
+            let mut node = parent.node;
+            let mut x_tree = place;
+            for j in &model.joints[b.joints.clone()] {
+                tree.parent.push(node);
+                tree.x_tree.push(x_tree);
+                tree.joint.push(NodeJoint::new(
+                    j.kind,
+                    lift_vector(&j.axis),
+                    lift_vector(&j.anchor),
+                    lift(j.reference),
+                ));
+                tree.damping.push(lift(j.damping));
+                tree.stiffness.push(lift(j.stiffness));
+                tree.springref.push(lift(j.springref));
+                tree.armature.push(lift(j.armature));
+                tree.inertia.push(Inertia::zero());
+                node = Some(tree.parent.len() - 1);
+                x_tree = Transform::identity();
+            }
+            // Within the last node's frame, the body sits at `x_tree`: identity if
+            // the body has joints, else its placement relative to its carrier.
+            tree.body.push(BodyFrame {
+                node,
+                offset: x_tree,
+            });
+            if let Some(n) = node {
+                let own = Inertia::from_com(
+                    lift(b.mass),
+                    &lift_vector(&b.com),
+                    &lift_matrix(&b.inertia),
+                );
+                tree.inertia[n] += own.to_source(&x_tree);
+            }
+        }
+        tree
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hinge_transform_keeps_anchor_and_axis_fixed() {
+        let axis = Vector3::new(0.0, 0.6, 0.8);
+        let anchor = Vector3::new(0.3, -0.2, 0.5);
+        let j = NodeJoint::new(JointKind::Hinge, axis, anchor, 0.1);
+        let x = j.transform(1.3);
+        // The anchor point has the same coordinates before and after the joint.
+        let moved = x.rot * (anchor - x.trans);
+        assert!((moved - anchor).norm() < 1e-14);
+        assert!((x.rot * axis - axis).norm() < 1e-14);
+        assert!((x.apply_motion(&j.s) - j.s).ang.norm() < 1e-14);
+        assert!((x.apply_motion(&j.s) - j.s).lin.norm() < 1e-14);
+        assert_eq!(j.transform(0.1), Transform::identity());
+    }
+}

@@ -1,0 +1,103 @@
+//! Shared helpers of the integration tests: random trees and states.
+#![allow(dead_code)]
+
+use diffosi::model::{Body, Integrator, Joint, JointKind, Model, Options, PassiveMode};
+use nalgebra::{Matrix3, Rotation3, Vector3};
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
+
+pub fn rng(seed: u64) -> StdRng {
+    StdRng::seed_from_u64(seed)
+}
+
+pub fn uniform(rng: &mut StdRng, lo: f64, hi: f64) -> f64 {
+    rng.random_range(lo..hi)
+}
+
+pub fn vector(rng: &mut StdRng, scale: f64) -> Vector3<f64> {
+    Vector3::from_fn(|_, _| uniform(rng, -scale, scale))
+}
+
+pub fn unit(rng: &mut StdRng) -> Vector3<f64> {
+    vector(rng, 1.0).normalize()
+}
+
+pub fn rotation(rng: &mut StdRng) -> Rotation3<f64> {
+    Rotation3::from_scaled_axis(vector(rng, 3.0))
+}
+
+/// A physical inertia tensor about the COM: a random rotation of positive
+/// principal moments that satisfy the triangle inequality.
+pub fn inertia(rng: &mut StdRng) -> Matrix3<f64> {
+    let a = uniform(rng, 0.05, 1.0);
+    let b = uniform(rng, 0.05, 1.0);
+    let c = uniform(rng, (a - b).abs() + 0.01, a + b);
+    let r = rotation(rng);
+    r.matrix() * Matrix3::from_diagonal(&Vector3::new(a, b, c)) * r.matrix().transpose()
+}
+
+/// A random tree of `n` bodies: random parents, 0-3 joints per body (hinges and
+/// slides with random axes and anchors), random inertial properties and
+/// passive parameters.
+pub fn random_model(seed: u64, n: usize, passive: PassiveMode, integrator: Integrator) -> Model {
+    let mut r = rng(seed);
+    let mut bodies = vec![Body {
+        name: "world".into(),
+        parent: 0,
+        pos: Vector3::zeros(),
+        rot: Rotation3::identity(),
+        mass: 0.0,
+        com: Vector3::zeros(),
+        inertia: Matrix3::zeros(),
+        joints: 0..0,
+    }];
+    let mut joints = vec![];
+    for b in 1..=n {
+        let parent = r.random_range(0..b);
+        let count = if b == 1 { 2 } else { r.random_range(0..4) };
+        let start = joints.len();
+        for k in 0..count {
+            joints.push(Joint {
+                name: format!("j{b}_{k}"),
+                kind: if r.random_bool(0.7) { JointKind::Hinge } else { JointKind::Slide },
+                body: b,
+                axis: unit(&mut r),
+                anchor: vector(&mut r, 0.5),
+                reference: uniform(&mut r, -0.3, 0.3),
+                damping: uniform(&mut r, 0.0, 0.5),
+                stiffness: uniform(&mut r, 0.0, 2.0),
+                springref: uniform(&mut r, -0.5, 0.5),
+                armature: if r.random_bool(0.5) { uniform(&mut r, 0.0, 0.2) } else { 0.0 },
+                frictionloss: 0.0,
+                range: None,
+            });
+        }
+        bodies.push(Body {
+            name: format!("b{b}"),
+            parent,
+            pos: vector(&mut r, 1.0),
+            rot: rotation(&mut r),
+            mass: uniform(&mut r, 0.2, 3.0),
+            com: vector(&mut r, 0.3),
+            inertia: inertia(&mut r),
+            joints: start..joints.len(),
+        });
+    }
+    let opt = Options {
+        timestep: 0.001,
+        gravity: Vector3::new(0.0, 0.0, -9.81),
+        integrator,
+        passive,
+    };
+    Model::new(format!("random{seed}"), bodies, joints, vec![], vec![], opt).unwrap()
+}
+
+/// A random state and force: q near the reference, v and tau in [-1, 1].
+pub fn random_state(model: &Model, seed: u64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let mut r = rng(seed);
+    let n = model.nv();
+    let q = model.reference_q().iter().map(|q0| q0 + uniform(&mut r, -1.0, 1.0)).collect();
+    let v = (0..n).map(|_| uniform(&mut r, -1.0, 1.0)).collect();
+    let tau = (0..n).map(|_| uniform(&mut r, -1.0, 1.0)).collect();
+    (q, v, tau)
+}
