@@ -22,7 +22,7 @@ pub mod urdf;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
-use crate::dynamics::Tree;
+use crate::dynamics::{self, Data, StepError, Tree};
 
 /// Errors from building, loading or editing a model.
 #[derive(Debug, thiserror::Error)]
@@ -350,4 +350,43 @@ pub fn check_inertial(
         ));
     }
     Ok(())
+}
+
+/// Simulation on f64 states: the convenience layer over [`crate::dynamics`].
+impl Model {
+    /// A workspace for this model's dynamics.
+    pub fn data(&self) -> Data<f64> {
+        Data::new(&self.tree)
+    }
+
+    /// One step from (q, v) under generalized forces tau (length nv).
+    pub fn step(
+        &self,
+        data: &mut Data<f64>,
+        q: &[f64],
+        v: &[f64],
+        tau: &[f64],
+    ) -> Result<(Vec<f64>, Vec<f64>), StepError> {
+        let (mut q1, mut v1) = (vec![0.0; self.nq()], vec![0.0; self.nv()]);
+        dynamics::step(&self.tree, &self.opt, data, (q, v, tau), (&mut q1, &mut v1))?;
+        Ok((q1, v1))
+    }
+
+    /// Steps from (q0, v0) under each row of `taus`; returns the T+1 states
+    /// visited, the initial state first. The error names the failing step.
+    pub fn rollout<'a>(
+        &self,
+        q0: &[f64],
+        v0: &[f64],
+        taus: impl IntoIterator<Item = &'a [f64]>,
+    ) -> Result<Vec<(Vec<f64>, Vec<f64>)>, (usize, StepError)> {
+        let mut data = self.data();
+        let mut states = vec![(q0.to_vec(), v0.to_vec())];
+        for (t, tau) in taus.into_iter().enumerate() {
+            let (q, v) = states.last().expect("starts non-empty");
+            let next = self.step(&mut data, q, v, tau).map_err(|e| (t, e))?;
+            states.push(next);
+        }
+        Ok(states)
+    }
 }
