@@ -91,13 +91,13 @@ fn energy(model: &Model, q: &[f64], v: &[f64]) -> f64 {
 }
 
 fn rollout_energy(model: &Model, steps: usize, damped: bool) -> Vec<f64> {
-    let mut model = model.clone();
-    if !damped {
-        for j in &mut model.joints {
-            j.damping = 0.0;
-        }
-        model = Model::new(model.name, model.bodies, model.joints, vec![], vec![], model.opt).unwrap();
-    }
+    let model = model
+        .edited(|spec| {
+            for j in spec.joints.iter_mut().filter(|_| !damped) {
+                j.damping = 0.0;
+            }
+        })
+        .unwrap();
     let (mut q, mut v, _) = random_state(&model, 11);
     let zero = vec![0.0; model.nv()];
     let mut data = Data::new(model.tree());

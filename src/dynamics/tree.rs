@@ -9,7 +9,7 @@
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
-use crate::model::{JointKind, Model};
+use crate::model::{JointKind, Spec};
 use crate::spatial::{lift, lift_matrix, lift_vector, Inertia, Motion, Real, Transform};
 
 /// A one-dof joint in its node's frame. Its motion subspace `s` is the same
@@ -105,7 +105,7 @@ impl<T: Real> Tree<T> {
     }
 
     /// Builds the tree of a validated model, lifting its numbers into T.
-    pub fn build(model: &Model) -> Self {
+    pub fn build(model: &Spec) -> Self {
         let mut tree = Tree::empty();
         tree.gravity = lift_vector(&model.opt.gravity);
         tree.body.push(BodyFrame {

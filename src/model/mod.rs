@@ -177,17 +177,33 @@ impl Default for Options {
     }
 }
 
-/// The whole model: named bodies, joints, actuators, geoms and options, plus the
-/// numeric tree the dynamics run on (rebuilt by [`Model::new`] and after edits).
-#[derive(Clone, Debug)]
-pub struct Model {
+/// The description of a model as plain data: what the loaders produce and what
+/// an edit changes (MuJoCo's mjSpec plays the same part).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Spec {
     pub name: String,
     pub bodies: Vec<Body>,
     pub joints: Vec<Joint>,
     pub actuators: Vec<Actuator>,
     pub geoms: Vec<Geom>,
     pub opt: Options,
+}
+
+/// A validated [`Spec`] together with the numeric tree the dynamics run on.
+/// Its fields read through `Deref` (`model.joints`); changes go through
+/// [`Model::edited`], which validates again and rebuilds the tree, so the two
+/// never disagree.
+#[derive(Clone, Debug)]
+pub struct Model {
+    spec: Spec,
     tree: Tree<f64>,
+}
+
+impl std::ops::Deref for Model {
+    type Target = Spec;
+    fn deref(&self) -> &Spec {
+        &self.spec
+    }
 }
 
 impl Model {
@@ -200,18 +216,27 @@ impl Model {
         geoms: Vec<Geom>,
         opt: Options,
     ) -> Result<Model, ModelError> {
-        let mut model = Model {
+        Model::from_spec(Spec {
             name,
             bodies,
             joints,
             actuators,
             geoms,
             opt,
-            tree: Tree::empty(),
-        };
-        model.validate()?;
-        model.tree = Tree::build(&model);
-        Ok(model)
+        })
+    }
+
+    pub fn from_spec(spec: Spec) -> Result<Model, ModelError> {
+        spec.validate()?;
+        let tree = Tree::build(&spec);
+        Ok(Model { spec, tree })
+    }
+
+    /// A copy of this model with `edit` applied to its description.
+    pub fn edited(&self, edit: impl FnOnce(&mut Spec)) -> Result<Model, ModelError> {
+        let mut spec = self.spec.clone();
+        edit(&mut spec);
+        Model::from_spec(spec)
     }
 
     /// Loads an MJCF (`.xml`) or URDF (`.urdf`) file.
@@ -268,6 +293,9 @@ impl Model {
         tau
     }
 
+}
+
+impl Spec {
     fn validate(&self) -> Result<(), ModelError> {
         let bad = |msg: String| Err(ModelError::NotPhysical(msg));
         if self.bodies.is_empty() {
