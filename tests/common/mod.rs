@@ -101,3 +101,30 @@ pub fn random_state(model: &Model, seed: u64) -> (Vec<f64>, Vec<f64>, Vec<f64>) 
     let tau = (0..n).map(|_| uniform(&mut r, -1.0, 1.0)).collect();
     (q, v, tau)
 }
+
+/// Resolves a model path of the golden data: relative to the repository, or
+/// `gymnasium:NAME` for gymnasium's MuJoCo assets in the project's venv
+/// (or in `$DIFFOSI_GYM_ASSETS`). A missing venv is a failure, not a skip.
+pub fn model_path(name: &str) -> std::path::PathBuf {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    match name.strip_prefix("gymnasium:") {
+        Some(file) => gym_assets().join(file),
+        None => root.join(name),
+    }
+}
+
+pub fn gym_assets() -> std::path::PathBuf {
+    if let Ok(dir) = std::env::var("DIFFOSI_GYM_ASSETS") {
+        return dir.into();
+    }
+    let lib = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(".venv/lib");
+    let found = std::fs::read_dir(&lib).ok().and_then(|entries| {
+        entries
+            .flatten()
+            .map(|e| e.path().join("site-packages/gymnasium/envs/mujoco/assets"))
+            .find(|p| p.is_dir())
+    });
+    found.unwrap_or_else(|| {
+        panic!("gymnasium's MuJoCo assets not found under {}: run `make setup` (or set DIFFOSI_GYM_ASSETS)", lib.display())
+    })
+}

@@ -1,0 +1,154 @@
+//! Our engine against MuJoCo, PyBullet and DART on their recorded steps
+//! (reference_models/golden/dynamics/*.json, written by scripts/golden.py).
+//! Contact-free models must agree to 1e-12 in one step: anything worse is a
+//! convention bug, not an "engine difference".
+
+mod common;
+
+use diffosi::dynamics::{bias_forces, crba, Data};
+use diffosi::model::{Integrator, Model, PassiveMode};
+use nalgebra::Vector3;
+use serde::Deserialize;
+
+#[derive(Deserialize)]
+struct Golden {
+    engine: String,
+    model: String,
+    passive: String,
+    integrator: String,
+    timestep: f64,
+    gravity: [f64; 3],
+    joint_names: Vec<String>,
+    #[serde(default)]
+    settings: serde_json::Value,
+    one_step: Vec<OneStep>,
+    rollout: Rollout,
+}
+
+#[derive(Deserialize)]
+struct OneStep {
+    q: Vec<f64>,
+    v: Vec<f64>,
+    tau: Vec<f64>,
+    q_next: Vec<f64>,
+    v_next: Vec<f64>,
+    mass_matrix: Vec<Vec<f64>>,
+    bias: Vec<f64>,
+}
+
+#[derive(Deserialize)]
+struct Rollout {
+    q0: Vec<f64>,
+    v0: Vec<f64>,
+    taus: Vec<Vec<f64>>,
+    q: Vec<Vec<f64>>,
+    v: Vec<Vec<f64>>,
+}
+
+/// Largest error relative to max(1, |reference|), elementwise.
+fn rel_err<'a>(ours: impl IntoIterator<Item = &'a f64>, theirs: impl IntoIterator<Item = &'a f64>) -> f64 {
+    ours.into_iter()
+        .zip(theirs)
+        .map(|(a, b)| (a - b).abs() / b.abs().max(1.0))
+        .fold(0.0, f64::max)
+}
+
+/// The model as the reference engine ran it: its passive-force convention,
+/// integrator, timestep and gravity, and without what it ignores.
+fn as_run_by(golden: &Golden) -> Model {
+    let path = common::model_path(&golden.model);
+    let model = Model::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let ignored: Vec<String> = golden
+        .settings
+        .get("ignored")
+        .map(|v| serde_json::from_value(v.clone()).expect("settings.ignored is a list of names"))
+        .unwrap_or_default();
+    model
+        .edited(|s| {
+            s.opt.passive = match golden.passive.as_str() {
+                "explicit" => PassiveMode::Explicit,
+                "implicit_damping" => PassiveMode::ImplicitDamping,
+                "implicit_damping_stiffness" => PassiveMode::ImplicitDampingStiffness,
+                other => panic!("unknown passive mode {other}"),
+            };
+            s.opt.integrator = match golden.integrator.as_str() {
+                "euler" => Integrator::Euler,
+                "rk4" => Integrator::Rk4,
+                other => panic!("unknown integrator {other}"),
+            };
+            s.opt.timestep = golden.timestep;
+            s.opt.gravity = Vector3::from(golden.gravity);
+            for j in &mut s.joints {
+                for what in &ignored {
+                    match what.as_str() {
+                        "stiffness" => j.stiffness = 0.0,
+                        "armature" => j.armature = 0.0,
+                        "damping" => j.damping = 0.0,
+                        other => panic!("unknown ignored setting {other}"),
+                    }
+                }
+            }
+        })
+        .unwrap()
+}
+
+struct Errors {
+    mass: f64,
+    bias: f64,
+    one_step: f64,
+    rollout: f64,
+}
+
+fn compare(golden: &Golden) -> Errors {
+    let model = as_run_by(golden);
+    let names: Vec<&str> = model.joints.iter().map(|j| j.name.as_str()).collect();
+    assert_eq!(names, golden.joint_names, "{}: joint order", golden.model);
+    let mut data = Data::new(model.tree());
+    let (mut mass, mut bias, mut one_step) = (0.0f64, 0.0f64, 0.0f64);
+    for s in &golden.one_step {
+        crba(model.tree(), &mut data, &s.q);
+        let theirs: Vec<f64> = s.mass_matrix.iter().flatten().copied().collect();
+        mass = mass.max(rel_err(data.mass_matrix.transpose().iter(), &theirs));
+        let mut c = vec![0.0; model.nv()];
+        bias_forces(model.tree(), &mut data, &s.q, &s.v, &mut c);
+        bias = bias.max(rel_err(&c, &s.bias));
+        let (q1, v1) = model.step(&mut data, &s.q, &s.v, &s.tau).unwrap();
+        one_step = one_step.max(rel_err(&q1, &s.q_next)).max(rel_err(&v1, &s.v_next));
+    }
+    let r = &golden.rollout;
+    let states = model.rollout(&r.q0, &r.v0, r.taus.iter().map(|t| t.as_slice())).unwrap();
+    let rollout = states
+        .iter()
+        .zip(r.q.iter().zip(&r.v))
+        .map(|((q, v), (qr, vr))| rel_err(q, qr).max(rel_err(v, vr)))
+        .fold(0.0, f64::max);
+    Errors { mass, bias, one_step, rollout }
+}
+
+#[test]
+fn agrees_with_reference_engines() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("reference_models/golden/dynamics");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "json"))
+        .collect();
+    files.sort();
+    assert!(!files.is_empty(), "no golden data in {}", dir.display());
+    let mut failures = vec![];
+    println!("{:<48} {:>9} {:>9} {:>9} {:>9}", "case", "M", "bias", "1-step", "rollout");
+    for file in &files {
+        let golden: Golden = serde_json::from_str(&std::fs::read_to_string(file).unwrap()).unwrap();
+        let e = compare(&golden);
+        let case = file.file_stem().unwrap().to_string_lossy();
+        println!(
+            "{case:<48} {:>9.1e} {:>9.1e} {:>9.1e} {:>9.1e}   ({})",
+            e.mass, e.bias, e.one_step, e.rollout, golden.engine
+        );
+        if e.mass > 1e-12 || e.bias > 1e-12 || e.one_step > 1e-12 || e.rollout > 1e-9 {
+            failures.push(case.to_string());
+        }
+    }
+    assert!(failures.is_empty(), "disagree with their reference engine: {failures:?}");
+}
