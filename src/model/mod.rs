@@ -17,6 +17,7 @@
 //! - Generalized forces tau have length nv. An actuator maps a control u to
 //!   tau[joint] += gear * u.
 
+pub mod geom_inertia;
 pub mod mjcf;
 pub mod urdf;
 

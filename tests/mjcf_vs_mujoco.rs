@@ -1,0 +1,427 @@
+//! Our MJCF loader against MuJoCo's own compiler.
+//!
+//! `scripts/mujoco_compiled.py` loads each model with MuJoCo and writes what it
+//! compiled to `reference_models/golden/compiled/<name>.json`; here the same XML
+//! goes through `diffosi::model::mjcf::parse` and every quantity our Model holds
+//! is compared. Gymnasium's models are found in the project venv
+//! (`.venv/lib/python3*/site-packages/gymnasium/envs/mujoco/assets`) or in
+//! `$DIFFOSI_GYM_ASSETS`.
+//!
+//! Errors are relative, with a floor of 1 for lengths and for unit vectors and
+//! rotation matrices (so absolute below 1 m); inertia tensors are compared
+//! relative to their largest entry. All must be within 1e-12.
+
+use std::path::{Path, PathBuf};
+
+use diffosi::model::{mjcf, Integrator, JointKind, Model, ModelError, PassiveMode, Shape};
+use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
+use serde_json::Value;
+
+const TOL: f64 = 1e-12;
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Gymnasium's MuJoCo assets; panics with the set-up to run when absent.
+fn gym_assets() -> PathBuf {
+    if let Ok(dir) = std::env::var("DIFFOSI_GYM_ASSETS") {
+        return PathBuf::from(dir);
+    }
+    let lib = root().join(".venv/lib");
+    let found = std::fs::read_dir(&lib)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .find_map(|entry| {
+            let dir = entry
+                .path()
+                .join("site-packages/gymnasium/envs/mujoco/assets");
+            (entry.file_name().to_string_lossy().starts_with("python3") && dir.is_dir())
+                .then_some(dir)
+        });
+    found.unwrap_or_else(|| {
+        panic!(
+            "gymnasium's MuJoCo assets not found under {}: run `make setup` (it installs \
+             mujoco and gymnasium into .venv) or set DIFFOSI_GYM_ASSETS",
+            lib.display()
+        )
+    })
+}
+
+/// The XML a golden file was compiled from.
+fn source_path(source: &str) -> PathBuf {
+    match source.strip_prefix("gymnasium:") {
+        Some(file) => gym_assets().join(file),
+        None => root().join(source),
+    }
+}
+
+fn golden_files() -> Vec<PathBuf> {
+    let dir = root().join("reference_models/golden/compiled");
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}; run scripts/mujoco_compiled.py", dir.display()))
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "json"))
+        .collect();
+    files.sort();
+    assert!(
+        !files.is_empty(),
+        "no golden files in {}: run scripts/mujoco_compiled.py",
+        dir.display()
+    );
+    files
+}
+
+fn load(path: &Path) -> Model {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    mjcf::parse(&text, &path.display().to_string()).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn f(v: &Value) -> f64 {
+    v.as_f64().expect("a number")
+}
+
+fn vec3(v: &Value) -> Vector3<f64> {
+    Vector3::new(f(&v[0]), f(&v[1]), f(&v[2]))
+}
+
+fn rot(q: &Value) -> Matrix3<f64> {
+    let q = Quaternion::new(f(&q[0]), f(&q[1]), f(&q[2]), f(&q[3]));
+    *UnitQuaternion::from_quaternion(q)
+        .to_rotation_matrix()
+        .matrix()
+}
+
+/// The worst error seen, and where.
+#[derive(Default)]
+struct Worst {
+    error: f64,
+    at: String,
+}
+
+impl Worst {
+    fn note(&mut self, at: impl FnOnce() -> String, error: f64) {
+        if error > self.error || error.is_nan() {
+            self.error = error;
+            self.at = at();
+        }
+    }
+
+    /// Relative error with the given floor on the scale.
+    fn scalar(&mut self, at: &str, ours: f64, theirs: f64, floor: f64) {
+        self.note(
+            || at.to_string(),
+            (ours - theirs).abs() / theirs.abs().max(floor),
+        );
+    }
+
+    fn vector(&mut self, at: &str, ours: &Vector3<f64>, theirs: &Vector3<f64>) {
+        self.note(
+            || at.to_string(),
+            (ours - theirs).amax() / theirs.amax().max(1.0),
+        );
+    }
+
+    fn matrix(&mut self, at: &str, ours: &Matrix3<f64>, theirs: &Matrix3<f64>, floor: f64) {
+        self.note(
+            || at.to_string(),
+            (ours - theirs).amax() / theirs.amax().max(floor),
+        );
+    }
+}
+
+/// Compares everything; returns the worst error per kind of quantity. Counts,
+/// names, indices and kinds must match exactly.
+fn compare(model: &Model, g: &Value) -> [(&'static str, Worst); 5] {
+    let mut opt = Worst::default();
+    let o = &g["opt"];
+    opt.scalar("timestep", model.opt.timestep, f(&o["timestep"]), 0.0);
+    let gravity = match o["gravity_disabled"] == true {
+        true => Vector3::zeros(),
+        false => vec3(&o["gravity"]),
+    };
+    opt.vector("gravity", &model.opt.gravity, &gravity);
+    let integrator = o["integrator"].as_str().unwrap();
+    let expected_integrator = if integrator == "RK4" {
+        Integrator::Rk4
+    } else {
+        Integrator::Euler
+    };
+    assert_eq!(
+        model.opt.integrator, expected_integrator,
+        "integrator {integrator}"
+    );
+    let explicit =
+        integrator == "RK4" || (integrator == "Euler" && o["eulerdamp_disabled"] == true);
+    let passive = if explicit {
+        PassiveMode::Explicit
+    } else {
+        PassiveMode::ImplicitDamping
+    };
+    assert_eq!(
+        model.opt.passive, passive,
+        "passive mode under {integrator}"
+    );
+
+    let gb = g["bodies"].as_array().unwrap();
+    assert_eq!(model.bodies.len(), gb.len(), "number of bodies");
+    let mut bodies = Worst::default();
+    for (i, (b, e)) in model.bodies.iter().zip(gb).enumerate() {
+        let name = e["name"].as_str().unwrap();
+        assert!(
+            name.is_empty() || b.name == name,
+            "body {i}: {} vs {name}",
+            b.name
+        );
+        assert_eq!(
+            b.parent as u64,
+            e["parent"].as_u64().unwrap(),
+            "parent of {}",
+            b.name
+        );
+        let at = |what: &str| format!("body {} {what}", b.name);
+        bodies.vector(&at("pos"), &b.pos, &vec3(&e["pos"]));
+        bodies.matrix(&at("rot"), b.rot.matrix(), &rot(&e["quat"]), 1.0);
+        let mass = f(&e["mass"]);
+        bodies.scalar(&at("mass"), b.mass, mass, f64::MIN_POSITIVE);
+        if mass > 0.0 {
+            bodies.vector(&at("com"), &b.com, &vec3(&e["ipos"]));
+            let r = rot(&e["iquat"]);
+            let inertia = r * Matrix3::from_diagonal(&vec3(&e["inertia"])) * r.transpose();
+            bodies.matrix(&at("inertia"), &b.inertia, &inertia, f64::MIN_POSITIVE);
+        }
+    }
+
+    let gj = g["joints"].as_array().unwrap();
+    assert_eq!(model.joints.len(), gj.len(), "number of joints");
+    let mut joints = Worst::default();
+    for (i, (j, e)) in model.joints.iter().zip(gj).enumerate() {
+        let name = e["name"].as_str().unwrap();
+        assert!(
+            name.is_empty() || j.name == name,
+            "joint {i}: {} vs {name}",
+            j.name
+        );
+        let kind = if e["type"] == "hinge" {
+            JointKind::Hinge
+        } else {
+            JointKind::Slide
+        };
+        assert_eq!(j.kind, kind, "joint {} type", j.name);
+        assert_eq!(
+            j.body as u64,
+            e["body"].as_u64().unwrap(),
+            "joint {} body",
+            j.name
+        );
+        let at = |what: &str| format!("joint {} {what}", j.name);
+        joints.vector(&at("axis"), &j.axis, &vec3(&e["axis"]));
+        joints.vector(&at("anchor"), &j.anchor, &vec3(&e["pos"]));
+        for (what, ours, key) in [
+            ("ref", j.reference, "ref"),
+            ("damping", j.damping, "damping"),
+            ("stiffness", j.stiffness, "stiffness"),
+            ("springref", j.springref, "springref"),
+            ("armature", j.armature, "armature"),
+            ("frictionloss", j.frictionloss, "frictionloss"),
+        ] {
+            joints.scalar(&at(what), ours, f(&e[key]), f64::MIN_POSITIVE);
+        }
+        assert_eq!(
+            j.range.is_some(),
+            e["limited"] == true,
+            "joint {} limited",
+            j.name
+        );
+        if let Some((lo, hi)) = j.range {
+            joints.scalar(&at("range[0]"), lo, f(&e["range"][0]), f64::MIN_POSITIVE);
+            joints.scalar(&at("range[1]"), hi, f(&e["range"][1]), f64::MIN_POSITIVE);
+        }
+    }
+
+    let ga = g["actuators"].as_array().unwrap();
+    assert_eq!(model.actuators.len(), ga.len(), "number of actuators");
+    let mut actuators = Worst::default();
+    for (a, e) in model.actuators.iter().zip(ga) {
+        assert_eq!(
+            e["trntype"], 0,
+            "MuJoCo actuator {} is not on a joint",
+            a.name
+        );
+        assert_eq!(
+            a.joint as u64,
+            e["joint"].as_u64().unwrap(),
+            "actuator {} joint",
+            a.name
+        );
+        let at = |what: &str| format!("actuator {} {what}", a.name);
+        let torque_per_control = f(&e["gear"]) * f(&e["gain"]);
+        actuators.scalar(&at("gear"), a.gear, torque_per_control, f64::MIN_POSITIVE);
+        assert_eq!(
+            a.ctrl_range.is_some(),
+            e["ctrllimited"] == true,
+            "actuator {} ctrllimited",
+            a.name
+        );
+        if let Some((lo, hi)) = a.ctrl_range {
+            actuators.scalar(
+                &at("ctrlrange[0]"),
+                lo,
+                f(&e["ctrlrange"][0]),
+                f64::MIN_POSITIVE,
+            );
+            actuators.scalar(
+                &at("ctrlrange[1]"),
+                hi,
+                f(&e["ctrlrange"][1]),
+                f64::MIN_POSITIVE,
+            );
+        }
+    }
+
+    let gg = g["geoms"].as_array().unwrap();
+    assert_eq!(model.geoms.len(), gg.len(), "number of geoms");
+    let mut geoms = Worst::default();
+    for (i, (geom, e)) in model.geoms.iter().zip(gg).enumerate() {
+        let at = |what: &str| format!("geom {i} ({}) {what}", geom.name);
+        assert_eq!(
+            geom.body as u64,
+            e["body"].as_u64().unwrap(),
+            "{}",
+            at("body")
+        );
+        let size = vec3(&e["size"]);
+        let (kind, ours) = match geom.shape {
+            Shape::Plane => ("plane", vec![]),
+            Shape::Sphere { radius } => ("sphere", vec![(radius, size.x)]),
+            Shape::Capsule {
+                radius,
+                half_length,
+            } => ("capsule", vec![(radius, size.x), (half_length, size.y)]),
+            Shape::Cylinder {
+                radius,
+                half_length,
+            } => ("cylinder", vec![(radius, size.x), (half_length, size.y)]),
+            Shape::Box { half } => (
+                "box",
+                half.iter().copied().zip(size.iter().copied()).collect(),
+            ),
+            Shape::Ellipsoid { radii } => (
+                "ellipsoid",
+                radii.iter().copied().zip(size.iter().copied()).collect(),
+            ),
+        };
+        assert_eq!(kind, e["type"], "{}", at("type"));
+        for (ours, theirs) in ours {
+            geoms.scalar(&at("size"), ours, theirs, 1.0);
+        }
+        geoms.vector(&at("pos"), &geom.pos, &vec3(&e["pos"]));
+        geoms.matrix(&at("rot"), geom.rot.matrix(), &rot(&e["quat"]), 1.0);
+        assert_eq!(
+            geom.contype as u64,
+            e["contype"].as_u64().unwrap(),
+            "{}",
+            at("contype")
+        );
+        assert_eq!(
+            geom.conaffinity as u64,
+            e["conaffinity"].as_u64().unwrap(),
+            "{}",
+            at("conaffinity")
+        );
+        geoms.vector(
+            &at("friction"),
+            &Vector3::from(geom.friction),
+            &vec3(&e["friction"]),
+        );
+    }
+    [
+        ("options", opt),
+        ("bodies", bodies),
+        ("joints", joints),
+        ("actuators", actuators),
+        ("geoms", geoms),
+    ]
+}
+
+#[test]
+fn loader_matches_mujoco_compiler() {
+    let mut failures = vec![];
+    for golden in golden_files() {
+        let g: Value = serde_json::from_str(&std::fs::read_to_string(&golden).unwrap()).unwrap();
+        let xml = source_path(g["source"].as_str().unwrap());
+        let name = golden.file_stem().unwrap().to_string_lossy().to_string();
+        println!("{name}: {}", xml.display());
+        let model = load(&xml);
+        assert_eq!(
+            model.name,
+            g["model"].as_str().unwrap(),
+            "{name}: model name"
+        );
+        let worst = compare(&model, &g);
+        let summary: Vec<String> = worst
+            .iter()
+            .map(|(kind, w)| format!("{kind} {:.1e}", w.error))
+            .collect();
+        println!("    {}", summary.join("  "));
+        for (kind, w) in &worst {
+            if w.error > TOL || w.error.is_nan() {
+                failures.push(format!("{name}: {kind}: {:.3e} at {}", w.error, w.at));
+            }
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "errors above {TOL:e} (rerun scripts/mujoco_compiled.py if a model changed):\n{}",
+        failures.join("\n")
+    );
+}
+
+/// Gymnasium models that need what we do not support, and why.
+const GYM_REJECTED: [(&str, &str); 4] = [
+    ("ant.xml", "free joints are not supported"),
+    ("humanoid.xml", "free joints are not supported"),
+    ("humanoidstandup.xml", "free joints are not supported"),
+    ("swimmer.xml", "fluid forces are not supported"),
+];
+
+#[test]
+fn unsupported_gym_models_are_rejected_with_a_reason() {
+    let assets = gym_assets();
+    for (file, reason) in GYM_REJECTED {
+        let path = assets.join(file);
+        let text = std::fs::read_to_string(&path).unwrap();
+        match mjcf::parse(&text, file) {
+            Err(ModelError::Invalid { line, message, .. }) => {
+                assert!(message.contains(reason), "{file}: {message}");
+                assert!(line > 1, "{file}: line {line}");
+            }
+            other => panic!("{file}: expected an Invalid error, got {other:?}"),
+        }
+    }
+}
+
+/// Every gymnasium MuJoCo model is either compared with MuJoCo or rejected.
+#[test]
+fn every_gym_model_is_covered() {
+    let golden: Vec<String> = golden_files()
+        .iter()
+        .filter_map(|p| {
+            p.file_stem()?
+                .to_str()?
+                .strip_prefix("gym_")
+                .map(|s| format!("{s}.xml"))
+        })
+        .collect();
+    for entry in std::fs::read_dir(gym_assets()).unwrap() {
+        let file = entry.unwrap().file_name().to_string_lossy().to_string();
+        if file.ends_with(".xml") {
+            let rejected = GYM_REJECTED.iter().any(|(f, _)| *f == file);
+            assert!(
+                golden.contains(&file) || rejected,
+                "{file} is neither compared nor rejected"
+            );
+        }
+    }
+}
