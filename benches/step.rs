@@ -7,13 +7,22 @@ use diffosi::Model;
 use std::hint::black_box;
 
 fn load(name: &str) -> Model {
-    Model::load(format!("{}/reference_models/{name}.xml", env!("CARGO_MANIFEST_DIR"))).unwrap()
+    Model::load(format!(
+        "{}/reference_models/{name}.xml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap()
 }
 
 /// A fixed, non-trivial state: q a little off the reference, v and tau nonzero.
 fn state(model: &Model) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let n = model.nv();
-    let q = model.reference_q().iter().enumerate().map(|(i, q)| q + 0.1 * (i as f64 + 1.0).sin()).collect();
+    let q = model
+        .reference_q()
+        .iter()
+        .enumerate()
+        .map(|(i, q)| q + 0.1 * (i as f64 + 1.0).sin())
+        .collect();
     let v = (0..n).map(|i| 0.5 * (i as f64 + 2.0).cos()).collect();
     let tau = (0..n).map(|i| (i as f64 + 3.0).sin()).collect();
     (q, v, tau)
@@ -27,7 +36,16 @@ fn bench_model(c: &mut Criterion, name: &str) {
     let n = model.nv();
     let (mut q1, mut v1, mut out) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     c.bench_function(&format!("step/{name}"), |b| {
-        b.iter(|| step(tree, &model.opt, &mut data, (black_box(&q), &v, &tau), (&mut q1, &mut v1)).unwrap())
+        b.iter(|| {
+            step(
+                tree,
+                &model.opt,
+                &mut data,
+                (black_box(&q), &v, &tau),
+                (&mut q1, &mut v1),
+            )
+            .unwrap()
+        })
     });
     c.bench_function(&format!("aba/{name}"), |b| {
         b.iter(|| aba(tree, &mut data, black_box(&q), &v, &tau, None, &mut out))
@@ -35,7 +53,9 @@ fn bench_model(c: &mut Criterion, name: &str) {
     c.bench_function(&format!("rnea/{name}"), |b| {
         b.iter(|| rnea(tree, &mut data, black_box(&q), &v, &tau, &mut out))
     });
-    c.bench_function(&format!("crba/{name}"), |b| b.iter(|| crba(tree, &mut data, black_box(&q))));
+    c.bench_function(&format!("crba/{name}"), |b| {
+        b.iter(|| crba(tree, &mut data, black_box(&q)))
+    });
 }
 
 fn benches(c: &mut Criterion) {

@@ -9,7 +9,11 @@ use diffosi::Model;
 use indicatif::{ProgressBar, ProgressStyle};
 
 #[derive(Parser)]
-#[command(name = "diffosi", version, about = "Differentiable rigid-body dynamics with online system identification")]
+#[command(
+    name = "diffosi",
+    version,
+    about = "Differentiable rigid-body dynamics with online system identification"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -43,9 +47,14 @@ enum Command {
 
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
-        Command::Simulate { model, steps, torques, q0, v0, output } => {
-            simulate(&model, steps, torques.as_deref(), q0, v0, &output)
-        }
+        Command::Simulate {
+            model,
+            steps,
+            torques,
+            q0,
+            v0,
+            output,
+        } => simulate(&model, steps, torques.as_deref(), q0, v0, &output),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -72,11 +81,13 @@ fn simulate(
         None => vec![vec![0.0; model.nv()]; steps],
     };
     let bar = ProgressBar::new(steps as u64).with_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} steps {elapsed}<{eta}").expect("valid template"),
+        ProgressStyle::with_template("{bar:40} {pos}/{len} steps {elapsed}<{eta}")
+            .expect("valid template"),
     );
     let mut data = model.data();
     let (mut q, mut v) = (q0, v0);
-    let file = std::fs::File::create(output).map_err(|e| format!("cannot write {}: {e}", output.display()))?;
+    let file = std::fs::File::create(output)
+        .map_err(|e| format!("cannot write {}: {e}", output.display()))?;
     let mut out = std::io::BufWriter::new(file);
     let io = |e: std::io::Error| format!("cannot write {}: {e}", output.display());
     let names = model.joints.iter().map(|j| j.name.as_str());
@@ -86,7 +97,10 @@ fn simulate(
         .collect();
     writeln!(out, "{}", header.join(",")).map_err(io)?;
     let started = std::time::Instant::now();
-    for (t, tau) in std::iter::once(None).chain(taus.iter().map(Some)).enumerate() {
+    for (t, tau) in std::iter::once(None)
+        .chain(taus.iter().map(Some))
+        .enumerate()
+    {
         if let Some(tau) = tau {
             (q, v) = model
                 .step(&mut data, &q, &v, tau)
@@ -94,7 +108,11 @@ fn simulate(
             bar.inc(1);
         }
         let time = t as f64 * model.opt.timestep;
-        let row: Vec<String> = std::iter::once(time).chain(q.iter().copied()).chain(v.iter().copied()).map(|x| format!("{x:e}")).collect();
+        let row: Vec<String> = std::iter::once(time)
+            .chain(q.iter().copied())
+            .chain(v.iter().copied())
+            .map(|x| format!("{x:e}"))
+            .collect();
         writeln!(out, "{}", row.join(",")).map_err(io)?;
     }
     out.flush().map_err(io)?;
@@ -114,22 +132,40 @@ fn read_torques(path: &std::path::Path, nv: usize, steps: usize) -> Result<Vec<V
     let shown = path.display();
     let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {shown}: {e}"))?;
     let mut rows = vec![];
-    for (i, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
-        let parsed: Result<Vec<f64>, _> = line.split(',').map(|x| x.trim().parse::<f64>()).collect();
+    for (i, line) in text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty())
+    {
+        let parsed: Result<Vec<f64>, _> =
+            line.split(',').map(|x| x.trim().parse::<f64>()).collect();
         match parsed {
             Ok(row) if row.len() == nv => {
                 if let Some(bad) = row.iter().position(|x| !x.is_finite()) {
-                    return Err(format!("{shown}:{}: value {} is not finite", i + 1, bad + 1));
+                    return Err(format!(
+                        "{shown}:{}: value {} is not finite",
+                        i + 1,
+                        bad + 1
+                    ));
                 }
                 rows.push(row)
             }
-            Ok(row) => return Err(format!("{shown}:{}: {} values, expected nv = {nv}", i + 1, row.len())),
+            Ok(row) => {
+                return Err(format!(
+                    "{shown}:{}: {} values, expected nv = {nv}",
+                    i + 1,
+                    row.len()
+                ))
+            }
             Err(_) if i == 0 && rows.is_empty() => continue, // header
             Err(e) => return Err(format!("{shown}:{}: {e}", i + 1)),
         }
     }
     if rows.len() < steps {
-        return Err(format!("{shown} has {} rows of torques, --steps asks for {steps}", rows.len()));
+        return Err(format!(
+            "{shown} has {} rows of torques, --steps asks for {steps}",
+            rows.len()
+        ));
     }
     rows.truncate(steps);
     Ok(rows)

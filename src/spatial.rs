@@ -404,9 +404,15 @@ mod tests {
         let close = |a: Vector6<f64>, b: Force<f64>| (a - six(b.ang, b.lin)).norm() < 1e-12;
         let closem = |a: Vector6<f64>, b: Motion<f64>| (a - six(b.ang, b.lin)).norm() < 1e-12;
         assert!(closem(xm * mv, x.apply_motion(&m)));
-        assert!(closem(xm.try_inverse().unwrap() * mv, x.inverse_apply_motion(&m)));
+        assert!(closem(
+            xm.try_inverse().unwrap() * mv,
+            x.inverse_apply_motion(&m)
+        ));
         assert!(close(xm.transpose() * fv, x.inverse_apply_force(&f)));
-        assert!(close(xm.transpose().try_inverse().unwrap() * fv, x.apply_force(&f)));
+        assert!(close(
+            xm.transpose().try_inverse().unwrap() * fv,
+            x.apply_force(&f)
+        ));
     }
 
     #[test]

@@ -21,12 +21,24 @@ fn temp(name: &str) -> std::path::PathBuf {
 #[test]
 fn simulate_writes_the_rollout_with_given_torques() {
     let torques = temp("taus.csv");
-    let rows: Vec<String> = (0..50).map(|t| format!("{},{}", (t as f64 * 0.1).sin(), 0.0)).collect();
+    let rows: Vec<String> = (0..50)
+        .map(|t| format!("{},{}", (t as f64 * 0.1).sin(), 0.0))
+        .collect();
     std::fs::write(&torques, format!("slider,hinge\n{}\n", rows.join("\n"))).unwrap();
     let out = temp("cartpole.csv");
     let (ok, _, err) = diffosi(&[
-        "simulate", "reference_models/cartpole.xml", "--steps", "50", "--torques",
-        torques.to_str().unwrap(), "--q0", "0.1,-0.2", "--v0", "0,0.5", "-o", out.to_str().unwrap(),
+        "simulate",
+        "reference_models/cartpole.xml",
+        "--steps",
+        "50",
+        "--torques",
+        torques.to_str().unwrap(),
+        "--q0",
+        "0.1,-0.2",
+        "--v0",
+        "0,0.5",
+        "-o",
+        out.to_str().unwrap(),
     ]);
     assert!(ok, "{err}");
     let csv = std::fs::read_to_string(&out).unwrap();
@@ -35,8 +47,13 @@ fn simulate_writes_the_rollout_with_given_torques() {
     assert_eq!(lines.len(), 52);
 
     let model = diffosi::Model::load("reference_models/cartpole.xml").unwrap();
-    let taus: Vec<Vec<f64>> = rows.iter().map(|r| r.split(',').map(|x| x.parse().unwrap()).collect()).collect();
-    let states = model.rollout(&[0.1, -0.2], &[0.0, 0.5], taus.iter().map(|t| t.as_slice())).unwrap();
+    let taus: Vec<Vec<f64>> = rows
+        .iter()
+        .map(|r| r.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    let states = model
+        .rollout(&[0.1, -0.2], &[0.0, 0.5], taus.iter().map(|t| t.as_slice()))
+        .unwrap();
     for (t, (line, (q, v))) in lines[1..].iter().zip(&states).enumerate() {
         let row: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
         assert!((row[0] - t as f64 * model.opt.timestep).abs() < 1e-12);
@@ -49,18 +66,58 @@ fn simulate_writes_the_rollout_with_given_torques() {
 fn simulate_explains_bad_input() {
     let out = temp("bad.csv");
     let out = out.to_str().unwrap();
-    let (ok, _, err) = diffosi(&["simulate", "reference_models/nonexistent.xml", "--steps", "5", "-o", out]);
-    assert!(!ok && err.contains("cannot read reference_models/nonexistent.xml"), "{err}");
+    let (ok, _, err) = diffosi(&[
+        "simulate",
+        "reference_models/nonexistent.xml",
+        "--steps",
+        "5",
+        "-o",
+        out,
+    ]);
+    assert!(
+        !ok && err.contains("cannot read reference_models/nonexistent.xml"),
+        "{err}"
+    );
 
     let torques = temp("short.csv");
     std::fs::write(&torques, "1,2,3\n").unwrap();
-    let args = ["simulate", "reference_models/cartpole.xml", "--steps", "5", "--torques", torques.to_str().unwrap(), "-o", out];
+    let args = [
+        "simulate",
+        "reference_models/cartpole.xml",
+        "--steps",
+        "5",
+        "--torques",
+        torques.to_str().unwrap(),
+        "-o",
+        out,
+    ];
     let (ok, _, err) = diffosi(&args);
-    assert!(!ok && err.contains("short.csv:1: 3 values, expected nv = 2"), "{err}");
+    assert!(
+        !ok && err.contains("short.csv:1: 3 values, expected nv = 2"),
+        "{err}"
+    );
 
-    let (ok, _, err) = diffosi(&["simulate", "reference_models/cartpole.xml", "--steps", "5", "--q0", "1", "-o", out]);
+    let (ok, _, err) = diffosi(&[
+        "simulate",
+        "reference_models/cartpole.xml",
+        "--steps",
+        "5",
+        "--q0",
+        "1",
+        "-o",
+        out,
+    ]);
     assert!(!ok && err.contains("q has length 1, expected 2"), "{err}");
 
-    let (ok, _, err) = diffosi(&["simulate", "reference_models/cartpole.xml", "--steps", "5", "--v0", "0,nan", "-o", out]);
+    let (ok, _, err) = diffosi(&[
+        "simulate",
+        "reference_models/cartpole.xml",
+        "--steps",
+        "5",
+        "--v0",
+        "0,nan",
+        "-o",
+        out,
+    ]);
     assert!(!ok && err.contains("v[1] is not finite"), "{err}");
 }

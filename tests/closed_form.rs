@@ -27,7 +27,12 @@ fn cartpole_closed_form(model: &Model, q: &[f64], v: &[f64]) -> (Matrix2<f64>, V
     let (px, pz) = (c * d.x + s * d.z, -s * d.x + c * d.z);
     let inertia = m * (d.x * d.x + d.z * d.z) + pole.inertia[(1, 1)];
     let g = -model.opt.gravity.z;
-    let mass = Matrix2::new(m_c + m + slider.armature, m * pz, m * pz, inertia + hinge.armature);
+    let mass = Matrix2::new(
+        m_c + m + slider.armature,
+        m * pz,
+        m * pz,
+        inertia + hinge.armature,
+    );
     let bias = Vector2::new(-m * v[1] * v[1] * px, -m * g * px);
     (mass, bias)
 }
@@ -37,8 +42,14 @@ fn cartpole_matches_its_closed_form_equations() {
     let base = load("cartpole.xml");
     let pole = base.body_index("pole").unwrap();
     // The model's frames are the ones the closed form assumes.
-    assert_eq!(base.joints[base.joint_index("slider").unwrap()].axis, Vector3::x());
-    assert_eq!(base.joints[base.joint_index("hinge").unwrap()].axis, Vector3::y());
+    assert_eq!(
+        base.joints[base.joint_index("slider").unwrap()].axis,
+        Vector3::x()
+    );
+    assert_eq!(
+        base.joints[base.joint_index("hinge").unwrap()].axis,
+        Vector3::y()
+    );
     assert!(base.bodies[pole].rot.angle() == 0.0 && base.bodies[1].rot.angle() == 0.0);
     let mut r = common::rng(5);
     for mu in [-0.6, -0.2, 0.0, 0.35, 0.6] {
@@ -48,15 +59,24 @@ fn cartpole_matches_its_closed_form_equations() {
             .unwrap();
         let mut data = Data::new(model.tree());
         for _ in 0..20 {
-            let q = [common::uniform(&mut r, -2.0, 2.0), common::uniform(&mut r, -3.2, 3.2)];
-            let v = [common::uniform(&mut r, -3.0, 3.0), common::uniform(&mut r, -8.0, 8.0)];
+            let q = [
+                common::uniform(&mut r, -2.0, 2.0),
+                common::uniform(&mut r, -3.2, 3.2),
+            ];
+            let v = [
+                common::uniform(&mut r, -3.0, 3.0),
+                common::uniform(&mut r, -8.0, 8.0),
+            ];
             let (mass, bias) = cartpole_closed_form(&model, &q, &v);
             crba(model.tree(), &mut data, &q);
             let mut c = [0.0; 2];
             bias_forces(model.tree(), &mut data, &q, &v, &mut c);
             let m_err = (data.mass_matrix.fixed_view::<2, 2>(0, 0) - mass).amax();
             let c_err = (Vector2::from(c) - bias).amax();
-            assert!(m_err < 1e-13 && c_err < 1e-12, "mu {mu}: |dM| {m_err:e}, |dc| {c_err:e}");
+            assert!(
+                m_err < 1e-13 && c_err < 1e-12,
+                "mu {mu}: |dM| {m_err:e}, |dc| {c_err:e}"
+            );
         }
     }
 }
@@ -75,8 +95,12 @@ fn pendulum_small_angle_period() {
     let g = model.opt.gravity.norm();
     // Hanging at rest at the reference: the COM straight below the axis.
     let down = (body.rot * d_perp).normalize();
-    assert!((down - model.opt.gravity.normalize()).norm() < 1e-12, "pendulum must hang at q = ref");
-    let expected = 2.0 * std::f64::consts::PI * (inertia_axis / (body.mass * g * d_perp.norm())).sqrt();
+    assert!(
+        (down - model.opt.gravity.normalize()).norm() < 1e-12,
+        "pendulum must hang at q = ref"
+    );
+    let expected =
+        2.0 * std::f64::consts::PI * (inertia_axis / (body.mass * g * d_perp.norm())).sqrt();
 
     let amplitude = 1e-3;
     let h = model.opt.timestep;
@@ -95,6 +119,9 @@ fn pendulum_small_angle_period() {
     assert!(periods.len() >= 4, "too few swings: {crossings:?}");
     for p in periods {
         // Semi-implicit Euler's period error is (omega h)^2 / 24 ~ 1e-6 here.
-        assert!((p / expected - 1.0).abs() < 1e-4, "period {p} vs {expected}");
+        assert!(
+            (p / expected - 1.0).abs() < 1e-4,
+            "period {p} vs {expected}"
+        );
     }
 }

@@ -24,11 +24,20 @@ fn dual_numbers_differentiate_a_step() {
         let (q_plain, _) = model.step(&mut model.data(), &q, &v, &tau).unwrap();
         for k in 0..n {
             // Seed dq_k = 1 and read d(q', v')/dq_k from the dual parts.
-            let qd: Vec<Dual64> = (0..n).map(|i| Dual64::new(q[i], if i == k { 1.0 } else { 0.0 })).collect();
+            let qd: Vec<Dual64> = (0..n)
+                .map(|i| Dual64::new(q[i], if i == k { 1.0 } else { 0.0 }))
+                .collect();
             let vd: Vec<Dual64> = v.iter().map(|&x| Dual64::from(x)).collect();
             let td: Vec<Dual64> = tau.iter().map(|&x| Dual64::from(x)).collect();
             let (mut q1, mut v1) = (vec![Dual64::from(0.0); n], vec![Dual64::from(0.0); n]);
-            step(&tree, &model.opt, &mut data, (&qd, &vd, &td), (&mut q1, &mut v1)).unwrap();
+            step(
+                &tree,
+                &model.opt,
+                &mut data,
+                (&qd, &vd, &td),
+                (&mut q1, &mut v1),
+            )
+            .unwrap();
 
             let eps = 1e-6;
             let mut f64_data = model.data();
@@ -42,8 +51,14 @@ fn dual_numbers_differentiate_a_step() {
             for i in 0..n {
                 let fd_q = (qp[i] - qm[i]) / (2.0 * eps);
                 let fd_v = (vp[i] - vm[i]) / (2.0 * eps);
-                assert!((q1[i].eps - fd_q).abs() < 1e-6 * (1.0 + fd_q.abs()), "dq'/dq {seed} {i} {k}");
-                assert!((v1[i].eps - fd_v).abs() < 1e-6 * (1.0 + fd_v.abs()), "dv'/dq {seed} {i} {k}");
+                assert!(
+                    (q1[i].eps - fd_q).abs() < 1e-6 * (1.0 + fd_q.abs()),
+                    "dq'/dq {seed} {i} {k}"
+                );
+                assert!(
+                    (v1[i].eps - fd_v).abs() < 1e-6 * (1.0 + fd_v.abs()),
+                    "dv'/dq {seed} {i} {k}"
+                );
                 assert_eq!(q1[i].re, q_plain[i], "dual and f64 values differ");
             }
         }

@@ -9,6 +9,7 @@ use diffosi::dynamics::{bias_forces, crba, Data};
 use diffosi::model::{Integrator, Model, PassiveMode};
 use nalgebra::Vector3;
 use serde::Deserialize;
+use sha2::Digest;
 
 #[derive(Deserialize)]
 struct Golden {
@@ -46,7 +47,10 @@ struct Rollout {
 }
 
 /// Largest error relative to max(1, |reference|), elementwise.
-fn rel_err<'a>(ours: impl IntoIterator<Item = &'a f64>, theirs: impl IntoIterator<Item = &'a f64>) -> f64 {
+fn rel_err<'a>(
+    ours: impl IntoIterator<Item = &'a f64>,
+    theirs: impl IntoIterator<Item = &'a f64>,
+) -> f64 {
     ours.into_iter()
         .zip(theirs)
         .map(|(a, b)| (a - b).abs() / b.abs().max(1.0))
@@ -57,13 +61,26 @@ fn rel_err<'a>(ours: impl IntoIterator<Item = &'a f64>, theirs: impl IntoIterato
 /// integrator, timestep and gravity, and without what it ignores.
 fn as_run_by(golden: &Golden) -> Model {
     let path = common::model_path(&golden.model);
+    let recorded = golden.settings.get("model_sha256").and_then(|v| v.as_str());
+    let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let actual = format!("{:x}", sha2::Sha256::digest(&bytes));
+    assert_eq!(
+        recorded,
+        Some(actual.as_str()),
+        "{} changed since its golden data was recorded: run `make golden`",
+        path.display()
+    );
     let model = Model::load(&path).unwrap_or_else(|e| panic!("{e}"));
     // What the engine did not simulate: {"stiffness": {"joint": value, ...}, ...}.
-    let ignored: std::collections::BTreeMap<String, std::collections::BTreeMap<String, f64>> = golden
-        .settings
-        .get("ignored")
-        .map(|v| serde_json::from_value(v.clone()).expect("settings.ignored maps parameters to joints"))
-        .unwrap_or_default();
+    let ignored: std::collections::BTreeMap<String, std::collections::BTreeMap<String, f64>> =
+        golden
+            .settings
+            .get("ignored")
+            .map(|v| {
+                serde_json::from_value(v.clone())
+                    .expect("settings.ignored maps parameters to joints")
+            })
+            .unwrap_or_default();
     model
         .edited(|s| {
             s.opt.passive = match golden.passive.as_str() {
@@ -114,21 +131,31 @@ fn compare(golden: &Golden) -> Errors {
         bias_forces(model.tree(), &mut data, &s.q, &s.v, &mut c);
         bias = bias.max(rel_err(&c, &s.bias));
         let (q1, v1) = model.step(&mut data, &s.q, &s.v, &s.tau).unwrap();
-        one_step = one_step.max(rel_err(&q1, &s.q_next)).max(rel_err(&v1, &s.v_next));
+        one_step = one_step
+            .max(rel_err(&q1, &s.q_next))
+            .max(rel_err(&v1, &s.v_next));
     }
     let r = &golden.rollout;
-    let states = model.rollout(&r.q0, &r.v0, r.taus.iter().map(|t| t.as_slice())).unwrap();
+    let states = model
+        .rollout(&r.q0, &r.v0, r.taus.iter().map(|t| t.as_slice()))
+        .unwrap();
     let rollout = states
         .iter()
         .zip(r.q.iter().zip(&r.v))
         .map(|((q, v), (qr, vr))| rel_err(q, qr).max(rel_err(v, vr)))
         .fold(0.0, f64::max);
-    Errors { mass, bias, one_step, rollout }
+    Errors {
+        mass,
+        bias,
+        one_step,
+        rollout,
+    }
 }
 
 #[test]
 fn agrees_with_reference_engines() {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("reference_models/golden/dynamics");
+    let dir =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("reference_models/golden/dynamics");
     let mut files: Vec<_> = std::fs::read_dir(&dir)
         .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
         .flatten()
@@ -138,15 +165,23 @@ fn agrees_with_reference_engines() {
     files.sort();
     assert!(!files.is_empty(), "no golden data in {}", dir.display());
     let mut failures = vec![];
-    println!("{:<48} {:>9} {:>9} {:>9} {:>9}", "case", "M", "bias", "1-step", "rollout");
+    println!(
+        "{:<48} {:>9} {:>9} {:>9} {:>9}",
+        "case", "M", "bias", "1-step", "rollout"
+    );
     for file in &files {
         let golden: Golden = serde_json::from_str(&std::fs::read_to_string(file).unwrap()).unwrap();
         let case = file.file_stem().unwrap().to_string_lossy();
         if golden.settings.get("fluid_off").is_some() {
             // The reference ran without its fluid forces; we have none and say so
             // on load instead of stepping a different model silently.
-            let err = Model::load(common::model_path(&golden.model)).unwrap_err().to_string();
-            assert!(err.contains("fluid forces are not supported"), "{case}: {err}");
+            let err = Model::load(common::model_path(&golden.model))
+                .unwrap_err()
+                .to_string();
+            assert!(
+                err.contains("fluid forces are not supported"),
+                "{case}: {err}"
+            );
             println!("{case:<48} rejected on load: fluid forces");
             continue;
         }
@@ -159,5 +194,8 @@ fn agrees_with_reference_engines() {
             failures.push(case.to_string());
         }
     }
-    assert!(failures.is_empty(), "disagree with their reference engine: {failures:?}");
+    assert!(
+        failures.is_empty(),
+        "disagree with their reference engine: {failures:?}"
+    );
 }

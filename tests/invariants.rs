@@ -9,7 +9,14 @@ use nalgebra::{DMatrix, DVector};
 
 fn models() -> Vec<Model> {
     (0..12)
-        .map(|seed| random_model(seed, 2 + seed as usize % 6, PassiveMode::Explicit, Integrator::Euler))
+        .map(|seed| {
+            random_model(
+                seed,
+                2 + seed as usize % 6,
+                PassiveMode::Explicit,
+                Integrator::Euler,
+            )
+        })
         .collect()
 }
 
@@ -38,7 +45,11 @@ fn aba_equals_crba_solve_of_tau_minus_bias() {
             let rhs = DVector::from_column_slice(&tau) - bias(&model, &q, &v);
             let want = mass_matrix(&model, &q).cholesky().unwrap().solve(&rhs);
             let err = (DVector::from_column_slice(&qdd) - &want).amax();
-            assert!(err < 1e-10 * (1.0 + want.amax()), "{}: ABA vs CRBA {err:e}", model.name);
+            assert!(
+                err < 1e-10 * (1.0 + want.amax()),
+                "{}: ABA vs CRBA {err:e}",
+                model.name
+            );
         }
     }
 }
@@ -53,8 +64,16 @@ fn rnea_inverts_aba() {
         aba(tree, &mut data, &q, &v, &tau, None, &mut qdd);
         let mut back = vec![0.0; model.nv()];
         rnea(tree, &mut data, &q, &v, &qdd, &mut back);
-        let err = back.iter().zip(&tau).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-        assert!(err < 1e-10, "{}: RNEA(ABA(tau)) - tau = {err:e}", model.name);
+        let err = back
+            .iter()
+            .zip(&tau)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            err < 1e-10,
+            "{}: RNEA(ABA(tau)) - tau = {err:e}",
+            model.name
+        );
     }
 }
 
@@ -104,7 +123,14 @@ fn rollout_energy(model: &Model, steps: usize, damped: bool) -> Vec<f64> {
     let (mut q1, mut v1) = (zero.clone(), zero.clone());
     let mut e = vec![energy(&model, &q, &v)];
     for _ in 0..steps {
-        step(model.tree(), &model.opt, &mut data, (&q, &v, &zero), (&mut q1, &mut v1)).unwrap();
+        step(
+            model.tree(),
+            &model.opt,
+            &mut data,
+            (&q, &v, &zero),
+            (&mut q1, &mut v1),
+        )
+        .unwrap();
         std::mem::swap(&mut q, &mut q1);
         std::mem::swap(&mut v, &mut v1);
         e.push(energy(&model, &q, &v));
@@ -118,7 +144,11 @@ fn rk4_conserves_energy_without_damping() {
         let model = random_model(seed, 4, PassiveMode::Explicit, Integrator::Rk4);
         let e = rollout_energy(&model, 2000, false);
         let drift = e.iter().map(|x| (x - e[0]).abs()).fold(0.0, f64::max);
-        assert!(drift < 1e-8 * (1.0 + e[0].abs()), "seed {seed}: energy drift {drift:e} of {}", e[0]);
+        assert!(
+            drift < 1e-8 * (1.0 + e[0].abs()),
+            "seed {seed}: energy drift {drift:e} of {}",
+            e[0]
+        );
     }
 }
 
@@ -128,9 +158,17 @@ fn damping_only_dissipates_energy() {
         let model = random_model(seed, 4, PassiveMode::Explicit, Integrator::Rk4);
         let e = rollout_energy(&model, 2000, true);
         for w in e.windows(2) {
-            assert!(w[1] <= w[0] + 1e-10, "seed {seed}: energy rose {} -> {}", w[0], w[1]);
+            assert!(
+                w[1] <= w[0] + 1e-10,
+                "seed {seed}: energy rose {} -> {}",
+                w[0],
+                w[1]
+            );
         }
-        assert!(e[e.len() - 1] < e[0] - 1e-6, "seed {seed}: damping removed no energy");
+        assert!(
+            e[e.len() - 1] < e[0] - 1e-6,
+            "seed {seed}: damping removed no energy"
+        );
     }
 }
 
@@ -139,14 +177,25 @@ fn damping_only_dissipates_energy() {
 #[test]
 fn passive_modes_solve_their_equations() {
     let h = 0.001;
-    for mode in [PassiveMode::Explicit, PassiveMode::ImplicitDamping, PassiveMode::ImplicitDampingStiffness] {
+    for mode in [
+        PassiveMode::Explicit,
+        PassiveMode::ImplicitDamping,
+        PassiveMode::ImplicitDampingStiffness,
+    ] {
         for seed in 0..6 {
             let model = random_model(seed, 4, mode, Integrator::Euler);
             let (q, v, tau) = random_state(&model, seed + 100);
             let n = model.nv();
             let mut data = Data::new(model.tree());
             let (mut q1, mut v1) = (vec![0.0; n], vec![0.0; n]);
-            step(model.tree(), &model.opt, &mut data, (&q, &v, &tau), (&mut q1, &mut v1)).unwrap();
+            step(
+                model.tree(),
+                &model.opt,
+                &mut data,
+                (&q, &v, &tau),
+                (&mut q1, &mut v1),
+            )
+            .unwrap();
             let m = mass_matrix(&model, &q);
             let c = bias(&model, &q, &v);
             let acc = DVector::from_iterator(n, (0..n).map(|i| (v1[i] - v[i]) / h));
@@ -163,7 +212,11 @@ fn passive_modes_solve_their_equations() {
                     tau[i] - c[i] - j.damping * v_d[i] - j.stiffness * (q_k[i] - j.springref)
                 }),
             ) - &m * acc;
-            assert!(residual.amax() < 1e-9, "{mode:?} seed {seed}: residual {:e}", residual.amax());
+            assert!(
+                residual.amax() < 1e-9,
+                "{mode:?} seed {seed}: residual {:e}",
+                residual.amax()
+            );
             for i in 0..n {
                 assert!((q1[i] - q[i] - h * v1[i]).abs() < 1e-15);
             }
@@ -179,8 +232,22 @@ fn step_rejects_bad_input() {
     let (q, mut v, tau) = random_state(&model, 0);
     let (mut q1, mut v1) = (vec![0.0; n], vec![0.0; n]);
     v[1] = f64::NAN;
-    let err = step(model.tree(), &model.opt, &mut data, (&q, &v, &tau), (&mut q1, &mut v1)).unwrap_err();
+    let err = step(
+        model.tree(),
+        &model.opt,
+        &mut data,
+        (&q, &v, &tau),
+        (&mut q1, &mut v1),
+    )
+    .unwrap_err();
     assert_eq!(err.to_string(), "v[1] is not finite");
-    let err = step(model.tree(), &model.opt, &mut data, (&q, &v[..1], &tau), (&mut q1, &mut v1)).unwrap_err();
+    let err = step(
+        model.tree(),
+        &model.opt,
+        &mut data,
+        (&q, &v[..1], &tau),
+        (&mut q1, &mut v1),
+    )
+    .unwrap_err();
     assert_eq!(err.to_string(), format!("v has length 1, expected {n}"));
 }

@@ -7,6 +7,10 @@
 //! including the joints' armature on its diagonal and c the Coriolis,
 //! centrifugal and gravity forces.
 
+// The algorithms sweep tree nodes by index and read several per-node arrays at
+// that index; the index is the node, not an incidental loop counter.
+#![allow(clippy::needless_range_loop)]
+
 mod aba;
 mod crba;
 mod kinematics;

@@ -46,4 +46,3 @@ fn newton_euler<T: Real>(
         }
     }
 }
-

@@ -43,13 +43,24 @@ pub fn step<T: Real>(
     }
     for (name, x) in [("q_next", &*q_next), ("v_next", &*v_next)] {
         if x.len() != n {
-            return Err(StepError::Length { name, got: x.len(), expected: n });
+            return Err(StepError::Length {
+                name,
+                got: x.len(),
+                expected: n,
+            });
         }
     }
     let mut scratch = std::mem::take(&mut data.scratch);
     match opt.integrator {
         Integrator::Euler => euler(tree, opt, data, &mut scratch, (q, v, tau), (q_next, v_next)),
-        Integrator::Rk4 => rk4(tree, opt.timestep, data, &mut scratch, (q, v, tau), (q_next, v_next)),
+        Integrator::Rk4 => rk4(
+            tree,
+            opt.timestep,
+            data,
+            &mut scratch,
+            (q, v, tau),
+            (q_next, v_next),
+        ),
     }
     data.scratch = scratch;
     if q_next.iter().chain(v_next.iter()).all(|x| x.is_finite()) {
@@ -61,7 +72,11 @@ pub fn step<T: Real>(
 
 fn check<T: Real>(name: &'static str, x: &[T], n: usize) -> Result<(), StepError> {
     if x.len() != n {
-        return Err(StepError::Length { name, got: x.len(), expected: n });
+        return Err(StepError::Length {
+            name,
+            got: x.len(),
+            expected: n,
+        });
     }
     match x.iter().position(|xi| !xi.is_finite()) {
         Some(index) => Err(StepError::NotFinite { name, index }),
@@ -119,7 +134,12 @@ fn rk4<T: Real>(
     v_next.copy_from_slice(v);
     // Stage k is evaluated at (q, v) + step[k] * (previous stage derivative).
     let step_to_next = [h / two, h / two, h, T::zero()];
-    let weight = [h / (two * lift(3.0)), h / lift(3.0), h / lift(3.0), h / (two * lift(3.0))];
+    let weight = [
+        h / (two * lift(3.0)),
+        h / lift(3.0),
+        h / lift(3.0),
+        h / (two * lift(3.0)),
+    ];
     for k in 0..4 {
         passive_forces(tree, q_stage, v_stage, force);
         for i in 0..tree.nv() {

@@ -45,11 +45,9 @@ impl<T: Real> NodeJoint<T> {
         let angle = q - self.reference;
         match self.kind {
             JointKind::Hinge => {
-                let r = Rotation3::from_axis_angle(
-                    &nalgebra::Unit::new_unchecked(self.axis),
-                    angle,
-                )
-                .into_inner();
+                let r =
+                    Rotation3::from_axis_angle(&nalgebra::Unit::new_unchecked(self.axis), angle)
+                        .into_inner();
                 Transform::from_pose(&r, &(self.anchor - r * self.anchor))
             }
             JointKind::Slide => Transform::from_pose(&Matrix3::identity(), &(self.axis * angle)),
@@ -141,11 +139,8 @@ impl<T: Real> Tree<T> {
                 offset: x_tree,
             });
             if let Some(n) = node {
-                let own = Inertia::from_com(
-                    lift(b.mass),
-                    &lift_vector(&b.com),
-                    &lift_matrix(&b.inertia),
-                );
+                let own =
+                    Inertia::from_com(lift(b.mass), &lift_vector(&b.com), &lift_matrix(&b.inertia));
                 tree.inertia[n] += own.to_source(&x_tree);
             }
         }

@@ -113,13 +113,25 @@ pub struct Actuator {
 pub enum Shape {
     /// The z = 0 plane of the geom frame (infinite).
     Plane,
-    Sphere { radius: f64 },
+    Sphere {
+        radius: f64,
+    },
     /// Along the geom's z axis; `half_length` of the cylindrical part.
-    Capsule { radius: f64, half_length: f64 },
+    Capsule {
+        radius: f64,
+        half_length: f64,
+    },
     /// Along the geom's z axis.
-    Cylinder { radius: f64, half_length: f64 },
-    Box { half: Vector3<f64> },
-    Ellipsoid { radii: Vector3<f64> },
+    Cylinder {
+        radius: f64,
+        half_length: f64,
+    },
+    Box {
+        half: Vector3<f64>,
+    },
+    Ellipsoid {
+        radii: Vector3<f64>,
+    },
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -293,7 +305,6 @@ impl Model {
         }
         tau
     }
-
 }
 
 impl Spec {
@@ -371,7 +382,9 @@ pub fn check_inertial(
     eig.sort_by(f64::total_cmp);
     let tol = 1e-9 * scale;
     if eig[0] < -tol {
-        return bad(format!("inertia tensor is not positive semi-definite (eigenvalues {eig:?})"));
+        return bad(format!(
+            "inertia tensor is not positive semi-definite (eigenvalues {eig:?})"
+        ));
     }
     if eig[0] + eig[1] < eig[2] - tol {
         return bad(format!(
@@ -379,6 +392,17 @@ pub fn check_inertial(
         ));
     }
     Ok(())
+}
+
+/// A state (q, v).
+pub type State = (Vec<f64>, Vec<f64>);
+
+/// A rollout stopped at `step` (0-based) because that step failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("step {step}: {source}")]
+pub struct RolloutError {
+    pub step: usize,
+    pub source: StepError,
 }
 
 /// Simulation on f64 states: the convenience layer over [`crate::dynamics`].
@@ -402,18 +426,20 @@ impl Model {
     }
 
     /// Steps from (q0, v0) under each row of `taus`; returns the T+1 states
-    /// visited, the initial state first. The error names the failing step.
+    /// (q, v) visited, the initial state first.
     pub fn rollout<'a>(
         &self,
         q0: &[f64],
         v0: &[f64],
         taus: impl IntoIterator<Item = &'a [f64]>,
-    ) -> Result<Vec<(Vec<f64>, Vec<f64>)>, (usize, StepError)> {
+    ) -> Result<Vec<State>, RolloutError> {
         let mut data = self.data();
         let mut states = vec![(q0.to_vec(), v0.to_vec())];
-        for (t, tau) in taus.into_iter().enumerate() {
+        for (step, tau) in taus.into_iter().enumerate() {
             let (q, v) = states.last().expect("starts non-empty");
-            let next = self.step(&mut data, q, v, tau).map_err(|e| (t, e))?;
+            let next = self
+                .step(&mut data, q, v, tau)
+                .map_err(|source| RolloutError { step, source })?;
             states.push(next);
         }
         Ok(states)

@@ -59,7 +59,11 @@ pub fn random_model(seed: u64, n: usize, passive: PassiveMode, integrator: Integ
         for k in 0..count {
             joints.push(Joint {
                 name: format!("j{b}_{k}"),
-                kind: if r.random_bool(0.7) { JointKind::Hinge } else { JointKind::Slide },
+                kind: if r.random_bool(0.7) {
+                    JointKind::Hinge
+                } else {
+                    JointKind::Slide
+                },
                 body: b,
                 axis: unit(&mut r),
                 anchor: vector(&mut r, 0.5),
@@ -67,7 +71,11 @@ pub fn random_model(seed: u64, n: usize, passive: PassiveMode, integrator: Integ
                 damping: uniform(&mut r, 0.0, 0.5),
                 stiffness: uniform(&mut r, 0.0, 2.0),
                 springref: uniform(&mut r, -0.5, 0.5),
-                armature: if r.random_bool(0.5) { uniform(&mut r, 0.0, 0.2) } else { 0.0 },
+                armature: if r.random_bool(0.5) {
+                    uniform(&mut r, 0.0, 0.2)
+                } else {
+                    0.0
+                },
                 frictionloss: 0.0,
                 range: None,
             });
@@ -96,7 +104,11 @@ pub fn random_model(seed: u64, n: usize, passive: PassiveMode, integrator: Integ
 pub fn random_state(model: &Model, seed: u64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let mut r = rng(seed);
     let n = model.nv();
-    let q = model.reference_q().iter().map(|q0| q0 + uniform(&mut r, -1.0, 1.0)).collect();
+    let q = model
+        .reference_q()
+        .iter()
+        .map(|q0| q0 + uniform(&mut r, -1.0, 1.0))
+        .collect();
     let v = (0..n).map(|_| uniform(&mut r, -1.0, 1.0)).collect();
     let tau = (0..n).map(|_| uniform(&mut r, -1.0, 1.0)).collect();
     (q, v, tau)
