@@ -7,17 +7,33 @@ use diffosi::dynamics::{aba, bias_forces, body_poses, crba, rnea, step, Data};
 use diffosi::model::{Integrator, Model, PassiveMode};
 use nalgebra::{DMatrix, DVector};
 
+/// Random trees, and every model in reference_models/ (MJCF and URDF).
 fn models() -> Vec<Model> {
-    (0..12)
-        .map(|seed| {
-            random_model(
-                seed,
-                2 + seed as usize % 6,
-                PassiveMode::Explicit,
-                Integrator::Euler,
-            )
-        })
-        .collect()
+    let random = (0..12).map(|seed| {
+        random_model(
+            seed,
+            2 + seed as usize % 6,
+            PassiveMode::Explicit,
+            Integrator::Euler,
+        )
+    });
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("reference_models");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "xml" || x == "urdf"))
+        .collect();
+    files.sort();
+    assert!(
+        files.len() >= 8,
+        "reference models missing from {}",
+        dir.display()
+    );
+    let files = files
+        .into_iter()
+        .map(|p| Model::load(&p).unwrap_or_else(|e| panic!("{e}")));
+    random.chain(files).collect()
 }
 
 fn mass_matrix(model: &Model, q: &[f64]) -> DMatrix<f64> {

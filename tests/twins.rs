@@ -7,7 +7,8 @@
 //! options (timestep, gravity, integrator; not the passive mode, which follows
 //! each format's engine: MuJoCo's implicit damping for MJCF, PyBullet's
 //! explicit forces for URDF); bodies (name, parent, world pose at the
-//! reference configuration, mass, COM, inertia); geoms.
+//! reference configuration, mass, COM, inertia); geoms; and the dynamics they
+//! give: mass matrix, bias forces and steps at random states.
 //!
 //! Where the formats differ, by these explicit rules:
 //! - Helper links. URDF has one joint per link, so where an MJCF body carries
@@ -23,6 +24,9 @@
 //!   lowered by its half height, so its top face is the plane.
 //! - Friction is compared only for geoms that can collide.
 
+mod common;
+
+use diffosi::dynamics::{bias_forces, body_poses, crba, Data};
 use diffosi::model::{Geom, JointKind, Shape};
 use diffosi::Model;
 use nalgebra::{Matrix3, Rotation3, Vector3};
@@ -43,15 +47,10 @@ fn load_twins(name: &str) -> (Model, Model) {
 
 /// Body frames in world coordinates (rotation, origin) at the reference configuration.
 fn world_poses(m: &Model) -> Vec<(Rotation3<f64>, Vector3<f64>)> {
-    let mut poses: Vec<(Rotation3<f64>, Vector3<f64>)> = Vec::with_capacity(m.bodies.len());
-    for b in &m.bodies {
-        let pose = match poses.get(b.parent) {
-            Some(&(rot, pos)) if !poses.is_empty() => (rot * b.rot, pos + rot * b.pos),
-            _ => (Rotation3::identity(), Vector3::zeros()),
-        };
-        poses.push(pose);
-    }
-    poses
+    body_poses(m.tree(), &m.reference_q())
+        .into_iter()
+        .map(|(axes, origin)| (Rotation3::from_matrix_unchecked(axes), origin))
+        .collect()
 }
 
 fn is_helper(urdf: &Model, mjcf: &Model, b: usize) -> bool {
@@ -330,5 +329,42 @@ fn only_the_half_cheetah_root_uses_helper_links() {
             .map(|b| urdf.bodies[b].name.as_str())
             .collect();
         assert_eq!(helpers, expected, "{name}");
+    }
+}
+
+/// Same dynamics: M(q), c(q, v) and one step (under the MJCF twin's passive
+/// mode) agree at random states.
+#[test]
+fn twins_have_the_same_dynamics() {
+    for name in ["cartpole", "pendulum", "double_pendulum", "half_cheetah"] {
+        let (mjcf, urdf) = load_twins(name);
+        let urdf = urdf.edited(|s| s.opt = mjcf.opt.clone()).unwrap();
+        let (mut dm, mut du) = (mjcf.data(), urdf.data());
+        for seed in 0..10 {
+            let (q, v, tau) = common::random_state(&mjcf, seed);
+            crba(mjcf.tree(), &mut dm, &q);
+            crba(urdf.tree(), &mut du, &q);
+            let m_err = (&dm.mass_matrix - &du.mass_matrix).amax();
+            let (mut cm, mut cu) = (vec![0.0; q.len()], vec![0.0; q.len()]);
+            bias_forces(mjcf.tree(), &mut dm, &q, &v, &mut cm);
+            bias_forces(urdf.tree(), &mut du, &q, &v, &mut cu);
+            let c_err = cm
+                .iter()
+                .zip(&cu)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            let (qm, vm) = mjcf.step(&mut dm, &q, &v, &tau).unwrap();
+            let (qu, vu) = urdf.step(&mut du, &q, &v, &tau).unwrap();
+            let s_err = qm
+                .iter()
+                .chain(&vm)
+                .zip(qu.iter().chain(&vu))
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            assert!(
+                m_err < 1e-13 && c_err < 1e-12 && s_err < 1e-13,
+                "{name} seed {seed}: M {m_err:e}, c {c_err:e}, step {s_err:e}"
+            );
+        }
     }
 }
