@@ -1,7 +1,19 @@
 //! diffosi: differentiable rigid-body dynamics with online system identification.
 //!
 //! Layout follows the math: [`spatial`] algebra, the [`model`] (bodies, joints,
-//! loaders), and the [`dynamics`] algorithms that run on it.
+//! the MJCF and URDF loaders), and the [`dynamics`] algorithms that run on it.
+//!
+//! ```
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let model = diffosi::Model::load(concat!(env!("CARGO_MANIFEST_DIR"), "/reference_models/cartpole.xml"))?;
+//! let mut data = model.data();
+//! // State (q, v) = ((cart x, pole angle), their rates); tau = generalized forces.
+//! let (q1, v1) = model.step(&mut data, &[0.0, 0.1], &[0.0, 0.0], &[0.0, 0.0])?;
+//! assert!(v1[1] > 0.0, "the tilted pole falls further");
+//! assert_eq!(q1[1], 0.1 + model.opt.timestep * v1[1]);
+//! # Ok(())
+//! # }
+//! ```
 
 pub mod dynamics;
 pub mod model;
