@@ -22,6 +22,8 @@ run: setup
 	scripts/main.sh
 
 test: setup
+	cargo fmt --check
+	cargo clippy --release --locked --all-targets -- -D warnings
 	cargo test --release --locked
 
 bench: setup

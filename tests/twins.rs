@@ -26,7 +26,7 @@
 
 mod common;
 
-use diffosi::dynamics::{bias_forces, body_poses, crba, Data};
+use diffosi::dynamics::{bias_forces, body_poses, crba};
 use diffosi::model::{Geom, JointKind, Shape};
 use diffosi::Model;
 use nalgebra::{Matrix3, Rotation3, Vector3};
