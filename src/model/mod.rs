@@ -19,9 +19,12 @@
 
 pub mod geom_inertia;
 pub mod mjcf;
+pub mod params;
 pub mod urdf;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
+
+pub use params::{Param, ParamError, ParamMap};
 
 use crate::dynamics::{self, Data, StepError, Tree};
 

@@ -1,0 +1,404 @@
+//! Named physical parameters, and affine maps from a task's mu onto them.
+//!
+//! Names and meanings (DESIGN.md):
+//! - `body/<name>/mass` (kg): changing it keeps the COM and the inertia about the COM.
+//! - `body/<name>/com` (3 values, m): the COM in body coordinates; changing it
+//!   keeps the mass and the inertia about the (moved) COM, as editing MuJoCo's
+//!   body_ipos does.
+//! - `body/<name>/inertia` (6 values, kg m^2): xx yy zz xy xz yz about the COM in
+//!   body axes.
+//! - `joint/<name>/damping`, `joint/<name>/stiffness`, `joint/<name>/armature`.
+
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+
+use super::{Model, ModelError, Spec};
+
+/// One named parameter, resolved to the body or joint it belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Param {
+    Mass(usize),
+    Com(usize),
+    Inertia(usize),
+    Damping(usize),
+    Stiffness(usize),
+    Armature(usize),
+}
+
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ParamError {
+    #[error("unknown parameter '{name}'{hint}")]
+    Unknown { name: String, hint: String },
+    #[error("parameter '{name}' takes {expected} values, got {got}")]
+    Length {
+        name: String,
+        got: usize,
+        expected: usize,
+    },
+    #[error("parameter '{name}' value {value} is not finite")]
+    NotFinite { name: String, value: f64 },
+    #[error("parameter '{name}' = {value:?} is not physical: {source}")]
+    NotPhysical {
+        name: String,
+        value: Vec<f64>,
+        source: ModelError,
+    },
+    #[error("{0}")]
+    Map(String),
+}
+
+impl Param {
+    /// Resolves a name such as `body/pole/com` against a model.
+    pub fn parse(spec: &Spec, name: &str) -> Result<Param, ParamError> {
+        let unknown = |hint: String| ParamError::Unknown {
+            name: name.to_string(),
+            hint,
+        };
+        let parts: Vec<&str> = name.split('/').collect();
+        let [kind, object, field] = parts[..] else {
+            return Err(unknown(
+                " (expected body/<name>/<field> or joint/<name>/<field>)".into(),
+            ));
+        };
+        match kind {
+            "body" => {
+                let Some(b) = spec.bodies.iter().skip(1).position(|b| b.name == object) else {
+                    return Err(unknown(format!(": no body named '{object}'")));
+                };
+                let b = b + 1;
+                match field {
+                    "mass" => Ok(Param::Mass(b)),
+                    "com" => Ok(Param::Com(b)),
+                    "inertia" => Ok(Param::Inertia(b)),
+                    _ => Err(unknown(": body fields are mass, com, inertia".into())),
+                }
+            }
+            "joint" => {
+                let Some(j) = spec.joints.iter().position(|j| j.name == object) else {
+                    return Err(unknown(format!(": no joint named '{object}'")));
+                };
+                match field {
+                    "damping" => Ok(Param::Damping(j)),
+                    "stiffness" => Ok(Param::Stiffness(j)),
+                    "armature" => Ok(Param::Armature(j)),
+                    _ => Err(unknown(
+                        ": joint fields are damping, stiffness, armature".into(),
+                    )),
+                }
+            }
+            _ => Err(unknown(
+                " (expected body/<name>/<field> or joint/<name>/<field>)".into(),
+            )),
+        }
+    }
+
+    /// Every identifiable parameter of a model, bodies first, in model order.
+    pub fn all(spec: &Spec) -> Vec<Param> {
+        let bodies = (1..spec.bodies.len())
+            .flat_map(|b| [Param::Mass(b), Param::Com(b), Param::Inertia(b)]);
+        let joints = (0..spec.joints.len())
+            .flat_map(|j| [Param::Damping(j), Param::Stiffness(j), Param::Armature(j)]);
+        bodies.chain(joints).collect()
+    }
+
+    pub fn name(&self, spec: &Spec) -> String {
+        let body = |b: usize| &spec.bodies[b].name;
+        let joint = |j: usize| &spec.joints[j].name;
+        match *self {
+            Param::Mass(b) => format!("body/{}/mass", body(b)),
+            Param::Com(b) => format!("body/{}/com", body(b)),
+            Param::Inertia(b) => format!("body/{}/inertia", body(b)),
+            Param::Damping(j) => format!("joint/{}/damping", joint(j)),
+            Param::Stiffness(j) => format!("joint/{}/stiffness", joint(j)),
+            Param::Armature(j) => format!("joint/{}/armature", joint(j)),
+        }
+    }
+
+    /// Number of scalar values.
+    pub fn len(&self) -> usize {
+        match self {
+            Param::Com(_) => 3,
+            Param::Inertia(_) => 6,
+            _ => 1,
+        }
+    }
+
+    pub fn get(&self, spec: &Spec) -> Vec<f64> {
+        match *self {
+            Param::Mass(b) => vec![spec.bodies[b].mass],
+            Param::Com(b) => spec.bodies[b].com.iter().copied().collect(),
+            Param::Inertia(b) => inertia_to_six(&spec.bodies[b].inertia).to_vec(),
+            Param::Damping(j) => vec![spec.joints[j].damping],
+            Param::Stiffness(j) => vec![spec.joints[j].stiffness],
+            Param::Armature(j) => vec![spec.joints[j].armature],
+        }
+    }
+
+    /// Writes the value into the description; the caller validates the result.
+    fn put(&self, spec: &mut Spec, value: &[f64]) {
+        match *self {
+            Param::Mass(b) => spec.bodies[b].mass = value[0],
+            Param::Com(b) => spec.bodies[b].com = Vector3::from_column_slice(value),
+            Param::Inertia(b) => spec.bodies[b].inertia = inertia_from_six(value),
+            Param::Damping(j) => spec.joints[j].damping = value[0],
+            Param::Stiffness(j) => spec.joints[j].stiffness = value[0],
+            Param::Armature(j) => spec.joints[j].armature = value[0],
+        }
+    }
+
+    fn check_value(&self, spec: &Spec, value: &[f64]) -> Result<(), ParamError> {
+        if value.len() != self.len() {
+            return Err(ParamError::Length {
+                name: self.name(spec),
+                got: value.len(),
+                expected: self.len(),
+            });
+        }
+        match value.iter().find(|x| !x.is_finite()) {
+            Some(&bad) => Err(ParamError::NotFinite {
+                name: self.name(spec),
+                value: bad,
+            }),
+            None => Ok(()),
+        }
+    }
+}
+
+/// (xx yy zz xy xz yz) of a symmetric tensor.
+pub fn inertia_to_six(i: &Matrix3<f64>) -> [f64; 6] {
+    [
+        i[(0, 0)],
+        i[(1, 1)],
+        i[(2, 2)],
+        i[(0, 1)],
+        i[(0, 2)],
+        i[(1, 2)],
+    ]
+}
+
+/// The symmetric tensor of (xx yy zz xy xz yz).
+pub fn inertia_from_six(v: &[f64]) -> Matrix3<f64> {
+    Matrix3::new(v[0], v[3], v[4], v[3], v[1], v[5], v[4], v[5], v[2])
+}
+
+impl Model {
+    /// Names of every identifiable parameter (see [`Param`]).
+    pub fn param_names(&self) -> Vec<String> {
+        Param::all(self).iter().map(|p| p.name(self)).collect()
+    }
+
+    pub fn param(&self, name: &str) -> Result<Param, ParamError> {
+        Param::parse(self, name)
+    }
+
+    pub fn get_param(&self, name: &str) -> Result<Vec<f64>, ParamError> {
+        Ok(self.param(name)?.get(self))
+    }
+
+    /// Sets a parameter; a value that makes the model non-physical is an error
+    /// and leaves the model unchanged.
+    pub fn set_param(&mut self, name: &str, value: &[f64]) -> Result<(), ParamError> {
+        let param = self.param(name)?;
+        self.set(&[(param, value)])
+    }
+
+    /// Sets several resolved parameters at once, validating the result once.
+    pub fn set(&mut self, values: &[(Param, &[f64])]) -> Result<(), ParamError> {
+        for (p, v) in values {
+            p.check_value(self, v)?;
+        }
+        let edited = self.edited(|spec| {
+            for (p, v) in values {
+                p.put(spec, v);
+            }
+        });
+        match edited {
+            Ok(model) => {
+                *self = model;
+                Ok(())
+            }
+            Err(source) => Err(ParamError::NotPhysical {
+                name: values
+                    .iter()
+                    .map(|(p, _)| p.name(self))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                value: values.iter().flat_map(|(_, v)| v.iter().copied()).collect(),
+                source,
+            }),
+        }
+    }
+}
+
+/// An affine map from a task's mu (length `nmu`) onto named parameters:
+/// p_k = offset_k + gain_k mu for each target parameter k.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParamMap {
+    pub nmu: usize,
+    pub targets: Vec<(Param, DVector<f64>, DMatrix<f64>)>,
+}
+
+impl ParamMap {
+    /// Builds a map from (name, offset, gain rows) entries; `gain` has one row of
+    /// `nmu` values per scalar of the parameter.
+    pub fn new(
+        model: &Model,
+        nmu: usize,
+        entries: &[(&str, &[f64], &[&[f64]])],
+    ) -> Result<ParamMap, ParamError> {
+        let mut targets = vec![];
+        for (name, offset, gain) in entries {
+            let p = model.param(name)?;
+            p.check_value(model, offset)?;
+            if gain.len() != p.len() || gain.iter().any(|row| row.len() != nmu) {
+                return Err(ParamError::Map(format!(
+                    "gain of '{name}' must be {} rows of {nmu} values",
+                    p.len()
+                )));
+            }
+            let rows: Vec<f64> = gain.iter().flat_map(|r| r.iter().copied()).collect();
+            targets.push((
+                p,
+                DVector::from_column_slice(offset),
+                DMatrix::from_row_slice(p.len(), nmu, &rows),
+            ));
+        }
+        Ok(ParamMap { nmu, targets })
+    }
+
+    /// The parameters' values at mu, in target order, flattened.
+    pub fn values(&self, mu: &[f64]) -> Vec<DVector<f64>> {
+        let mu = DVector::from_column_slice(mu);
+        self.targets
+            .iter()
+            .map(|(_, offset, gain)| offset + gain * &mu)
+            .collect()
+    }
+
+    /// Sets the model's parameters to their values at mu.
+    pub fn apply(&self, model: &mut Model, mu: &[f64]) -> Result<(), ParamError> {
+        if mu.len() != self.nmu {
+            return Err(ParamError::Map(format!(
+                "mu has {} values, the map takes {}",
+                mu.len(),
+                self.nmu
+            )));
+        }
+        if let Some(bad) = mu.iter().find(|x| !x.is_finite()) {
+            return Err(ParamError::Map(format!("mu value {bad} is not finite")));
+        }
+        let values = self.values(mu);
+        let pairs: Vec<(Param, &[f64])> = self
+            .targets
+            .iter()
+            .zip(&values)
+            .map(|((p, ..), v)| (*p, v.as_slice()))
+            .collect();
+        model.set(&pairs)
+    }
+
+    /// d(flattened parameters)/d(mu): the stacked gains.
+    pub fn jacobian(&self) -> DMatrix<f64> {
+        let rows: usize = self.targets.iter().map(|(p, ..)| p.len()).sum();
+        let mut j = DMatrix::zeros(rows, self.nmu);
+        let mut r = 0;
+        for (p, _, gain) in &self.targets {
+            j.rows_mut(r, p.len()).copy_from(gain);
+            r += p.len();
+        }
+        j
+    }
+
+    pub fn params(&self) -> Vec<Param> {
+        self.targets.iter().map(|(p, ..)| *p).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cartpole() -> Model {
+        Model::load(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/reference_models/cartpole.xml"
+        ))
+        .unwrap()
+    }
+
+    #[test]
+    fn names_resolve_and_round_trip() {
+        let model = cartpole();
+        let names = model.param_names();
+        assert_eq!(names.len(), 2 * 3 + 2 * 3);
+        for name in &names {
+            let p = model.param(name).unwrap();
+            assert_eq!(&p.name(&model), name);
+            assert_eq!(model.get_param(name).unwrap().len(), p.len());
+        }
+        assert_eq!(
+            model.get_param("body/pole/com").unwrap(),
+            vec![0.0, 0.0, 0.5]
+        );
+    }
+
+    #[test]
+    fn mass_and_com_edits_keep_the_inertia_about_the_com() {
+        let mut model = cartpole();
+        let before = model.get_param("body/pole/inertia").unwrap();
+        model.set_param("body/pole/mass", &[0.3]).unwrap();
+        model.set_param("body/pole/com", &[0.2, 0.0, 0.54]).unwrap();
+        assert_eq!(model.get_param("body/pole/inertia").unwrap(), before);
+        assert_eq!(model.get_param("body/pole/mass").unwrap(), vec![0.3]);
+        // The dynamics see the edit: the tree was rebuilt.
+        let fresh = Model::from_spec((*model).clone()).unwrap();
+        assert_eq!(fresh.tree(), model.tree());
+    }
+
+    #[test]
+    fn bad_names_and_values_are_clear_errors() {
+        let mut model = cartpole();
+        let err = |r: Result<(), ParamError>| r.unwrap_err().to_string();
+        assert_eq!(
+            err(model.set_param("body/pol/mass", &[1.0])),
+            "unknown parameter 'body/pol/mass': no body named 'pol'"
+        );
+        assert_eq!(
+            err(model.set_param("joint/hinge/friction", &[1.0])),
+            "unknown parameter 'joint/hinge/friction': joint fields are damping, stiffness, armature"
+        );
+        assert_eq!(
+            err(model.set_param("body/pole/com", &[1.0])),
+            "parameter 'body/pole/com' takes 3 values, got 1"
+        );
+        assert_eq!(
+            err(model.set_param("joint/hinge/damping", &[f64::NAN])),
+            "parameter 'joint/hinge/damping' value NaN is not finite"
+        );
+        let e = err(model.set_param("body/pole/mass", &[-1.0]));
+        assert!(e.contains("'body/pole/mass' = [-1.0] is not physical") && e.contains("mass"), "{e}");
+        // Principal moments 1, 1, 3 violate the triangle inequality.
+        let e = err(model.set_param("body/pole/inertia", &[1.0, 1.0, 3.0, 0.0, 0.0, 0.0]));
+        assert!(e.contains("triangle inequality"), "{e}");
+        let e = err(model.set_param("body/pole/inertia", &[1.0, 1.0, 1.0, 2.0, 0.0, 0.0]));
+        assert!(e.contains("positive semi-definite"), "{e}");
+        // A failed edit leaves the model as it was.
+        assert_eq!(model.get_param("body/pole/mass").unwrap(), vec![0.1]);
+    }
+
+    #[test]
+    fn the_cartpole_mu_map_moves_the_pole_com() {
+        let mut model = cartpole();
+        let map = ParamMap::new(
+            &model,
+            1,
+            &[("body/pole/com", &[0.0, 0.0, 0.5], &[&[1.0], &[0.0], &[0.2]])],
+        )
+        .unwrap();
+        map.apply(&mut model, &[0.3]).unwrap();
+        let com = model.get_param("body/pole/com").unwrap();
+        assert!((com[0] - 0.3).abs() < 1e-15 && com[1] == 0.0 && (com[2] - 0.56).abs() < 1e-15);
+        assert_eq!(map.jacobian().as_slice(), &[1.0, 0.0, 0.2]);
+        assert!(map.apply(&mut model, &[0.1, 0.2]).is_err());
+    }
+}
