@@ -24,7 +24,7 @@ pub use crba::crba;
 pub use kinematics::{body_poses, update_transforms};
 pub use passive::passive_forces;
 pub use rnea::{bias_forces, rnea};
-pub use step::{step, StepError};
+pub use step::{acceleration, implicit_terms, step, StepError};
 pub use tree::{BodyFrame, NodeJoint, Tree};
 
 use crate::spatial::{ArticulatedInertia, Force, Inertia, Motion, Real, Transform};
@@ -48,8 +48,9 @@ pub struct Data<T: Real> {
     pub u: Vec<T>,
     pub composite: Vec<Inertia<T>>,
     pub mass_matrix: DMatrix<T>,
-    /// Scratch vectors of length nv for the step.
-    pub(crate) scratch: [Vec<T>; 8],
+    /// Scratch vectors of length nv: the acceleration's, and RK4's stages.
+    scratch: [Vec<T>; 3],
+    stage: [Vec<T>; 3],
 }
 
 impl<T: Real> Data<T> {
@@ -69,6 +70,7 @@ impl<T: Real> Data<T> {
             composite: vec![Inertia::zero(); n],
             mass_matrix: DMatrix::zeros(n, n),
             scratch: std::array::from_fn(|_| vec![T::zero(); n]),
+            stage: std::array::from_fn(|_| vec![T::zero(); n]),
         }
     }
 }

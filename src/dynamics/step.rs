@@ -50,19 +50,11 @@ pub fn step<T: Real>(
             });
         }
     }
-    let mut scratch = std::mem::take(&mut data.scratch);
+    let h = opt.timestep;
     match opt.integrator {
-        Integrator::Euler => euler(tree, opt, data, &mut scratch, (q, v, tau), (q_next, v_next)),
-        Integrator::Rk4 => rk4(
-            tree,
-            opt.timestep,
-            data,
-            &mut scratch,
-            (q, v, tau),
-            (q_next, v_next),
-        ),
+        Integrator::Euler => euler(tree, opt.passive, h, data, (q, v, tau), (q_next, v_next)),
+        Integrator::Rk4 => rk4(tree, h, data, (q, v, tau), (q_next, v_next)),
     }
-    data.scratch = scratch;
     if q_next.iter().chain(v_next.iter()).all(|x| x.is_finite()) {
         Ok(())
     } else {
@@ -84,33 +76,63 @@ fn check<T: Real>(name: &'static str, x: &[T], n: usize) -> Result<(), StepError
     }
 }
 
-fn euler<T: Real>(
+/// The acceleration of a semi-implicit Euler step of length h under passive
+/// mode `mode`: qdd solving (M + diag(extra)) qdd = tau + tau_passive - c, with
+/// the spring position and implicit diagonal of [`implicit_terms`]. Under
+/// `Explicit` this is the plain forward dynamics with passive forces, which
+/// RK4 evaluates at its stages.
+pub fn acceleration<T: Real>(
     tree: &Tree<T>,
-    opt: &Options,
     data: &mut Data<T>,
-    scratch: &mut [Vec<T>; 8],
+    (mode, h): (PassiveMode, f64),
     (q, v, tau): (&[T], &[T], &[T]),
-    (q_next, v_next): (&mut [T], &mut [T]),
+    qdd: &mut [T],
 ) {
-    let h: T = lift(opt.timestep);
-    let [force, extra, qdd, q_spring, ..] = scratch;
-    // The position at which the spring acts, and the implicit diagonal.
+    let mut scratch = std::mem::take(&mut data.scratch);
+    let [force, extra, q_spring, ..] = &mut scratch;
+    implicit_terms(tree, (mode, h), (q, v), q_spring, extra);
+    passive_forces(tree, q_spring, v, force);
+    for i in 0..tree.nv() {
+        force[i] += tau[i];
+    }
+    let implicit = mode != PassiveMode::Explicit;
+    aba(tree, data, q, v, force, implicit.then_some(&extra[..]), qdd);
+    data.scratch = scratch;
+}
+
+/// For a semi-implicit Euler step: the position at which the spring acts, and
+/// the diagonal added to M by the implicit passive terms (see [`step`]).
+pub fn implicit_terms<T: Real>(
+    tree: &Tree<T>,
+    (mode, h): (PassiveMode, f64),
+    (q, v): (&[T], &[T]),
+    q_spring: &mut [T],
+    extra: &mut [T],
+) {
+    let h: T = lift(h);
     for i in 0..tree.nv() {
         let (d, k) = (tree.damping[i], tree.stiffness[i]);
-        (q_spring[i], extra[i]) = match opt.passive {
+        (q_spring[i], extra[i]) = match mode {
             PassiveMode::Explicit => (q[i], T::zero()),
             PassiveMode::ImplicitDamping => (q[i], h * d),
             PassiveMode::ImplicitDampingStiffness => (q[i] + h * v[i], h * d + h * h * k),
         };
     }
-    passive_forces(tree, q_spring, v, force);
+}
+
+fn euler<T: Real>(
+    tree: &Tree<T>,
+    mode: PassiveMode,
+    h: f64,
+    data: &mut Data<T>,
+    (q, v, tau): (&[T], &[T], &[T]),
+    (q_next, v_next): (&mut [T], &mut [T]),
+) {
+    // The acceleration lands in v_next, which then becomes v + h qdd.
+    acceleration(tree, data, (mode, h), (q, v, tau), v_next);
+    let h: T = lift(h);
     for i in 0..tree.nv() {
-        force[i] += tau[i];
-    }
-    let implicit = opt.passive != PassiveMode::Explicit;
-    aba(tree, data, q, v, force, implicit.then_some(&extra[..]), qdd);
-    for i in 0..tree.nv() {
-        v_next[i] = v[i] + h * qdd[i];
+        v_next[i] = v[i] + h * v_next[i];
         q_next[i] = q[i] + h * v_next[i];
     }
 }
@@ -121,13 +143,13 @@ fn rk4<T: Real>(
     tree: &Tree<T>,
     timestep: f64,
     data: &mut Data<T>,
-    scratch: &mut [Vec<T>; 8],
     (q, v, tau): (&[T], &[T], &[T]),
     (q_next, v_next): (&mut [T], &mut [T]),
 ) {
     let h: T = lift(timestep);
     let two = T::one() + T::one();
-    let [force, qdd, q_stage, v_stage, ..] = scratch;
+    let mut stage = std::mem::take(&mut data.stage);
+    let [qdd, q_stage, v_stage] = &mut stage;
     q_stage.copy_from_slice(q);
     v_stage.copy_from_slice(v);
     q_next.copy_from_slice(q);
@@ -141,11 +163,14 @@ fn rk4<T: Real>(
         h / (two * lift(3.0)),
     ];
     for k in 0..4 {
-        passive_forces(tree, q_stage, v_stage, force);
-        for i in 0..tree.nv() {
-            force[i] += tau[i];
-        }
-        aba(tree, data, q_stage, v_stage, force, None, qdd);
+        let stage_state = (&q_stage[..], &v_stage[..], tau);
+        acceleration(
+            tree,
+            data,
+            (PassiveMode::Explicit, timestep),
+            stage_state,
+            qdd,
+        );
         for i in 0..tree.nv() {
             // The stage derivative is (v_stage, qdd).
             q_next[i] += weight[k] * v_stage[i];
@@ -154,4 +179,5 @@ fn rk4<T: Real>(
             v_stage[i] = v[i] + step_to_next[k] * qdd[i];
         }
     }
+    data.stage = stage;
 }

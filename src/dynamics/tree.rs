@@ -9,8 +9,9 @@
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
-use crate::model::{JointKind, Spec};
-use crate::spatial::{lift, lift_matrix, lift_vector, Inertia, Motion, Real, Transform};
+use crate::model::params::inertia_to_six;
+use crate::model::{JointKind, Param, Spec};
+use crate::spatial::{lift, lift_vector, Inertia, Motion, Real, Transform};
 
 /// A one-dof joint in its node's frame. Its motion subspace `s` is the same
 /// before and after the joint moves.
@@ -104,18 +105,26 @@ impl<T: Real> Tree<T> {
 
     /// Builds the tree of a validated model, lifting its numbers into T.
     pub fn build(model: &Spec) -> Self {
+        Self::build_with(model, |_, _, x| lift(x))
+    }
+
+    /// Builds the tree with each scalar of a named physical parameter lifted by
+    /// `lift_param(param, component, value)`: the way derivatives seed the
+    /// directions of parameters (components as in [`Param::get`]).
+    pub fn build_with(model: &Spec, lift_param: impl Fn(Param, usize, f64) -> T) -> Self {
         let mut tree = Tree::empty();
         tree.gravity = lift_vector(&model.opt.gravity);
         tree.body.push(BodyFrame {
             node: None,
             offset: Transform::identity(),
         });
-        for b in &model.bodies[1..] {
+        for (index, b) in model.bodies.iter().enumerate().skip(1) {
             let parent = tree.body[b.parent];
             let place = Transform::from_pose_f64(&b.rot, &b.pos).compose(&parent.offset);
             let mut node = parent.node;
             let mut x_tree = place;
-            for j in &model.joints[b.joints.clone()] {
+            for (k, j) in model.joints[b.joints.clone()].iter().enumerate() {
+                let k = b.joints.start + k;
                 tree.parent.push(node);
                 tree.x_tree.push(x_tree);
                 tree.joint.push(NodeJoint::new(
@@ -124,10 +133,13 @@ impl<T: Real> Tree<T> {
                     lift_vector(&j.anchor),
                     lift(j.reference),
                 ));
-                tree.damping.push(lift(j.damping));
-                tree.stiffness.push(lift(j.stiffness));
+                tree.damping
+                    .push(lift_param(Param::Damping(k), 0, j.damping));
+                tree.stiffness
+                    .push(lift_param(Param::Stiffness(k), 0, j.stiffness));
                 tree.springref.push(lift(j.springref));
-                tree.armature.push(lift(j.armature));
+                tree.armature
+                    .push(lift_param(Param::Armature(k), 0, j.armature));
                 tree.inertia.push(Inertia::zero());
                 node = Some(tree.parent.len() - 1);
                 x_tree = Transform::identity();
@@ -139,8 +151,15 @@ impl<T: Real> Tree<T> {
                 offset: x_tree,
             });
             if let Some(n) = node {
-                let own =
-                    Inertia::from_com(lift(b.mass), &lift_vector(&b.com), &lift_matrix(&b.inertia));
+                let mass = lift_param(Param::Mass(index), 0, b.mass);
+                let com = Vector3::from_fn(|r, _| lift_param(Param::Com(index), r, b.com[r]));
+                let six = inertia_to_six(&b.inertia);
+                let six: [T; 6] =
+                    std::array::from_fn(|r| lift_param(Param::Inertia(index), r, six[r]));
+                let inertia = Matrix3::new(
+                    six[0], six[3], six[4], six[3], six[1], six[5], six[4], six[5], six[2],
+                );
+                let own = Inertia::from_com(mass, &com, &inertia);
                 tree.inertia[n] += own.to_source(&x_tree);
             }
         }

@@ -94,8 +94,8 @@ impl Param {
 
     /// Every identifiable parameter of a model, bodies first, in model order.
     pub fn all(spec: &Spec) -> Vec<Param> {
-        let bodies = (1..spec.bodies.len())
-            .flat_map(|b| [Param::Mass(b), Param::Com(b), Param::Inertia(b)]);
+        let bodies =
+            (1..spec.bodies.len()).flat_map(|b| [Param::Mass(b), Param::Com(b), Param::Inertia(b)]);
         let joints = (0..spec.joints.len())
             .flat_map(|j| [Param::Damping(j), Param::Stiffness(j), Param::Armature(j)]);
         bodies.chain(joints).collect()
@@ -376,7 +376,10 @@ mod tests {
             "parameter 'joint/hinge/damping' value NaN is not finite"
         );
         let e = err(model.set_param("body/pole/mass", &[-1.0]));
-        assert!(e.contains("'body/pole/mass' = [-1.0] is not physical") && e.contains("mass"), "{e}");
+        assert!(
+            e.contains("'body/pole/mass' = [-1.0] is not physical") && e.contains("mass"),
+            "{e}"
+        );
         // Principal moments 1, 1, 3 violate the triangle inequality.
         let e = err(model.set_param("body/pole/inertia", &[1.0, 1.0, 3.0, 0.0, 0.0, 0.0]));
         assert!(e.contains("triangle inequality"), "{e}");
