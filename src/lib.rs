@@ -15,6 +15,7 @@
 //! # }
 //! ```
 
+pub mod derivatives;
 pub mod dynamics;
 pub mod model;
 pub mod spatial;

@@ -24,7 +24,7 @@ pub mod urdf;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
-pub use params::{Param, ParamError, ParamMap};
+pub use params::{MapEntry, Param, ParamError, ParamMap};
 
 use crate::dynamics::{self, Data, StepError, Tree};
 

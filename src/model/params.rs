@@ -41,7 +41,7 @@ pub enum ParamError {
     NotPhysical {
         name: String,
         value: Vec<f64>,
-        source: ModelError,
+        source: Box<ModelError>,
     },
     #[error("{0}")]
     Map(String),
@@ -115,7 +115,7 @@ impl Param {
     }
 
     /// Number of scalar values.
-    pub fn len(&self) -> usize {
+    pub fn size(&self) -> usize {
         match self {
             Param::Com(_) => 3,
             Param::Inertia(_) => 6,
@@ -147,11 +147,11 @@ impl Param {
     }
 
     fn check_value(&self, spec: &Spec, value: &[f64]) -> Result<(), ParamError> {
-        if value.len() != self.len() {
+        if value.len() != self.size() {
             return Err(ParamError::Length {
                 name: self.name(spec),
                 got: value.len(),
-                expected: self.len(),
+                expected: self.size(),
             });
         }
         match value.iter().find(|x| !x.is_finite()) {
@@ -224,10 +224,19 @@ impl Model {
                     .collect::<Vec<_>>()
                     .join(", "),
                 value: values.iter().flat_map(|(_, v)| v.iter().copied()).collect(),
-                source,
+                source: Box::new(source),
             }),
         }
     }
+}
+
+/// One target of a [`ParamMap`]: parameter `name` = offset + gain mu, with
+/// one gain row of nmu values per scalar of the parameter.
+#[derive(Clone, Copy, Debug)]
+pub struct MapEntry<'a> {
+    pub name: &'a str,
+    pub offset: &'a [f64],
+    pub gain: &'a [&'a [f64]],
 }
 
 /// An affine map from a task's mu (length `nmu`) onto named parameters:
@@ -239,28 +248,23 @@ pub struct ParamMap {
 }
 
 impl ParamMap {
-    /// Builds a map from (name, offset, gain rows) entries; `gain` has one row of
-    /// `nmu` values per scalar of the parameter.
-    pub fn new(
-        model: &Model,
-        nmu: usize,
-        entries: &[(&str, &[f64], &[&[f64]])],
-    ) -> Result<ParamMap, ParamError> {
+    /// Builds a map from its entries.
+    pub fn new(model: &Model, nmu: usize, entries: &[MapEntry]) -> Result<ParamMap, ParamError> {
         let mut targets = vec![];
-        for (name, offset, gain) in entries {
+        for MapEntry { name, offset, gain } in entries {
             let p = model.param(name)?;
             p.check_value(model, offset)?;
-            if gain.len() != p.len() || gain.iter().any(|row| row.len() != nmu) {
+            if gain.len() != p.size() || gain.iter().any(|row| row.len() != nmu) {
                 return Err(ParamError::Map(format!(
                     "gain of '{name}' must be {} rows of {nmu} values",
-                    p.len()
+                    p.size()
                 )));
             }
             let rows: Vec<f64> = gain.iter().flat_map(|r| r.iter().copied()).collect();
             targets.push((
                 p,
                 DVector::from_column_slice(offset),
-                DMatrix::from_row_slice(p.len(), nmu, &rows),
+                DMatrix::from_row_slice(p.size(), nmu, &rows),
             ));
         }
         Ok(ParamMap { nmu, targets })
@@ -299,12 +303,12 @@ impl ParamMap {
 
     /// d(flattened parameters)/d(mu): the stacked gains.
     pub fn jacobian(&self) -> DMatrix<f64> {
-        let rows: usize = self.targets.iter().map(|(p, ..)| p.len()).sum();
+        let rows: usize = self.targets.iter().map(|(p, ..)| p.size()).sum();
         let mut j = DMatrix::zeros(rows, self.nmu);
         let mut r = 0;
         for (p, _, gain) in &self.targets {
-            j.rows_mut(r, p.len()).copy_from(gain);
-            r += p.len();
+            j.rows_mut(r, p.size()).copy_from(gain);
+            r += p.size();
         }
         j
     }
@@ -334,7 +338,7 @@ mod tests {
         for name in &names {
             let p = model.param(name).unwrap();
             assert_eq!(&p.name(&model), name);
-            assert_eq!(model.get_param(name).unwrap().len(), p.len());
+            assert_eq!(model.get_param(name).unwrap().len(), p.size());
         }
         assert_eq!(
             model.get_param("body/pole/com").unwrap(),
@@ -395,7 +399,11 @@ mod tests {
         let map = ParamMap::new(
             &model,
             1,
-            &[("body/pole/com", &[0.0, 0.0, 0.5], &[&[1.0], &[0.0], &[0.2]])],
+            &[MapEntry {
+                name: "body/pole/com",
+                offset: &[0.0, 0.0, 0.5],
+                gain: &[&[1.0], &[0.0], &[0.2]],
+            }],
         )
         .unwrap();
         map.apply(&mut model, &[0.3]).unwrap();

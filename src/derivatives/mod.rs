@@ -1,0 +1,24 @@
+//! Exact derivatives of a step with respect to state, control and named
+//! physical parameters, and the identification loss built on them.
+//!
+//! A step's acceleration qdd solves R(q, v, qdd, tau; p) = 0, with
+//! R = ID(q, v, a) + extra * a - tau - tau_passive(q_spring, v) (see
+//! [`crate::dynamics::step`] for the passive modes). Differentiating,
+//! d qdd / d theta = -(M + diag(extra))^-1 dR/d theta, for theta any of q, v,
+//! tau or p. dR/dq and dR/dv come from analytic RNEA derivatives
+//! ([`rnea_derivatives`]); dR/dp from forward-mode dual numbers through the
+//! scalar-generic inverse dynamics, one seeded direction per parameter scalar,
+//! so a one-parameter Jacobian costs one dual RNEA pass, not a state Jacobian.
+//! The integrator's chain rule (Euler or RK4) then gives d(q', v').
+//! No finite differences anywhere: they exist only in the tests.
+
+// Node-indexed sweeps read several per-node arrays at the node's index.
+#![allow(clippy::needless_range_loop)]
+
+mod rnea;
+mod step;
+mod window;
+
+pub use rnea::{rnea_derivatives, Sweep};
+pub use step::{step_jacobians, StepJacobians, Workspace, Wrt};
+pub use window::{window_residuals, Transition, WindowError, WindowFit};

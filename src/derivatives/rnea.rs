@@ -1,0 +1,133 @@
+//! Analytic derivatives of inverse dynamics ID(q, v, a) = M(q) a + c(q, v) with
+//! respect to q and v, by forward propagation of one dof's perturbation
+//! through its subtree (in the spirit of Carpentier & Mansard 2018).
+//!
+//! In node frames, a change of q_j moves node j's frame (and everything below
+//! it) relative to its parent: a vector fixed in the parent, seen from j,
+//! changes at the rate -S_j x (.) for motions and -S_j x* (.) for forces. So:
+//! - d v_j / d q_j = -S_j x v_j, d a_j / d q_j = -S_j x (X_j a_parent) + (d v_j) x S_j qd_j;
+//! - below j, d v_i = X_i d v_parent, d a_i = X_i d a_parent + d v_i x S_i qd_i;
+//! - d f_i = I_i d a_i + d v_i x* I_i v_i + v_i x* I_i d v_i;
+//! - forces pass to the parent through X_j^T, whose own change adds
+//!   X_j^T (S_j x* F_j) at the joint j itself;
+//! - d ID_k = S_k . d F_k for every node k on j's subtree and ancestor path.
+//!
+//! A change of qd_j starts with d v_j = S_j, d a_j = v_j x S_j instead.
+
+use nalgebra::DMatrix;
+
+use crate::dynamics::{rnea, Data, Tree};
+use crate::spatial::{Force, Motion};
+
+/// Per-direction scratch of the sweeps.
+#[derive(Clone, Debug)]
+pub struct Sweep {
+    dv: Vec<Motion<f64>>,
+    da: Vec<Motion<f64>>,
+    df: Vec<Force<f64>>,
+    below: Vec<bool>,
+    tau: Vec<f64>,
+}
+
+impl Sweep {
+    pub fn new(n: usize) -> Self {
+        Sweep {
+            dv: vec![Motion::zero(); n],
+            da: vec![Motion::zero(); n],
+            df: vec![Force::zero(); n],
+            below: vec![false; n],
+            tau: vec![0.0; n],
+        }
+    }
+}
+
+/// Fills d_dq and d_dv (n x n, column j = derivative w.r.t. q_j or v_j) of
+/// ID(q, v, a); M includes the armature, which depends on neither.
+pub fn rnea_derivatives(
+    tree: &Tree<f64>,
+    data: &mut Data<f64>,
+    sweep: &mut Sweep,
+    (q, v, a): (&[f64], &[f64], &[f64]),
+    d_dq: &mut DMatrix<f64>,
+    d_dv: &mut DMatrix<f64>,
+) {
+    // Velocities, accelerations and subtree forces F_i of the point itself.
+    rnea(tree, data, q, v, a, &mut sweep.tau);
+    for j in 0..tree.nv() {
+        let s = tree.joint[j].s;
+        // Position of j: its frame turns relative to the parent.
+        let parent_acc = match tree.parent[j] {
+            Some(p) => data.acc[p],
+            None => Motion::new(nalgebra::Vector3::zeros(), -tree.gravity),
+        };
+        let dv = -s.cross_motion(&data.vel[j]);
+        let da =
+            -s.cross_motion(&data.x_up[j].apply_motion(&parent_acc)) + dv.cross_motion(&(s * v[j]));
+        let turn = s.cross_force(&data.force[j]);
+        propagate(tree, data, sweep, v, j, (dv, da), turn);
+        d_dq.column_mut(j).copy_from_slice(&sweep.tau);
+        // Velocity of j.
+        let da = data.vel[j].cross_motion(&s);
+        propagate(tree, data, sweep, v, j, (s, da), Force::zero());
+        d_dv.column_mut(j).copy_from_slice(&sweep.tau);
+    }
+}
+
+/// Pushes a perturbation (dv_j, da_j) of node j through its subtree and the
+/// resulting force change up to the root; writes d ID into `sweep.tau`.
+/// `turn` is the extra force change X_j^T (turn) passed to j's parent.
+fn propagate(
+    tree: &Tree<f64>,
+    data: &Data<f64>,
+    sweep: &mut Sweep,
+    v: &[f64],
+    j: usize,
+    (dv_j, da_j): (Motion<f64>, Motion<f64>),
+    turn: Force<f64>,
+) {
+    let n = tree.nv();
+    sweep.tau.fill(0.0);
+    for i in j..n {
+        let below = i == j || tree.parent[i].is_some_and(|p| p > j && sweep.below[p] || p == j);
+        sweep.below[i] = below;
+        if !below {
+            continue;
+        }
+        let (dv, da) = if i == j {
+            (dv_j, da_j)
+        } else {
+            let p = tree.parent[i].expect("below j has a parent");
+            let x = &data.x_up[i];
+            let dv = x.apply_motion(&sweep.dv[p]);
+            (
+                dv,
+                x.apply_motion(&sweep.da[p]) + dv.cross_motion(&(tree.joint[i].s * v[i])),
+            )
+        };
+        let inertia = &tree.inertia[i];
+        let vel = &data.vel[i];
+        sweep.dv[i] = dv;
+        sweep.da[i] = da;
+        sweep.df[i] = inertia.mul_motion(&da)
+            + dv.cross_force(&inertia.mul_motion(vel))
+            + vel.cross_force(&inertia.mul_motion(&dv));
+    }
+    for i in (j + 1..n).rev() {
+        if sweep.below[i] {
+            sweep.tau[i] = tree.joint[i].s.dot(&sweep.df[i]);
+            let p = tree.parent[i].expect("below j has a parent");
+            let up = data.x_up[i].inverse_apply_force(&sweep.df[i]);
+            sweep.df[p] += up;
+        }
+    }
+    sweep.tau[j] = tree.joint[j].s.dot(&sweep.df[j]);
+    let mut df = data.x_up[j].inverse_apply_force(&(sweep.df[j] + turn));
+    let mut k = j;
+    while let Some(p) = tree.parent[k] {
+        sweep.tau[p] = tree.joint[p].s.dot(&df);
+        k = p;
+        if tree.parent[k].is_some() {
+            df = data.x_up[k].inverse_apply_force(&df);
+        }
+    }
+}

@@ -1,0 +1,307 @@
+//! Step Jacobians: d(q', v') / d(q, v), d(q', v') / d tau and d(q', v') / d p.
+
+use nalgebra::{DMatrix, DVector};
+use num_dual::Dual64;
+
+use super::rnea::{rnea_derivatives, Sweep};
+use crate::dynamics::{acceleration, crba, implicit_terms, passive_forces, rnea, step};
+use crate::dynamics::{Data, StepError, Tree};
+use crate::model::{Integrator, Model, Param, PassiveMode};
+use crate::spatial::Real;
+
+/// Which Jacobian blocks to compute; only these directions are seeded.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Wrt<'a> {
+    /// d(q', v') / d(q, v)
+    pub state: bool,
+    /// d(q', v') / d tau
+    pub control: bool,
+    /// d(q', v') / d p, columns in the order of the flattened parameters.
+    pub params: &'a [Param],
+}
+
+/// The next state and the requested Jacobian blocks (n x n, n x n and
+/// n x (total length of the parameters)); blocks not requested have no columns.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StepJacobians {
+    pub q_next: Vec<f64>,
+    pub v_next: Vec<f64>,
+    pub dq_dq: DMatrix<f64>,
+    pub dq_dv: DMatrix<f64>,
+    pub dv_dq: DMatrix<f64>,
+    pub dv_dv: DMatrix<f64>,
+    pub dq_dtau: DMatrix<f64>,
+    pub dv_dtau: DMatrix<f64>,
+    pub dq_dp: DMatrix<f64>,
+    pub dv_dp: DMatrix<f64>,
+}
+
+/// Buffers reused across calls for one model's size.
+#[derive(Clone, Debug)]
+pub struct Workspace {
+    data: Data<f64>,
+    dual: Data<Dual64>,
+    sweep: Sweep,
+}
+
+impl Workspace {
+    pub fn new(model: &Model) -> Self {
+        Workspace {
+            data: model.data(),
+            dual: Data::new(&Tree::<Dual64>::build(model)),
+            sweep: Sweep::new(model.nv()),
+        }
+    }
+}
+
+/// Derivatives of the acceleration at one point: columns for (q, v) if the
+/// state was asked for, then tau, then the parameter scalars.
+struct AccelDerivatives {
+    qdd: Vec<f64>,
+    /// d qdd / d(q, v): n x 2n (or n x 0).
+    state: DMatrix<f64>,
+    /// d qdd / d(tau, p): n x (n + np) (tau columns only if asked for).
+    inputs: DMatrix<f64>,
+}
+
+/// One step of `model` from (q, v) under tau, with the Jacobians in `wrt`.
+pub fn step_jacobians(
+    model: &Model,
+    ws: &mut Workspace,
+    (q, v, tau): (&[f64], &[f64], &[f64]),
+    wrt: &Wrt,
+) -> Result<StepJacobians, StepError> {
+    let n = model.nv();
+    let (mut q_next, mut v_next) = (vec![0.0; n], vec![0.0; n]);
+    step(
+        model.tree(),
+        &model.opt,
+        &mut ws.data,
+        (q, v, tau),
+        (&mut q_next, &mut v_next),
+    )?;
+    let (dq, dv) = match model.opt.integrator {
+        Integrator::Euler => euler(model, ws, (q, v, tau), wrt),
+        Integrator::Rk4 => rk4(model, ws, (q, v, tau), wrt),
+    };
+    let n_state = if wrt.state { n } else { 0 };
+    let n_tau = if wrt.control { n } else { 0 };
+    let split = |m: &DMatrix<f64>| {
+        (
+            m.columns(0, n_state).into_owned(),
+            m.columns(n_state, n_state).into_owned(),
+            m.columns(2 * n_state, n_tau).into_owned(),
+            m.columns(2 * n_state + n_tau, m.ncols() - 2 * n_state - n_tau)
+                .into_owned(),
+        )
+    };
+    let (dq_dq, dq_dv, dq_dtau, dq_dp) = split(&dq);
+    let (dv_dq, dv_dv, dv_dtau, dv_dp) = split(&dv);
+    Ok(StepJacobians {
+        q_next,
+        v_next,
+        dq_dq,
+        dq_dv,
+        dv_dq,
+        dv_dv,
+        dq_dtau,
+        dv_dtau,
+        dq_dp,
+        dv_dp,
+    })
+}
+
+/// Semi-implicit Euler: v' = v + h qdd, q' = q + h v'. Returns d q' and d v'
+/// with columns [q, v (if state), tau (if control), p].
+fn euler(
+    model: &Model,
+    ws: &mut Workspace,
+    x: (&[f64], &[f64], &[f64]),
+    wrt: &Wrt,
+) -> (DMatrix<f64>, DMatrix<f64>) {
+    let h = model.opt.timestep;
+    let d = accel_derivatives(model, ws, (model.opt.passive, h), x, wrt);
+    let n = model.nv();
+    let mut dv = DMatrix::zeros(n, d.state.ncols() + d.inputs.ncols());
+    dv.columns_mut(0, d.state.ncols())
+        .copy_from(&(&d.state * h));
+    dv.columns_mut(d.state.ncols(), d.inputs.ncols())
+        .copy_from(&(&d.inputs * h));
+    if wrt.state {
+        // v' depends on v directly too.
+        for i in 0..n {
+            dv[(i, n + i)] += 1.0;
+        }
+    }
+    let mut dq = &dv * h;
+    if wrt.state {
+        for i in 0..n {
+            dq[(i, i)] += 1.0;
+        }
+    }
+    (dq, dv)
+}
+
+/// Classic RK4 on x = (q, v), differentiated stage by stage: with x_1 = x,
+/// k_i = f(x_i), x_{i+1} = x + c_i k_i and x' = x + sum w_i k_i,
+/// d k_i = F_x(x_i) d x_i + F_u(x_i) for the inputs u = (tau, p).
+fn rk4(
+    model: &Model,
+    ws: &mut Workspace,
+    (q, v, tau): (&[f64], &[f64], &[f64]),
+    wrt: &Wrt,
+) -> (DMatrix<f64>, DMatrix<f64>) {
+    let n = model.nv();
+    let h = model.opt.timestep;
+    let full = Wrt {
+        state: true,
+        ..*wrt
+    };
+    // Columns of the result: (q, v) if asked for, then the inputs.
+    let n_state = if wrt.state { 2 * n } else { 0 };
+    let mut n_cols = 0;
+    let c = [h / 2.0, h / 2.0, h];
+    let w = [h / 6.0, h / 3.0, h / 3.0, h / 6.0];
+    // d x_i / d(columns): starts as the identity on the state columns.
+    let mut dx_stage = DMatrix::zeros(2 * n, 0);
+    let mut total = DMatrix::zeros(2 * n, 0);
+    let (mut qs, mut vs) = (q.to_vec(), v.to_vec());
+    for k in 0..4 {
+        let d = accel_derivatives(
+            model,
+            ws,
+            (PassiveMode::Explicit, h),
+            (&qs, &vs, tau),
+            &full,
+        );
+        if k == 0 {
+            n_cols = n_state + d.inputs.ncols();
+            dx_stage = DMatrix::zeros(2 * n, n_cols);
+            for i in 0..n_state {
+                dx_stage[(i, i)] = 1.0;
+            }
+            total = dx_stage.clone();
+        }
+        // d k = [d v_stage; d qdd], with d qdd = Qx d x_stage + (direct input terms).
+        let mut dk = DMatrix::zeros(2 * n, n_cols);
+        dk.rows_mut(0, n).copy_from(&dx_stage.rows(n, n));
+        let mut dqdd = &d.state * &dx_stage;
+        let mut inputs = dqdd.columns_mut(n_state, n_cols - n_state);
+        inputs += &d.inputs;
+        dk.rows_mut(n, n).copy_from(&dqdd);
+        total += &dk * w[k];
+        if k < 3 {
+            let mut next = &dk * c[k];
+            for i in 0..n_state {
+                next[(i, i)] += 1.0;
+            }
+            dx_stage = next;
+            for i in 0..n {
+                qs[i] = q[i] + c[k] * vs[i];
+                vs[i] = v[i] + c[k] * d.qdd[i];
+            }
+        }
+    }
+    (total.rows(0, n).into_owned(), total.rows(n, n).into_owned())
+}
+
+/// The acceleration at (q, v, tau) under (mode, h) and its derivatives.
+fn accel_derivatives(
+    model: &Model,
+    ws: &mut Workspace,
+    (mode, h): (PassiveMode, f64),
+    (q, v, tau): (&[f64], &[f64], &[f64]),
+    wrt: &Wrt,
+) -> AccelDerivatives {
+    let n = model.nv();
+    let tree = model.tree();
+    let mut qdd = vec![0.0; n];
+    acceleration(tree, &mut ws.data, (mode, h), (q, v, tau), &mut qdd);
+    // M + diag(extra), factored once for every column.
+    let (mut q_spring, mut extra) = (vec![0.0; n], vec![0.0; n]);
+    implicit_terms(tree, (mode, h), (q, v), &mut q_spring, &mut extra);
+    crba(tree, &mut ws.data, q);
+    let mut m = ws.data.mass_matrix.clone();
+    for i in 0..n {
+        m[(i, i)] += extra[i];
+    }
+    let chol = m
+        .cholesky()
+        .expect("the mass matrix of a validated model is positive definite");
+
+    let mut state = DMatrix::zeros(n, 0);
+    if wrt.state {
+        let (mut r_q, mut r_v) = (DMatrix::zeros(n, n), DMatrix::zeros(n, n));
+        rnea_derivatives(
+            tree,
+            &mut ws.data,
+            &mut ws.sweep,
+            (q, v, &qdd),
+            &mut r_q,
+            &mut r_v,
+        );
+        // The passive force -D v - K (q_spring - springref), q_spring = q (+ h v for DART).
+        let spring_v = if mode == PassiveMode::ImplicitDampingStiffness {
+            h
+        } else {
+            0.0
+        };
+        for i in 0..n {
+            r_q[(i, i)] += tree.stiffness[i];
+            r_v[(i, i)] += tree.damping[i] + spring_v * tree.stiffness[i];
+        }
+        state = DMatrix::zeros(n, 2 * n);
+        state.columns_mut(0, n).copy_from(&-chol.solve(&r_q));
+        state.columns_mut(n, n).copy_from(&-chol.solve(&r_v));
+    }
+    let n_tau = if wrt.control { n } else { 0 };
+    let n_p: usize = wrt.params.iter().map(|p| p.size()).sum();
+    let mut r_inputs = DMatrix::zeros(n, n_tau + n_p);
+    for i in 0..n_tau {
+        r_inputs[(i, i)] = -1.0;
+    }
+    let mut col = n_tau;
+    for &param in wrt.params {
+        for component in 0..param.size() {
+            let seeded = Tree::<Dual64>::build_with(model, |p, c, x| {
+                Dual64::new(
+                    x,
+                    if (p, c) == (param, component) {
+                        1.0
+                    } else {
+                        0.0
+                    },
+                )
+            });
+            let r = residual(&seeded, &mut ws.dual, (mode, h), (q, v, &qdd, tau));
+            for i in 0..n {
+                r_inputs[(i, col)] = r[i].eps;
+            }
+            col += 1;
+        }
+    }
+    let inputs = -chol.solve(&r_inputs);
+    AccelDerivatives { qdd, state, inputs }
+}
+
+/// R(q, v, a, tau) = ID(q, v, a) + extra * a - tau - tau_passive(q_spring, v):
+/// zero at the step's acceleration.
+fn residual<T: Real>(
+    tree: &Tree<T>,
+    data: &mut Data<T>,
+    (mode, h): (PassiveMode, f64),
+    (q, v, a, tau): (&[f64], &[f64], &[f64], &[f64]),
+) -> DVector<T> {
+    let n = tree.nv();
+    let lift = |x: &[f64]| x.iter().map(|&xi| T::from_subset(&xi)).collect::<Vec<T>>();
+    let (q, v, a, tau) = (lift(q), lift(v), lift(a), lift(tau));
+    let mut r = DVector::zeros(n);
+    rnea(tree, data, &q, &v, &a, r.as_mut_slice());
+    let (mut q_spring, mut extra, mut passive) = (q.clone(), q.clone(), q.clone());
+    implicit_terms(tree, (mode, h), (&q, &v), &mut q_spring, &mut extra);
+    passive_forces(tree, &q_spring, &v, &mut passive);
+    for i in 0..n {
+        r[i] += extra[i] * a[i] - tau[i] - passive[i];
+    }
+    r
+}

@@ -1,0 +1,286 @@
+//! Step Jacobians against central finite differences of the step, and against
+//! dual numbers pushed through the whole step, on the reference models and on
+//! random trees, for every passive mode and both integrators.
+
+mod common;
+
+use diffosi::derivatives::{step_jacobians, StepJacobians, Workspace, Wrt};
+use diffosi::dynamics::{step, Data, Tree};
+use diffosi::model::{Integrator, Model, Param, PassiveMode};
+use nalgebra::DMatrix;
+use num_dual::Dual64;
+
+const SETTINGS: [(Integrator, PassiveMode); 4] = [
+    (Integrator::Euler, PassiveMode::Explicit),
+    (Integrator::Euler, PassiveMode::ImplicitDamping),
+    (Integrator::Euler, PassiveMode::ImplicitDampingStiffness),
+    (Integrator::Rk4, PassiveMode::Explicit),
+];
+
+fn load(name: &str) -> Model {
+    Model::load(common::model_path(&format!("reference_models/{name}"))).unwrap()
+}
+
+fn with_settings(model: &Model, (integrator, passive): (Integrator, PassiveMode)) -> Model {
+    model
+        .edited(|s| {
+            s.opt.integrator = integrator;
+            s.opt.passive = passive;
+        })
+        .unwrap()
+}
+
+/// Max |a - b| over the block, relative to 1 + max |b|.
+fn block_error(a: &DMatrix<f64>, b: &DMatrix<f64>) -> f64 {
+    assert_eq!(a.shape(), b.shape());
+    (a - b).amax() / (1.0 + b.amax())
+}
+
+/// Central differences of (q', v') along each input direction: columns of
+/// q, v, tau, then each parameter scalar.
+fn finite_differences(
+    model: &Model,
+    (q, v, tau): (&[f64], &[f64], &[f64]),
+    params: &[Param],
+) -> (DMatrix<f64>, DMatrix<f64>) {
+    let n = model.nv();
+    let n_p: usize = params.iter().map(|p| p.size()).sum();
+    let mut dq = DMatrix::zeros(n, 3 * n + n_p);
+    let mut dv = DMatrix::zeros(n, 3 * n + n_p);
+    // Central differences; one-sided second-order ones (-3 f0 + 4 f1 - f2) / 2e
+    // where the parameter sits on its lower bound 0.
+    let mut column =
+        |col: usize, eps: f64, one_sided: bool, f: &dyn Fn(f64) -> (Vec<f64>, Vec<f64>)| {
+            let ((q1, v1), (q2, v2), w) = if one_sided {
+                let (q0, v0) = f(0.0);
+                let (qa, va) = f(eps);
+                let (qb, vb) = f(2.0 * eps);
+                let combine = |a: &[f64], b: &[f64], z: &[f64]| -> Vec<f64> {
+                    (0..n).map(|i| 4.0 * a[i] - b[i] - 3.0 * z[i]).collect()
+                };
+                (
+                    (combine(&qa, &qb, &q0), combine(&va, &vb, &v0)),
+                    (vec![0.0; n], vec![0.0; n]),
+                    2.0 * eps,
+                )
+            } else {
+                (f(eps), f(-eps), 2.0 * eps)
+            };
+            for i in 0..n {
+                dq[(i, col)] = (q1[i] - q2[i]) / w;
+                dv[(i, col)] = (v1[i] - v2[i]) / w;
+            }
+        };
+    let stepped =
+        |m: &Model, q: &[f64], v: &[f64], tau: &[f64]| m.step(&mut m.data(), q, v, tau).unwrap();
+    for k in 0..3 * n {
+        let shifted = |e: f64| {
+            let mut x = [q.to_vec(), v.to_vec(), tau.to_vec()];
+            x[k / n][k % n] += e;
+            stepped(model, &x[0], &x[1], &x[2])
+        };
+        column(k, 1e-6, false, &shifted);
+    }
+    let mut col = 3 * n;
+    for p in params {
+        let base = p.get(model);
+        for c in 0..p.size() {
+            let eps = 1e-6 * base[c].abs().max(1e-2);
+            let shifted = |e: f64| {
+                let mut value = base.clone();
+                value[c] += e;
+                let mut m = model.clone();
+                m.set(&[(*p, &value)]).unwrap();
+                stepped(&m, q, v, tau)
+            };
+            let at_bound = !matches!(p, Param::Com(_) | Param::Inertia(_)) && base[c] < eps;
+            column(col, eps, at_bound, &shifted);
+            col += 1;
+        }
+    }
+    (dq, dv)
+}
+
+fn all_blocks(j: &StepJacobians) -> [(&'static str, &DMatrix<f64>, &DMatrix<f64>); 4] {
+    [
+        ("d(q,v)/dq", &j.dq_dq, &j.dv_dq),
+        ("d(q,v)/dv", &j.dq_dv, &j.dv_dv),
+        ("d(q,v)/dtau", &j.dq_dtau, &j.dv_dtau),
+        ("d(q,v)/dp", &j.dq_dp, &j.dv_dp),
+    ]
+}
+
+/// Every parameter, but those of massless bodies (URDF helper links), whose
+/// zero inertia cannot be perturbed both ways and stay physical.
+fn perturbable(model: &Model) -> Vec<Param> {
+    let massless = |b: usize| model.bodies[b].mass == 0.0;
+    Param::all(model)
+        .into_iter()
+        .filter(
+            |p| !matches!(*p, Param::Mass(b) | Param::Com(b) | Param::Inertia(b) if massless(b)),
+        )
+        .collect()
+}
+
+fn check_against_fd(model: &Model, seed: u64, label: &str) {
+    let params = perturbable(model);
+    let (q, v, tau) = common::random_state(model, seed);
+    let mut ws = Workspace::new(model);
+    let wrt = Wrt {
+        state: true,
+        control: true,
+        params: &params,
+    };
+    let j = step_jacobians(model, &mut ws, (&q, &v, &tau), &wrt).unwrap();
+    let (plain_q, plain_v) = model.step(&mut model.data(), &q, &v, &tau).unwrap();
+    assert_eq!(
+        (&j.q_next, &j.v_next),
+        (&plain_q, &plain_v),
+        "{label}: values differ from step"
+    );
+    let (fq, fv) = finite_differences(model, (&q, &v, &tau), &params);
+    let n = model.nv();
+    for (k, (name, aq, av)) in all_blocks(&j).into_iter().enumerate() {
+        let cols = if k < 3 {
+            (k * n, n)
+        } else {
+            (3 * n, fq.ncols() - 3 * n)
+        };
+        let eq = block_error(aq, &fq.columns(cols.0, cols.1).into_owned());
+        let ev = block_error(av, &fv.columns(cols.0, cols.1).into_owned());
+        assert!(
+            eq < 1e-6 && ev < 1e-6,
+            "{label}: {name} differs from FD by {eq:e} (q'), {ev:e} (v')"
+        );
+    }
+}
+
+#[test]
+fn jacobians_match_finite_differences_on_reference_models() {
+    for name in [
+        "pendulum.xml",
+        "double_pendulum.xml",
+        "cartpole.xml",
+        "half_cheetah.xml",
+        "half_cheetah.urdf",
+    ] {
+        let base = load(name);
+        for settings in SETTINGS {
+            let model = with_settings(&base, settings);
+            for seed in 0..3 {
+                check_against_fd(&model, seed, &format!("{name} {settings:?} seed {seed}"));
+            }
+        }
+    }
+}
+
+#[test]
+fn jacobians_match_finite_differences_on_random_trees() {
+    for seed in 0..8 {
+        let settings = SETTINGS[seed as usize % 4];
+        let model = common::random_model(seed, 3 + seed as usize % 4, settings.1, settings.0);
+        check_against_fd(&model, seed, &format!("random tree {seed} {settings:?}"));
+    }
+}
+
+/// The whole step in dual numbers, one seeded direction at a time: an
+/// independent exact oracle (no truncation error), so agreement is ~1e-12.
+#[test]
+fn jacobians_match_dual_numbers_through_the_step() {
+    for name in ["double_pendulum.xml", "half_cheetah.xml"] {
+        let base = load(name);
+        for settings in SETTINGS {
+            let model = with_settings(&base, settings);
+            let n = model.nv();
+            let params = Param::all(&model);
+            let (q, v, tau) = common::random_state(&model, 9);
+            let wrt = Wrt {
+                state: true,
+                control: true,
+                params: &params,
+            };
+            let j =
+                step_jacobians(&model, &mut Workspace::new(&model), (&q, &v, &tau), &wrt).unwrap();
+            let hstack = |blocks: [&DMatrix<f64>; 4]| {
+                let cols: Vec<_> = blocks.iter().flat_map(|b| b.column_iter()).collect();
+                DMatrix::from_columns(&cols)
+            };
+            let analytic_q = hstack([&j.dq_dq, &j.dq_dv, &j.dq_dtau, &j.dq_dp]);
+            let analytic_v = hstack([&j.dv_dq, &j.dv_dv, &j.dv_dtau, &j.dv_dp]);
+            let plain: Tree<Dual64> = Tree::build(&model);
+            let mut data = Data::new(&plain);
+            let run = |tree: &Tree<Dual64>, data: &mut Data<Dual64>, seed_input: Option<usize>| {
+                let lift = |x: &[f64], offset: usize| -> Vec<Dual64> {
+                    x.iter()
+                        .enumerate()
+                        .map(|(i, &xi)| {
+                            Dual64::new(
+                                xi,
+                                if seed_input == Some(offset + i) {
+                                    1.0
+                                } else {
+                                    0.0
+                                },
+                            )
+                        })
+                        .collect()
+                };
+                let (qd, vd, td) = (lift(&q, 0), lift(&v, n), lift(&tau, 2 * n));
+                let (mut q1, mut v1) = (vec![Dual64::from(0.0); n], vec![Dual64::from(0.0); n]);
+                step(tree, &model.opt, data, (&qd, &vd, &td), (&mut q1, &mut v1)).unwrap();
+                (
+                    q1.iter().map(|x| x.eps).collect::<Vec<_>>(),
+                    v1.iter().map(|x| x.eps).collect::<Vec<_>>(),
+                )
+            };
+            let mut col = 0;
+            let check = |(dq, dv): (Vec<f64>, Vec<f64>), col: usize| {
+                for i in 0..n {
+                    let (a, b) = (analytic_q[(i, col)], dq[i]);
+                    assert!(
+                        (a - b).abs() < 1e-10 * (1.0 + b.abs()),
+                        "{name} {settings:?}: dq'[{i}]/dx[{col}] {a} vs dual {b}"
+                    );
+                    let (a, b) = (analytic_v[(i, col)], dv[i]);
+                    assert!(
+                        (a - b).abs() < 1e-10 * (1.0 + b.abs()),
+                        "{name} {settings:?}: dv'[{i}]/dx[{col}] {a} vs dual {b}"
+                    );
+                }
+            };
+            for k in 0..3 * n {
+                check(run(&plain, &mut data, Some(k)), k);
+            }
+            col += 3 * n;
+            for &p in &params {
+                for c in 0..p.size() {
+                    let seeded = Tree::<Dual64>::build_with(&model, |pp, cc, x| {
+                        Dual64::new(x, if (pp, cc) == (p, c) { 1.0 } else { 0.0 })
+                    });
+                    check(run(&seeded, &mut data, None), col);
+                    col += 1;
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn only_requested_blocks_are_computed() {
+    let model = load("cartpole.xml");
+    let p = [model.param("body/pole/com").unwrap()];
+    let wrt = Wrt {
+        params: &p,
+        ..Wrt::default()
+    };
+    let j = step_jacobians(
+        &model,
+        &mut Workspace::new(&model),
+        (&[0.0, 0.1], &[0.2, -0.3], &[1.0, 0.0]),
+        &wrt,
+    )
+    .unwrap();
+    assert_eq!(j.dq_dq.shape(), (2, 0));
+    assert_eq!(j.dv_dtau.shape(), (2, 0));
+    assert_eq!(j.dv_dp.shape(), (2, 3));
+}
