@@ -267,3 +267,19 @@ fn step_rejects_bad_input() {
     .unwrap_err();
     assert_eq!(err.to_string(), format!("v has length 1, expected {n}"));
 }
+
+#[test]
+fn ltdl_factorization_solves_like_cholesky() {
+    use diffosi::dynamics::{ltdl_factor, ltdl_solve};
+    for model in models() {
+        let (q, _, tau) = random_state(&model, 4);
+        let m = mass_matrix(&model, &q);
+        let want = m.clone().cholesky().unwrap().solve(&DVector::from_column_slice(&tau));
+        let mut factored = m.clone();
+        ltdl_factor(model.tree(), &mut factored);
+        let mut x = tau.clone();
+        ltdl_solve(model.tree(), &factored, &mut x);
+        let err = (DVector::from_column_slice(&x) - &want).amax();
+        assert!(err < 1e-10 * (1.0 + want.amax()), "{}: {err:e}", model.name);
+    }
+}

@@ -6,15 +6,18 @@
 //! [`crate::dynamics::step`] for the passive modes). Differentiating,
 //! d qdd / d theta = -(M + diag(extra))^-1 dR/d theta, for theta any of q, v,
 //! tau or p. dR/dq and dR/dv come from analytic RNEA derivatives
-//! ([`rnea_derivatives`]); dR/dp from forward-mode dual numbers through the
-//! scalar-generic inverse dynamics, one seeded direction per parameter scalar,
-//! so a one-parameter Jacobian costs one dual RNEA pass, not a state Jacobian.
+//! ([`rnea_derivatives`]); dR/dp analytically too: a body parameter adds one
+//! body force along one path to the root (its inertia derivative taken with
+//! dual numbers), a joint parameter one entry. So a one-parameter Jacobian
+//! costs one RNEA pass and a triangular solve, not a state Jacobian. Dual
+//! numbers pushed through the whole scalar-generic step are the test oracle.
 //! The integrator's chain rule (Euler or RK4) then gives d(q', v').
 //! No finite differences anywhere: they exist only in the tests.
 
 // Node-indexed sweeps read several per-node arrays at the node's index.
 #![allow(clippy::needless_range_loop)]
 
+mod params;
 mod rnea;
 mod step;
 mod window;

@@ -16,7 +16,9 @@
 
 use nalgebra::DMatrix;
 
-use crate::dynamics::{rnea, Data, Tree};
+#[cfg(doc)]
+use crate::dynamics::rnea;
+use crate::dynamics::{Data, Tree};
 use crate::spatial::{Force, Motion};
 
 /// Per-direction scratch of the sweeps.
@@ -25,7 +27,10 @@ pub struct Sweep {
     dv: Vec<Motion<f64>>,
     da: Vec<Motion<f64>>,
     df: Vec<Force<f64>>,
+    /// I_i v_i at the point.
+    momentum: Vec<Force<f64>>,
     below: Vec<bool>,
+    /// d ID of the current direction.
     tau: Vec<f64>,
 }
 
@@ -35,6 +40,7 @@ impl Sweep {
             dv: vec![Motion::zero(); n],
             da: vec![Motion::zero(); n],
             df: vec![Force::zero(); n],
+            momentum: vec![Force::zero(); n],
             below: vec![false; n],
             tau: vec![0.0; n],
         }
@@ -42,17 +48,20 @@ impl Sweep {
 }
 
 /// Fills d_dq and d_dv (n x n, column j = derivative w.r.t. q_j or v_j) of
-/// ID(q, v, a); M includes the armature, which depends on neither.
+/// ID(q, v, a); M includes the armature, which depends on neither. `data`
+/// must hold [`rnea`]'s results at (q, v, a): transforms, velocities,
+/// accelerations and subtree forces.
 pub fn rnea_derivatives(
     tree: &Tree<f64>,
-    data: &mut Data<f64>,
+    data: &Data<f64>,
     sweep: &mut Sweep,
-    (q, v, a): (&[f64], &[f64], &[f64]),
+    v: &[f64],
     d_dq: &mut DMatrix<f64>,
     d_dv: &mut DMatrix<f64>,
 ) {
-    // Velocities, accelerations and subtree forces F_i of the point itself.
-    rnea(tree, data, q, v, a, &mut sweep.tau);
+    for i in 0..tree.nv() {
+        sweep.momentum[i] = tree.inertia[i].mul_motion(&data.vel[i]);
+    }
     for j in 0..tree.nv() {
         let s = tree.joint[j].s;
         // Position of j: its frame turns relative to the parent.
@@ -109,7 +118,7 @@ fn propagate(
         sweep.dv[i] = dv;
         sweep.da[i] = da;
         sweep.df[i] = inertia.mul_motion(&da)
-            + dv.cross_force(&inertia.mul_motion(vel))
+            + dv.cross_force(&sweep.momentum[i])
             + vel.cross_force(&inertia.mul_motion(&dv));
     }
     for i in (j + 1..n).rev() {

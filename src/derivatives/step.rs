@@ -1,13 +1,15 @@
 //! Step Jacobians: d(q', v') / d(q, v), d(q', v') / d tau and d(q', v') / d p.
 
-use nalgebra::{DMatrix, DVector};
-use num_dual::Dual64;
+use nalgebra::DMatrix;
 
+use super::params::residual_derivative;
 use super::rnea::{rnea_derivatives, Sweep};
-use crate::dynamics::{acceleration, crba, implicit_terms, passive_forces, rnea, step};
-use crate::dynamics::{Data, StepError, Tree};
+use crate::dynamics::{
+    acceleration, check_inputs, crba, implicit_terms, integrate_euler, ltdl_factor,
+    ltdl_solve_columns, rnea, step,
+};
+use crate::dynamics::{Data, StepError};
 use crate::model::{Integrator, Model, Param, PassiveMode};
-use crate::spatial::Real;
 
 /// Which Jacobian blocks to compute; only these directions are seeded.
 #[derive(Clone, Copy, Debug, Default)]
@@ -40,16 +42,22 @@ pub struct StepJacobians {
 #[derive(Clone, Debug)]
 pub struct Workspace {
     data: Data<f64>,
-    dual: Data<Dual64>,
     sweep: Sweep,
+    /// Scratch of length nv: inverse dynamics, spring position, implicit diagonal.
+    tau: Vec<f64>,
+    q_spring: Vec<f64>,
+    extra: Vec<f64>,
 }
 
 impl Workspace {
     pub fn new(model: &Model) -> Self {
+        let n = model.nv();
         Workspace {
             data: model.data(),
-            dual: Data::new(&Tree::<Dual64>::build(model)),
-            sweep: Sweep::new(model.nv()),
+            sweep: Sweep::new(n),
+            tau: vec![0.0; n],
+            q_spring: vec![0.0; n],
+            extra: vec![0.0; n],
         }
     }
 }
@@ -73,17 +81,22 @@ pub fn step_jacobians(
 ) -> Result<StepJacobians, StepError> {
     let n = model.nv();
     let (mut q_next, mut v_next) = (vec![0.0; n], vec![0.0; n]);
-    step(
-        model.tree(),
-        &model.opt,
-        &mut ws.data,
-        (q, v, tau),
-        (&mut q_next, &mut v_next),
-    )?;
     let (dq, dv) = match model.opt.integrator {
-        Integrator::Euler => euler(model, ws, (q, v, tau), wrt),
-        Integrator::Rk4 => rk4(model, ws, (q, v, tau), wrt),
+        Integrator::Euler => {
+            check_inputs(n, (q, v, tau))?;
+            let (qdd, dq, dv) = euler(model, ws, (q, v, tau), wrt);
+            integrate_euler(model.opt.timestep, (q, v, &qdd), (&mut q_next, &mut v_next));
+            (dq, dv)
+        }
+        Integrator::Rk4 => {
+            let next = (&mut q_next[..], &mut v_next[..]);
+            step(model.tree(), &model.opt, &mut ws.data, (q, v, tau), next)?;
+            rk4(model, ws, (q, v, tau), wrt)
+        }
     };
+    if !q_next.iter().chain(&v_next).all(|x| x.is_finite()) {
+        return Err(StepError::Diverged);
+    }
     let n_state = if wrt.state { n } else { 0 };
     let n_tau = if wrt.control { n } else { 0 };
     let split = |m: &DMatrix<f64>| {
@@ -111,14 +124,14 @@ pub fn step_jacobians(
     })
 }
 
-/// Semi-implicit Euler: v' = v + h qdd, q' = q + h v'. Returns d q' and d v'
-/// with columns [q, v (if state), tau (if control), p].
+/// Semi-implicit Euler: v' = v + h qdd, q' = q + h v'. Returns qdd, d q' and
+/// d v' with columns [q, v (if state), tau (if control), p].
 fn euler(
     model: &Model,
     ws: &mut Workspace,
     x: (&[f64], &[f64], &[f64]),
     wrt: &Wrt,
-) -> (DMatrix<f64>, DMatrix<f64>) {
+) -> (Vec<f64>, DMatrix<f64>, DMatrix<f64>) {
     let h = model.opt.timestep;
     let d = accel_derivatives(model, ws, (model.opt.passive, h), x, wrt);
     let n = model.nv();
@@ -139,7 +152,7 @@ fn euler(
             dq[(i, i)] += 1.0;
         }
     }
-    (dq, dv)
+    (d.qdd, dq, dv)
 }
 
 /// Classic RK4 on x = (q, v), differentiated stage by stage: with x_1 = x,
@@ -217,91 +230,54 @@ fn accel_derivatives(
     let tree = model.tree();
     let mut qdd = vec![0.0; n];
     acceleration(tree, &mut ws.data, (mode, h), (q, v, tau), &mut qdd);
-    // M + diag(extra), factored once for every column.
-    let (mut q_spring, mut extra) = (vec![0.0; n], vec![0.0; n]);
-    implicit_terms(tree, (mode, h), (q, v), &mut q_spring, &mut extra);
+    implicit_terms(tree, (mode, h), (q, v), &mut ws.q_spring, &mut ws.extra);
+    // M + diag(extra), factored once along the tree for every column.
     crba(tree, &mut ws.data, q);
-    let mut m = ws.data.mass_matrix.clone();
     for i in 0..n {
-        m[(i, i)] += extra[i];
+        ws.data.mass_matrix[(i, i)] += ws.extra[i];
     }
-    let chol = m
-        .cholesky()
-        .expect("the mass matrix of a validated model is positive definite");
+    ltdl_factor(tree, &mut ws.data.mass_matrix);
+    // Velocities, accelerations and forces at the solution, for both blocks.
+    rnea(tree, &mut ws.data, q, v, &qdd, &mut ws.tau);
 
     let mut state = DMatrix::zeros(n, 0);
     if wrt.state {
         let (mut r_q, mut r_v) = (DMatrix::zeros(n, n), DMatrix::zeros(n, n));
-        rnea_derivatives(
-            tree,
-            &mut ws.data,
-            &mut ws.sweep,
-            (q, v, &qdd),
-            &mut r_q,
-            &mut r_v,
-        );
+        rnea_derivatives(tree, &ws.data, &mut ws.sweep, v, &mut r_q, &mut r_v);
         // The passive force -D v - K (q_spring - springref), q_spring = q (+ h v for DART).
-        let spring_v = if mode == PassiveMode::ImplicitDampingStiffness {
-            h
-        } else {
-            0.0
-        };
+        let spring_v = if mode == PassiveMode::ImplicitDampingStiffness { h } else { 0.0 };
         for i in 0..n {
             r_q[(i, i)] += tree.stiffness[i];
             r_v[(i, i)] += tree.damping[i] + spring_v * tree.stiffness[i];
         }
+        ltdl_solve_columns(tree, &ws.data.mass_matrix, &mut r_q);
+        ltdl_solve_columns(tree, &ws.data.mass_matrix, &mut r_v);
         state = DMatrix::zeros(n, 2 * n);
-        state.columns_mut(0, n).copy_from(&-chol.solve(&r_q));
-        state.columns_mut(n, n).copy_from(&-chol.solve(&r_v));
+        state.columns_mut(0, n).copy_from(&-r_q);
+        state.columns_mut(n, n).copy_from(&-r_v);
     }
     let n_tau = if wrt.control { n } else { 0 };
     let n_p: usize = wrt.params.iter().map(|p| p.size()).sum();
-    let mut r_inputs = DMatrix::zeros(n, n_tau + n_p);
+    let mut inputs = DMatrix::zeros(n, n_tau + n_p);
     for i in 0..n_tau {
-        r_inputs[(i, i)] = -1.0;
+        inputs[(i, i)] = -1.0;
     }
     let mut col = n_tau;
     for &param in wrt.params {
         for component in 0..param.size() {
-            let seeded = Tree::<Dual64>::build_with(model, |p, c, x| {
-                Dual64::new(
-                    x,
-                    if (p, c) == (param, component) {
-                        1.0
-                    } else {
-                        0.0
-                    },
-                )
-            });
-            let r = residual(&seeded, &mut ws.dual, (mode, h), (q, v, &qdd, tau));
-            for i in 0..n {
-                r_inputs[(i, col)] = r[i].eps;
-            }
+            residual_derivative(
+                model,
+                &ws.data,
+                (mode, h),
+                (&ws.q_spring, v, &qdd),
+                (param, component),
+                &mut ws.tau,
+            );
+            inputs.column_mut(col).copy_from_slice(&ws.tau);
             col += 1;
         }
     }
-    let inputs = -chol.solve(&r_inputs);
+    ltdl_solve_columns(tree, &ws.data.mass_matrix, &mut inputs);
+    inputs.neg_mut();
     AccelDerivatives { qdd, state, inputs }
-}
-
-/// R(q, v, a, tau) = ID(q, v, a) + extra * a - tau - tau_passive(q_spring, v):
-/// zero at the step's acceleration.
-fn residual<T: Real>(
-    tree: &Tree<T>,
-    data: &mut Data<T>,
-    (mode, h): (PassiveMode, f64),
-    (q, v, a, tau): (&[f64], &[f64], &[f64], &[f64]),
-) -> DVector<T> {
-    let n = tree.nv();
-    let lift = |x: &[f64]| x.iter().map(|&xi| T::from_subset(&xi)).collect::<Vec<T>>();
-    let (q, v, a, tau) = (lift(q), lift(v), lift(a), lift(tau));
-    let mut r = DVector::zeros(n);
-    rnea(tree, data, &q, &v, &a, r.as_mut_slice());
-    let (mut q_spring, mut extra, mut passive) = (q.clone(), q.clone(), q.clone());
-    implicit_terms(tree, (mode, h), (&q, &v), &mut q_spring, &mut extra);
-    passive_forces(tree, &q_spring, &v, &mut passive);
-    for i in 0..n {
-        r[i] += extra[i] * a[i] - tau[i] - passive[i];
-    }
-    r
 }

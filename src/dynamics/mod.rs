@@ -14,6 +14,7 @@
 mod aba;
 mod crba;
 mod kinematics;
+mod ltdl;
 mod passive;
 mod rnea;
 mod step;
@@ -22,9 +23,10 @@ mod tree;
 pub use aba::aba;
 pub use crba::crba;
 pub use kinematics::{body_poses, update_transforms};
+pub use ltdl::{ltdl_factor, ltdl_solve, ltdl_solve_columns};
 pub use passive::passive_forces;
 pub use rnea::{bias_forces, rnea};
-pub use step::{acceleration, implicit_terms, step, StepError};
+pub use step::{acceleration, check_inputs, implicit_terms, integrate_euler, step, StepError};
 pub use tree::{BodyFrame, NodeJoint, Tree};
 
 use crate::spatial::{ArticulatedInertia, Force, Inertia, Motion, Real, Transform};

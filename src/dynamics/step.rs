@@ -38,9 +38,7 @@ pub fn step<T: Real>(
     (q_next, v_next): (&mut [T], &mut [T]),
 ) -> Result<(), StepError> {
     let n = tree.nv();
-    for (name, x) in [("q", q), ("v", v), ("tau", tau)] {
-        check(name, x, n)?;
-    }
+    check_inputs(n, (q, v, tau))?;
     for (name, x) in [("q_next", &*q_next), ("v_next", &*v_next)] {
         if x.len() != n {
             return Err(StepError::Length {
@@ -60,6 +58,14 @@ pub fn step<T: Real>(
     } else {
         Err(StepError::Diverged)
     }
+}
+
+/// Checks that q, v and tau have length n and finite entries.
+pub fn check_inputs<T: Real>(n: usize, (q, v, tau): (&[T], &[T], &[T])) -> Result<(), StepError> {
+    for (name, x) in [("q", q), ("v", v), ("tau", tau)] {
+        check(name, x, n)?;
+    }
+    Ok(())
 }
 
 fn check<T: Real>(name: &'static str, x: &[T], n: usize) -> Result<(), StepError> {
@@ -128,11 +134,21 @@ fn euler<T: Real>(
     (q, v, tau): (&[T], &[T], &[T]),
     (q_next, v_next): (&mut [T], &mut [T]),
 ) {
-    // The acceleration lands in v_next, which then becomes v + h qdd.
-    acceleration(tree, data, (mode, h), (q, v, tau), v_next);
+    let mut qdd = std::mem::take(&mut data.stage[0]);
+    acceleration(tree, data, (mode, h), (q, v, tau), &mut qdd);
+    integrate_euler(h, (q, v, &qdd), (q_next, v_next));
+    data.stage[0] = qdd;
+}
+
+/// v' = v + h qdd, q' = q + h v'.
+pub fn integrate_euler<T: Real>(
+    h: f64,
+    (q, v, qdd): (&[T], &[T], &[T]),
+    (q_next, v_next): (&mut [T], &mut [T]),
+) {
     let h: T = lift(h);
-    for i in 0..tree.nv() {
-        v_next[i] = v[i] + h * v_next[i];
+    for i in 0..q.len() {
+        v_next[i] = v[i] + h * qdd[i];
         q_next[i] = q[i] + h * v_next[i];
     }
 }
