@@ -20,6 +20,7 @@
 pub mod geom_inertia;
 pub mod mjcf;
 pub mod urdf;
+mod xml;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
@@ -64,6 +65,22 @@ pub struct Body {
     pub inertia: Matrix3<f64>,
     /// The joints of this body, as a range of joint (= dof) indices.
     pub joints: std::ops::Range<usize>,
+}
+
+impl Body {
+    /// Body 0: named "world", at the origin, without mass or joints.
+    pub fn world() -> Body {
+        Body {
+            name: "world".to_string(),
+            parent: 0,
+            pos: Vector3::zeros(),
+            rot: Rotation3::identity(),
+            mass: 0.0,
+            com: Vector3::zeros(),
+            inertia: Matrix3::zeros(),
+            joints: 0..0,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
