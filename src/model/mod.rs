@@ -49,6 +49,9 @@ pub enum ModelError {
     UnknownFormat(String),
     #[error("model is not physical: {0}")]
     NotPhysical(String),
+    /// A model a file format cannot express, or a file we cannot write.
+    #[error("cannot write {0}")]
+    Unwritable(String),
 }
 
 /// A rigid body. See the module documentation for frames.
@@ -282,6 +285,22 @@ impl Model {
             Some("urdf") => urdf::parse(&text, &shown),
             _ => Err(ModelError::UnknownFormat(shown)),
         }
+    }
+
+    /// Writes the model as MJCF to a `.xml` (or `.mjcf`) path; see
+    /// [`mjcf::write`] for what MJCF cannot express.
+    pub fn save(&self, path: impl AsRef<std::path::Path>) -> Result<(), ModelError> {
+        let path = path.as_ref();
+        let shown = path.display().to_string();
+        if !matches!(
+            path.extension().and_then(|e| e.to_str()),
+            Some("xml" | "mjcf")
+        ) {
+            let why = format!("{shown}: models are saved as MJCF, to a .xml (or .mjcf) path");
+            return Err(ModelError::Unwritable(why));
+        }
+        let text = mjcf::write(self)?;
+        std::fs::write(path, text).map_err(|e| ModelError::Unwritable(format!("{shown}: {e}")))
     }
 
     pub fn nq(&self) -> usize {

@@ -36,3 +36,16 @@ pub(super) fn numbers(text: &str) -> Option<Vec<f64>> {
 pub(super) fn inertia_tensor([xx, yy, zz, xy, xz, yz]: [f64; 6]) -> Matrix3<f64> {
     Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz)
 }
+
+/// The six numbers of a symmetric tensor, read from its upper triangle: the
+/// inverse of [`inertia_tensor`].
+pub(super) fn inertia_numbers(i: &Matrix3<f64>) -> [f64; 6] {
+    [
+        i[(0, 0)],
+        i[(1, 1)],
+        i[(2, 2)],
+        i[(0, 1)],
+        i[(0, 2)],
+        i[(1, 2)],
+    ]
+}

@@ -38,6 +38,8 @@
 //! applied: numbering and names in `tree.rs`, angles in `compiler.rs`, default
 //! classes in `defaults.rs`, orientations in `orientation.rs`, inertia in
 //! `inertial.rs`, options in `options.rs`, actuators in `actuators.rs`.
+//!
+//! [`write`] goes the other way, from a [`super::Spec`] to an MJCF document.
 
 mod actuators;
 mod attributes;
@@ -53,6 +55,7 @@ mod schema;
 #[cfg(test)]
 mod test_util;
 mod tree;
+mod write;
 
 use std::collections::HashMap;
 
@@ -61,6 +64,7 @@ use compiler::Compiler;
 use defaults::Class;
 use schema::check_attributes;
 use tree::Tree;
+pub use write::write;
 
 type Node<'a> = roxmltree::Node<'a, 'a>;
 type Result<T> = std::result::Result<T, ModelError>;
