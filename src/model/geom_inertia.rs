@@ -10,6 +10,11 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::Shape;
 
+/// MuJoCo's `mjEPS`: the smallest volume an explicit mass is spread over; in
+/// the MJCF compiler also the smallest squared norm it normalises, smallest
+/// geom mass it counts and smallest principal moment of a full inertia tensor.
+pub(super) const MJ_EPS: f64 = 1e-14;
+
 /// Volume of a solid primitive (zero for a plane).
 pub fn volume(shape: &Shape) -> f64 {
     use std::f64::consts::PI;
@@ -32,10 +37,8 @@ pub fn volume(shape: &Shape) -> f64 {
 /// A geom's mass by MuJoCo's rule: an explicit `mass` wins (zero if the volume
 /// is too small to hold it), else `density * volume`.
 pub fn mass(shape: &Shape, explicit_mass: Option<f64>, density: f64) -> f64 {
-    /// MuJoCo's `mjEPS`, the smallest volume an explicit mass is spread over.
-    const MIN_VOLUME: f64 = 1e-14;
     match explicit_mass {
-        Some(m) if m == 0.0 || volume(shape) <= MIN_VOLUME => 0.0,
+        Some(m) if m == 0.0 || volume(shape) <= MJ_EPS => 0.0,
         Some(m) => m,
         None if density == 0.0 => 0.0,
         None => density * volume(shape),

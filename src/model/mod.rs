@@ -21,6 +21,7 @@ pub mod geom_inertia;
 pub mod mjcf;
 pub mod params;
 pub mod urdf;
+mod xml;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
@@ -51,6 +52,9 @@ pub enum ModelError {
     UnknownFormat(String),
     #[error("model is not physical: {0}")]
     NotPhysical(String),
+    /// A model a file format cannot express, or a file we cannot write.
+    #[error("cannot write {0}")]
+    Unwritable(String),
 }
 
 /// A rigid body. See the module documentation for frames.
@@ -67,6 +71,22 @@ pub struct Body {
     pub inertia: Matrix3<f64>,
     /// The joints of this body, as a range of joint (= dof) indices.
     pub joints: std::ops::Range<usize>,
+}
+
+impl Body {
+    /// Body 0: named "world", at the origin, without mass or joints.
+    pub fn world() -> Body {
+        Body {
+            name: "world".to_string(),
+            parent: 0,
+            pos: Vector3::zeros(),
+            rot: Rotation3::identity(),
+            mass: 0.0,
+            com: Vector3::zeros(),
+            inertia: Matrix3::zeros(),
+            joints: 0..0,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -268,6 +288,22 @@ impl Model {
             Some("urdf") => urdf::parse(&text, &shown),
             _ => Err(ModelError::UnknownFormat(shown)),
         }
+    }
+
+    /// Writes the model as MJCF to a `.xml` (or `.mjcf`) path; see
+    /// [`mjcf::write`] for what MJCF cannot express.
+    pub fn save(&self, path: impl AsRef<std::path::Path>) -> Result<(), ModelError> {
+        let path = path.as_ref();
+        let shown = path.display().to_string();
+        if !matches!(
+            path.extension().and_then(|e| e.to_str()),
+            Some("xml" | "mjcf")
+        ) {
+            let why = format!("{shown}: models are saved as MJCF, to a .xml (or .mjcf) path");
+            return Err(ModelError::Unwritable(why));
+        }
+        let text = mjcf::write(self)?;
+        std::fs::write(path, text).map_err(|e| ModelError::Unwritable(format!("{shown}: {e}")))
     }
 
     pub fn nq(&self) -> usize {

@@ -53,8 +53,8 @@ use nalgebra::{Matrix3, Rotation3, Vector3};
 use roxmltree::{Document, Node};
 
 use super::{
-    check_inertial, Actuator, Body, Geom, Integrator, Joint, JointKind, Model, ModelError, Options,
-    PassiveMode, Shape,
+    check_inertial, xml, Actuator, Body, Geom, Integrator, Joint, JointKind, Model, ModelError,
+    Options, PassiveMode, Shape,
 };
 
 /// The namespace of diffosi's URDF extensions.
@@ -69,10 +69,7 @@ const EXTENSION_ATTRIBUTES: [(&str, &[&str]); 3] = [
 
 /// Parses URDF text; `file` is only used in error messages.
 pub fn parse(text: &str, file: &str) -> Result<Model, ModelError> {
-    let doc = Document::parse(text).map_err(|e| ModelError::Xml {
-        file: file.to_string(),
-        message: e.to_string(),
-    })?;
+    let doc = xml::document(text, file)?;
     Loader { doc: &doc, file }.model()
 }
 
@@ -111,7 +108,7 @@ impl<'a, 'i> Loader<'a, 'i> {
         let edges = self.edges(robot, &links)?;
         let tree = self.tree(robot, &links, &edges)?;
 
-        let mut bodies = vec![world_body()];
+        let mut bodies = vec![Body::world()];
         let mut joints = Vec::new();
         let mut geoms = Vec::new();
         let mut dof_of_joint: HashMap<&str, Option<usize>> = HashMap::new();
@@ -287,8 +284,7 @@ impl<'a, 'i> Loader<'a, 'i> {
         for (value, name) in i.iter_mut().zip(["ixx", "iyy", "izz", "ixy", "ixz", "iyz"]) {
             *value = self.required_number(node, name)?;
         }
-        let [xx, yy, zz, xy, xz, yz] = i;
-        let tensor = Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz);
+        let tensor = xml::inertia_tensor(i);
         let (com, rot) = self.origin(inertial)?;
         let inertia = rot.matrix() * tensor * rot.matrix().transpose();
         let name = self.attr(link, "name")?;
@@ -674,41 +670,13 @@ impl<'a, 'i> Loader<'a, 'i> {
             };
             self.error(node, format!("{what}: expected {expected}, got '{text}'"))
         };
-        let mut out = [0.0; K];
-        let mut words = text.split_whitespace();
-        for slot in &mut out {
-            *slot = words
-                .next()
-                .and_then(|w| w.parse::<f64>().ok())
-                .filter(|x| x.is_finite())
-                .ok_or_else(bad)?;
-        }
-        match words.next() {
-            None => Ok(out),
-            Some(_) => Err(bad()),
-        }
+        xml::numbers(text)
+            .and_then(|v| v.try_into().ok())
+            .ok_or_else(bad)
     }
 
     fn error(&self, node: Xml<'a, 'i>, message: impl Into<String>) -> ModelError {
-        ModelError::Invalid {
-            file: self.file.to_string(),
-            line: self.doc.text_pos_at(node.range().start).row,
-            element: node.tag_name().name().to_string(),
-            message: message.into(),
-        }
-    }
-}
-
-fn world_body() -> Body {
-    Body {
-        name: "world".to_string(),
-        parent: 0,
-        pos: Vector3::zeros(),
-        rot: Rotation3::identity(),
-        mass: 0.0,
-        com: Vector3::zeros(),
-        inertia: Matrix3::zeros(),
-        joints: 0..0,
+        xml::invalid(self.file, node, message)
     }
 }
 

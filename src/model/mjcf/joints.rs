@@ -1,0 +1,98 @@
+//! `<joint>`: hinges and slides with linear springs and dampers. Hinge
+//! `range`, `ref` and `springref` are angles (see `compiler.rs`).
+
+use nalgebra::Vector3;
+
+use super::attributes::Attrs;
+use super::orientation::unit;
+use super::schema::{check_attributes, JOINT_ATTRS};
+use super::tree::{Kind, Tree};
+use super::{Node, Reader, Result};
+use crate::model::{Joint, JointKind};
+
+impl<'a> Reader<'a> {
+    pub(super) fn read_joint(
+        &self,
+        tree: &mut Tree<'a>,
+        node: Node<'a>,
+        body: usize,
+        class: &str,
+    ) -> Result<Joint> {
+        check_attributes(self.file, node, JOINT_ATTRS)?;
+        let a = self.attrs(node, class, |c| &c.joint)?;
+        let kind = joint_kind(&a)?;
+        let axis = a.vector("axis")?.unwrap_or(Vector3::z());
+        let axis = unit(axis).ok_or_else(|| self.error(node, "joint axis is too small"))?;
+        let angle = |x: f64| match kind {
+            JointKind::Hinge => self.compiler.joint_angle(x),
+            JointKind::Slide => x,
+        };
+        let autolimits = self.compiler.autolimits;
+        let range = a.limits("limited", "range", autolimits)?;
+        let force_limits = a.limits("actuatorfrclimited", "actuatorfrcrange", autolimits)?;
+        if force_limits.is_some() {
+            return Err(self.error(node, "actuator force limits on joints are not supported"));
+        }
+        let (damping, stiffness) = damping_and_stiffness(&a)?;
+        let joint = Joint {
+            name: tree.claim(self.file, node, Kind::Joint)?,
+            kind,
+            body,
+            axis,
+            anchor: a.vector("pos")?.unwrap_or_default(),
+            reference: angle(a.number("ref")?.unwrap_or(0.0)),
+            damping,
+            stiffness,
+            springref: angle(a.number("springref")?.unwrap_or(0.0)),
+            armature: a.number("armature")?.unwrap_or(0.0),
+            frictionloss: a.number("frictionloss")?.unwrap_or(0.0),
+            range: range.map(|[lo, hi]| (angle(lo), angle(hi))),
+        };
+        let passive = [
+            joint.damping,
+            joint.stiffness,
+            joint.armature,
+            joint.frictionloss,
+        ];
+        if passive.iter().any(|x| *x < 0.0) {
+            let msg = "damping, stiffness, armature and frictionloss must be >= 0";
+            return Err(self.error(node, msg));
+        }
+        Ok(joint)
+    }
+}
+
+/// Hinge (the default) or slide; ball and free joints are rejected.
+fn joint_kind(a: &Attrs) -> Result<JointKind> {
+    match a
+        .keyword("type", &["hinge", "slide", "ball", "free"])?
+        .unwrap_or("hinge")
+    {
+        "hinge" => Ok(JointKind::Hinge),
+        "slide" => Ok(JointKind::Slide),
+        other => {
+            let msg = format!(
+                "{other} joints are not supported: a model is a tree of hinge and slide joints"
+            );
+            Err(a.error(a.element, msg))
+        }
+    }
+}
+
+/// The linear damping and stiffness coefficients; `springdamper` and the
+/// polynomial terms of `damping` and `stiffness` are rejected.
+fn damping_and_stiffness(a: &Attrs) -> Result<(f64, f64)> {
+    if a.exact::<2>("springdamper")?.is_some_and(|s| s != [0.0; 2]) {
+        return Err(a.error(
+            a.element,
+            "springdamper is not supported: give stiffness and damping",
+        ));
+    }
+    let damping = a.leading::<3>("damping", [0.0; 3])?;
+    let stiffness = a.leading::<3>("stiffness", [0.0; 3])?;
+    if damping[1..] != [0.0; 2] || stiffness[1..] != [0.0; 2] {
+        let msg = "polynomial damping and stiffness are not supported";
+        return Err(a.error(a.element, msg));
+    }
+    Ok((damping[0], stiffness[0]))
+}

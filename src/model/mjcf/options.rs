@@ -1,0 +1,178 @@
+//! `<option>` and its `<flag>`s, read into [`Options`]; every `<option>`
+//! applies in document order over MuJoCo's defaults.
+//!
+//! `Euler` and `RK4` map to [`Integrator::Euler`] and [`Integrator::Rk4`].
+//! `implicitfast` differs from Euler only by treating velocity-dependent forces
+//! implicitly; with joint damping the only such force here, that is Euler with
+//! implicit damping, so it loads as [`Integrator::Euler`] with
+//! [`PassiveMode::ImplicitDamping`]. `implicit` also linearises Coriolis forces
+//! (an O(h) difference) and is rejected. Passive forces are explicit under RK4
+//! or when `<flag eulerdamp="disable">` (Euler only), else damping is implicit.
+//! `<flag gravity="disable">` loads as zero gravity.
+
+use nalgebra::Vector3;
+
+use super::attributes::Attrs;
+use super::schema::{check_attributes, OPTION_ATTRS};
+use super::{children, elements, tag, unrecognized, xml, Node, Result};
+use crate::model::{Integrator, Options, PassiveMode};
+
+/// Flags that only concern contacts, constraints, sensors or the solver.
+#[rustfmt::skip]
+const IGNORED_FLAGS: &[&str] = &[
+    "constraint", "equality", "frictionloss", "limit", "contact", "warmstart", "filterparent",
+    "refsafe", "sensor", "midphase", "autoreset", "nativeccd", "island", "multiccd", "override",
+    "energy", "fwdinv", "invdiscrete", "sleep", "diagexact",
+];
+
+/// Flags whose disabling changes the smooth dynamics in ways we do not model.
+const REJECTED_FLAGS: &[&str] = &["spring", "damper", "clampctrl", "actuation"];
+
+/// The `<flag>` settings we model; MuJoCo enables both by default.
+struct Flags {
+    /// Implicit joint damping under the Euler integrator.
+    eulerdamp: bool,
+    /// Gravity; disabled it is the same as zero gravity.
+    gravity: bool,
+}
+
+pub fn read(file: &str, root: Node) -> Result<Options> {
+    let mut opt = Options::default();
+    let mut integrator = "Euler";
+    let mut flags = Flags {
+        eulerdamp: true,
+        gravity: true,
+    };
+    for node in children(root, "option") {
+        check_attributes(file, node, OPTION_ATTRS)?;
+        let a = Attrs::of(file, node);
+        if let Some(h) = a.number("timestep")? {
+            if h <= 0.0 {
+                return Err(a.error(node, format!("timestep must be positive, got {h}")));
+            }
+            opt.timestep = h;
+        }
+        opt.gravity = a.vector("gravity")?.unwrap_or(opt.gravity);
+        integrator = read_integrator(&a)?.unwrap_or(integrator);
+        check_unsupported(&a)?;
+        for flag in elements(node) {
+            if tag(flag) != "flag" {
+                return Err(unrecognized(file, flag));
+            }
+            read_flags(file, flag, &mut flags)?;
+        }
+    }
+    if !flags.gravity {
+        opt.gravity = Vector3::zeros();
+    }
+    opt.integrator = if integrator == "RK4" {
+        Integrator::Rk4
+    } else {
+        Integrator::Euler
+    };
+    opt.passive = match integrator {
+        "RK4" => PassiveMode::Explicit,
+        "Euler" if !flags.eulerdamp => PassiveMode::Explicit,
+        _ => PassiveMode::ImplicitDamping,
+    };
+    Ok(opt)
+}
+
+fn read_integrator(a: &Attrs) -> Result<Option<&'static str>> {
+    let integrator = a.keyword("integrator", &["Euler", "RK4", "implicit", "implicitfast"])?;
+    if integrator == Some("implicit") {
+        let msg = "integrator \"implicit\" is not supported: it linearises Coriolis forces; \
+                   use Euler, RK4 or implicitfast";
+        return Err(a.error(a.element, msg));
+    }
+    Ok(integrator)
+}
+
+/// Fluid forces and disabled actuator groups.
+fn check_unsupported(a: &Attrs) -> Result<()> {
+    let density = a.number("density")?.unwrap_or(0.0);
+    let viscosity = a.number("viscosity")?.unwrap_or(0.0);
+    if density != 0.0 || viscosity != 0.0 {
+        let msg = format!(
+            "fluid forces are not supported (density=\"{density}\" viscosity=\"{viscosity}\")"
+        );
+        return Err(a.error(a.element, msg));
+    }
+    if a.text("actuatorgroupdisable").is_some() {
+        return Err(a.error(a.element, "actuatorgroupdisable is not supported"));
+    }
+    Ok(())
+}
+
+/// Checks a `<flag>` element and applies it to `flags`.
+fn read_flags(file: &str, flag: Node, flags: &mut Flags) -> Result<()> {
+    for attr in flag.attributes() {
+        let enabled = match attr.value() {
+            "enable" => true,
+            "disable" => false,
+            v => {
+                let msg = format!(
+                    "flag '{}' must be enable or disable, got \"{v}\"",
+                    attr.name()
+                );
+                return Err(xml::invalid(file, flag, msg));
+            }
+        };
+        match attr.name() {
+            "eulerdamp" => flags.eulerdamp = enabled,
+            "gravity" => flags.gravity = enabled,
+            name if IGNORED_FLAGS.contains(&name) => {}
+            name if REJECTED_FLAGS.contains(&name) => {
+                if !enabled {
+                    let msg = format!("flag {name}=\"disable\" is not supported");
+                    return Err(xml::invalid(file, flag, msg));
+                }
+            }
+            name => {
+                let msg = format!("unrecognized attribute '{name}'");
+                return Err(xml::invalid(file, flag, msg));
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::Vector3;
+
+    use super::super::test_util::*;
+    use crate::model::{Integrator, PassiveMode};
+
+    #[test]
+    fn options_map_to_integrator_and_passive_mode() {
+        use Integrator::{Euler, Rk4};
+        use PassiveMode::{Explicit, ImplicitDamping};
+        #[rustfmt::skip]
+        let cases = [
+            ("", Euler, ImplicitDamping),
+            (r#"<option integrator="RK4"/>"#, Rk4, Explicit),
+            (r#"<option><flag eulerdamp="disable"/></option>"#, Euler, Explicit),
+            (r#"<option integrator="implicitfast"/>"#, Euler, ImplicitDamping),
+            (r#"<option integrator="implicitfast"><flag eulerdamp="disable"/></option>"#,
+             Euler, ImplicitDamping),
+        ];
+        for (option, integrator, passive) in cases {
+            let m = load(&model(option, &body(""), ""));
+            assert_eq!(
+                (m.opt.integrator, m.opt.passive),
+                (integrator, passive),
+                "{option}"
+            );
+        }
+        let option = r#"<option timestep="0.01" gravity="0 0 -1"/>"#;
+        let m = load(&model(option, "", ""));
+        assert_eq!((m.opt.timestep, m.opt.gravity), (0.01, -Vector3::z()));
+        let m = load(&model(
+            r#"<option><flag gravity="disable"/></option>"#,
+            "",
+            "",
+        ));
+        assert_eq!(m.opt.gravity, Vector3::zeros());
+    }
+}

@@ -1,0 +1,285 @@
+//! MJCF writer: [`write`] turns a [`Spec`] into an MJCF document that
+//! [`parse`](super::parse) reads back as the same Spec.
+//!
+//! The document states everything explicitly:
+//! - `<compiler angle="radian" inertiafromgeom="false">`, and every body has
+//!   its `<inertial>`: `pos` is the COM, with `diaginertia` when the inertia
+//!   tensor is diagonal, else `fullinertia`. Nothing is recomputed from geoms.
+//! - Numbers are written in Rust's shortest round-trip form and parse back to
+//!   the same bits. What the loader derives from them comes back within a few
+//!   ulps: rotations (written as `quat`), joint axes (normalised again) and
+//!   full inertia tensors (rebuilt from their principal axes, as MuJoCo does).
+//! - Names are the Spec's; the loader names unnamed objects again (see
+//!   `tree.rs`) and always calls body 0 "world". MJCF needs names unique within
+//!   each kind; actuators refer to joints by name.
+//! - Options: Euler with implicit damping is MuJoCo's default; explicit
+//!   passive forces under Euler are `<flag eulerdamp="disable"/>`. Under RK4
+//!   passive forces are always explicit, so the passive mode, which RK4 does
+//!   not use, reads back as [`PassiveMode::Explicit`].
+//!
+//! What MJCF cannot express is an error ([`ModelError::Unwritable`]): implicit
+//! stiffness under Euler ([`PassiveMode::ImplicitDampingStiffness`], DART's
+//! scheme), bodies or geoms in an order the loader would renumber (bodies
+//! depth-first with children in index order, geoms grouped by body in body
+//! order), and whatever the loader, like MuJoCo, rejects in the written
+//! document (for instance a body with joints but no mass, which URDF allows).
+
+use nalgebra::{Rotation3, UnitQuaternion};
+
+use super::xml;
+use crate::model::{
+    Actuator, Body, Geom, Integrator, Joint, JointKind, ModelError, Options, PassiveMode, Shape,
+    Spec,
+};
+
+/// Writes `spec` as an MJCF document, checked by loading it.
+pub fn write(spec: &Spec) -> Result<String, ModelError> {
+    let text = document(spec)?;
+    match super::parse(&text, "written MJCF") {
+        Ok(_) => Ok(text),
+        Err(e) => {
+            let line = match &e {
+                ModelError::Invalid { line, .. } => text.lines().nth(*line as usize - 1),
+                _ => None,
+            };
+            let at = line.map_or(String::new(), |l| format!(" (at {})", l.trim()));
+            Err(unwritable(&format!("it would not load: {e}{at}")))
+        }
+    }
+}
+
+fn document(spec: &Spec) -> Result<String, ModelError> {
+    let mut doc = Document::default();
+    doc.open(0, Tag::new("mujoco").text("model", &spec.name));
+    let compiler = Tag::new("compiler")
+        .text("angle", "radian")
+        .text("inertiafromgeom", "false");
+    doc.empty(1, compiler);
+    write_options(&mut doc, &spec.opt)?;
+    write_bodies(&mut doc, spec)?;
+    doc.open(1, Tag::new("actuator"));
+    for a in &spec.actuators {
+        doc.empty(2, motor(a, &spec.joints[a.joint].name));
+    }
+    doc.close(1, "actuator");
+    doc.close(0, "mujoco");
+    Ok(doc.0)
+}
+
+fn unwritable(why: &str) -> ModelError {
+    ModelError::Unwritable(format!("MJCF: {why}"))
+}
+
+fn write_options(doc: &mut Document, opt: &Options) -> Result<(), ModelError> {
+    let integrator = match opt.integrator {
+        Integrator::Euler => "Euler",
+        Integrator::Rk4 => "RK4",
+    };
+    let option = Tag::new("option")
+        .number("timestep", opt.timestep)
+        .numbers("gravity", opt.gravity.as_slice())
+        .text("integrator", integrator);
+    match (opt.integrator, opt.passive) {
+        (Integrator::Euler, PassiveMode::ImplicitDampingStiffness) => Err(unwritable(
+            "MuJoCo has no implicit joint stiffness (passive mode ImplicitDampingStiffness, \
+             DART's); its Euler integrator makes only damping implicit",
+        )),
+        (Integrator::Euler, PassiveMode::Explicit) => {
+            doc.open(1, option);
+            doc.empty(2, Tag::new("flag").text("eulerdamp", "disable"));
+            doc.close(1, "option");
+            Ok(())
+        }
+        _ => {
+            doc.empty(1, option);
+            Ok(())
+        }
+    }
+}
+
+/// The world's geoms, then the bodies, each nested in its parent.
+fn write_bodies(doc: &mut Document, spec: &Spec) -> Result<(), ModelError> {
+    if !spec.geoms.is_sorted_by_key(|g| g.body) {
+        return Err(unwritable(
+            "geoms must be grouped by body in body order, as MJCF numbers them",
+        ));
+    }
+    doc.open(1, Tag::new("worldbody"));
+    write_geoms(doc, 2, spec, 0);
+    // The bodies whose element is open, innermost last; body i's element sits
+    // at depth open.len() + 1.
+    let mut open = vec![0];
+    for (i, body) in spec.bodies.iter().enumerate().skip(1) {
+        while open.last() != Some(&body.parent) {
+            if open.len() == 1 {
+                return Err(unwritable(&format!(
+                    "body '{}' is not in depth-first order, as MJCF numbers bodies",
+                    body.name
+                )));
+            }
+            open.pop();
+            doc.close(open.len() + 1, "body");
+        }
+        write_body(doc, open.len() + 1, spec, i);
+        open.push(i);
+    }
+    while open.len() > 1 {
+        open.pop();
+        doc.close(open.len() + 1, "body");
+    }
+    doc.close(1, "worldbody");
+    Ok(())
+}
+
+/// Opens body `b`'s element and writes its joints, inertial and geoms.
+fn write_body(doc: &mut Document, depth: usize, spec: &Spec, b: usize) {
+    let body = &spec.bodies[b];
+    let tag = Tag::new("body")
+        .text("name", &body.name)
+        .numbers("pos", body.pos.as_slice())
+        .numbers("quat", &quat(&body.rot));
+    doc.open(depth, tag);
+    for joint in &spec.joints[body.joints.clone()] {
+        doc.empty(depth + 1, joint_tag(joint));
+    }
+    doc.empty(depth + 1, inertial(body));
+    write_geoms(doc, depth + 1, spec, b);
+}
+
+fn joint_tag(j: &Joint) -> Tag {
+    let kind = match j.kind {
+        JointKind::Hinge => "hinge",
+        JointKind::Slide => "slide",
+    };
+    Tag::new("joint")
+        .text("name", &j.name)
+        .text("type", kind)
+        .numbers("axis", j.axis.as_slice())
+        .numbers("pos", j.anchor.as_slice())
+        .number("ref", j.reference)
+        .number("damping", j.damping)
+        .number("stiffness", j.stiffness)
+        .number("springref", j.springref)
+        .number("armature", j.armature)
+        .number("frictionloss", j.frictionloss)
+        .limits("limited", "range", j.range)
+}
+
+/// `diaginertia` for a diagonal tensor (it reads back exactly), else
+/// `fullinertia`.
+fn inertial(body: &Body) -> Tag {
+    let tag = Tag::new("inertial")
+        .numbers("pos", body.com.as_slice())
+        .number("mass", body.mass);
+    let six = xml::inertia_numbers(&body.inertia);
+    match six {
+        [xx, yy, zz, 0.0, 0.0, 0.0] => tag.numbers("diaginertia", &[xx, yy, zz]),
+        _ => tag.numbers("fullinertia", &six),
+    }
+}
+
+fn write_geoms(doc: &mut Document, depth: usize, spec: &Spec, body: usize) {
+    for geom in spec.geoms.iter().filter(|g| g.body == body) {
+        doc.empty(depth, geom_tag(geom));
+    }
+}
+
+fn geom_tag(g: &Geom) -> Tag {
+    let (kind, size) = match g.shape {
+        // MuJoCo's size of an infinite plane with unit grid spacing.
+        Shape::Plane => ("plane", vec![0.0, 0.0, 1.0]),
+        Shape::Sphere { radius } => ("sphere", vec![radius]),
+        Shape::Capsule {
+            radius,
+            half_length,
+        } => ("capsule", vec![radius, half_length]),
+        Shape::Cylinder {
+            radius,
+            half_length,
+        } => ("cylinder", vec![radius, half_length]),
+        Shape::Box { half } => ("box", half.as_slice().to_vec()),
+        Shape::Ellipsoid { radii } => ("ellipsoid", radii.as_slice().to_vec()),
+    };
+    Tag::new("geom")
+        .text("name", &g.name)
+        .text("type", kind)
+        .numbers("size", &size)
+        .numbers("pos", g.pos.as_slice())
+        .numbers("quat", &quat(&g.rot))
+        .text("contype", &g.contype.to_string())
+        .text("conaffinity", &g.conaffinity.to_string())
+        .numbers("friction", &g.friction)
+}
+
+fn motor(a: &Actuator, joint: &str) -> Tag {
+    Tag::new("motor")
+        .text("name", &a.name)
+        .text("joint", joint)
+        .number("gear", a.gear)
+        .limits("ctrllimited", "ctrlrange", a.ctrl_range)
+}
+
+/// The unit quaternion (w x y z) of a rotation.
+fn quat(rot: &Rotation3<f64>) -> [f64; 4] {
+    let q = UnitQuaternion::from_rotation_matrix(rot);
+    [q.w, q.i, q.j, q.k]
+}
+
+/// The document so far, indented by two spaces per level.
+#[derive(Default)]
+struct Document(String);
+
+impl Document {
+    fn line(&mut self, depth: usize, text: &str) {
+        self.0.push_str(&"  ".repeat(depth));
+        self.0.push_str(text);
+        self.0.push('\n');
+    }
+
+    fn open(&mut self, depth: usize, tag: Tag) {
+        self.line(depth, &format!("{}>", tag.0));
+    }
+
+    fn empty(&mut self, depth: usize, tag: Tag) {
+        self.line(depth, &format!("{}/>", tag.0));
+    }
+
+    fn close(&mut self, depth: usize, name: &str) {
+        self.line(depth, &format!("</{name}>"));
+    }
+}
+
+/// A start tag being built: `<name key="value" ...`.
+struct Tag(String);
+
+impl Tag {
+    fn new(name: &str) -> Tag {
+        Tag(format!("<{name}"))
+    }
+
+    fn text(mut self, key: &str, value: &str) -> Tag {
+        let value = value
+            .replace('&', "&amp;")
+            .replace('<', "&lt;")
+            .replace('"', "&quot;");
+        self.0.push_str(&format!(" {key}=\"{value}\""));
+        self
+    }
+
+    fn numbers(self, key: &str, values: &[f64]) -> Tag {
+        let words: Vec<String> = values.iter().map(|x| format!("{x:?}")).collect();
+        self.text(key, &words.join(" "))
+    }
+
+    fn number(self, key: &str, value: f64) -> Tag {
+        self.numbers(key, &[value])
+    }
+
+    /// MuJoCo's pair of a `limited` flag and its range.
+    fn limits(self, limited: &str, key: &str, range: Option<(f64, f64)>) -> Tag {
+        match range {
+            Some((lo, hi)) => self.text(limited, "true").numbers(key, &[lo, hi]),
+            None => self.text(limited, "false"),
+        }
+    }
+}
