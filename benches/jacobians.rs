@@ -7,27 +7,43 @@ use diffosi::Model;
 use std::hint::black_box;
 
 fn load(name: &str) -> Model {
-    Model::load(format!("{}/reference_models/{name}.xml", env!("CARGO_MANIFEST_DIR"))).unwrap()
+    Model::load(format!(
+        "{}/reference_models/{name}.xml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap()
 }
 
 /// A fixed, non-trivial state: q a little off the reference, v and tau nonzero.
 fn state(model: &Model) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let n = model.nv();
-    let q = model.reference_q().iter().enumerate().map(|(i, q)| q + 0.1 * (i as f64 + 1.0).sin()).collect();
+    let q = model
+        .reference_q()
+        .iter()
+        .enumerate()
+        .map(|(i, q)| q + 0.1 * (i as f64 + 1.0).sin())
+        .collect();
     let v = (0..n).map(|i| 0.5 * (i as f64 + 2.0).cos()).collect();
     let tau = (0..n).map(|i| (i as f64 + 3.0).sin()).collect();
     (q, v, tau)
 }
 
 /// Forward differences of the step over (q, v, tau): 3n + 1 steps.
-fn finite_difference_jacobian(model: &Model, data: &mut diffosi::dynamics::Data<f64>, x: [&[f64]; 3], out: &mut [f64]) {
+fn finite_difference_jacobian(
+    model: &Model,
+    data: &mut diffosi::dynamics::Data<f64>,
+    x: [&[f64]; 3],
+    out: &mut [f64],
+) {
     let n = model.nv();
     let (q0, v0) = model.step(data, x[0], x[1], x[2]).unwrap();
     let mut inputs = [x[0].to_vec(), x[1].to_vec(), x[2].to_vec()];
     for k in 0..3 * n {
         let eps = 1e-7;
         inputs[k / n][k % n] += eps;
-        let (q1, v1) = model.step(data, &inputs[0], &inputs[1], &inputs[2]).unwrap();
+        let (q1, v1) = model
+            .step(data, &inputs[0], &inputs[1], &inputs[2])
+            .unwrap();
         inputs[k / n][k % n] -= eps;
         for i in 0..n {
             out[k * 2 * n + i] = (q1[i] - q0[i]) / eps;
@@ -42,8 +58,15 @@ fn bench_model(c: &mut Criterion, name: &str, param: &str) {
     let mut ws = Workspace::new(&model);
     let mut data = model.data();
     let one = [model.param(param).unwrap()];
-    let full = Wrt { state: true, control: true, params: &[] };
-    let one_param = Wrt { params: &one, ..Wrt::default() };
+    let full = Wrt {
+        state: true,
+        control: true,
+        params: &[],
+    };
+    let one_param = Wrt {
+        params: &one,
+        ..Wrt::default()
+    };
     c.bench_function(&format!("jacobian_step/{name}"), |b| {
         b.iter(|| model.step(&mut data, black_box(&q), &v, &tau).unwrap())
     });
@@ -55,7 +78,9 @@ fn bench_model(c: &mut Criterion, name: &str, param: &str) {
     });
     let mut out = vec![0.0; 6 * model.nv() * model.nv()];
     c.bench_function(&format!("jacobian_fd/{name}"), |b| {
-        b.iter(|| finite_difference_jacobian(&model, &mut data, [black_box(&q), &v, &tau], &mut out))
+        b.iter(|| {
+            finite_difference_jacobian(&model, &mut data, [black_box(&q), &v, &tau], &mut out)
+        })
     });
 }
 

@@ -274,7 +274,11 @@ fn ltdl_factorization_solves_like_cholesky() {
     for model in models() {
         let (q, _, tau) = random_state(&model, 4);
         let m = mass_matrix(&model, &q);
-        let want = m.clone().cholesky().unwrap().solve(&DVector::from_column_slice(&tau));
+        let want = m
+            .clone()
+            .cholesky()
+            .unwrap()
+            .solve(&DVector::from_column_slice(&tau));
         let mut factored = m.clone();
         ltdl_factor(model.tree(), &mut factored);
         let mut x = tau.clone();

@@ -42,7 +42,11 @@ pub fn residual_derivative(
             body_force_to_joints(tree, data, node, df, out);
         }
         Param::Damping(i) => {
-            let implicit = if mode == PassiveMode::Explicit { 0.0 } else { h };
+            let implicit = if mode == PassiveMode::Explicit {
+                0.0
+            } else {
+                h
+            };
             out[i] = implicit * a[i] + v[i];
         }
         Param::Stiffness(i) => {
@@ -91,7 +95,14 @@ fn inertia_derivative(
         _ => 2,
     };
     let seed = |f: usize, c: usize, x: f64| {
-        Dual64::new(x, if (f, c) == (field, component) { 1.0 } else { 0.0 })
+        Dual64::new(
+            x,
+            if (f, c) == (field, component) {
+                1.0
+            } else {
+                0.0
+            },
+        )
     };
     let mass = seed(0, 0, body.mass);
     let com = Vector3::from_fn(|r, _| seed(1, r, body.com[r]));

@@ -14,7 +14,7 @@
 //!
 //! A change of qd_j starts with d v_j = S_j, d a_j = v_j x S_j instead.
 
-use nalgebra::DMatrix;
+use nalgebra::DMatrixViewMut;
 
 #[cfg(doc)]
 use crate::dynamics::rnea;
@@ -56,8 +56,8 @@ pub fn rnea_derivatives(
     data: &Data<f64>,
     sweep: &mut Sweep,
     v: &[f64],
-    d_dq: &mut DMatrix<f64>,
-    d_dv: &mut DMatrix<f64>,
+    mut d_dq: DMatrixViewMut<f64>,
+    mut d_dv: DMatrixViewMut<f64>,
 ) {
     for i in 0..tree.nv() {
         sweep.momentum[i] = tree.inertia[i].mul_motion(&data.vel[i]);

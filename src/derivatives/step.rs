@@ -8,7 +8,7 @@ use crate::dynamics::{
     acceleration, check_inputs, crba, implicit_terms, integrate_euler, ltdl_factor,
     ltdl_solve_columns, rnea, step,
 };
-use crate::dynamics::{Data, StepError};
+use crate::dynamics::{Data, StepError, Tree};
 use crate::model::{Integrator, Model, Param, PassiveMode};
 
 /// Which Jacobian blocks to compute; only these directions are seeded.
@@ -218,6 +218,20 @@ fn rk4(
     (total.rows(0, n).into_owned(), total.rows(n, n).into_owned())
 }
 
+/// -M^-1 R for M factored by `ltdl_factor`: column by column when R is
+/// narrow, through M^-1 and one matrix product when it has more than n columns.
+fn solve_negated(tree: &Tree<f64>, factored: &DMatrix<f64>, mut r: DMatrix<f64>) -> DMatrix<f64> {
+    let n = tree.nv();
+    if r.ncols() <= n {
+        ltdl_solve_columns(tree, factored, &mut r);
+        -r
+    } else {
+        let mut inverse = DMatrix::identity(n, n);
+        ltdl_solve_columns(tree, factored, &mut inverse);
+        -(inverse * r)
+    }
+}
+
 /// The acceleration at (q, v, tau) under (mode, h) and its derivatives.
 fn accel_derivatives(
     model: &Model,
@@ -240,29 +254,29 @@ fn accel_derivatives(
     // Velocities, accelerations and forces at the solution, for both blocks.
     rnea(tree, &mut ws.data, q, v, &qdd, &mut ws.tau);
 
-    let mut state = DMatrix::zeros(n, 0);
-    if wrt.state {
-        let (mut r_q, mut r_v) = (DMatrix::zeros(n, n), DMatrix::zeros(n, n));
-        rnea_derivatives(tree, &ws.data, &mut ws.sweep, v, &mut r_q, &mut r_v);
-        // The passive force -D v - K (q_spring - springref), q_spring = q (+ h v for DART).
-        let spring_v = if mode == PassiveMode::ImplicitDampingStiffness { h } else { 0.0 };
-        for i in 0..n {
-            r_q[(i, i)] += tree.stiffness[i];
-            r_v[(i, i)] += tree.damping[i] + spring_v * tree.stiffness[i];
-        }
-        ltdl_solve_columns(tree, &ws.data.mass_matrix, &mut r_q);
-        ltdl_solve_columns(tree, &ws.data.mass_matrix, &mut r_v);
-        state = DMatrix::zeros(n, 2 * n);
-        state.columns_mut(0, n).copy_from(&-r_q);
-        state.columns_mut(n, n).copy_from(&-r_v);
-    }
+    // dR/d(columns): [q, v] if asked for, then tau, then the parameter scalars.
+    let n_state = if wrt.state { 2 * n } else { 0 };
     let n_tau = if wrt.control { n } else { 0 };
     let n_p: usize = wrt.params.iter().map(|p| p.size()).sum();
-    let mut inputs = DMatrix::zeros(n, n_tau + n_p);
-    for i in 0..n_tau {
-        inputs[(i, i)] = -1.0;
+    let mut r = DMatrix::zeros(n, n_state + n_tau + n_p);
+    if wrt.state {
+        let (r_q, r_v) = r.columns_range_pair_mut(0..n, n..2 * n);
+        rnea_derivatives(tree, &ws.data, &mut ws.sweep, v, r_q, r_v);
+        // The passive force -D v - K (q_spring - springref), q_spring = q (+ h v for DART).
+        let spring_v = if mode == PassiveMode::ImplicitDampingStiffness {
+            h
+        } else {
+            0.0
+        };
+        for i in 0..n {
+            r[(i, i)] += tree.stiffness[i];
+            r[(i, n + i)] += tree.damping[i] + spring_v * tree.stiffness[i];
+        }
     }
-    let mut col = n_tau;
+    for i in 0..n_tau {
+        r[(i, n_state + i)] = -1.0;
+    }
+    let mut col = n_state + n_tau;
     for &param in wrt.params {
         for component in 0..param.size() {
             residual_derivative(
@@ -273,11 +287,12 @@ fn accel_derivatives(
                 (param, component),
                 &mut ws.tau,
             );
-            inputs.column_mut(col).copy_from_slice(&ws.tau);
+            r.column_mut(col).copy_from_slice(&ws.tau);
             col += 1;
         }
     }
-    ltdl_solve_columns(tree, &ws.data.mass_matrix, &mut inputs);
-    inputs.neg_mut();
+    let dqdd = solve_negated(tree, &ws.data.mass_matrix, r);
+    let state = dqdd.columns(0, n_state).into_owned();
+    let inputs = dqdd.columns(n_state, dqdd.ncols() - n_state).into_owned();
     AccelDerivatives { qdd, state, inputs }
 }

@@ -17,8 +17,8 @@ pub fn ltdl_factor<T: Real>(tree: &Tree<T>, m: &mut DMatrix<T>) {
             let a = m[(k, ii)] / m[(k, k)];
             let mut j = Some(ii);
             while let Some(jj) = j {
-                let mkj = m[(k, jj)];
-                m[(ii, jj)] -= a * mkj;
+                let m_kj = m[(k, jj)];
+                m[(ii, jj)] -= a * m_kj;
                 j = tree.parent[jj];
             }
             m[(k, ii)] = a;
@@ -30,20 +30,22 @@ pub fn ltdl_factor<T: Real>(tree: &Tree<T>, m: &mut DMatrix<T>) {
 /// Solves M x = b in place for one right-hand side, M factored by [`ltdl_factor`].
 pub fn ltdl_solve<T: Real>(tree: &Tree<T>, m: &DMatrix<T>, b: &mut [T]) {
     let n = tree.nv();
+    // Column-major storage: entry (k, j) at k + j n.
+    let m = m.as_slice();
     for k in (0..n).rev() {
         let mut j = tree.parent[k];
         while let Some(jj) = j {
-            b[jj] -= m[(k, jj)] * b[k];
+            b[jj] -= m[k + jj * n] * b[k];
             j = tree.parent[jj];
         }
     }
-    for k in 0..n {
-        b[k] /= m[(k, k)];
+    for (k, bk) in b.iter_mut().enumerate() {
+        *bk /= m[k + k * n];
     }
     for k in 0..n {
         let mut j = tree.parent[k];
         while let Some(jj) = j {
-            b[k] -= m[(k, jj)] * b[jj];
+            b[k] -= m[k + jj * n] * b[jj];
             j = tree.parent[jj];
         }
     }
@@ -51,7 +53,8 @@ pub fn ltdl_solve<T: Real>(tree: &Tree<T>, m: &DMatrix<T>, b: &mut [T]) {
 
 /// Solves M X = B in place, column by column.
 pub fn ltdl_solve_columns(tree: &Tree<f64>, m: &DMatrix<f64>, b: &mut DMatrix<f64>) {
-    for mut column in b.column_iter_mut() {
-        ltdl_solve(tree, m, column.as_mut_slice());
+    let n = tree.nv();
+    for column in b.as_mut_slice().chunks_exact_mut(n) {
+        ltdl_solve(tree, m, column);
     }
 }
