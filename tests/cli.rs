@@ -121,3 +121,69 @@ fn simulate_explains_bad_input() {
     ]);
     assert!(!ok && err.contains("v[1] is not finite"), "{err}");
 }
+
+#[test]
+fn jacobian_prints_the_library_result_as_json() {
+    let (ok, out, err) = diffosi(&[
+        "jacobian",
+        "reference_models/cartpole.xml",
+        "--q",
+        "0.1,0.2",
+        "--v",
+        "-0.3,0.4",
+        "--tau",
+        "2,0",
+        "--params",
+        "body/pole/com,joint/hinge/damping",
+        "--json",
+    ]);
+    assert!(ok, "{err}");
+    let json: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let model = diffosi::Model::load("reference_models/cartpole.xml").unwrap();
+    let params = [
+        model.param("body/pole/com").unwrap(),
+        model.param("joint/hinge/damping").unwrap(),
+    ];
+    let wrt = diffosi::derivatives::Wrt {
+        state: true,
+        control: true,
+        params: &params,
+    };
+    let mut ws = diffosi::derivatives::Workspace::new(&model);
+    let j = diffosi::derivatives::step_jacobians(
+        &model,
+        &mut ws,
+        (&[0.1, 0.2], &[-0.3, 0.4], &[2.0, 0.0]),
+        &wrt,
+    )
+    .unwrap();
+    let matrix =
+        |name: &str| -> Vec<Vec<f64>> { serde_json::from_value(json[name].clone()).unwrap() };
+    assert_eq!(matrix("dv_dp").len(), 2);
+    for (r, row) in matrix("dv_dp").iter().enumerate() {
+        assert_eq!(row.len(), 4);
+        for (c, x) in row.iter().enumerate() {
+            assert_eq!(*x, j.dv_dp[(r, c)]);
+        }
+    }
+    assert_eq!(matrix("dq_dtau")[1][1], j.dq_dtau[(1, 1)]);
+    let v_next: Vec<f64> = serde_json::from_value(json["v_next"].clone()).unwrap();
+    assert_eq!(v_next, j.v_next);
+}
+
+#[test]
+fn jacobian_explains_bad_input() {
+    let (ok, _, err) = diffosi(&[
+        "jacobian",
+        "reference_models/cartpole.xml",
+        "--params",
+        "body/pole/colour",
+    ]);
+    assert!(
+        !ok && err
+            .contains("unknown parameter 'body/pole/colour': body fields are mass, com, inertia"),
+        "{err}"
+    );
+    let (ok, _, err) = diffosi(&["jacobian", "reference_models/cartpole.xml", "--q", "0,inf"]);
+    assert!(!ok && err.contains("q[1] is not finite"), "{err}");
+}

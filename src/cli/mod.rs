@@ -1,0 +1,4 @@
+//! The subcommands of the `diffosi` binary, one file each.
+
+pub mod jacobian;
+pub mod simulate;

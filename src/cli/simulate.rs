@@ -1,0 +1,112 @@
+//! `diffosi simulate`: a rollout written as CSV.
+
+use std::io::Write;
+
+use diffosi::Model;
+use indicatif::{ProgressBar, ProgressStyle};
+
+pub fn simulate(
+    path: &std::path::Path,
+    steps: usize,
+    torques: Option<&std::path::Path>,
+    q0: Option<Vec<f64>>,
+    v0: Option<Vec<f64>>,
+    output: &std::path::Path,
+) -> Result<(), String> {
+    let model = Model::load(path).map_err(|e| e.to_string())?;
+    let q0 = q0.unwrap_or_else(|| model.reference_q());
+    let v0 = v0.unwrap_or_else(|| vec![0.0; model.nv()]);
+    let taus = match torques {
+        Some(file) => read_torques(file, model.nv(), steps)?,
+        None => vec![vec![0.0; model.nv()]; steps],
+    };
+    let bar = ProgressBar::new(steps as u64).with_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} steps {elapsed}<{eta}")
+            .expect("valid template"),
+    );
+    let mut data = model.data();
+    let (mut q, mut v) = (q0, v0);
+    let file = std::fs::File::create(output)
+        .map_err(|e| format!("cannot write {}: {e}", output.display()))?;
+    let mut out = std::io::BufWriter::new(file);
+    let io = |e: std::io::Error| format!("cannot write {}: {e}", output.display());
+    let names = model.joints.iter().map(|j| j.name.as_str());
+    let header: Vec<String> = std::iter::once("t".to_string())
+        .chain(names.clone().map(|n| format!("q_{n}")))
+        .chain(names.map(|n| format!("v_{n}")))
+        .collect();
+    writeln!(out, "{}", header.join(",")).map_err(io)?;
+    let started = std::time::Instant::now();
+    for (t, tau) in std::iter::once(None)
+        .chain(taus.iter().map(Some))
+        .enumerate()
+    {
+        if let Some(tau) = tau {
+            (q, v) = model
+                .step(&mut data, &q, &v, tau)
+                .map_err(|e| format!("step {}: {e}", t - 1))?;
+            bar.inc(1);
+        }
+        let time = t as f64 * model.opt.timestep;
+        let row: Vec<String> = std::iter::once(time)
+            .chain(q.iter().copied())
+            .chain(v.iter().copied())
+            .map(|x| format!("{x:e}"))
+            .collect();
+        writeln!(out, "{}", row.join(",")).map_err(io)?;
+    }
+    out.flush().map_err(io)?;
+    bar.finish_and_clear();
+    eprintln!(
+        "simulated {steps} steps of {} (nq {}) in {:.3} s; wrote {}",
+        model.name,
+        model.nq(),
+        started.elapsed().as_secs_f64(),
+        output.display()
+    );
+    Ok(())
+}
+
+/// Reads `steps` rows of `nv` numbers; a first row that is not numeric is a header.
+fn read_torques(path: &std::path::Path, nv: usize, steps: usize) -> Result<Vec<Vec<f64>>, String> {
+    let shown = path.display();
+    let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {shown}: {e}"))?;
+    let mut rows = vec![];
+    for (i, line) in text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty())
+    {
+        let parsed: Result<Vec<f64>, _> =
+            line.split(',').map(|x| x.trim().parse::<f64>()).collect();
+        match parsed {
+            Ok(row) if row.len() == nv => {
+                if let Some(bad) = row.iter().position(|x| !x.is_finite()) {
+                    return Err(format!(
+                        "{shown}:{}: value {} is not finite",
+                        i + 1,
+                        bad + 1
+                    ));
+                }
+                rows.push(row)
+            }
+            Ok(row) => {
+                return Err(format!(
+                    "{shown}:{}: {} values, expected nv = {nv}",
+                    i + 1,
+                    row.len()
+                ))
+            }
+            Err(_) if i == 0 && rows.is_empty() => continue, // header
+            Err(e) => return Err(format!("{shown}:{}: {e}", i + 1)),
+        }
+    }
+    if rows.len() < steps {
+        return Err(format!(
+            "{shown} has {} rows of torques, --steps asks for {steps}",
+            rows.len()
+        ));
+    }
+    rows.truncate(steps);
+    Ok(rows)
+}
