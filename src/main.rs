@@ -46,15 +46,8 @@ enum Command {
     Jacobian {
         /// Model file: .xml (MJCF) or .urdf.
         model: PathBuf,
-        /// Positions (nq values, comma separated); the reference configuration if omitted.
-        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
-        q: Option<Vec<f64>>,
-        /// Velocities (nv values); zero if omitted.
-        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
-        v: Option<Vec<f64>>,
-        /// Generalized forces (nv values); zero if omitted.
-        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
-        tau: Option<Vec<f64>>,
+        #[command(flatten)]
+        state: cli::jacobian::State,
         /// Named parameters, comma separated (e.g. body/pole/com,joint/hinge/damping).
         #[arg(long, value_delimiter = ',')]
         params: Vec<String>,
@@ -76,12 +69,10 @@ fn main() -> ExitCode {
         } => cli::simulate::simulate(&model, steps, torques.as_deref(), q0, v0, &output),
         Command::Jacobian {
             model,
-            q,
-            v,
-            tau,
+            state,
             params,
             json,
-        } => cli::jacobian::jacobian(&model, (q, v, tau), &params, json),
+        } => cli::jacobian::jacobian(&model, state, &params, json),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

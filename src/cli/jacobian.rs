@@ -5,16 +5,30 @@ use diffosi::Model;
 use nalgebra::DMatrix;
 use serde_json::json;
 
+/// The point of the step.
+#[derive(clap::Args)]
+pub struct State {
+    /// Positions (nq values, comma separated); the reference configuration if omitted.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    q: Option<Vec<f64>>,
+    /// Velocities (nv values); zero if omitted.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    v: Option<Vec<f64>>,
+    /// Generalized forces (nv values); zero if omitted.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    tau: Option<Vec<f64>>,
+}
+
 pub fn jacobian(
     path: &std::path::Path,
-    (q, v, tau): (Option<Vec<f64>>, Option<Vec<f64>>, Option<Vec<f64>>),
+    state: State,
     names: &[String],
     as_json: bool,
 ) -> Result<(), String> {
     let model = Model::load(path).map_err(|e| e.to_string())?;
-    let q = q.unwrap_or_else(|| model.reference_q());
-    let v = v.unwrap_or_else(|| vec![0.0; model.nv()]);
-    let tau = tau.unwrap_or_else(|| vec![0.0; model.nv()]);
+    let q = state.q.unwrap_or_else(|| model.reference_q());
+    let v = state.v.unwrap_or_else(|| vec![0.0; model.nv()]);
+    let tau = state.tau.unwrap_or_else(|| vec![0.0; model.nv()]);
     let params = names
         .iter()
         .map(|name| model.param(name))
