@@ -27,7 +27,7 @@ test: setup
 	cargo test --release --locked
 
 bench: setup
-	cargo bench --bench step
+	cargo bench
 	$(VENV)/bin/python scripts/bench_reference.py
 
 # Regenerates the reference engines' golden data (committed; see reference_models/golden/README.md).

@@ -1,10 +1,18 @@
-"""Step timings of MuJoCo on our reference models, next to ours from criterion.
+"""Timings of the reference engines on our models, next to ours from criterion.
 
-Run by `make bench` after `cargo bench --bench step`: times MuJoCo's mj_step on
-the same MJCF files with contacts disabled (our engine has no contact yet),
-reads criterion's estimates for our step, and writes the ratio table to
-reports/bench-step.md. MuJoCo is timed with mj_step(..., nstep=N), a loop in C,
-so no Python call overhead enters its figure.
+Run by `make bench` right after `cargo bench` (same machine, same run). Writes
+reports/bench.md with ratios (reference time / our time; > 1 means we are
+faster):
+
+- step: MuJoCo mj_step(..., nstep=N), a loop in C, contacts off (our engine
+  has no contact yet);
+- step Jacobian d(x')/d(x, u): MuJoCo's forward finite differences
+  (mjd_transitionFD), and Pinocchio's analytic ABA derivatives
+  (computeABADerivatives, which excludes the step itself), both called from
+  Python, so each includes ~0.3-1 us of call overhead;
+- one-parameter Jacobian: ours only; the paper's engine (NimblePhysics) needed
+  52 us (cartpole) and 395 us (half cheetah) for a Gauss-Newton update per
+  transition on this machine class (shared/notes/reference-engines.md).
 """
 import json
 import pathlib
@@ -12,47 +20,96 @@ import time
 
 import mujoco
 import numpy as np
+import pinocchio
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 MODELS = ["cartpole", "half_cheetah"]
 
 
-def mujoco_step_seconds(name, nstep=20000, repeats=7):
-    model = mujoco.MjModel.from_xml_path(str(ROOT / "reference_models" / f"{name}.xml"))
-    # Contacts off: the comparison is of contact-free articulated dynamics.
-    model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
-    data = mujoco.MjData(model)
+def median_seconds(call, inner, repeats=7):
     times = []
     for _ in range(repeats):
-        mujoco.mj_resetData(model, data)
         start = time.perf_counter()
-        mujoco.mj_step(model, data, nstep=nstep)
-        times.append((time.perf_counter() - start) / nstep)
+        call()
+        times.append((time.perf_counter() - start) / inner)
     return float(np.median(times))
 
 
-def ours_seconds(name):
-    path = ROOT / "target" / "criterion" / f"step_{name}" / "new" / "estimates.json"
+def mujoco_model(name):
+    model = mujoco.MjModel.from_xml_path(str(ROOT / "reference_models" / f"{name}.xml"))
+    # Contacts off: the comparison is of contact-free articulated dynamics.
+    model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+    return model, mujoco.MjData(model)
+
+
+def mujoco_step(name, nstep=20000):
+    model, data = mujoco_model(name)
+    return median_seconds(lambda: mujoco.mj_step(model, data, nstep=nstep), nstep)
+
+
+def mujoco_transition_fd(name, calls=2000):
+    model, data = mujoco_model(name)
+    n = 2 * model.nv + model.na
+    a = np.zeros((n, n))
+    b = np.zeros((n, model.nu))
+
+    def run():
+        for _ in range(calls):
+            mujoco.mjd_transitionFD(model, data, 1e-6, False, a, b, None, None)
+
+    return median_seconds(run, calls)
+
+
+def pinocchio_aba_derivatives(name, calls=20000):
+    model = pinocchio.buildModelFromUrdf(str(ROOT / "reference_models" / f"{name}.urdf"))
+    data = model.createData()
+    q = pinocchio.neutral(model)
+    v = np.linspace(-0.5, 0.5, model.nv)
+    tau = np.linspace(-1.0, 1.0, model.nv)
+
+    def run():
+        for _ in range(calls):
+            pinocchio.computeABADerivatives(model, data, q, v, tau)
+
+    return median_seconds(run, calls)
+
+
+def ours(bench):
+    path = ROOT / "target" / "criterion" / bench / "new" / "estimates.json"
     if not path.exists():
-        raise SystemExit(f"{path} missing: run `cargo bench --bench step` first")
+        raise SystemExit(f"{path} missing: run `cargo bench` first")
     return json.loads(path.read_text())["median"]["point_estimate"] * 1e-9
 
 
+def row(what, name, ours_s, theirs):
+    cells = [f"{what}", name, f"{ours_s * 1e6:.2f}"]
+    for seconds in theirs:
+        cells.append("—" if seconds is None else f"{seconds * 1e6:.2f} ({seconds / ours_s:.1f}x)")
+    return "| " + " | ".join(cells) + " |"
+
+
 def main():
-    rows = []
+    lines = [
+        "| what | model | diffosi (µs) | MuJoCo (µs, ratio) | Pinocchio (µs, ratio) |",
+        "|---|---|---|---|---|",
+    ]
     for name in MODELS:
-        theirs, ours = mujoco_step_seconds(name), ours_seconds(name)
-        rows.append(f"| {name} | {ours * 1e6:.3f} | {theirs * 1e6:.3f} | {theirs / ours:.2f}x |")
-    table = "\n".join(
-        [
-            "| model (contacts off) | diffosi step (µs) | MuJoCo mj_step (µs) | MuJoCo time / ours |",
-            "|---|---|---|---|",
-            *rows,
-        ]
-    )
-    out = ROOT / "reports" / "bench-step.md"
+        lines.append(row("step", name, ours(f"step_{name}"), [mujoco_step(name), None]))
+        lines.append(
+            row(
+                "step + Jacobian d(x')/d(x,u)",
+                name,
+                ours(f"jacobian_full_{name}"),
+                [mujoco_transition_fd(name), pinocchio_aba_derivatives(name)],
+            )
+        )
+        lines.append(row("step + 1-parameter Jacobian", name, ours(f"jacobian_param_{name}"), [None, None]))
+        lines.append(row("finite differences of our step", name, ours(f"jacobian_fd_{name}"), [None, None]))
+    table = "\n".join(lines)
+    versions = f"mujoco {mujoco.__version__}, pinocchio {pinocchio.__version__}; medians"
+    out = ROOT / "reports" / "bench.md"
     out.parent.mkdir(exist_ok=True)
-    out.write_text(f"# Step speed, measured in one run\n\n{table}\n\nmujoco {mujoco.__version__}; medians.\n")
+    out.write_text(f"# Speed, measured in one run\n\n{table}\n\n{versions}. Ratio = their time / ours.\n")
     print(table)
 
 
