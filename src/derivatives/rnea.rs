@@ -13,12 +13,18 @@
 //! - d ID_k = S_k . d F_k for every node k on j's subtree and ancestor path.
 //!
 //! A change of qd_j starts with d v_j = S_j, d a_j = v_j x S_j instead.
+//!
+//! Where joint j and all its ancestors are slides, q_j only translates the
+//! subtree under uniform gravity and every slide above reads only linear
+//! forces: column j of dID/dq is zero and is not swept (a floating base's
+//! slide joints, as the half cheetah's root).
 
-use nalgebra::DMatrixViewMut;
+use nalgebra::{DMatrixViewMut, DVectorViewMut};
 
 #[cfg(doc)]
 use crate::dynamics::rnea;
 use crate::dynamics::{Data, Tree};
+use crate::model::JointKind;
 use crate::spatial::{Force, Motion};
 
 /// Per-direction scratch of the sweeps.
@@ -30,6 +36,8 @@ pub struct Sweep {
     /// I_i v_i at the point.
     momentum: Vec<Force<f64>>,
     below: Vec<bool>,
+    /// Node and all its ancestors are slides.
+    translational: Vec<bool>,
     /// d ID of the current direction.
     tau: Vec<f64>,
 }
@@ -42,6 +50,7 @@ impl Sweep {
             df: vec![Force::zero(); n],
             momentum: vec![Force::zero(); n],
             below: vec![false; n],
+            translational: vec![false; n],
             tau: vec![0.0; n],
         }
     }
@@ -64,22 +73,41 @@ pub fn rnea_derivatives(
     }
     for j in 0..tree.nv() {
         let s = tree.joint[j].s;
-        // Position of j: its frame turns relative to the parent.
-        let parent_acc = match tree.parent[j] {
-            Some(p) => data.acc[p],
-            None => Motion::new(nalgebra::Vector3::zeros(), -tree.gravity),
-        };
-        let dv = -s.cross_motion(&data.vel[j]);
-        let da =
-            -s.cross_motion(&data.x_up[j].apply_motion(&parent_acc)) + dv.cross_motion(&(s * v[j]));
-        let turn = s.cross_force(&data.force[j]);
-        propagate(tree, data, sweep, v, j, (dv, da), turn);
-        d_dq.column_mut(j).copy_from_slice(&sweep.tau);
+        let translational = tree.joint[j].kind == JointKind::Slide
+            && tree.parent[j].is_none_or(|p| sweep.translational[p]);
+        sweep.translational[j] = translational;
+        if translational {
+            d_dq.column_mut(j).fill(0.0);
+        } else {
+            position_column(tree, data, sweep, v, j, d_dq.column_mut(j));
+        }
         // Velocity of j.
         let da = data.vel[j].cross_motion(&s);
         propagate(tree, data, sweep, v, j, (s, da), Force::zero());
         d_dv.column_mut(j).copy_from_slice(&sweep.tau);
     }
+}
+
+/// Column j of dID/dq: q_j turns node j's frame relative to its parent.
+fn position_column(
+    tree: &Tree<f64>,
+    data: &Data<f64>,
+    sweep: &mut Sweep,
+    v: &[f64],
+    j: usize,
+    mut column: DVectorViewMut<f64>,
+) {
+    let s = tree.joint[j].s;
+    let parent_acc = match tree.parent[j] {
+        Some(p) => data.acc[p],
+        None => Motion::new(nalgebra::Vector3::zeros(), -tree.gravity),
+    };
+    let dv = -s.cross_motion(&data.vel[j]);
+    let da =
+        -s.cross_motion(&data.x_up[j].apply_motion(&parent_acc)) + dv.cross_motion(&(s * v[j]));
+    let turn = s.cross_force(&data.force[j]);
+    propagate(tree, data, sweep, v, j, (dv, da), turn);
+    column.copy_from_slice(&sweep.tau);
 }
 
 /// Pushes a perturbation (dv_j, da_j) of node j through its subtree and the

@@ -8,7 +8,7 @@ use crate::dynamics::{
     acceleration, check_inputs, crba, implicit_terms, integrate_euler, ltdl_factor,
     ltdl_solve_columns, rnea, step,
 };
-use crate::dynamics::{Data, StepError, Tree};
+use crate::dynamics::{Data, StepError};
 use crate::model::{Integrator, Model, Param, PassiveMode};
 
 /// Which Jacobian blocks to compute; only these directions are seeded.
@@ -47,6 +47,13 @@ pub struct Workspace {
     tau: Vec<f64>,
     q_spring: Vec<f64>,
     extra: Vec<f64>,
+    /// The acceleration at the last point, and its derivatives: n x (columns),
+    /// columns [q, v] if the state was asked for, then tau, then parameters.
+    qdd: Vec<f64>,
+    dqdd: DMatrix<f64>,
+    /// dR/d(columns) before the solve, and M^-1 for wide solves.
+    r: DMatrix<f64>,
+    inverse: DMatrix<f64>,
 }
 
 impl Workspace {
@@ -58,18 +65,12 @@ impl Workspace {
             tau: vec![0.0; n],
             q_spring: vec![0.0; n],
             extra: vec![0.0; n],
+            qdd: vec![0.0; n],
+            dqdd: DMatrix::zeros(n, 0),
+            r: DMatrix::zeros(n, 0),
+            inverse: DMatrix::zeros(n, n),
         }
     }
-}
-
-/// Derivatives of the acceleration at one point: columns for (q, v) if the
-/// state was asked for, then tau, then the parameter scalars.
-struct AccelDerivatives {
-    qdd: Vec<f64>,
-    /// d qdd / d(q, v): n x 2n (or n x 0).
-    state: DMatrix<f64>,
-    /// d qdd / d(tau, p): n x (n + np) (tau columns only if asked for).
-    inputs: DMatrix<f64>,
 }
 
 /// One step of `model` from (q, v) under tau, with the Jacobians in `wrt`.
@@ -81,35 +82,27 @@ pub fn step_jacobians(
 ) -> Result<StepJacobians, StepError> {
     let n = model.nv();
     let (mut q_next, mut v_next) = (vec![0.0; n], vec![0.0; n]);
-    let (dq, dv) = match model.opt.integrator {
+    let blocks = match model.opt.integrator {
         Integrator::Euler => {
             check_inputs(n, (q, v, tau))?;
-            let (qdd, dq, dv) = euler(model, ws, (q, v, tau), wrt);
-            integrate_euler(model.opt.timestep, (q, v, &qdd), (&mut q_next, &mut v_next));
-            (dq, dv)
+            let h = model.opt.timestep;
+            accel_derivatives(model, ws, (model.opt.passive, h), (q, v, tau), wrt);
+            integrate_euler(h, (q, v, &ws.qdd), (&mut q_next, &mut v_next));
+            euler_blocks(&ws.dqdd, h, n, wrt)
         }
         Integrator::Rk4 => {
             let next = (&mut q_next[..], &mut v_next[..]);
             step(model.tree(), &model.opt, &mut ws.data, (q, v, tau), next)?;
-            rk4(model, ws, (q, v, tau), wrt)
+            let (dq, dv) = rk4(model, ws, (q, v, tau), wrt);
+            let (dq_dq, dq_dv, dq_dtau, dq_dp) = split(&dq, n, wrt);
+            let (dv_dq, dv_dv, dv_dtau, dv_dp) = split(&dv, n, wrt);
+            [dq_dq, dq_dv, dq_dtau, dq_dp, dv_dq, dv_dv, dv_dtau, dv_dp]
         }
     };
     if !q_next.iter().chain(&v_next).all(|x| x.is_finite()) {
         return Err(StepError::Diverged);
     }
-    let n_state = if wrt.state { n } else { 0 };
-    let n_tau = if wrt.control { n } else { 0 };
-    let split = |m: &DMatrix<f64>| {
-        (
-            m.columns(0, n_state).into_owned(),
-            m.columns(n_state, n_state).into_owned(),
-            m.columns(2 * n_state, n_tau).into_owned(),
-            m.columns(2 * n_state + n_tau, m.ncols() - 2 * n_state - n_tau)
-                .into_owned(),
-        )
-    };
-    let (dq_dq, dq_dv, dq_dtau, dq_dp) = split(&dq);
-    let (dv_dq, dv_dv, dv_dtau, dv_dp) = split(&dv);
+    let [dq_dq, dq_dv, dq_dtau, dq_dp, dv_dq, dv_dv, dv_dtau, dv_dp] = blocks;
     Ok(StepJacobians {
         q_next,
         v_next,
@@ -124,35 +117,46 @@ pub fn step_jacobians(
     })
 }
 
-/// Semi-implicit Euler: v' = v + h qdd, q' = q + h v'. Returns qdd, d q' and
-/// d v' with columns [q, v (if state), tau (if control), p].
-fn euler(
-    model: &Model,
-    ws: &mut Workspace,
-    x: (&[f64], &[f64], &[f64]),
+/// Column ranges of the q, v, tau and parameter blocks.
+fn block_columns(n: usize, total: usize, wrt: &Wrt) -> [(usize, usize); 4] {
+    let n_state = if wrt.state { n } else { 0 };
+    let n_tau = if wrt.control { n } else { 0 };
+    let params = 2 * n_state + n_tau;
+    [
+        (0, n_state),
+        (n_state, n_state),
+        (2 * n_state, n_tau),
+        (params, total - params),
+    ]
+}
+
+/// Splits [q, v, tau, p] columns into their blocks.
+fn split(
+    m: &DMatrix<f64>,
+    n: usize,
     wrt: &Wrt,
-) -> (Vec<f64>, DMatrix<f64>, DMatrix<f64>) {
-    let h = model.opt.timestep;
-    let d = accel_derivatives(model, ws, (model.opt.passive, h), x, wrt);
-    let n = model.nv();
-    let mut dv = DMatrix::zeros(n, d.state.ncols() + d.inputs.ncols());
-    dv.columns_mut(0, d.state.ncols())
-        .copy_from(&(&d.state * h));
-    dv.columns_mut(d.state.ncols(), d.inputs.ncols())
-        .copy_from(&(&d.inputs * h));
-    if wrt.state {
-        // v' depends on v directly too.
-        for i in 0..n {
-            dv[(i, n + i)] += 1.0;
-        }
-    }
-    let mut dq = &dv * h;
+) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+    let [a, b, c, d] =
+        block_columns(n, m.ncols(), wrt).map(|(start, len)| m.columns(start, len).into_owned());
+    (a, b, c, d)
+}
+
+/// Semi-implicit Euler: v' = v + h qdd, q' = q + h v', so d v' = h d qdd
+/// (+ I on v) and d q' = h d v' (+ I on q). Returns the eight blocks
+/// [dq_dq, dq_dv, dq_dtau, dq_dp, dv_dq, dv_dv, dv_dtau, dv_dp].
+fn euler_blocks(dqdd: &DMatrix<f64>, h: f64, n: usize, wrt: &Wrt) -> [DMatrix<f64>; 8] {
+    let columns = block_columns(n, dqdd.ncols(), wrt);
+    let dv = columns.map(|(start, len)| dqdd.columns(start, len) * h);
+    let [mut dq_dq, mut dq_dv, dq_dtau, dq_dp] = dv.each_ref().map(|m| m * h);
+    let [dv_dq, mut dv_dv, dv_dtau, dv_dp] = dv;
     if wrt.state {
         for i in 0..n {
-            dq[(i, i)] += 1.0;
+            dv_dv[(i, i)] += 1.0;
+            dq_dv[(i, i)] += h;
+            dq_dq[(i, i)] += 1.0;
         }
     }
-    (d.qdd, dq, dv)
+    [dq_dq, dq_dv, dq_dtau, dq_dp, dv_dq, dv_dv, dv_dtau, dv_dp]
 }
 
 /// Classic RK4 on x = (q, v), differentiated stage by stage: with x_1 = x,
@@ -180,15 +184,19 @@ fn rk4(
     let mut total = DMatrix::zeros(2 * n, 0);
     let (mut qs, mut vs) = (q.to_vec(), v.to_vec());
     for k in 0..4 {
-        let d = accel_derivatives(
+        accel_derivatives(
             model,
             ws,
             (PassiveMode::Explicit, h),
             (&qs, &vs, tau),
             &full,
         );
+        let (d_state, d_inputs) = (
+            ws.dqdd.columns(0, 2 * n),
+            ws.dqdd.columns(2 * n, ws.dqdd.ncols() - 2 * n),
+        );
         if k == 0 {
-            n_cols = n_state + d.inputs.ncols();
+            n_cols = n_state + d_inputs.ncols();
             dx_stage = DMatrix::zeros(2 * n, n_cols);
             for i in 0..n_state {
                 dx_stage[(i, i)] = 1.0;
@@ -198,9 +206,9 @@ fn rk4(
         // d k = [d v_stage; d qdd], with d qdd = Qx d x_stage + (direct input terms).
         let mut dk = DMatrix::zeros(2 * n, n_cols);
         dk.rows_mut(0, n).copy_from(&dx_stage.rows(n, n));
-        let mut dqdd = &d.state * &dx_stage;
+        let mut dqdd = d_state * &dx_stage;
         let mut inputs = dqdd.columns_mut(n_state, n_cols - n_state);
-        inputs += &d.inputs;
+        inputs += d_inputs;
         dk.rows_mut(n, n).copy_from(&dqdd);
         total += &dk * w[k];
         if k < 3 {
@@ -211,39 +219,25 @@ fn rk4(
             dx_stage = next;
             for i in 0..n {
                 qs[i] = q[i] + c[k] * vs[i];
-                vs[i] = v[i] + c[k] * d.qdd[i];
+                vs[i] = v[i] + c[k] * ws.qdd[i];
             }
         }
     }
     (total.rows(0, n).into_owned(), total.rows(n, n).into_owned())
 }
 
-/// -M^-1 R for M factored by `ltdl_factor`: column by column when R is
-/// narrow, through M^-1 and one matrix product when it has more than n columns.
-fn solve_negated(tree: &Tree<f64>, factored: &DMatrix<f64>, mut r: DMatrix<f64>) -> DMatrix<f64> {
-    let n = tree.nv();
-    if r.ncols() <= n {
-        ltdl_solve_columns(tree, factored, &mut r);
-        -r
-    } else {
-        let mut inverse = DMatrix::identity(n, n);
-        ltdl_solve_columns(tree, factored, &mut inverse);
-        -(inverse * r)
-    }
-}
-
-/// The acceleration at (q, v, tau) under (mode, h) and its derivatives.
+/// The acceleration at (q, v, tau) under (mode, h) into `ws.qdd`, and its
+/// derivatives -M^-1 dR/d(columns) into `ws.dqdd`.
 fn accel_derivatives(
     model: &Model,
     ws: &mut Workspace,
     (mode, h): (PassiveMode, f64),
     (q, v, tau): (&[f64], &[f64], &[f64]),
     wrt: &Wrt,
-) -> AccelDerivatives {
+) {
     let n = model.nv();
     let tree = model.tree();
-    let mut qdd = vec![0.0; n];
-    acceleration(tree, &mut ws.data, (mode, h), (q, v, tau), &mut qdd);
+    acceleration(tree, &mut ws.data, (mode, h), (q, v, tau), &mut ws.qdd);
     implicit_terms(tree, (mode, h), (q, v), &mut ws.q_spring, &mut ws.extra);
     // M + diag(extra), factored once along the tree for every column.
     crba(tree, &mut ws.data, q);
@@ -252,15 +246,14 @@ fn accel_derivatives(
     }
     ltdl_factor(tree, &mut ws.data.mass_matrix);
     // Velocities, accelerations and forces at the solution, for both blocks.
-    rnea(tree, &mut ws.data, q, v, &qdd, &mut ws.tau);
+    rnea(tree, &mut ws.data, q, v, &ws.qdd, &mut ws.tau);
 
-    // dR/d(columns): [q, v] if asked for, then tau, then the parameter scalars.
-    let n_state = if wrt.state { 2 * n } else { 0 };
-    let n_tau = if wrt.control { n } else { 0 };
+    let [_, (_, n_state), (_, n_tau), _] = block_columns(n, 0, wrt);
     let n_p: usize = wrt.params.iter().map(|p| p.size()).sum();
-    let mut r = DMatrix::zeros(n, n_state + n_tau + n_p);
+    let columns = 2 * n_state + n_tau + n_p;
+    reset(&mut ws.r, n, columns);
     if wrt.state {
-        let (r_q, r_v) = r.columns_range_pair_mut(0..n, n..2 * n);
+        let (r_q, r_v) = ws.r.columns_range_pair_mut(0..n, n..2 * n);
         rnea_derivatives(tree, &ws.data, &mut ws.sweep, v, r_q, r_v);
         // The passive force -D v - K (q_spring - springref), q_spring = q (+ h v for DART).
         let spring_v = if mode == PassiveMode::ImplicitDampingStiffness {
@@ -269,30 +262,47 @@ fn accel_derivatives(
             0.0
         };
         for i in 0..n {
-            r[(i, i)] += tree.stiffness[i];
-            r[(i, n + i)] += tree.damping[i] + spring_v * tree.stiffness[i];
+            ws.r[(i, i)] += tree.stiffness[i];
+            ws.r[(i, n + i)] += tree.damping[i] + spring_v * tree.stiffness[i];
         }
     }
     for i in 0..n_tau {
-        r[(i, n_state + i)] = -1.0;
+        ws.r[(i, 2 * n_state + i)] = -1.0;
     }
-    let mut col = n_state + n_tau;
+    let mut col = 2 * n_state + n_tau;
     for &param in wrt.params {
         for component in 0..param.size() {
+            let point = (&ws.q_spring[..], v, &ws.qdd[..]);
             residual_derivative(
                 model,
                 &ws.data,
                 (mode, h),
-                (&ws.q_spring, v, &qdd),
+                point,
                 (param, component),
                 &mut ws.tau,
             );
-            r.column_mut(col).copy_from_slice(&ws.tau);
+            ws.r.column_mut(col).copy_from_slice(&ws.tau);
             col += 1;
         }
     }
-    let dqdd = solve_negated(tree, &ws.data.mass_matrix, r);
-    let state = dqdd.columns(0, n_state).into_owned();
-    let inputs = dqdd.columns(n_state, dqdd.ncols() - n_state).into_owned();
-    AccelDerivatives { qdd, state, inputs }
+    // dqdd = -M^-1 R: column by column when R is narrow, else through M^-1.
+    reset(&mut ws.dqdd, n, columns);
+    if columns <= n {
+        ltdl_solve_columns(tree, &ws.data.mass_matrix, &mut ws.r);
+        ws.dqdd.copy_from(&ws.r);
+        ws.dqdd.neg_mut();
+    } else {
+        ws.inverse.fill_with_identity();
+        ltdl_solve_columns(tree, &ws.data.mass_matrix, &mut ws.inverse);
+        ws.dqdd.gemm(-1.0, &ws.inverse, &ws.r, 0.0);
+    }
+}
+
+/// Zeros `m`, reshaped to rows x cols (allocating only when the shape changes).
+fn reset(m: &mut DMatrix<f64>, rows: usize, cols: usize) {
+    if m.shape() == (rows, cols) {
+        m.fill(0.0);
+    } else {
+        *m = DMatrix::zeros(rows, cols);
+    }
 }
