@@ -1,32 +1,13 @@
 //! Step Jacobians next to the plain step and to finite differences of our own
 //! step, on the contact-free cartpole and half cheetah.
 
+mod common;
+
+use common::{load, state};
 use criterion::{criterion_group, criterion_main, Criterion};
 use diffosi::derivatives::{step_jacobians, Workspace, Wrt};
 use diffosi::Model;
 use std::hint::black_box;
-
-fn load(name: &str) -> Model {
-    Model::load(format!(
-        "{}/reference_models/{name}.xml",
-        env!("CARGO_MANIFEST_DIR")
-    ))
-    .unwrap()
-}
-
-/// A fixed, non-trivial state: q a little off the reference, v and tau nonzero.
-fn state(model: &Model) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
-    let n = model.nv();
-    let q = model
-        .reference_q()
-        .iter()
-        .enumerate()
-        .map(|(i, q)| q + 0.1 * (i as f64 + 1.0).sin())
-        .collect();
-    let v = (0..n).map(|i| 0.5 * (i as f64 + 2.0).cos()).collect();
-    let tau = (0..n).map(|i| (i as f64 + 3.0).sin()).collect();
-    (q, v, tau)
-}
 
 /// Forward differences of the step over (q, v, tau): 3n + 1 steps.
 fn finite_difference_jacobian(

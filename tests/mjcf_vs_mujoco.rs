@@ -13,6 +13,9 @@
 
 use std::path::{Path, PathBuf};
 
+mod common;
+
+use common::gym_assets;
 use diffosi::model::{mjcf, Integrator, JointKind, Model, ModelError, PassiveMode, Shape};
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 use serde_json::Value;
@@ -21,32 +24,6 @@ const TOL: f64 = 1e-12;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// Gymnasium's MuJoCo assets; panics with the set-up to run when absent.
-fn gym_assets() -> PathBuf {
-    if let Ok(dir) = std::env::var("DIFFOSI_GYM_ASSETS") {
-        return PathBuf::from(dir);
-    }
-    let lib = root().join(".venv/lib");
-    let found = std::fs::read_dir(&lib)
-        .into_iter()
-        .flatten()
-        .flatten()
-        .find_map(|entry| {
-            let dir = entry
-                .path()
-                .join("site-packages/gymnasium/envs/mujoco/assets");
-            (entry.file_name().to_string_lossy().starts_with("python3") && dir.is_dir())
-                .then_some(dir)
-        });
-    found.unwrap_or_else(|| {
-        panic!(
-            "gymnasium's MuJoCo assets not found under {}: run `make setup` (it installs \
-             mujoco and gymnasium into .venv) or set DIFFOSI_GYM_ASSETS",
-            lib.display()
-        )
-    })
 }
 
 /// The XML a golden file was compiled from.

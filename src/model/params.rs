@@ -164,7 +164,9 @@ impl Param {
     }
 }
 
-/// (xx yy zz xy xz yz) of a symmetric tensor.
+/// The six numbers (xx yy zz xy xz yz) of a symmetric tensor, read from its
+/// upper triangle: the order of parameters, MJCF `fullinertia` and URDF
+/// `<inertia>`.
 pub fn inertia_to_six(i: &Matrix3<f64>) -> [f64; 6] {
     [
         i[(0, 0)],
@@ -176,7 +178,7 @@ pub fn inertia_to_six(i: &Matrix3<f64>) -> [f64; 6] {
     ]
 }
 
-/// The symmetric tensor of (xx yy zz xy xz yz).
+/// The symmetric tensor of six numbers (xx yy zz xy xz yz).
 pub fn inertia_from_six(v: &[f64]) -> Matrix3<f64> {
     Matrix3::new(v[0], v[3], v[4], v[3], v[1], v[5], v[4], v[5], v[2])
 }

@@ -50,6 +50,8 @@
 use std::collections::HashMap;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
+
+use super::params::inertia_from_six;
 use roxmltree::{Document, Node};
 
 use super::{
@@ -284,7 +286,7 @@ impl<'a, 'i> Loader<'a, 'i> {
         for (value, name) in i.iter_mut().zip(["ixx", "iyy", "izz", "ixy", "ixz", "iyz"]) {
             *value = self.required_number(node, name)?;
         }
-        let tensor = xml::inertia_tensor(i);
+        let tensor = inertia_from_six(&i);
         let (com, rot) = self.origin(inertial)?;
         let inertia = rot.matrix() * tensor * rot.matrix().transpose();
         let name = self.attr(link, "name")?;

@@ -1,7 +1,6 @@
 //! What the MJCF and URDF formats share: reading the document, errors that
-//! point at an element, lists of numbers, and the six-number inertia tensor.
+//! point at an element, and lists of numbers.
 
-use nalgebra::Matrix3;
 use roxmltree::{Document, Node};
 
 use super::ModelError;
@@ -29,23 +28,4 @@ pub(super) fn numbers(text: &str) -> Option<Vec<f64>> {
     text.split_whitespace()
         .map(|word| word.parse::<f64>().ok().filter(|x| x.is_finite()))
         .collect()
-}
-
-/// An inertia tensor from its moments and products in the order both formats
-/// list them (MJCF `fullinertia`, URDF `<inertia>`): xx yy zz xy xz yz.
-pub(super) fn inertia_tensor([xx, yy, zz, xy, xz, yz]: [f64; 6]) -> Matrix3<f64> {
-    Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz)
-}
-
-/// The six numbers of a symmetric tensor, read from its upper triangle: the
-/// inverse of [`inertia_tensor`].
-pub(super) fn inertia_numbers(i: &Matrix3<f64>) -> [f64; 6] {
-    [
-        i[(0, 0)],
-        i[(1, 1)],
-        i[(2, 2)],
-        i[(0, 1)],
-        i[(0, 2)],
-        i[(1, 2)],
-    ]
 }

@@ -41,16 +41,7 @@ pub fn inertia(rng: &mut StdRng) -> Matrix3<f64> {
 /// passive parameters.
 pub fn random_model(seed: u64, n: usize, passive: PassiveMode, integrator: Integrator) -> Model {
     let mut r = rng(seed);
-    let mut bodies = vec![Body {
-        name: "world".into(),
-        parent: 0,
-        pos: Vector3::zeros(),
-        rot: Rotation3::identity(),
-        mass: 0.0,
-        com: Vector3::zeros(),
-        inertia: Matrix3::zeros(),
-        joints: 0..0,
-    }];
+    let mut bodies = vec![Body::world()];
     let mut joints = vec![];
     for b in 1..=n {
         let parent = r.random_range(0..b);

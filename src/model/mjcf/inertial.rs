@@ -14,8 +14,9 @@ use super::attributes::{value, Attrs};
 use super::orientation::ALTERNATIVES;
 use super::schema::{check_attributes, INERTIAL_ATTRS};
 use super::tree::Tree;
-use super::{xml, Node, Reader, Result, MJ_MINVAL};
+use super::{Node, Reader, Result, MJ_MINVAL};
 use crate::model::geom_inertia::{MassProperties, MJ_EPS};
+use crate::model::params::inertia_from_six;
 
 /// A body's inertial properties in MuJoCo's form: principal `moments` along
 /// the columns of `axes` (body coordinates), about `com`.
@@ -91,7 +92,7 @@ impl<'a> Reader<'a> {
         if diagonal.is_some_and(|d| d != Vector3::zeros()) {
             return Err(self.error(node, "fullinertia and diaginertia cannot both be given"));
         }
-        Principal::from_tensor(mass, com, xml::inertia_tensor(full))
+        Principal::from_tensor(mass, com, inertia_from_six(&full))
             .ok_or_else(|| self.error(node, "fullinertia must have positive eigenvalues"))
     }
 

@@ -26,7 +26,7 @@
 
 use nalgebra::{Rotation3, UnitQuaternion};
 
-use super::xml;
+use crate::model::params::inertia_to_six;
 use crate::model::{
     Actuator, Body, Geom, Integrator, Joint, JointKind, ModelError, Options, PassiveMode, Shape,
     Spec,
@@ -171,7 +171,7 @@ fn inertial(body: &Body) -> Tag {
     let tag = Tag::new("inertial")
         .numbers("pos", body.com.as_slice())
         .number("mass", body.mass);
-    let six = xml::inertia_numbers(&body.inertia);
+    let six = inertia_to_six(&body.inertia);
     match six {
         [xx, yy, zz, 0.0, 0.0, 0.0] => tag.numbers("diaginertia", &[xx, yy, zz]),
         _ => tag.numbers("fullinertia", &six),
