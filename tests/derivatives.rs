@@ -284,3 +284,23 @@ fn only_requested_blocks_are_computed() {
     assert_eq!(j.dv_dtau.shape(), (2, 0));
     assert_eq!(j.dv_dp.shape(), (2, 3));
 }
+
+#[test]
+fn a_workspace_follows_the_model_it_is_used_with() {
+    let (cartpole, cheetah) = (load("cartpole.xml"), load("half_cheetah.xml"));
+    let mut ws = Workspace::new(&cartpole);
+    let wrt = Wrt {
+        state: true,
+        ..Wrt::default()
+    };
+    let (q, v, tau) = common::random_state(&cheetah, 1);
+    let shared = step_jacobians(&cheetah, &mut ws, (&q, &v, &tau), &wrt).unwrap();
+    let own = step_jacobians(
+        &cheetah,
+        &mut Workspace::new(&cheetah),
+        (&q, &v, &tau),
+        &wrt,
+    )
+    .unwrap();
+    assert_eq!(shared, own);
+}

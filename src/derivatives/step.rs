@@ -11,7 +11,7 @@ use crate::dynamics::{
 use crate::dynamics::{Data, StepError};
 use crate::model::{Integrator, Model, Param, PassiveMode};
 
-/// Which Jacobian blocks to compute; only these directions are seeded.
+/// Which Jacobian blocks to compute; blocks not asked for cost nothing.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Wrt<'a> {
     /// d(q', v') / d(q, v)
@@ -38,7 +38,8 @@ pub struct StepJacobians {
     pub dv_dp: DMatrix<f64>,
 }
 
-/// Buffers reused across calls for one model's size.
+/// Buffers reused across calls; sized for a model's nv (and resized by
+/// [`step_jacobians`] if used with a model of another size).
 #[derive(Clone, Debug)]
 pub struct Workspace {
     data: Data<f64>,
@@ -81,6 +82,9 @@ pub fn step_jacobians(
     wrt: &Wrt,
 ) -> Result<StepJacobians, StepError> {
     let n = model.nv();
+    if ws.qdd.len() != n {
+        *ws = Workspace::new(model);
+    }
     let (mut q_next, mut v_next) = (vec![0.0; n], vec![0.0; n]);
     let blocks = match model.opt.integrator {
         Integrator::Euler => {
