@@ -4,10 +4,12 @@
 PYTHON ?= python3
 VENV := .venv
 STAMP := $(VENV)/.installed
+# The Python module `diffosi` (bindings/), built into the venv by maturin.
+MODULE := $(VENV)/.module
 
 .PHONY: setup run test bench golden
 
-setup: $(STAMP)
+setup: $(STAMP) $(MODULE)
 	cargo build --release --locked
 
 # The venv holds the reference engines (MuJoCo, PyBullet, DART) and gymnasium,
@@ -18,13 +20,21 @@ $(STAMP): requirements.txt
 	$(VENV)/bin/pip install --quiet -r requirements.txt
 	touch $(STAMP)
 
+# `maturin develop` builds the abi3 extension (release) and installs it with the
+# venv's pip; its one dependency, numpy, is already in the venv, so no index is used.
+$(MODULE): $(STAMP) $(shell find src bindings/src -name '*.rs') Cargo.toml Cargo.lock bindings/Cargo.toml pyproject.toml
+	VIRTUAL_ENV=$(abspath $(VENV)) $(VENV)/bin/maturin develop --release --locked --quiet -m bindings/Cargo.toml
+	touch $(MODULE)
+
 run: setup
 	scripts/main.sh
 
 test: setup
 	cargo fmt --check
 	cargo clippy --release --locked --all-targets -- -D warnings
+	cargo clippy --release --locked -p diffosi-python -- -D warnings
 	cargo test --release --locked
+	$(VENV)/bin/python -m pytest -q harness/tests
 
 bench: setup
 	cargo bench

@@ -1,0 +1,341 @@
+//! The Python module `diffosi` (DESIGN.md, "Python contract"): a thin layer
+//! over the engine crate that converts arrays and errors, and nothing else.
+//!
+//! Every argument goes through `numpy.asarray(x, dtype=float64)`, so lists,
+//! tuples and arrays of any real dtype work; shapes and finiteness are checked
+//! here so that the messages name the Python argument. Every engine error maps
+//! to a Python exception (`OSError` for files, `ValueError` for everything
+//! else); nothing the caller passes can reach a panic.
+
+use engine::derivatives::{step_jacobians, Workspace, Wrt};
+use engine::dynamics::Data;
+use engine::model::{Param, ParamError};
+use engine::{Model, ModelError};
+use numpy::ndarray::Array2;
+use numpy::{PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
+use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyTuple};
+
+/// A rigid-body model with its simulation buffers.
+///
+/// `Model.load(path)` reads MJCF (`.xml`) or URDF (`.urdf`). States are
+/// (q, v) with q of length nq and v of length nv; tau are generalized forces
+/// of length nv. Parameters are named as in `param_names()`.
+#[pyclass(name = "Model", module = "diffosi")]
+struct PyModel {
+    model: Model,
+    /// Scratch for `step`; rebuilt whenever the model changes.
+    data: Data<f64>,
+    /// Scratch for `step_jacobians`; rebuilt whenever the model changes.
+    ws: Workspace,
+}
+
+impl PyModel {
+    fn new(model: Model) -> Self {
+        let data = model.data();
+        let ws = Workspace::new(&model);
+        PyModel { model, data, ws }
+    }
+
+    /// Resolves parameter names, failing on the first unknown one.
+    fn params(&self, names: &[String]) -> PyResult<Vec<Param>> {
+        names
+            .iter()
+            .map(|name| self.model.param(name).map_err(param_error))
+            .collect()
+    }
+}
+
+#[pymethods]
+impl PyModel {
+    /// Loads a model: `.xml` as MJCF, `.urdf` as URDF. A missing or unreadable
+    /// file raises OSError; a file we cannot accept raises ValueError naming
+    /// the element and line.
+    #[staticmethod]
+    fn load(path: std::path::PathBuf) -> PyResult<Self> {
+        Model::load(&path).map(PyModel::new).map_err(model_error)
+    }
+
+    /// Number of generalized positions.
+    #[getter]
+    fn nq(&self) -> usize {
+        self.model.nq()
+    }
+
+    /// Number of generalized velocities (the length of tau).
+    #[getter]
+    fn nv(&self) -> usize {
+        self.model.nv()
+    }
+
+    /// Number of actuators.
+    #[getter]
+    fn nu(&self) -> usize {
+        self.model.nu()
+    }
+
+    /// Integration timestep in seconds.
+    #[getter]
+    fn timestep(&self) -> f64 {
+        self.model.opt.timestep
+    }
+
+    /// The model's name (from the file).
+    #[getter]
+    fn name(&self) -> String {
+        self.model.name.clone()
+    }
+
+    /// Joint names, in the order of q and v.
+    #[getter]
+    fn joint_names(&self) -> Vec<String> {
+        self.model.joints.iter().map(|j| j.name.clone()).collect()
+    }
+
+    /// Body names, the world body first.
+    #[getter]
+    fn body_names(&self) -> Vec<String> {
+        self.model.bodies.iter().map(|b| b.name.clone()).collect()
+    }
+
+    /// Names of every identifiable parameter.
+    fn param_names(&self) -> Vec<String> {
+        self.model.param_names()
+    }
+
+    /// The current value of a parameter as a 1-D float64 array.
+    fn get_param<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let value = self.model.get_param(name).map_err(param_error)?;
+        Ok(PyArray1::from_vec(py, value))
+    }
+
+    /// Sets a parameter from a number or array-like. Unknown names, wrong
+    /// lengths and non-physical values raise ValueError and leave the model
+    /// unchanged.
+    fn set_param(&mut self, name: &str, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        let value = float_array(value, "value")?;
+        if value.ndim() > 1 {
+            return Err(PyValueError::new_err(format!(
+                "value for parameter '{name}' must be a number or 1-D, got shape {}",
+                shape(value.shape())
+            )));
+        }
+        let value: Vec<f64> = value.readonly().as_array().iter().copied().collect();
+        self.model.set_param(name, &value).map_err(param_error)?;
+        self.data = self.model.data();
+        self.ws = Workspace::new(&self.model);
+        Ok(())
+    }
+
+    /// One step from (q, v) under generalized forces tau; returns (q1, v1).
+    fn step<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        v: &Bound<'py, PyAny>,
+        tau: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        let (q, v, tau) = self.state(q, v, tau)?;
+        let (q1, v1) = self
+            .model
+            .step(&mut self.data, &q, &v, &tau)
+            .map_err(|e| PyValueError::new_err(format!("step: {e}")))?;
+        PyTuple::new(py, [PyArray1::from_vec(py, q1), PyArray1::from_vec(py, v1)])
+    }
+
+    /// Steps from (q0, v0) under each row of taus (shape (T, nv)); returns the
+    /// visited states as arrays of shapes (T+1, nq) and (T+1, nv).
+    fn rollout<'py>(
+        &mut self,
+        py: Python<'py>,
+        q0: &Bound<'py, PyAny>,
+        v0: &Bound<'py, PyAny>,
+        taus: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        let q0 = vector(q0, "q0", self.model.nq(), "nq")?;
+        let v0 = vector(v0, "v0", self.model.nv(), "nv")?;
+        let taus = matrix(taus, "taus", self.model.nv(), "nv")?;
+        let (nq, nv) = (self.model.nq(), self.model.nv());
+        let steps = taus.nrows();
+        let (mut qs, mut vs) = (
+            Array2::zeros((steps + 1, nq)),
+            Array2::zeros((steps + 1, nv)),
+        );
+        let (mut q, mut v) = (q0, v0);
+        for t in 0..=steps {
+            qs.row_mut(t).assign(&numpy::ndarray::ArrayView1::from(&q));
+            vs.row_mut(t).assign(&numpy::ndarray::ArrayView1::from(&v));
+            if t == steps {
+                break;
+            }
+            let tau = taus.row(t);
+            let tau = tau.as_slice().expect("rows of a standard-layout array");
+            (q, v) = self
+                .model
+                .step(&mut self.data, &q, &v, tau)
+                .map_err(|e| PyValueError::new_err(format!("rollout step {t}: {e}")))?;
+        }
+        let qs = PyArray2::from_owned_array(py, qs);
+        let vs = PyArray2::from_owned_array(py, vs);
+        PyTuple::new(py, [qs, vs])
+    }
+
+    /// One step with its exact Jacobians: a dict of 2-D float64 arrays
+    /// dq_dq, dq_dv, dv_dq, dv_dv (n x n), dq_dtau, dv_dtau (n x n) and
+    /// dq_dp, dv_dp (n x total length of `params`, columns in the order of
+    /// the flattened parameters).
+    #[pyo3(signature = (q, v, tau, params = None))]
+    fn step_jacobians<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        v: &Bound<'py, PyAny>,
+        tau: &Bound<'py, PyAny>,
+        params: Option<Vec<String>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let (q, v, tau) = self.state(q, v, tau)?;
+        let params = self.params(params.as_deref().unwrap_or_default())?;
+        let wrt = Wrt {
+            state: true,
+            control: true,
+            params: &params,
+        };
+        let j = step_jacobians(&self.model, &mut self.ws, (&q, &v, &tau), &wrt)
+            .map_err(|e| PyValueError::new_err(format!("step_jacobians: {e}")))?;
+        let out = PyDict::new(py);
+        for (key, m) in [
+            ("dq_dq", &j.dq_dq),
+            ("dq_dv", &j.dq_dv),
+            ("dq_dtau", &j.dq_dtau),
+            ("dv_dq", &j.dv_dq),
+            ("dv_dv", &j.dv_dv),
+            ("dv_dtau", &j.dv_dtau),
+            ("dq_dp", &j.dq_dp),
+            ("dv_dp", &j.dv_dp),
+        ] {
+            let a = Array2::from_shape_fn(m.shape(), |(r, c)| m[(r, c)]);
+            out.set_item(key, PyArray2::from_owned_array(py, a))?;
+        }
+        Ok(out)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "<diffosi.Model '{}' nq={} nv={} nu={}>",
+            self.model.name,
+            self.model.nq(),
+            self.model.nv(),
+            self.model.nu()
+        )
+    }
+}
+
+impl PyModel {
+    /// Converts and checks (q, v, tau).
+    fn state(
+        &self,
+        q: &Bound<'_, PyAny>,
+        v: &Bound<'_, PyAny>,
+        tau: &Bound<'_, PyAny>,
+    ) -> PyResult<(Vec<f64>, Vec<f64>, Vec<f64>)> {
+        let (nq, nv) = (self.model.nq(), self.model.nv());
+        Ok((
+            vector(q, "q", nq, "nq")?,
+            vector(v, "v", nv, "nv")?,
+            vector(tau, "tau", nv, "nv")?,
+        ))
+    }
+}
+
+/// `numpy.asarray(obj, dtype=float64)`, with a ValueError naming `name` if
+/// the object does not convert.
+fn float_array<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    let py = obj.py();
+    let fail = |why: String| PyValueError::new_err(format!("{name}: {why}"));
+    let kwargs = PyDict::new(py);
+    kwargs.set_item("dtype", "float64")?;
+    let array = py
+        .import("numpy")?
+        .call_method("asarray", (obj,), Some(&kwargs))
+        .map_err(|e| fail(format!("cannot convert to a float64 array ({e})")))?;
+    array
+        .cast_into::<PyArrayDyn<f64>>()
+        .map_err(|e| fail(format!("cannot convert to a float64 array ({e})")))
+}
+
+/// A 1-D array of length `n` with finite entries.
+fn vector(obj: &Bound<'_, PyAny>, name: &str, n: usize, what: &str) -> PyResult<Vec<f64>> {
+    let array = float_array(obj, name)?;
+    if array.ndim() != 1 || array.len() != n {
+        return Err(PyValueError::new_err(format!(
+            "{name} must be 1-D of length {what} = {n}, got shape {}",
+            shape(array.shape())
+        )));
+    }
+    let values: Vec<f64> = array.readonly().as_array().iter().copied().collect();
+    check_finite(name, &values, |i| format!("[{i}]"))?;
+    Ok(values)
+}
+
+/// A 2-D array with `n` columns and finite entries, in standard layout.
+fn matrix(obj: &Bound<'_, PyAny>, name: &str, n: usize, what: &str) -> PyResult<Array2<f64>> {
+    let array = float_array(obj, name)?;
+    let dims = array.shape().to_vec();
+    if dims.len() != 2 || dims[1] != n {
+        return Err(PyValueError::new_err(format!(
+            "{name} must be 2-D of shape (T, {what} = {n}), got shape {}",
+            shape(&dims)
+        )));
+    }
+    let values: Vec<f64> = array.readonly().as_array().iter().copied().collect();
+    check_finite(name, &values, |i| format!("[{}, {}]", i / n, i % n))?;
+    Ok(Array2::from_shape_vec((dims[0], n), values).expect("shape checked above"))
+}
+
+/// A shape as Python prints it: (3,), (2, 4), ().
+fn shape(dims: &[usize]) -> String {
+    match dims {
+        [n] => format!("({n},)"),
+        _ => format!(
+            "({})",
+            dims.iter()
+                .map(|d| d.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
+}
+
+fn check_finite(name: &str, values: &[f64], index: impl Fn(usize) -> String) -> PyResult<()> {
+    match values.iter().position(|x| !x.is_finite()) {
+        Some(i) => Err(PyValueError::new_err(format!(
+            "{name}{} is not finite ({})",
+            index(i),
+            values[i]
+        ))),
+        None => Ok(()),
+    }
+}
+
+fn model_error(e: ModelError) -> PyErr {
+    match &e {
+        ModelError::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
+            PyFileNotFoundError::new_err(e.to_string())
+        }
+        ModelError::Io { .. } => PyOSError::new_err(e.to_string()),
+        _ => PyValueError::new_err(e.to_string()),
+    }
+}
+
+fn param_error(e: ParamError) -> PyErr {
+    PyValueError::new_err(e.to_string())
+}
+
+/// Differentiable rigid-body dynamics with online system identification.
+#[pymodule]
+fn diffosi(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyModel>()?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

@@ -1,0 +1,1 @@
+"""diffosi harness: the Python side (reference-engine adapters, replay, tests)."""
