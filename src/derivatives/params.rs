@@ -11,11 +11,8 @@
 
 use num_dual::Dual64;
 
-use crate::dynamics::{Data, Tree};
-use crate::model::params::inertia_to_six;
+use crate::dynamics::{body_inertia, Data, Tree};
 use crate::model::{Body, Model, Param, PassiveMode};
-use nalgebra::{Matrix3, Vector3};
-
 use crate::spatial::{Force, Inertia, Transform};
 
 /// Writes dR/d(param component) into `out` (length nv). `data` holds RNEA's
@@ -36,7 +33,7 @@ pub fn residual_derivative(
             let Some(node) = frame.node else {
                 return; // welded to the world: no effect on the dynamics
             };
-            let di = inertia_derivative(&model.bodies[b], param, component, &frame.offset);
+            let di = inertia_derivative(b, &model.bodies[b], (param, component), &frame.offset);
             let (vel, acc) = (&data.vel[node], &data.acc[node]);
             let df = di.mul_motion(acc) + vel.cross_force(&di.mul_motion(vel));
             body_force_to_joints(tree, data, node, df, out);
@@ -80,42 +77,29 @@ fn body_force_to_joints(
     }
 }
 
-/// d(spatial inertia of the body, in its node's frame) / d(param component),
+/// d(spatial inertia of body `index`, in its node's frame) / d(param component),
 /// for a body parameter (mass, COM or inertia).
 fn inertia_derivative(
+    index: usize,
     body: &Body,
-    param: Param,
-    component: usize,
+    (param, component): (Param, usize),
     offset: &Transform<f64>,
 ) -> Inertia<f64> {
-    // Field 0: mass, 1: COM, 2: inertia; the seeded scalar carries eps = 1.
-    let field = match param {
-        Param::Mass(_) => 0,
-        Param::Com(_) => 1,
-        _ => 2,
-    };
-    let seed = |f: usize, c: usize, x: f64| {
+    let seed = |p: Param, c: usize, x: f64| {
         Dual64::new(
             x,
-            if (f, c) == (field, component) {
+            if (p, c) == (param, component) {
                 1.0
             } else {
                 0.0
             },
         )
     };
-    let mass = seed(0, 0, body.mass);
-    let com = Vector3::from_fn(|r, _| seed(1, r, body.com[r]));
-    let six = inertia_to_six(&body.inertia);
-    let six: [Dual64; 6] = std::array::from_fn(|r| seed(2, r, six[r]));
-    let inertia = Matrix3::new(
-        six[0], six[3], six[4], six[3], six[1], six[5], six[4], six[5], six[2],
-    );
     let offset = Transform {
         rot: offset.rot.map(Dual64::from),
         trans: offset.trans.map(Dual64::from),
     };
-    let placed = Inertia::from_com(mass, &com, &inertia).to_source(&offset);
+    let placed = body_inertia(index, body, seed).to_source(&offset);
     Inertia {
         mass: placed.mass.eps,
         h: placed.h.map(|x| x.eps),

@@ -27,7 +27,7 @@ pub use ltdl::{ltdl_factor, ltdl_solve, ltdl_solve_columns};
 pub use passive::passive_forces;
 pub use rnea::{bias_forces, rnea};
 pub use step::{acceleration, check_inputs, implicit_terms, integrate_euler, step, StepError};
-pub use tree::{BodyFrame, NodeJoint, Tree};
+pub use tree::{body_inertia, BodyFrame, NodeJoint, Tree};
 
 use crate::spatial::{ArticulatedInertia, Force, Inertia, Motion, Real, Transform};
 use nalgebra::DMatrix;

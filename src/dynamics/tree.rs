@@ -10,7 +10,7 @@
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
 use crate::model::params::inertia_to_six;
-use crate::model::{JointKind, Param, Spec};
+use crate::model::{Body, JointKind, Param, Spec};
 use crate::spatial::{lift, lift_vector, Inertia, Motion, Real, Transform};
 
 /// A one-dof joint in its node's frame. Its motion subspace `s` is the same
@@ -151,20 +151,28 @@ impl<T: Real> Tree<T> {
                 offset: x_tree,
             });
             if let Some(n) = node {
-                let mass = lift_param(Param::Mass(index), 0, b.mass);
-                let com = Vector3::from_fn(|r, _| lift_param(Param::Com(index), r, b.com[r]));
-                let six = inertia_to_six(&b.inertia);
-                let six: [T; 6] =
-                    std::array::from_fn(|r| lift_param(Param::Inertia(index), r, six[r]));
-                let inertia = Matrix3::new(
-                    six[0], six[3], six[4], six[3], six[1], six[5], six[4], six[5], six[2],
-                );
-                let own = Inertia::from_com(mass, &com, &inertia);
+                let own = body_inertia(index, b, &lift_param);
                 tree.inertia[n] += own.to_source(&x_tree);
             }
         }
         tree
     }
+}
+
+/// Body `index`'s spatial inertia about its own frame, with its mass, COM and
+/// inertia lifted by `lift_param` (see [`Tree::build_with`]).
+pub fn body_inertia<T: Real>(
+    index: usize,
+    b: &Body,
+    lift_param: impl Fn(Param, usize, f64) -> T,
+) -> Inertia<T> {
+    let mass = lift_param(Param::Mass(index), 0, b.mass);
+    let com = Vector3::from_fn(|r, _| lift_param(Param::Com(index), r, b.com[r]));
+    let six = inertia_to_six(&b.inertia);
+    let [xx, yy, zz, xy, xz, yz]: [T; 6] =
+        std::array::from_fn(|r| lift_param(Param::Inertia(index), r, six[r]));
+    let inertia = Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz);
+    Inertia::from_com(mass, &com, &inertia)
 }
 
 #[cfg(test)]
