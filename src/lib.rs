@@ -18,6 +18,7 @@
 pub mod derivatives;
 pub mod dynamics;
 pub mod model;
+pub mod osi;
 pub mod spatial;
 
 pub use model::{Model, ModelError};

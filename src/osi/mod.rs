@@ -1,0 +1,364 @@
+//! Online system identification (DiffOSI, the paper's eq. 1-3): find the task
+//! parameters mu that make our step reproduce a window of observed transitions.
+//!
+//! Conventions, stated once:
+//! - mu is the task's parameter vector; a [`ParamMap`] turns it into named
+//!   physical parameters. Every mu component has finite bounds
+//!   `lower < upper` and a prior (the cold-start value) inside them.
+//! - The loss is L(mu) = sum over the window of ||(g_mu(x_t, tau_t) - x_{t+1}) / scale||^2
+//!   ([`window_residuals`]); `scale` holds 2 nv positive values, q then v,
+//!   best set to each component's measurement noise (then J^T J is the
+//!   Fisher information).
+//! - The prior is uniform on the bounds: its standard deviation is
+//!   (upper - lower) / sqrt(12). A direction of mu the window does not excite
+//!   keeps its start value and reports that prior standard deviation, so an
+//!   [`Estimate`] never holds NaN.
+//! - Iterations count solver steps; evaluations count calls of
+//!   [`window_residuals`] (residuals and Jacobian together).
+
+mod adam;
+mod lm;
+mod online;
+mod rng;
+mod trivial;
+
+use nalgebra::{DMatrix, DVector};
+
+pub use adam::{Adam, AdamOptions};
+pub use lm::{Lm, LmOptions};
+pub use online::{Online, Sampling};
+pub use rng::SplitMix64;
+pub use trivial::{Average, Oracle, Random};
+
+use crate::derivatives::{window_residuals, Transition, WindowError, WindowFit, Workspace};
+use crate::model::{Model, ParamError, ParamMap};
+
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum OsiError {
+    #[error("{what} has {got} values, expected {expected}")]
+    Length {
+        what: &'static str,
+        got: usize,
+        expected: usize,
+    },
+    #[error(
+        "bounds of mu[{i}]: lower {lower} and upper {upper} must be finite with lower < upper"
+    )]
+    Bounds { i: usize, lower: f64, upper: f64 },
+    #[error("prior mu[{i}] = {value} lies outside its bounds [{lower}, {upper}]")]
+    PriorOutside {
+        i: usize,
+        value: f64,
+        lower: f64,
+        upper: f64,
+    },
+    #[error("the window holds no transitions")]
+    EmptyWindow,
+    #[error("window size {window} must be at least 1 and at most the history {history}")]
+    WindowSize { window: usize, history: usize },
+    #[error("transition {t}: {what}[{i}] = {value} is not finite")]
+    NotFinite {
+        t: usize,
+        what: &'static str,
+        i: usize,
+        value: f64,
+    },
+    #[error(transparent)]
+    Param(#[from] ParamError),
+    #[error(transparent)]
+    Window(#[from] WindowError),
+}
+
+/// What to identify: the model, the map from mu, the box, the prior and the
+/// residual scale. Holds the working copy of the model and the derivative
+/// buffers, so evaluating the loss takes `&mut self`.
+#[derive(Clone, Debug)]
+pub struct Problem {
+    model: Model,
+    ws: Workspace,
+    map: ParamMap,
+    lower: Vec<f64>,
+    upper: Vec<f64>,
+    prior: Vec<f64>,
+    scale: Vec<f64>,
+}
+
+impl Problem {
+    /// Checks the bounds, the prior (inside the bounds, mapping onto a
+    /// physical model) and the scale.
+    pub fn new(
+        model: &Model,
+        map: ParamMap,
+        lower: &[f64],
+        upper: &[f64],
+        prior: &[f64],
+        scale: &[f64],
+    ) -> Result<Problem, OsiError> {
+        let nmu = map.nmu;
+        for (what, x, expected) in [
+            ("lower", lower, nmu),
+            ("upper", upper, nmu),
+            ("prior", prior, nmu),
+            ("scale", scale, 2 * model.nv()),
+        ] {
+            if x.len() != expected {
+                return Err(OsiError::Length {
+                    what,
+                    got: x.len(),
+                    expected,
+                });
+            }
+        }
+        for i in 0..nmu {
+            let (lo, hi, p) = (lower[i], upper[i], prior[i]);
+            if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+                return Err(OsiError::Bounds {
+                    i,
+                    lower: lo,
+                    upper: hi,
+                });
+            }
+            if !(lo..=hi).contains(&p) {
+                return Err(OsiError::PriorOutside {
+                    i,
+                    value: p,
+                    lower: lo,
+                    upper: hi,
+                });
+            }
+        }
+        if scale.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+            return Err(WindowError::Scale {
+                expected: 2 * model.nv(),
+            }
+            .into());
+        }
+        let mut model = model.clone();
+        map.apply(&mut model, prior)?;
+        Ok(Problem {
+            ws: Workspace::new(&model),
+            model,
+            map,
+            lower: lower.to_vec(),
+            upper: upper.to_vec(),
+            prior: prior.to_vec(),
+            scale: scale.to_vec(),
+        })
+    }
+
+    pub fn nmu(&self) -> usize {
+        self.map.nmu
+    }
+
+    pub fn nv(&self) -> usize {
+        self.model.nv()
+    }
+
+    pub fn lower(&self) -> &[f64] {
+        &self.lower
+    }
+
+    pub fn upper(&self) -> &[f64] {
+        &self.upper
+    }
+
+    pub fn prior(&self) -> &[f64] {
+        &self.prior
+    }
+
+    /// Standard deviation of the uniform prior on the bounds.
+    pub fn prior_std(&self) -> Vec<f64> {
+        let width = self.upper.iter().zip(&self.lower).map(|(u, l)| u - l);
+        width.map(|w| w / 12f64.sqrt()).collect()
+    }
+
+    /// The scaled residuals, their Jacobian, the loss and its gradient at mu.
+    pub fn fit(&mut self, mu: &[f64], window: &[Transition]) -> Result<WindowFit, OsiError> {
+        let (model, ws) = (&mut self.model, &mut self.ws);
+        Ok(window_residuals(
+            model,
+            ws,
+            &self.map,
+            mu,
+            window,
+            &self.scale,
+        )?)
+    }
+
+    /// Rejects an empty window and names any wrong length or non-finite value.
+    pub fn check_window(&self, window: &[Transition]) -> Result<(), OsiError> {
+        if window.is_empty() {
+            return Err(OsiError::EmptyWindow);
+        }
+        window.iter().enumerate().try_for_each(|(t, tr)| {
+            for (what, x) in [
+                ("q", &tr.q),
+                ("v", &tr.v),
+                ("tau", &tr.tau),
+                ("q_next", &tr.q_next),
+                ("v_next", &tr.v_next),
+            ] {
+                if x.len() != self.nv() {
+                    return Err(WindowError::Length {
+                        t,
+                        what,
+                        got: x.len(),
+                        expected: self.nv(),
+                    }
+                    .into());
+                }
+                if let Some((i, &value)) = x.iter().enumerate().find(|(_, x)| !x.is_finite()) {
+                    return Err(OsiError::NotFinite { t, what, i, value });
+                }
+            }
+            Ok(())
+        })
+    }
+
+    fn check_mu(&self, what: &'static str, mu: &[f64]) -> Result<(), OsiError> {
+        if mu.len() != self.nmu() {
+            return Err(OsiError::Length {
+                what,
+                got: mu.len(),
+                expected: self.nmu(),
+            });
+        }
+        Ok(())
+    }
+
+    /// mu clamped into the bounds.
+    fn project(&self, mu: &mut DVector<f64>) {
+        for (i, m) in mu.iter_mut().enumerate() {
+            *m = m.clamp(self.lower[i], self.upper[i]);
+        }
+    }
+
+    fn at_bound(&self, mu: &[f64]) -> bool {
+        mu.iter()
+            .enumerate()
+            .any(|(i, m)| *m <= self.lower[i] || *m >= self.upper[i])
+    }
+}
+
+/// Conditions attached to an estimate; all false is a clean result.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Flags {
+    /// Some direction of mu was not excited by the window (J^T J rank
+    /// deficient or ill-conditioned): it kept its start value (the prior on a
+    /// cold start) and reports the prior's standard deviation.
+    pub unexcited: bool,
+    /// Some component ended on a bound.
+    pub at_bound: bool,
+    /// The iteration limit stopped the solver before a tolerance did.
+    pub not_converged: bool,
+}
+
+/// An identifier's answer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Estimate {
+    pub mu: Vec<f64>,
+    /// Standard errors of mu, finite (see the module conventions).
+    pub std: Vec<f64>,
+    pub loss: f64,
+    pub iterations: usize,
+    pub evaluations: usize,
+    pub flags: Flags,
+}
+
+/// Anything that estimates mu from a window of transitions.
+pub trait Identifier {
+    /// Estimates mu, starting from `start` (the prior on a cold start, the
+    /// previous estimate on a warm one).
+    fn identify(
+        &mut self,
+        problem: &mut Problem,
+        window: &[Transition],
+        start: &[f64],
+    ) -> Result<Estimate, OsiError>;
+}
+
+/// Thresholds on the eigenvalues of J^T J that decide which directions of mu
+/// a window excites.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Excitation {
+    /// A direction is unexcited below `relative` times the largest eigenvalue
+    /// (condition number above 1 / relative).
+    pub relative: f64,
+    /// ... or below `absolute` (in the units of the scaled residuals: the
+    /// window then pins that direction no better than 1/sqrt(absolute)).
+    pub absolute: f64,
+}
+
+impl Default for Excitation {
+    fn default() -> Self {
+        Excitation {
+            relative: 1e-10,
+            absolute: 1e-12,
+        }
+    }
+}
+
+/// The eigen-decomposition of a symmetric J^T J split into its excited and
+/// unexcited directions.
+struct Subspace {
+    /// Eigenvectors, one per column.
+    vectors: DMatrix<f64>,
+    values: DVector<f64>,
+    excited: Vec<bool>,
+}
+
+impl Subspace {
+    fn new(jtj: DMatrix<f64>, thresholds: Excitation) -> Subspace {
+        let eigen = jtj.symmetric_eigen();
+        let max = eigen.eigenvalues.max().max(0.0);
+        let floor = (thresholds.relative * max).max(thresholds.absolute);
+        Subspace {
+            excited: eigen.eigenvalues.iter().map(|l| *l > floor).collect(),
+            vectors: eigen.eigenvectors,
+            values: eigen.eigenvalues,
+        }
+    }
+
+    fn all_excited(&self) -> bool {
+        self.excited.iter().all(|e| *e)
+    }
+
+    /// Solves (J^T J + damping I) x = b within the excited directions; x has
+    /// no component along the others.
+    fn solve(&self, b: &DVector<f64>, damping: f64) -> DVector<f64> {
+        let mut x = DVector::zeros(b.len());
+        for (k, v) in self.vectors.column_iter().enumerate() {
+            if self.excited[k] {
+                x += v * (v.dot(b) / (self.values[k] + damping));
+            }
+        }
+        x
+    }
+}
+
+/// Standard errors at the end of a fit: sigma^2 (J^T J)^-1 restricted to the
+/// excited directions, sigma^2 = loss / max(1, m - p) with p the number of
+/// excited directions; plus the prior's variance projected onto the
+/// unexcited ones. Returns them with whether any direction was unexcited.
+fn standard_errors(problem: &Problem, fit: &WindowFit, thresholds: Excitation) -> (Vec<f64>, bool) {
+    let sub = Subspace::new(fit.jacobian.tr_mul(&fit.jacobian), thresholds);
+    let p = sub.excited.iter().filter(|e| **e).count();
+    let m = fit.residuals.len();
+    let sigma2 = fit.loss / (m.saturating_sub(p).max(1) as f64);
+    let prior_var =
+        DVector::from_iterator(problem.nmu(), problem.prior_std().iter().map(|s| s * s));
+    let n = problem.nmu();
+    let mut cov = DMatrix::zeros(n, n);
+    let mut unexcited = DMatrix::zeros(n, n);
+    for (k, v) in sub.vectors.column_iter().enumerate() {
+        if sub.excited[k] {
+            cov += v * v.transpose() * (sigma2 / sub.values[k]);
+        } else {
+            unexcited += v * v.transpose();
+        }
+    }
+    cov += &unexcited * DMatrix::from_diagonal(&prior_var) * &unexcited;
+    let std = cov.diagonal().iter().map(|c| c.max(0.0).sqrt()).collect();
+    (std, !sub.all_excited())
+}

@@ -1,0 +1,109 @@
+//! Online use: a ring buffer of recent transitions; each pushed transition
+//! triggers an update on a window sampled from it, warm-started from the
+//! previous estimate (the prior before the first).
+
+use std::collections::VecDeque;
+
+use super::{Estimate, Identifier, OsiError, Problem, SplitMix64};
+use crate::derivatives::Transition;
+
+/// Which transitions of the buffer form the window.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sampling {
+    /// The W most recent transitions.
+    Recent,
+    /// W distinct transitions drawn uniformly from the `history` most recent
+    /// (the paper's wiping task), kept in time order.
+    Uniform { history: usize },
+}
+
+#[derive(Clone, Debug)]
+pub struct Online<I> {
+    pub identifier: I,
+    problem: Problem,
+    window: usize,
+    history: usize,
+    sampling: Sampling,
+    buffer: VecDeque<Transition>,
+    rng: SplitMix64,
+    estimate: Option<Estimate>,
+}
+
+impl<I: Identifier> Online<I> {
+    /// A window of `window` >= 1 transitions; with uniform sampling the
+    /// history must hold at least as many. `seed` drives the sampling.
+    pub fn new(
+        problem: Problem,
+        identifier: I,
+        window: usize,
+        sampling: Sampling,
+        seed: u64,
+    ) -> Result<Online<I>, OsiError> {
+        let history = match sampling {
+            Sampling::Recent => window,
+            Sampling::Uniform { history } => history,
+        };
+        if window == 0 || history < window {
+            return Err(OsiError::WindowSize { window, history });
+        }
+        Ok(Online {
+            identifier,
+            problem,
+            window,
+            history,
+            sampling,
+            buffer: VecDeque::with_capacity(history),
+            rng: SplitMix64::new(seed),
+            estimate: None,
+        })
+    }
+
+    /// Stores a transition (checked first: a bad one leaves the buffer as it
+    /// was) and updates the estimate from a freshly sampled window.
+    pub fn push(&mut self, transition: Transition) -> Result<&Estimate, OsiError> {
+        self.problem
+            .check_window(std::slice::from_ref(&transition))?;
+        if self.buffer.len() == self.history {
+            self.buffer.pop_front();
+        }
+        self.buffer.push_back(transition);
+        let window = self.sample();
+        let start = match &self.estimate {
+            Some(e) => e.mu.clone(),
+            None => self.problem.prior().to_vec(),
+        };
+        let estimate = self
+            .identifier
+            .identify(&mut self.problem, &window, &start)?;
+        Ok(self.estimate.insert(estimate))
+    }
+
+    /// The latest estimate, if any transition was pushed.
+    pub fn estimate(&self) -> Option<&Estimate> {
+        self.estimate.as_ref()
+    }
+
+    pub fn problem(&self) -> &Problem {
+        &self.problem
+    }
+
+    fn sample(&mut self) -> Vec<Transition> {
+        let len = self.buffer.len();
+        let w = self.window.min(len);
+        let mut picked: Vec<usize> = match self.sampling {
+            Sampling::Recent => (len - w..len).collect(),
+            Sampling::Uniform { .. } => {
+                // A partial Fisher-Yates shuffle: w distinct indices.
+                let mut all: Vec<usize> = (0..len).collect();
+                for k in 0..w {
+                    let j = k + self.rng.below(len - k);
+                    all.swap(k, j);
+                }
+                all.truncate(w);
+                all
+            }
+        };
+        picked.sort_unstable();
+        picked.iter().map(|&i| self.buffer[i].clone()).collect()
+    }
+}
