@@ -20,10 +20,12 @@
 //! direction keeps its start value instead of becoming NaN.
 
 use nalgebra::DVector;
+use rand::rngs::StdRng;
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
 
 use super::{
-    standard_errors, Estimate, Excitation, Flags, Identifier, OsiError, Problem, SplitMix64,
-    Subspace,
+    standard_errors, Estimate, Excitation, Flags, Identifier, OsiError, Problem, Subspace,
 };
 use crate::derivatives::{Transition, WindowError, WindowFit};
 
@@ -201,13 +203,11 @@ impl Lm {
 /// `count` points of a Latin hypercube in the box: along every component the
 /// points sit at the centres of `count` equal strata, in a seeded order.
 fn latin_hypercube(problem: &Problem, count: usize, seed: u64) -> Vec<Vec<f64>> {
-    let mut rng = SplitMix64::new(seed);
+    let mut rng = StdRng::seed_from_u64(seed);
     let mut points = vec![vec![0.0; problem.nmu()]; count];
     for i in 0..problem.nmu() {
         let mut strata: Vec<usize> = (0..count).collect();
-        for k in (1..count).rev() {
-            strata.swap(k, rng.below(k + 1));
-        }
+        strata.shuffle(&mut rng);
         let (lo, hi) = (problem.lower()[i], problem.upper()[i]);
         for (point, s) in points.iter_mut().zip(strata) {
             point[i] = lo + (hi - lo) * (s as f64 + 0.5) / count as f64;

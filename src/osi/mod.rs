@@ -19,7 +19,6 @@
 mod adam;
 mod lm;
 mod online;
-mod rng;
 mod trivial;
 
 use nalgebra::{DMatrix, DVector};
@@ -27,7 +26,6 @@ use nalgebra::{DMatrix, DVector};
 pub use adam::{Adam, AdamOptions};
 pub use lm::{Lm, LmOptions};
 pub use online::{Online, Sampling};
-pub use rng::SplitMix64;
 pub use trivial::{Average, Oracle, Random};
 
 use crate::derivatives::{window_residuals, Transition, WindowError, WindowFit, Workspace};

@@ -4,7 +4,11 @@
 
 use std::collections::VecDeque;
 
-use super::{Estimate, Identifier, OsiError, Problem, SplitMix64};
+use rand::rngs::StdRng;
+use rand::seq::index::sample;
+use rand::SeedableRng;
+
+use super::{Estimate, Identifier, OsiError, Problem};
 use crate::derivatives::Transition;
 
 /// Which transitions of the buffer form the window.
@@ -17,7 +21,7 @@ pub enum Sampling {
     Uniform { history: usize },
 }
 
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct Online<I> {
     pub identifier: I,
     problem: Problem,
@@ -25,7 +29,7 @@ pub struct Online<I> {
     history: usize,
     sampling: Sampling,
     buffer: VecDeque<Transition>,
-    rng: SplitMix64,
+    rng: StdRng,
     estimate: Option<Estimate>,
 }
 
@@ -53,7 +57,7 @@ impl<I: Identifier> Online<I> {
             history,
             sampling,
             buffer: VecDeque::with_capacity(history),
-            rng: SplitMix64::new(seed),
+            rng: StdRng::seed_from_u64(seed),
             estimate: None,
         })
     }
@@ -93,14 +97,8 @@ impl<I: Identifier> Online<I> {
         let mut picked: Vec<usize> = match self.sampling {
             Sampling::Recent => (len - w..len).collect(),
             Sampling::Uniform { .. } => {
-                // A partial Fisher-Yates shuffle: w distinct indices.
-                let mut all: Vec<usize> = (0..len).collect();
-                for k in 0..w {
-                    let j = k + self.rng.below(len - k);
-                    all.swap(k, j);
-                }
-                all.truncate(w);
-                all
+                // w distinct indices.
+                sample(&mut self.rng, len, w).into_vec()
             }
         };
         picked.sort_unstable();

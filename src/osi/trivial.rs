@@ -4,7 +4,10 @@
 //! comparable with a solver's. Random and Average report the prior's standard
 //! deviation, Oracle zero.
 
-use super::{Estimate, Flags, Identifier, OsiError, Problem, SplitMix64};
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
+
+use super::{Estimate, Flags, Identifier, OsiError, Problem};
 use crate::derivatives::Transition;
 
 /// The estimate that answers `mu` without solving.
@@ -30,15 +33,15 @@ fn answer(
     })
 }
 
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Debug)]
 pub struct Random {
-    rng: SplitMix64,
+    rng: StdRng,
 }
 
 impl Random {
     pub fn new(seed: u64) -> Random {
         Random {
-            rng: SplitMix64::new(seed),
+            rng: StdRng::seed_from_u64(seed),
         }
     }
 }
@@ -53,7 +56,7 @@ impl Identifier for Random {
         let mu = (0..problem.nmu())
             .map(|i| {
                 let (lo, hi) = (problem.lower()[i], problem.upper()[i]);
-                lo + (hi - lo) * self.rng.uniform()
+                lo + (hi - lo) * self.rng.random::<f64>()
             })
             .collect();
         let std = problem.prior_std();
