@@ -1,0 +1,171 @@
+//! Typed reading of attributes and of `<origin>`. An attribute name
+//! `diffosi:x` is the attribute `x` in [`NAMESPACE`], whatever prefix the file
+//! binds to it.
+
+use nalgebra::{Rotation3, Vector3};
+
+use super::{child, xml, Node, Reader, Result, NAMESPACE};
+
+/// A frame in its parent: translation and rotation.
+pub(super) type Pose = (Vector3<f64>, Rotation3<f64>);
+
+/// The pose of a frame that coincides with its parent.
+pub(super) fn identity() -> Pose {
+    (Vector3::zeros(), Rotation3::identity())
+}
+
+/// The text of attribute `name` of `node`.
+pub(super) fn value<'a>(node: Node<'a>, name: &str) -> Option<&'a str> {
+    match name.strip_prefix("diffosi:") {
+        Some(local) => node.attribute((NAMESPACE, local)),
+        None => node.attribute(name),
+    }
+}
+
+impl Reader<'_> {
+    /// `xyz` and `rpy` of the `<origin>` child of `node` (identity if absent).
+    pub(super) fn origin(&self, node: Node) -> Result<Pose> {
+        let Some(origin) = child(node, "origin") else {
+            return Ok(identity());
+        };
+        let [x, y, z] = self.numbers(origin, "xyz")?.unwrap_or_default();
+        let [roll, pitch, yaw] = self.numbers(origin, "rpy")?.unwrap_or_default();
+        Ok((
+            Vector3::new(x, y, z),
+            Rotation3::from_euler_angles(roll, pitch, yaw),
+        ))
+    }
+
+    pub(super) fn attr<'a>(&self, node: Node<'a>, name: &str) -> Result<&'a str> {
+        value(node, name).ok_or_else(|| self.error(node, format!("missing attribute '{name}'")))
+    }
+
+    pub(super) fn required_child<'a>(&self, node: Node<'a>, name: &str) -> Result<Node<'a>> {
+        child(node, name).ok_or_else(|| self.error(node, format!("missing <{name}>")))
+    }
+
+    pub(super) fn number(&self, node: Node, name: &str) -> Result<Option<f64>> {
+        Ok(self.numbers::<1>(node, name)?.map(|[x]| x))
+    }
+
+    pub(super) fn required_number(&self, node: Node, name: &str) -> Result<f64> {
+        Ok(self.required_numbers::<1>(node, name)?[0])
+    }
+
+    /// A required number that must be positive.
+    pub(super) fn positive(&self, node: Node, name: &str) -> Result<f64> {
+        let value = self.required_number(node, name)?;
+        self.check_positive(node, name, value)
+    }
+
+    pub(super) fn check_positive(&self, node: Node, name: &str, value: f64) -> Result<f64> {
+        if value > 0.0 {
+            Ok(value)
+        } else {
+            Err(self.error(node, format!("{name} must be positive, got {value}")))
+        }
+    }
+
+    /// An optional number that must not be negative; 0 if absent.
+    pub(super) fn nonnegative(&self, node: Node, name: &str) -> Result<f64> {
+        match self.number(node, name)?.unwrap_or(0.0) {
+            v if v < 0.0 => Err(self.error(node, format!("{name} must be >= 0, got {v}"))),
+            v => Ok(v),
+        }
+    }
+
+    pub(super) fn numbers<const K: usize>(
+        &self,
+        node: Node,
+        name: &str,
+    ) -> Result<Option<[f64; K]>> {
+        value(node, name)
+            .map(|text| self.parse_numbers(node, name, text))
+            .transpose()
+    }
+
+    pub(super) fn required_numbers<const K: usize>(
+        &self,
+        node: Node,
+        name: &str,
+    ) -> Result<[f64; K]> {
+        self.parse_numbers(node, name, self.attr(node, name)?)
+    }
+
+    /// Exactly `K` finite numbers separated by whitespace; `what` names them in
+    /// errors.
+    pub(super) fn parse_numbers<const K: usize>(
+        &self,
+        node: Node,
+        what: &str,
+        text: &str,
+    ) -> Result<[f64; K]> {
+        let bad = || {
+            let expected = if K == 1 {
+                "a finite number".to_string()
+            } else {
+                format!("{K} finite numbers")
+            };
+            self.error(node, format!("{what}: expected {expected}, got '{text}'"))
+        };
+        xml::numbers(text)
+            .and_then(|v| v.try_into().ok())
+            .ok_or_else(bad)
+    }
+
+    /// The value paired with the keyword that attribute `name` holds, if set.
+    pub(super) fn keyword<T: Copy>(
+        &self,
+        node: Node,
+        name: &str,
+        choices: &[(&str, T)],
+    ) -> Result<Option<T>> {
+        let Some(text) = value(node, name) else {
+            return Ok(None);
+        };
+        if let Some((_, v)) = choices.iter().find(|(k, _)| *k == text) {
+            return Ok(Some(*v));
+        }
+        let words: Vec<&str> = choices.iter().map(|(k, _)| *k).collect();
+        let (last, rest) = words.split_last().expect("at least one choice");
+        let expected = format!("{} or {last}", rest.join(", "));
+        Err(self.error(node, format!("{name} must be {expected}, got '{text}'")))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::f64::consts::FRAC_PI_2;
+
+    use nalgebra::{Rotation3, Vector3};
+
+    use super::super::test_util::*;
+
+    #[test]
+    fn rpy_is_fixed_axis_roll_then_pitch_then_yaw() {
+        let origin = "<origin xyz=\"1 2 3\" rpy=\"0.3 -0.7 1.1\"/>";
+        let text = format!(
+            "<link name=\"world\"/>{}{}",
+            link("a"),
+            joint("j", "fixed", "world", "a", origin)
+        );
+        let m = load(&text).unwrap();
+        let about = |axis: Vector3<f64>, angle: f64| {
+            Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), angle)
+        };
+        let expected =
+            about(Vector3::z(), 1.1) * about(Vector3::y(), -0.7) * about(Vector3::x(), 0.3);
+        assert!(close(m.bodies[1].rot.matrix(), expected.matrix()));
+        assert_eq!(m.bodies[1].pos, Vector3::new(1.0, 2.0, 3.0));
+
+        // A known rotation: roll 90 degrees turns the body's y axis onto world z.
+        let origin = format!("<origin rpy=\"{FRAC_PI_2} 0 0\"/>");
+        let text = format!(
+            "<link name=\"world\"/>{}{}",
+            link("a"),
+            joint("j", "fixed", "world", "a", &origin)
+        );
+        let m = load(&text).unwrap();
+        assert!((m.bodies[1].rot * Vector3::y() - Vector3::z()).norm() < 1e-15);
+    }
+}

@@ -1,0 +1,129 @@
+//! `<joint>`: type, `<axis>`, `<limit>` and `<dynamics>` with our passive
+//! extensions. Its `<origin>` places the child body (see `links.rs`).
+
+use nalgebra::Vector3;
+
+use super::tree::Edge;
+use super::{child, Node, Reader, Result};
+use crate::model::{Joint, JointKind};
+
+impl Reader<'_> {
+    /// The joint of `edge` moving `body`; `None` for a fixed joint.
+    pub(super) fn joint(&self, edge: &Edge, body: usize) -> Result<Option<Joint>> {
+        let node = edge.node;
+        let ty = self.attr(node, "type")?;
+        let Some(kind) = self.joint_kind(node, ty)? else {
+            return Ok(None);
+        };
+        let axis = self.axis(node)?;
+        let range = match ty {
+            "continuous" => None,
+            _ => self.limit(node)?,
+        };
+        let [damping, frictionloss, stiffness, springref, armature] = self.dynamics(node)?;
+        Ok(Some(Joint {
+            name: edge.name.to_string(),
+            kind,
+            body,
+            axis,
+            anchor: Vector3::zeros(),
+            reference: 0.0,
+            damping,
+            stiffness,
+            springref,
+            armature,
+            frictionloss,
+            range,
+        }))
+    }
+
+    /// The kind of joint type `ty`; `None` for fixed.
+    fn joint_kind(&self, node: Node, ty: &str) -> Result<Option<JointKind>> {
+        match ty {
+            "revolute" | "continuous" => Ok(Some(JointKind::Hinge)),
+            "prismatic" => Ok(Some(JointKind::Slide)),
+            "fixed" => Ok(None),
+            "floating" | "planar" => Err(self.error(
+                node,
+                format!(
+                    "{ty} joints are not supported: every joint has one dof \
+                     (revolute, continuous, prismatic or fixed)"
+                ),
+            )),
+            _ => Err(self.error(node, format!("unknown joint type '{ty}'"))),
+        }
+    }
+
+    /// The unit `<axis>`, x if absent.
+    fn axis(&self, joint: Node) -> Result<Vector3<f64>> {
+        let Some(axis) = child(joint, "axis") else {
+            return Ok(Vector3::x());
+        };
+        let [x, y, z] = self.required_numbers(axis, "xyz")?;
+        Vector3::new(x, y, z)
+            .try_normalize(0.0)
+            .ok_or_else(|| self.error(axis, "the axis must not be zero"))
+    }
+
+    /// The range of `<limit>` if it has lower < upper.
+    fn limit(&self, joint: Node) -> Result<Option<(f64, f64)>> {
+        let Some(limit) = child(joint, "limit") else {
+            return Ok(None);
+        };
+        let lower = self.number(limit, "lower")?.unwrap_or(0.0);
+        let upper = self.number(limit, "upper")?.unwrap_or(0.0);
+        Ok((lower < upper).then_some((lower, upper)))
+    }
+
+    /// `<dynamics>`: damping, frictionloss, stiffness, springref, armature.
+    fn dynamics(&self, joint: Node) -> Result<[f64; 5]> {
+        let Some(node) = child(joint, "dynamics") else {
+            return Ok([0.0; 5]);
+        };
+        Ok([
+            self.nonnegative(node, "damping")?,
+            self.nonnegative(node, "friction")?,
+            self.nonnegative(node, "diffosi:stiffness")?,
+            self.number(node, "diffosi:springref")?.unwrap_or(0.0),
+            self.nonnegative(node, "diffosi:armature")?,
+        ])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::Vector3;
+
+    use super::super::test_util::*;
+    use crate::model::JointKind;
+
+    #[test]
+    fn continuous_joints_are_unlimited_hinges() {
+        let limit = "<limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1\"/>";
+        let text = format!(
+            "<link name=\"world\"/>{}{}{}{}{}",
+            link("a"),
+            link("b"),
+            link("c"),
+            joint("free", "continuous", "world", "a", limit),
+            joint("bounded", "revolute", "a", "b", limit),
+        ) + &joint(
+            "slide",
+            "prismatic",
+            "b",
+            "c",
+            "<limit effort=\"1\" velocity=\"1\"/>",
+        );
+        let m = load(&text).unwrap();
+        let kinds: Vec<_> = m.joints.iter().map(|j| (j.kind, j.range)).collect();
+        assert_eq!(
+            kinds,
+            [
+                (JointKind::Hinge, None),
+                (JointKind::Hinge, Some((-1.0, 1.0))),
+                (JointKind::Slide, None)
+            ]
+        );
+        assert_eq!(m.joints[0].axis, Vector3::x());
+    }
+}

@@ -1,0 +1,257 @@
+//! URDF loader: [`parse`] builds a [`Model`] from URDF text.
+//!
+//! How URDF maps onto the model (see the `model` module for its frames):
+//! - Every link is a body whose frame is the link frame. A joint's `<origin>`
+//!   is its child body's `pos`/`rot` in the parent body at q = 0 (`reference`
+//!   0); the joint turns about, or slides along, `<axis>` (default x,
+//!   normalised) through the body origin (`anchor` 0).
+//! - `rpy` is fixed-axis roll-pitch-yaw: R = Rz(yaw) Ry(pitch) Rx(roll).
+//! - `<inertial>`: the COM is its origin `xyz`; `<inertia>` is about the COM in
+//!   the axes of its origin `rpy`, turned into link axes as R I R^T. A link with
+//!   no `<inertial>` has mass 0 and zero inertia, as the URDF spec says
+//!   (PyBullet and DART give it 1 kg and identity inertia instead).
+//! - Joint types: revolute and continuous are hinges, prismatic is a slide,
+//!   fixed welds the child to its parent (a body with no joint); floating and
+//!   planar are rejected.
+//! - A revolute or prismatic joint is limited when its `<limit>` has
+//!   lower < upper; absent bounds are 0 (the URDF default), so a `<limit>`
+//!   without them means unlimited, as in PyBullet. `effort` and `velocity` are
+//!   ignored. Continuous joints are never limited.
+//! - `<dynamics damping friction>` are the joint's damping and frictionloss.
+//! - Bodies are numbered depth-first from the root link (the one link that is
+//!   no joint's child), children in the document order of their joints. A
+//!   root named `world` is the world (body 0; its `<inertial>` is ignored, its
+//!   collisions are world geoms); any other root becomes body 1, welded to the
+//!   world.
+//! - `<collision>` box, sphere, cylinder (along z, `length` the full length) and
+//!   PyBullet's capsule (`length` between the sphere centres) become geoms with
+//!   contype = conaffinity = 1; mesh collisions are skipped (no geom), and
+//!   `<visual>` is ignored. Friction comes from PyBullet's `<contact>` element
+//!   of the link (lateral, spinning, rolling), default PyBullet's (0.5, 0, 0).
+//! - A `<transmission>` with one `<joint>` is an actuator on that joint: gear =
+//!   `<mechanicalReduction>` (default 1), name = its `<actuator name>`, else
+//!   the transmission's name.
+//! - Options: gravity -9.81 z, timestep 0.002 s, semi-implicit Euler and
+//!   explicit passive forces (a URDF model runs as PyBullet runs it).
+//!
+//! What URDF cannot say is carried by extensions in the namespace [`NAMESPACE`]
+//! (declare `xmlns:diffosi="urn:diffosi:urdf"` on `<robot>`), which PyBullet and
+//! DART ignore:
+//! - `<diffosi:options timestep="0.01" gravity="0 0 -9.81" integrator="Euler|RK4"
+//!   passive="explicit|implicit_damping|implicit_damping_stiffness"/>` in
+//!   `<robot>`, every attribute optional;
+//! - `diffosi:stiffness`, `diffosi:springref`, `diffosi:armature` on `<dynamics>`;
+//! - `diffosi:contype`, `diffosi:conaffinity` on `<collision>` (MJCF bitmasks);
+//! - `diffosi:ctrlrange="lo hi"` on a transmission's `<actuator>`.
+//!
+//! Anything else in that namespace is an error, so a typo is never dropped.
+//! Errors name the file, the 1-based line and the element.
+//!
+//! Where each part is read: the link tree in `tree.rs`, links and their
+//! inertia in `links.rs`, joints in `joints.rs`, collisions in `geoms.rs`,
+//! transmissions in `actuators.rs`, the extension namespace and the options in
+//! `extensions.rs`, attributes and origins in `attributes.rs`.
+
+mod actuators;
+mod attributes;
+mod extensions;
+mod geoms;
+mod joints;
+mod links;
+#[cfg(test)]
+mod test_util;
+mod tree;
+
+use super::{xml, Model, ModelError};
+
+/// The namespace of diffosi's URDF extensions.
+pub const NAMESPACE: &str = "urn:diffosi:urdf";
+
+type Node<'a> = roxmltree::Node<'a, 'a>;
+type Result<T> = std::result::Result<T, ModelError>;
+
+/// Parses URDF text; `file` is only used in error messages.
+pub fn parse(text: &str, file: &str) -> Result<Model> {
+    let doc = xml::document(text, file)?;
+    let robot = doc.root_element();
+    let reader = Reader { file };
+    if !is(robot, "robot") {
+        return Err(reader.error(robot, "the root element must be <robot>"));
+    }
+    reader.check_extensions(robot)?;
+    let name = reader.attr(robot, "name")?.to_string();
+    let links = reader.links(robot)?;
+    let edges = reader.edges(robot, &links)?;
+    let tree = reader.tree(robot, &links, &edges)?;
+    let parts = reader.parts(&links, &edges, &tree)?;
+    let actuators = reader.actuators(robot, &parts.dofs)?;
+    let opt = reader.options(robot)?;
+    Model::new(
+        name,
+        parts.bodies,
+        parts.joints,
+        actuators,
+        parts.geoms,
+        opt,
+    )
+}
+
+/// Reads the elements of one file. Its methods live with the elements they
+/// read.
+struct Reader<'f> {
+    file: &'f str,
+}
+
+impl Reader<'_> {
+    fn error(&self, node: Node, message: impl Into<String>) -> ModelError {
+        xml::invalid(self.file, node, message)
+    }
+}
+
+/// A URDF element (not one of our extensions) named `name`.
+fn is(node: Node, name: &str) -> bool {
+    node.is_element() && node.tag_name().name() == name && !ours(node)
+}
+
+/// Whether `node` is in our extension namespace.
+fn ours(node: Node) -> bool {
+    node.tag_name().namespace() == Some(NAMESPACE)
+}
+
+/// The URDF elements named `name` among the children of `node`.
+fn children<'a, 'n>(node: Node<'a>, name: &'n str) -> impl Iterator<Item = Node<'a>> + 'n
+where
+    'a: 'n,
+{
+    node.children().filter(move |n| is(*n, name))
+}
+
+/// The first URDF element named `name` among the children of `node`.
+fn child<'a>(node: Node<'a>, name: &str) -> Option<Node<'a>> {
+    children(node, name).next()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::test_util::*;
+    use super::*;
+
+    #[test]
+    fn errors_name_line_and_element() {
+        let two_roots = format!("{}\n{}", link("a"), link("b"));
+        let cycle = format!(
+            "<link name=\"world\"/>{}{}\n{}\n{}",
+            link("a"),
+            link("b"),
+            joint("ab", "fixed", "a", "b", ""),
+            joint("ba", "fixed", "b", "a", "")
+        );
+        let two_parents = format!(
+            "<link name=\"world\"/>{}\n{}\n{}",
+            link("a"),
+            joint("j1", "fixed", "world", "a", ""),
+            joint("j2", "fixed", "world", "a", "")
+        );
+        let negative_mass = "<link name=\"a\"><inertial>\n<mass value=\"-1\"/>\
+                             <inertia ixx=\"1\" iyy=\"1\" izz=\"1\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>";
+        let cases: Vec<(String, u32, &str, &str)> = vec![
+            ("<link/>".into(), 2, "link", "missing attribute 'name'"),
+            (
+                "<link name=\"a\"><inertial><mass value=\"1 kg\"/></inertial></link>".into(),
+                2,
+                "mass",
+                "value: expected a finite number, got '1 kg'",
+            ),
+            (
+                format!(
+                    "<link name=\"world\"/>\n{}",
+                    joint("j", "fixed", "world", "nowhere", "")
+                ),
+                3,
+                "child",
+                "unknown link 'nowhere'",
+            ),
+            (two_roots, 3, "link", "two root links 'a' and 'b'"),
+            (
+                cycle,
+                4,
+                "joint",
+                "link 'a' is not reachable from the root link: the joints form a cycle",
+            ),
+            (
+                two_parents,
+                4,
+                "joint",
+                "link 'a' has two parents: joints 'j1' and 'j2'",
+            ),
+            (negative_mass.into(), 3, "mass", "negative mass -1"),
+            (
+                format!(
+                    "<link name=\"world\"/>{}\n{}",
+                    link("a"),
+                    joint("j", "floating", "world", "a", "")
+                ),
+                3,
+                "joint",
+                "floating joints are not supported",
+            ),
+            (
+                format!(
+                    "<link name=\"world\"/>{}\n{}",
+                    link("a"),
+                    joint("j", "revolute", "world", "a", "<axis xyz=\"0 0\"/>")
+                ),
+                3,
+                "axis",
+                "xyz: expected 3 finite numbers, got '0 0'",
+            ),
+            (
+                format!(
+                    "<link name=\"world\"/>{}\n{}",
+                    link("a"),
+                    joint(
+                        "j",
+                        "prismatic",
+                        "world",
+                        "a",
+                        "<dynamics diffosi:stifness=\"1\"/>"
+                    )
+                ),
+                3,
+                "dynamics",
+                "unknown extension attribute diffosi:stifness",
+            ),
+        ];
+        for (body, line, element, message) in cases {
+            match load(&body) {
+                Err(ModelError::Invalid {
+                    file,
+                    line: l,
+                    element: e,
+                    message: m,
+                }) => {
+                    assert_eq!(
+                        (file.as_str(), l, e.as_str()),
+                        ("test.urdf", line, element),
+                        "{m}"
+                    );
+                    assert!(m.contains(message), "'{m}' should contain '{message}'");
+                }
+                other => panic!("expected an Invalid error for {body}, got {other:?}"),
+            }
+        }
+        assert!(matches!(
+            load("<link name=\"a\">"),
+            Err(ModelError::Xml { .. })
+        ));
+    }
+
+    #[test]
+    fn truncated_files_never_panic() {
+        let text = include_str!("../../../reference_models/cartpole.urdf");
+        for end in (0..text.len()).filter(|&i| text.is_char_boundary(i)) {
+            let _ = parse(&text[..end], "cut.urdf");
+        }
+        assert!(parse(text, "cartpole.urdf").is_ok());
+    }
+}

@@ -1,0 +1,34 @@
+//! Builders shared by the tests of every part of the loader.
+
+use nalgebra::Matrix3;
+
+use super::{parse, NAMESPACE};
+use crate::model::{Model, ModelError};
+
+pub fn load(body: &str) -> Result<Model, ModelError> {
+    parse(&urdf(body), "test.urdf")
+}
+
+/// A robot holding `body`, with our namespace declared.
+pub fn urdf(body: &str) -> String {
+    format!("<robot name=\"r\" xmlns:diffosi=\"{NAMESPACE}\">\n{body}\n</robot>")
+}
+
+/// A link with a unit mass and inertia.
+pub fn link(name: &str) -> String {
+    format!(
+        "<link name=\"{name}\"><inertial><mass value=\"1\"/>\
+         <inertia ixx=\"1\" iyy=\"1\" izz=\"1\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>"
+    )
+}
+
+pub fn joint(name: &str, kind: &str, parent: &str, child: &str, extra: &str) -> String {
+    format!(
+        "<joint name=\"{name}\" type=\"{kind}\"><parent link=\"{parent}\"/>\
+         <child link=\"{child}\"/>{extra}</joint>"
+    )
+}
+
+pub fn close(a: &Matrix3<f64>, b: &Matrix3<f64>) -> bool {
+    (a - b).abs().max() < 1e-15
+}
