@@ -8,7 +8,8 @@ mod common;
 use diffosi::derivatives::Transition;
 use diffosi::model::{MapEntry, Model, ParamMap};
 use diffosi::osi::{
-    Adam, Average, Estimate, Identifier, Lm, Online, Oracle, Problem, Random, Sampling,
+    Adam, Average, ChangeDetection, CmaEs, Estimate, Identifier, Lm, Online, Oracle, Problem,
+    Random, Sampling,
 };
 use rand::rngs::StdRng;
 
@@ -431,4 +432,173 @@ fn bad_problems_and_windows_are_clear_errors() {
         .to_string(),
         "window size 4 must be at least 1 and at most the history 3"
     );
+}
+
+/// 30 transitions at mu = -0.4, then 30 at mu = 0.5 (the jump is at index 30).
+fn jump_stream() -> Vec<Transition> {
+    let mut stream = cartpole_window(-0.4, 30, 31);
+    stream.extend(cartpole_window(0.5, 30, 32));
+    stream
+}
+
+#[test]
+fn a_jump_of_mu_is_detected_at_once() {
+    let stream = jump_stream();
+    let run = |detect: bool| -> Vec<Estimate> {
+        let online = Online::new(
+            cartpole_problem(&SCALE),
+            Lm::default(),
+            10,
+            Sampling::Recent,
+            0,
+        )
+        .unwrap();
+        let mut online = if detect {
+            online
+                .with_change_detection(ChangeDetection::default())
+                .unwrap()
+        } else {
+            online
+        };
+        stream
+            .iter()
+            .map(|tr| online.push(tr.clone()).unwrap().clone())
+            .collect()
+    };
+    let with = run(true);
+    let without = run(false);
+    // Before the jump both agree and no change is declared.
+    assert!(with[..30].iter().all(|e| !e.flags.changed));
+    assert!((with[29].mu[0] + 0.4).abs() < 1e-9, "{:?}", with[29]);
+    // The first transition after the jump is the change; from then on the
+    // estimate is the new mu.
+    let changes: Vec<usize> = (0..60).filter(|&t| with[t].flags.changed).collect();
+    assert_eq!(changes, vec![30]);
+    let delay = (30..60)
+        .find(|&t| (with[t].mu[0] - 0.5).abs() < 1e-3)
+        .unwrap()
+        - 29;
+    let errors = |es: &[Estimate]| -> Vec<String> {
+        es.iter()
+            .map(|e| format!("{:.1e}", (e.mu[0] - 0.5).abs()))
+            .collect()
+    };
+    println!(
+        "detected after {delay} transition(s); errors after 1..3 transitions: with {:?}, without {:?}",
+        errors(&with[30..33]),
+        errors(&without[30..33])
+    );
+    assert!(delay <= 3, "{delay}");
+    assert!(with[30..].iter().all(|e| (e.mu[0] - 0.5).abs() < 1e-3));
+    assert!(without[..33].iter().all(|e| !e.flags.changed));
+    assert!((without[32].mu[0] - 0.5).abs() > 1e-3, "{:?}", without[32]);
+}
+
+#[test]
+fn no_false_alarm_without_a_change_under_small_noise() {
+    let sigma = 1e-4;
+    let mut stream = cartpole_window(0.3, 200, 41);
+    let mut r = common::rng(42);
+    for tr in &mut stream {
+        for x in [&mut tr.q, &mut tr.v, &mut tr.q_next, &mut tr.v_next] {
+            x.iter_mut().for_each(|xi| *xi += sigma * normal(&mut r));
+        }
+    }
+    let mut online = Online::new(
+        cartpole_problem(&[sigma; 4]),
+        Lm::default(),
+        10,
+        Sampling::Recent,
+        0,
+    )
+    .unwrap()
+    .with_change_detection(ChangeDetection::default())
+    .unwrap();
+    let mut residuals = vec![];
+    for tr in &stream {
+        let e = online.push(tr.clone()).unwrap();
+        assert!(!e.flags.changed, "{e:?}");
+        residuals.extend(online.residual());
+    }
+    residuals.sort_unstable_by(f64::total_cmp);
+    let (median, largest) = (
+        residuals[residuals.len() / 2],
+        residuals[residuals.len() - 1],
+    );
+    println!(
+        "prediction residuals over 200 transitions: median {median:.1}, largest {largest:.1}; a change needs 10 max(4, median of the last 20)"
+    );
+    let e = online.estimate().unwrap();
+    assert!((e.mu[0] - 0.3).abs() < 20.0 * sigma, "{e:?}");
+}
+
+#[test]
+fn bad_change_detection_options_are_refused() {
+    let online = || {
+        Online::new(
+            cartpole_problem(&SCALE),
+            Lm::default(),
+            2,
+            Sampling::Recent,
+            0,
+        )
+        .unwrap()
+    };
+    assert!(online().change_detection().is_none());
+    let bad = ChangeDetection {
+        threshold: 0.5,
+        ..ChangeDetection::default()
+    };
+    assert_eq!(
+        online().with_change_detection(bad).unwrap_err().to_string(),
+        "change detection: threshold 0.5 must be finite and above 1, min_window 3 and memory 20 at least 1"
+    );
+}
+
+#[test]
+fn cmaes_reaches_the_same_answer_with_many_more_evaluations() {
+    let mut problem = cartpole_problem(&SCALE);
+    for mu in [-0.45, 0.2, 0.5] {
+        let window = cartpole_window(mu, 5, 21);
+        let lm = Lm::default()
+            .identify(&mut problem, &window, &[0.0])
+            .unwrap();
+        let cma = CmaEs::default()
+            .identify(&mut problem, &window, &[0.0])
+            .unwrap();
+        println!(
+            "mu {mu}: LM error {:.1e} in {} evaluations; CMA-ES error {:.1e} in {} evaluations ({} generations), std {:.1e} vs LM {:.1e}, {:?}",
+            (lm.mu[0] - mu).abs(),
+            lm.evaluations,
+            (cma.mu[0] - mu).abs(),
+            cma.evaluations,
+            cma.iterations,
+            cma.std[0],
+            lm.std[0],
+            cma.flags
+        );
+        assert_finite(&cma);
+        assert!((cma.mu[0] - mu).abs() < 1e-6, "{cma:?}");
+        assert!(!cma.flags.not_converged, "{cma:?}");
+        assert!(cma.evaluations > 10 * lm.evaluations, "{cma:?} {lm:?}");
+    }
+}
+
+#[test]
+fn cmaes_same_seed_same_bits() {
+    let mut problem = cartpole_problem(&SCALE);
+    let window = cartpole_window(-0.2, 3, 4);
+    let bits = |seed: u64, problem: &mut Problem| -> Vec<u64> {
+        let mut cma = CmaEs::default();
+        cma.options.seed = seed;
+        let e = cma.identify(problem, &window, &[0.0]).unwrap();
+        e.mu.iter()
+            .chain(&e.std)
+            .chain([&e.loss])
+            .map(|x| x.to_bits())
+            .chain([e.evaluations as u64])
+            .collect()
+    };
+    assert_eq!(bits(3, &mut problem), bits(3, &mut problem));
+    assert_ne!(bits(3, &mut problem), bits(4, &mut problem));
 }

@@ -91,6 +91,7 @@ impl Identifier for Adam {
                 unexcited,
                 at_bound: problem.at_bound(mu.as_slice()),
                 not_converged: !converged,
+                ..Flags::default()
             },
             mu: mu.as_slice().to_vec(),
             std,

@@ -103,6 +103,7 @@ impl Identifier for Lm {
                 unexcited,
                 at_bound: problem.at_bound(best.mu.as_slice()),
                 not_converged: !best.converged,
+                ..Flags::default()
             },
             mu: best.mu.as_slice().to_vec(),
             std,

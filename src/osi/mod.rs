@@ -17,6 +17,8 @@
 //!   [`window_residuals`] (residuals and Jacobian together).
 
 mod adam;
+mod change;
+mod cmaes;
 mod lm;
 mod online;
 mod trivial;
@@ -24,6 +26,8 @@ mod trivial;
 use nalgebra::{DMatrix, DVector};
 
 pub use adam::{Adam, AdamOptions};
+pub use change::ChangeDetection;
+pub use cmaes::{CmaEs, CmaEsOptions};
 pub use lm::{Lm, LmOptions};
 pub use online::{Online, Sampling};
 pub use trivial::{Average, Oracle, Random};
@@ -61,6 +65,12 @@ pub enum OsiError {
         what: &'static str,
         i: usize,
         value: f64,
+    },
+    #[error("change detection: threshold {threshold} must be finite and above 1, min_window {min_window} and memory {memory} at least 1")]
+    ChangeDetection {
+        threshold: f64,
+        min_window: usize,
+        memory: usize,
     },
     #[error(transparent)]
     Param(#[from] ParamError),
@@ -250,6 +260,9 @@ pub struct Flags {
     pub at_bound: bool,
     /// The iteration limit stopped the solver before a tolerance did.
     pub not_converged: bool,
+    /// [`Online`]'s change detection judged the last pushed transition a
+    /// change of mu: the window held only transitions from it on.
+    pub changed: bool,
 }
 
 /// An identifier's answer.

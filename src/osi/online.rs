@@ -1,6 +1,8 @@
 //! Online use: a ring buffer of recent transitions; each pushed transition
 //! triggers an update on a window sampled from it, warm-started from the
-//! previous estimate (the prior before the first).
+//! previous estimate (the prior before the first). Optionally, a change
+//! detection ([`ChangeDetection`], off by default; the rule is in its module)
+//! empties the buffer when a new transition no longer fits the estimate.
 
 use std::collections::VecDeque;
 
@@ -8,6 +10,7 @@ use rand::rngs::StdRng;
 use rand::seq::index::sample;
 use rand::SeedableRng;
 
+use super::change::{ChangeDetection, Detector};
 use super::{Estimate, Identifier, OsiError, Problem};
 use crate::derivatives::Transition;
 
@@ -31,6 +34,8 @@ pub struct Online<I> {
     buffer: VecDeque<Transition>,
     rng: StdRng,
     estimate: Option<Estimate>,
+    detector: Option<Detector>,
+    residual: Option<f64>,
 }
 
 impl<I: Identifier> Online<I> {
@@ -59,14 +64,58 @@ impl<I: Identifier> Online<I> {
             buffer: VecDeque::with_capacity(history),
             rng: StdRng::seed_from_u64(seed),
             estimate: None,
+            detector: None,
+            residual: None,
         })
     }
 
+    /// Turns on change detection (off by default). Refuses a threshold that
+    /// is not finite and above 1, or a zero `min_window` or `memory`.
+    pub fn with_change_detection(
+        mut self,
+        options: ChangeDetection,
+    ) -> Result<Online<I>, OsiError> {
+        if !options.is_valid() {
+            return Err(OsiError::ChangeDetection {
+                threshold: options.threshold,
+                min_window: options.min_window,
+                memory: options.memory,
+            });
+        }
+        self.detector = Some(Detector::new(options));
+        Ok(self)
+    }
+
+    /// The change detection's options, if it is on.
+    pub fn change_detection(&self) -> Option<ChangeDetection> {
+        self.detector.as_ref().map(|d| d.options)
+    }
+
+    /// The scaled one-step prediction residual of the last pushed transition
+    /// under the estimate before it (None before a first estimate, or with
+    /// change detection off).
+    pub fn residual(&self) -> Option<f64> {
+        self.residual
+    }
+
     /// Stores a transition (checked first: a bad one leaves the buffer as it
-    /// was) and updates the estimate from a freshly sampled window.
+    /// was) and updates the estimate from a freshly sampled window. With
+    /// change detection on, a transition judged a change first empties the
+    /// buffer, and the estimate says so in `flags.changed`.
     pub fn push(&mut self, transition: Transition) -> Result<&Estimate, OsiError> {
-        self.problem
-            .check_window(std::slice::from_ref(&transition))?;
+        let one = std::slice::from_ref(&transition);
+        self.problem.check_window(one)?;
+        let mut changed = false;
+        if let Some(detector) = &mut self.detector {
+            self.residual = match &self.estimate {
+                Some(e) => Some(self.problem.fit(&e.mu, one)?.loss),
+                None => None,
+            };
+            changed = detector.judge(self.residual, 2 * self.problem.nv());
+        }
+        if changed {
+            self.buffer.clear();
+        }
         if self.buffer.len() == self.history {
             self.buffer.pop_front();
         }
@@ -76,9 +125,10 @@ impl<I: Identifier> Online<I> {
             Some(e) => e.mu.clone(),
             None => self.problem.prior().to_vec(),
         };
-        let estimate = self
+        let mut estimate = self
             .identifier
             .identify(&mut self.problem, &window, &start)?;
+        estimate.flags.changed = changed;
         Ok(self.estimate.insert(estimate))
     }
 
