@@ -602,3 +602,33 @@ fn cmaes_same_seed_same_bits() {
     assert_eq!(bits(3, &mut problem), bits(3, &mut problem));
     assert_ne!(bits(3, &mut problem), bits(4, &mut problem));
 }
+
+#[test]
+fn cmaes_ranks_unphysical_samples_last_and_never_answers_nan() {
+    // The pole's mass in a box reaching down to -1 kg: samples below zero
+    // are unphysical; the true mass sits just above.
+    let model = cartpole();
+    let map = ParamMap::new(
+        &model,
+        1,
+        &[MapEntry {
+            name: "body/pole/mass",
+            offset: &[0.0],
+            gain: &[&[1.0]],
+        }],
+    )
+    .unwrap();
+    let mut truth = model.clone();
+    map.apply(&mut truth, &[0.05]).unwrap();
+    let mut r = common::rng(6);
+    let window: Vec<Transition> = (0..5)
+        .map(|_| transition(&truth, &mut r, &CARTPOLE_RANGES))
+        .collect();
+    let mut problem = Problem::new(&model, map, &[-1.0], &[2.0], &[1.0], &SCALE).unwrap();
+    let e = CmaEs::default()
+        .identify(&mut problem, &window, &[1.0])
+        .unwrap();
+    println!("pole mass: {e:?}");
+    assert_finite(&e);
+    assert!((e.mu[0] - 0.05).abs() < 1e-6, "{e:?}");
+}
