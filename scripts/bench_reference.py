@@ -13,6 +13,13 @@ faster):
 - one-parameter Jacobian: ours only; the paper's engine (NimblePhysics) needed
   52 us (cartpole) and 395 us (half cheetah) for a Gauss-Newton update per
   transition on this machine class (shared/notes/reference-engines.md).
+
+Then an OSI table (benches/osi.rs): one DiffOSI identification (LM from the
+prior until a tolerance stops it: an online update) and one evaluation of the
+window's residuals and exact Jacobian (the work of one Gauss-Newton step), at
+windows W = 1, 2, 5, 10, 50, per update and per transition, next to
+NimblePhysics' Gauss-Newton step (the same notes) where measured. Ratio =
+Nimble / ours; the goal is >= 30x.
 """
 import json
 import pathlib
@@ -88,6 +95,40 @@ def row(what, name, ours_s, theirs):
     return "| " + " | ".join(cells) + " |"
 
 
+# NimblePhysics Gauss-Newton DiffOSI step, thread-CPU seconds per update
+# (shared/notes/reference-engines.md): (model, W) -> seconds.
+NIMBLE_GN_STEP = {
+    ("cartpole", 1): 52e-6,
+    ("cartpole", 10): 523e-6,
+    ("cartpole", 50): 2.7e-3,
+    ("half_cheetah", 1): 395e-6,
+}
+OSI_WINDOWS = [1, 2, 5, 10, 50]
+
+
+def osi_table():
+    def us(seconds):
+        return f"{seconds * 1e6:.1f}"
+
+    lines = [
+        "| model | W | identification (µs) | per transition (µs) | one GN step (µs) | per transition (µs) "
+        "| Nimble GN step (µs) | ratio Nimble step / our identification | ratio Nimble step / our step |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for name in MODELS:
+        for w in OSI_WINDOWS:
+            update = ours(f"osi_lm_{name}_W{w}")
+            step = ours(f"osi_fit_{name}_W{w}")
+            nimble = NIMBLE_GN_STEP.get((name, w))
+            cells = [name, str(w), us(update), us(update / w), us(step), us(step / w)]
+            if nimble is None:
+                cells += ["—", "—", "—"]
+            else:
+                cells += [us(nimble), f"{nimble / update:.1f}x", f"{nimble / step:.1f}x"]
+            lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def main():
     lines = [
         "| what | model | diffosi (µs) | MuJoCo (µs, ratio) | Pinocchio (µs, ratio) |",
@@ -107,10 +148,22 @@ def main():
         lines.append(row("finite differences of our step", name, ours(f"jacobian_fd_{name}"), [None, None]))
     table = "\n".join(lines)
     versions = f"mujoco {mujoco.__version__}, pinocchio {pinocchio.__version__}; medians"
+    osi = osi_table()
+    osi_note = (
+        "Identification: LM from the prior to convergence (cartpole pole COM offset, true 0.3 from 0; "
+        "half cheetah torso mass, true 7.0 from 4.9; noise-free, contact-free, seeded random states "
+        "and forces). One GN step: residuals and exact parameter Jacobian of the whole window. "
+        "Nimble: its Gauss-Newton step (forward + parameter Jacobian + solve), thread-CPU time. "
+        "Evaluations to tolerance, LM vs Adam: `cargo run --release --example osi_evals`."
+    )
     out = ROOT / "reports" / "bench.md"
     out.parent.mkdir(exist_ok=True)
-    out.write_text(f"# Speed, measured in one run\n\n{table}\n\n{versions}. Ratio = their time / ours.\n")
+    out.write_text(
+        f"# Speed, measured in one run\n\n{table}\n\n{versions}. Ratio = their time / ours.\n"
+        f"\n## Online system identification (DiffOSI)\n\n{osi}\n\n{osi_note}\n"
+    )
     print(table)
+    print(osi)
 
 
 if __name__ == "__main__":

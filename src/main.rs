@@ -55,6 +55,54 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Identify named physical parameters from observed transitions (DiffOSI).
+    ///
+    /// mu is the named parameters themselves: each scalar of each parameter,
+    /// in the order given, is one component (a COM gives 3, an inertia 6:
+    /// xx yy zz xy xz yz). The loss is the sum over transitions of
+    /// ||(step(q, v, tau) - (q_next, v_next)) / scale||^2. Prints each value
+    /// with its standard error, the final loss, iterations, evaluations and
+    /// flags (unexcited: a direction the data does not excite kept its start
+    /// value; at_bound; not_converged).
+    #[command(verbatim_doc_comment)]
+    Identify {
+        /// Model file: .xml (MJCF) or .urdf.
+        model: PathBuf,
+        /// Named parameters, comma separated (e.g. body/pole/mass,joint/hinge/damping).
+        #[arg(long, value_delimiter = ',', required = true)]
+        params: Vec<String>,
+        /// CSV of transitions, one per row: q (nq values), v (nv), tau (nv),
+        /// q_next (nq), v_next (nv), i.e. nq+nv+nv+nq+nv comma-separated numbers.
+        /// A first row that is not numeric is a header; blank lines are skipped.
+        #[arg(long)]
+        transitions: PathBuf,
+        /// Solver: lm (bounded Levenberg-Marquardt) or adam (the paper's variant).
+        #[arg(long, value_enum, default_value = "lm")]
+        method: cli::identify::Method,
+        /// Lower bounds, one per mu component, comma separated. Default, from
+        /// the model's value x: x/10 for masses and inertia diagonals, x - 1 for
+        /// COM coordinates, x - (largest diagonal) for inertia products, 0 for
+        /// damping, stiffness and armature.
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+        lower: Option<Vec<f64>>,
+        /// Upper bounds, one per mu component. Default: 10x for masses and inertia
+        /// diagonals, x + 1 for COM coordinates, x + (largest diagonal) for
+        /// inertia products, max(10x, 1) for damping, stiffness and armature.
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+        upper: Option<Vec<f64>>,
+        /// Start values (the prior), one per mu component; the model's values,
+        /// clamped into the bounds, if omitted.
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+        init: Option<Vec<f64>>,
+        /// Residual scale: 2 nv values (q part then v part) or one for all; best
+        /// the measurement noise of each state component. Default 1e-6 dt for
+        /// positions and 1e-6 for velocities (noise-free data).
+        #[arg(long, value_delimiter = ',')]
+        scale: Option<Vec<f64>>,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 fn main() -> ExitCode {
@@ -73,6 +121,27 @@ fn main() -> ExitCode {
             params,
             json,
         } => cli::jacobian::jacobian(&model, state, &params, json),
+        Command::Identify {
+            model,
+            params,
+            transitions,
+            method,
+            lower,
+            upper,
+            init,
+            scale,
+            json,
+        } => cli::identify::identify(cli::identify::Request {
+            model: &model,
+            params: &params,
+            transitions: &transitions,
+            method,
+            lower,
+            upper,
+            init,
+            scale,
+            json,
+        }),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

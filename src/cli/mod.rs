@@ -1,4 +1,5 @@
 //! The subcommands of the `diffosi` binary, one file each.
 
+pub mod identify;
 pub mod jacobian;
 pub mod simulate;

@@ -1,0 +1,62 @@
+//! DiffOSI timings, contact-free: one identification (an online update: the
+//! bounded Levenberg-Marquardt from the prior until a tolerance stops it) and
+//! one evaluation of the window's residuals and exact Jacobian (the work of
+//! one Gauss-Newton step), at windows W = 1, 2, 5, 10, 50, for the cartpole
+//! (pole COM offset) and the half cheetah (torso mass); see
+//! `benches/osi_problems/mod.rs`.
+//!
+//! Ids: `osi_lm/<model>/W<W>` and `osi_fit/<model>/W<W>`; divide by W for the
+//! cost per transition (scripts/bench_reference.py does, next to the
+//! NimblePhysics anchors). Evaluations to tolerance, LM against Adam, are
+//! printed by `cargo run --release --example osi_evals`.
+
+mod osi_problems;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use diffosi::osi::{Identifier, Lm};
+use osi_problems::{cartpole, half_cheetah, truth};
+use std::hint::black_box;
+use std::time::Duration;
+
+const WINDOWS: [usize; 5] = [1, 2, 5, 10, 50];
+
+fn bench_osi(c: &mut Criterion) {
+    for task in [cartpole(), half_cheetah()] {
+        let mut problem = task.problem();
+        let mu = truth(&task);
+        for w in WINDOWS {
+            let window = task.window(mu, w, 1000 + w as u64);
+            let e = Lm::default()
+                .identify(&mut problem, &window, &[task.prior])
+                .unwrap();
+            assert!((e.mu[0] - mu).abs() < 1e-6, "{} W{w}: {e:?}", task.name);
+            println!(
+                "{} W{w}: error {:.1e}, {} iterations, {} evaluations",
+                task.name,
+                (e.mu[0] - mu).abs(),
+                e.iterations,
+                e.evaluations
+            );
+            c.bench_function(&format!("osi_lm/{}/W{w}", task.name), |b| {
+                b.iter(|| {
+                    Lm::default()
+                        .identify(&mut problem, black_box(&window), &[task.prior])
+                        .unwrap()
+                })
+            });
+            c.bench_function(&format!("osi_fit/{}/W{w}", task.name), |b| {
+                b.iter(|| problem.fit(&[task.prior], black_box(&window)).unwrap())
+            });
+        }
+    }
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default()
+        .sample_size(30)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2));
+    targets = bench_osi
+}
+criterion_main!(benches);

@@ -1,0 +1,139 @@
+//! The identification problems of the OSI benchmarks (`benches/osi.rs`) and of
+//! the evaluations-to-tolerance table (`examples/osi_evals.rs`), contact-free:
+//!
+//! - cartpole: mu = pole COM offset, COM at (mu, 0, 0.5 + 0.2 mu), bounds
+//!   [-0.6, 0.6], prior 0 (the paper's task);
+//! - half cheetah: mu = torso mass (`body/torso/mass`), bounds [1, 50], prior
+//!   4.9, truth 7.0 (the paper's task, as in shared/notes/reference-engines.md).
+//!
+//! Transitions come from our own engine at the true mu, from seeded uniform
+//! random states and generalized forces.
+#![allow(dead_code)]
+
+use diffosi::derivatives::Transition;
+use diffosi::model::{MapEntry, Model, ParamMap};
+use diffosi::osi::Problem;
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
+
+pub struct Task {
+    pub name: &'static str,
+    pub model: Model,
+    pub map: ParamMap,
+    pub lower: f64,
+    pub upper: f64,
+    pub prior: f64,
+    /// Half-widths of the uniform draws of q, v and tau (one value each).
+    pub ranges: [f64; 3],
+}
+
+pub fn load(name: &str) -> Model {
+    Model::load(format!(
+        "{}/reference_models/{name}.xml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap()
+}
+
+pub fn cartpole() -> Task {
+    let model = load("cartpole");
+    let map = ParamMap::new(
+        &model,
+        1,
+        &[MapEntry {
+            name: "body/pole/com",
+            offset: &[0.0, 0.0, 0.5],
+            gain: &[&[1.0], &[0.0], &[0.2]],
+        }],
+    )
+    .unwrap();
+    Task {
+        name: "cartpole",
+        model,
+        map,
+        lower: -0.6,
+        upper: 0.6,
+        prior: 0.0,
+        ranges: [1.0, 2.0, 5.0],
+    }
+}
+
+pub fn half_cheetah() -> Task {
+    let model = load("half_cheetah");
+    let map = ParamMap::new(
+        &model,
+        1,
+        &[MapEntry {
+            name: "body/torso/mass",
+            offset: &[0.0],
+            gain: &[&[1.0]],
+        }],
+    )
+    .unwrap();
+    Task {
+        name: "half_cheetah",
+        model,
+        map,
+        lower: 1.0,
+        upper: 50.0,
+        prior: 4.9,
+        ranges: [0.5, 1.0, 5.0],
+    }
+}
+
+/// The true mu the benchmarks identify.
+pub fn truth(task: &Task) -> f64 {
+    match task.name {
+        "cartpole" => 0.3,
+        _ => 7.0,
+    }
+}
+
+impl Task {
+    /// Noise-free data: residual scales at the level of rounding, q then v
+    /// (a position error is dt times the velocity error that caused it).
+    pub fn problem(&self) -> Problem {
+        let n = self.model.nv();
+        let dt = self.model.opt.timestep;
+        let mut scale = vec![1e-6 * dt; n];
+        scale.extend(vec![1e-6; n]);
+        Problem::new(
+            &self.model,
+            self.map.clone(),
+            &[self.lower],
+            &[self.upper],
+            &[self.prior],
+            &scale,
+        )
+        .unwrap()
+    }
+
+    /// `len` transitions of the model at `mu`, from seeded random states and
+    /// forces.
+    pub fn window(&self, mu: f64, len: usize, seed: u64) -> Vec<Transition> {
+        let mut truth = self.model.clone();
+        self.map.apply(&mut truth, &[mu]).unwrap();
+        let mut rng = StdRng::seed_from_u64(seed);
+        let mut data = truth.data();
+        let n = truth.nv();
+        let q0 = truth.reference_q();
+        (0..len)
+            .map(|_| {
+                let mut draw =
+                    |h: f64| -> Vec<f64> { (0..n).map(|_| rng.random_range(-h..h)).collect() };
+                let dq = draw(self.ranges[0]);
+                let q: Vec<f64> = q0.iter().zip(&dq).map(|(a, b)| a + b).collect();
+                let v = draw(self.ranges[1]);
+                let tau = draw(self.ranges[2]);
+                let (q_next, v_next) = truth.step(&mut data, &q, &v, &tau).unwrap();
+                Transition {
+                    q,
+                    v,
+                    tau,
+                    q_next,
+                    v_next,
+                }
+            })
+            .collect()
+    }
+}

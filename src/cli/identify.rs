@@ -1,0 +1,360 @@
+//! `diffosi identify`: DiffOSI on transitions read from a CSV file, with the
+//! named parameters themselves as mu (each scalar of each parameter is one
+//! mu component, in the order given).
+
+use std::path::Path;
+
+use diffosi::derivatives::Transition;
+use diffosi::model::{MapEntry, Param, ParamMap};
+use diffosi::osi::{Adam, Estimate, Identifier, Lm, Problem};
+use diffosi::Model;
+use serde_json::json;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Method {
+    /// Bounded Levenberg-Marquardt on the exact residual Jacobian.
+    Lm,
+    /// The paper's first-order variant: Adam on the loss gradient.
+    Adam,
+}
+
+/// What `identify` is asked, as parsed from the command line.
+pub struct Request<'a> {
+    pub model: &'a Path,
+    pub params: &'a [String],
+    pub transitions: &'a Path,
+    pub method: Method,
+    pub lower: Option<Vec<f64>>,
+    pub upper: Option<Vec<f64>>,
+    pub init: Option<Vec<f64>>,
+    pub scale: Option<Vec<f64>>,
+    pub json: bool,
+}
+
+pub fn identify(r: Request) -> Result<(), String> {
+    let model = Model::load(r.model).map_err(|e| e.to_string())?;
+    if r.params.is_empty() {
+        return Err("--params names no parameter".into());
+    }
+    let mut params: Vec<Param> = vec![];
+    for name in r.params {
+        let p = model.param(name).map_err(|e| e.to_string())?;
+        if params.contains(&p) {
+            return Err(format!("parameter '{name}' is given twice"));
+        }
+        params.push(p);
+    }
+    let labels = labels(r.params, &params);
+    let nmu = labels.len();
+    let current: Vec<f64> = r
+        .params
+        .iter()
+        .flat_map(|name| model.get_param(name).unwrap())
+        .collect();
+    let (default_lower, default_upper) = default_bounds(&params, &current);
+    let lower = values("--lower", r.lower, default_lower, nmu)?;
+    let upper = values("--upper", r.upper, default_upper, nmu)?;
+    for i in 0..nmu {
+        let (lo, hi) = (lower[i], upper[i]);
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+            return Err(format!(
+                "bounds of {}: lower {lo} and upper {hi} must be finite with lower < upper",
+                labels[i]
+            ));
+        }
+    }
+    // The model's values, clamped into the bounds, unless given.
+    let default_init = (0..nmu)
+        .map(|i| current[i].clamp(lower[i], upper[i]))
+        .collect();
+    let init = values("--init", r.init, default_init, nmu)?;
+    for i in 0..nmu {
+        if !(lower[i]..=upper[i]).contains(&init[i]) {
+            return Err(format!(
+                "--init {} = {} lies outside its bounds [{}, {}]",
+                labels[i], init[i], lower[i], upper[i]
+            ));
+        }
+    }
+    let nv = model.nv();
+    let dt = model.opt.timestep;
+    let default_scale = (0..2 * nv)
+        .map(|k| if k < nv { 1e-6 * dt } else { 1e-6 })
+        .collect();
+    let scale = match r.scale {
+        Some(s) if s.len() == 1 => vec![s[0]; 2 * nv],
+        s => values("--scale", s, default_scale, 2 * nv)
+            .map_err(|e| format!("{e} (or a single value for all)"))?,
+    };
+    if let Some(s) = scale.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+        return Err(format!("--scale value {s} must be finite and positive"));
+    }
+
+    let window = read_transitions(r.transitions, model.nq(), nv)?;
+    let map = identity_map(&model, r.params, &params, nmu)?;
+    let mut problem =
+        Problem::new(&model, map, &lower, &upper, &init, &scale).map_err(|e| e.to_string())?;
+    let estimate = match r.method {
+        Method::Lm => Lm::default().identify(&mut problem, &window, &init),
+        Method::Adam => Adam::default().identify(&mut problem, &window, &init),
+    }
+    .map_err(|e| e.to_string())?;
+    if r.json {
+        let out = to_json(r.params, &params, r.method, window.len(), &estimate);
+        println!("{}", serde_json::to_string_pretty(&out).unwrap());
+    } else {
+        print_text(&labels, r.method, window.len(), &estimate);
+    }
+    Ok(())
+}
+
+/// One label per mu component: the name, with an index for vector parameters.
+fn labels(names: &[String], params: &[Param]) -> Vec<String> {
+    let mut out = vec![];
+    for (name, p) in names.iter().zip(params) {
+        if p.size() == 1 {
+            out.push(name.clone());
+        } else {
+            out.extend((0..p.size()).map(|i| format!("{name}[{i}]")));
+        }
+    }
+    out
+}
+
+/// Default bounds around the model's values x (documented in `--help`):
+/// masses and inertia diagonals [x/10, 10x]; COM coordinates x -+ 1 m;
+/// inertia products x -+ the largest diagonal moment; damping, stiffness and
+/// armature [0, max(10x, 1)].
+fn default_bounds(params: &[Param], current: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let (mut lower, mut upper) = (vec![], vec![]);
+    let mut k = 0;
+    for p in params {
+        let x = &current[k..k + p.size()];
+        for (i, &xi) in x.iter().enumerate() {
+            let (lo, hi) = match p {
+                Param::Mass(_) => (xi / 10.0, xi * 10.0),
+                Param::Inertia(_) if i < 3 => (xi / 10.0, xi * 10.0),
+                Param::Inertia(_) => {
+                    let d = x[..3].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                    (xi - d, xi + d)
+                }
+                Param::Com(_) => (xi - 1.0, xi + 1.0),
+                _ => (0.0, (10.0 * xi).max(1.0)),
+            };
+            lower.push(lo);
+            upper.push(hi);
+        }
+        k += p.size();
+    }
+    (lower, upper)
+}
+
+fn values(
+    what: &str,
+    given: Option<Vec<f64>>,
+    default: Vec<f64>,
+    n: usize,
+) -> Result<Vec<f64>, String> {
+    match given {
+        None => Ok(default),
+        Some(v) if v.len() != n => Err(format!("{what} takes {n} values, got {}", v.len())),
+        Some(v) => {
+            if let Some(x) = v.iter().find(|x| x.is_nan()) {
+                return Err(format!("{what} value {x} is not a number"));
+            }
+            Ok(v)
+        }
+    }
+}
+
+/// mu is the flattened parameters: parameter k's scalar i is mu[offset_k + i].
+fn identity_map(
+    model: &Model,
+    names: &[String],
+    params: &[Param],
+    nmu: usize,
+) -> Result<ParamMap, String> {
+    let mut offsets = vec![];
+    let mut gains: Vec<Vec<Vec<f64>>> = vec![];
+    let mut k = 0;
+    for p in params {
+        offsets.push(vec![0.0; p.size()]);
+        gains.push(
+            (0..p.size())
+                .map(|i| {
+                    let mut row = vec![0.0; nmu];
+                    row[k + i] = 1.0;
+                    row
+                })
+                .collect(),
+        );
+        k += p.size();
+    }
+    let rows: Vec<Vec<&[f64]>> = gains
+        .iter()
+        .map(|g| g.iter().map(|r| r.as_slice()).collect())
+        .collect();
+    let entries: Vec<MapEntry> = names
+        .iter()
+        .zip(&offsets)
+        .zip(&rows)
+        .map(|((name, offset), gain)| MapEntry { name, offset, gain })
+        .collect();
+    ParamMap::new(model, nmu, &entries).map_err(|e| e.to_string())
+}
+
+/// Reads one transition per row: q (nq), v (nv), tau (nv), q_next (nq),
+/// v_next (nv), comma separated. A first non-blank row that is not numeric is
+/// a header; blank lines are skipped.
+pub fn read_transitions(path: &Path, nq: usize, nv: usize) -> Result<Vec<Transition>, String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let blocks = [
+        ("q", nq),
+        ("v", nv),
+        ("tau", nv),
+        ("q_next", nq),
+        ("v_next", nv),
+    ];
+    let width: usize = blocks.iter().map(|b| b.1).sum();
+    let column = |c: usize| {
+        let mut c = c;
+        for (what, n) in blocks {
+            if c < n {
+                return format!("{what}[{c}]");
+            }
+            c -= n;
+        }
+        unreachable!()
+    };
+    let mut rows = vec![];
+    let mut seen_data = false;
+    for (i, line) in text.lines().enumerate() {
+        let line_no = i + 1;
+        let at = format!("{} line {line_no}", path.display());
+        if line.trim().is_empty() {
+            continue;
+        }
+        let cells: Vec<&str> = line.split(',').map(str::trim).collect();
+        let parsed: Vec<Result<f64, _>> = cells.iter().map(|c| c.parse::<f64>()).collect();
+        if !seen_data && parsed.iter().all(|p| p.is_err()) {
+            seen_data = true;
+            continue; // header
+        }
+        seen_data = true;
+        if cells.len() != width {
+            return Err(format!(
+                "{at}: expected {width} values (q: {nq}, v: {nv}, tau: {nv}, q_next: {nq}, v_next: {nv}), got {}",
+                cells.len()
+            ));
+        }
+        let mut row = Vec::with_capacity(width);
+        for (c, (cell, value)) in cells.iter().zip(parsed).enumerate() {
+            let value = value.map_err(|_| {
+                format!(
+                    "{at}, column {} ({}): '{cell}' is not a number",
+                    c + 1,
+                    column(c)
+                )
+            })?;
+            if !value.is_finite() {
+                return Err(format!(
+                    "{at}, column {} ({}): value {value} is not finite",
+                    c + 1,
+                    column(c)
+                ));
+            }
+            row.push(value);
+        }
+        let mut rest = row.as_slice();
+        let mut take = |n: usize| {
+            let (head, tail) = rest.split_at(n);
+            rest = tail;
+            head.to_vec()
+        };
+        rows.push(Transition {
+            q: take(nq),
+            v: take(nv),
+            tau: take(nv),
+            q_next: take(nq),
+            v_next: take(nv),
+        });
+    }
+    if rows.is_empty() {
+        return Err(format!("{} holds no transitions", path.display()));
+    }
+    Ok(rows)
+}
+
+fn method_name(m: Method) -> &'static str {
+    match m {
+        Method::Lm => "lm",
+        Method::Adam => "adam",
+    }
+}
+
+fn to_json(
+    names: &[String],
+    params: &[Param],
+    method: Method,
+    transitions: usize,
+    e: &Estimate,
+) -> serde_json::Value {
+    let mut k = 0;
+    let mut out = vec![];
+    for (name, p) in names.iter().zip(params) {
+        let n = p.size();
+        out.push(json!({
+            "name": name,
+            "value": &e.mu[k..k + n],
+            "std": &e.std[k..k + n],
+        }));
+        k += n;
+    }
+    json!({
+        "method": method_name(method),
+        "transitions": transitions,
+        "params": out,
+        "mu": e.mu,
+        "std": e.std,
+        "loss": e.loss,
+        "iterations": e.iterations,
+        "evaluations": e.evaluations,
+        "flags": {
+            "unexcited": e.flags.unexcited,
+            "at_bound": e.flags.at_bound,
+            "not_converged": e.flags.not_converged,
+        },
+    })
+}
+
+fn print_text(labels: &[String], method: Method, transitions: usize, e: &Estimate) {
+    println!(
+        "{} on {transitions} transitions",
+        method_name(method).to_uppercase()
+    );
+    let width = labels.iter().map(|l| l.len()).max().unwrap_or(0);
+    for (i, label) in labels.iter().enumerate() {
+        println!("{label:<width$} = {:.12} ± {:.3e}", e.mu[i], e.std[i]);
+    }
+    println!("loss {:.6e}", e.loss);
+    println!("iterations {}, evaluations {}", e.iterations, e.evaluations);
+    let f = e.flags;
+    let flags: Vec<&str> = [
+        (f.unexcited, "unexcited"),
+        (f.at_bound, "at_bound"),
+        (f.not_converged, "not_converged"),
+    ]
+    .iter()
+    .filter(|(on, _)| *on)
+    .map(|(_, name)| *name)
+    .collect();
+    println!(
+        "flags: {}",
+        if flags.is_empty() {
+            "none".to_string()
+        } else {
+            flags.join(", ")
+        }
+    );
+}
