@@ -7,15 +7,16 @@
 //! to a Python exception (`OSError` for files, `ValueError` for everything
 //! else); nothing the caller passes can reach a panic.
 
-use engine::derivatives::{step_jacobians, Workspace, Wrt};
+use engine::derivatives::{step_jacobians, Transition, Workspace, Wrt};
 use engine::dynamics::Data;
-use engine::model::{Param, ParamError};
+use engine::model::{MapEntry, Param, ParamError, ParamMap};
+use engine::osi::{Adam, Estimate, Identifier, Lm, OsiError, Problem};
 use engine::{Model, ModelError};
 use numpy::ndarray::Array2;
 use numpy::{PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyTuple};
+use pyo3::types::{PyDict, PyList, PyTuple};
 
 /// A rigid-body model with its simulation buffers.
 ///
@@ -248,6 +249,285 @@ impl PyModel {
     }
 }
 
+/// The residual scale on velocities when `scale` is not given; positions get
+/// `timestep` times this (see `DiffOsi`).
+const DEFAULT_V_SCALE: f64 = 1e-3;
+
+/// Which solver a `DiffOsi` runs.
+#[derive(Clone, Copy, Debug)]
+enum Method {
+    Lm,
+    Adam,
+}
+
+/// Online system identification (DiffOSI): the named parameters that make
+/// the model reproduce a window of observed transitions.
+///
+/// `DiffOsi(model, params, lower, upper, method="lm", scale=None)`:
+/// - `params`: parameter names (see `Model.param_names()`); mu is their
+///   values flattened in that order (a 3-vector such as `body/pole/com` takes
+///   three components), and `lower`/`upper` hold one finite bound per
+///   component, lower < upper.
+/// - `method`: "lm" (bounded Levenberg-Marquardt on exact Jacobians) or
+///   "adam" (the paper's first-order variant; many more iterations).
+/// - `scale`: 2 nv positive values (q then v) dividing the residuals; best
+///   set to each component's measurement noise. Default: 1e-3 for every v
+///   and `timestep * 1e-3` for every q (under semi-implicit Euler a position
+///   residual is dt times the velocity residual that caused it, so both
+///   weigh alike).
+///
+/// The model is copied: later changes to it do not reach this object. The
+/// default start is the model's current parameter values clamped into the
+/// bounds (`prior`).
+#[pyclass(name = "DiffOsi", module = "diffosi")]
+struct PyDiffOsi {
+    problem: Problem,
+    method: Method,
+    names: Vec<String>,
+    nv: usize,
+}
+
+#[pymethods]
+impl PyDiffOsi {
+    #[new]
+    #[pyo3(signature = (model, params, lower, upper, method = "lm", scale = None))]
+    fn new(
+        model: &Bound<'_, PyModel>,
+        params: Vec<String>,
+        lower: &Bound<'_, PyAny>,
+        upper: &Bound<'_, PyAny>,
+        method: &str,
+        scale: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let model = model.borrow().model.clone();
+        let method = match method {
+            "lm" => Method::Lm,
+            "adam" => Method::Adam,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "method must be 'lm' or 'adam', got '{other}'"
+                )))
+            }
+        };
+        if params.is_empty() {
+            return Err(PyValueError::new_err(
+                "params must name at least one parameter",
+            ));
+        }
+        for (i, name) in params.iter().enumerate() {
+            if params[..i].contains(name) {
+                return Err(PyValueError::new_err(format!(
+                    "params: parameter '{name}' is named twice"
+                )));
+            }
+        }
+        let sizes: Vec<usize> = params
+            .iter()
+            .map(|name| model.param(name).map(|p| p.size()).map_err(param_error))
+            .collect::<PyResult<_>>()?;
+        let nmu: usize = sizes.iter().sum();
+        let what = "nmu (the flattened length of params)";
+        let lower = vector(lower, "lower", nmu, what)?;
+        let upper = vector(upper, "upper", nmu, what)?;
+        if let Some(i) = (0..nmu).find(|&i| lower[i] >= upper[i]) {
+            return Err(PyValueError::new_err(format!(
+                "bounds: lower[{i}] = {} must be below upper[{i}] = {}",
+                lower[i], upper[i]
+            )));
+        }
+        let nv = model.nv();
+        let scale = match scale {
+            Some(s) => {
+                let s = vector(s, "scale", 2 * nv, "2 nv")?;
+                if let Some(i) = s.iter().position(|x| *x <= 0.0) {
+                    return Err(PyValueError::new_err(format!(
+                        "scale[{i}] = {} must be positive",
+                        s[i]
+                    )));
+                }
+                s
+            }
+            None => {
+                let dt = model.opt.timestep;
+                let mut s = vec![dt * DEFAULT_V_SCALE; nv];
+                s.extend(std::iter::repeat_n(DEFAULT_V_SCALE, nv));
+                s
+            }
+        };
+        // Identity map: mu component k is the k-th flattened parameter scalar.
+        let mut prior = Vec::with_capacity(nmu);
+        for name in &params {
+            prior.extend(model.get_param(name).map_err(param_error)?);
+        }
+        for (i, p) in prior.iter_mut().enumerate() {
+            *p = p.clamp(lower[i], upper[i]);
+        }
+        let gains: Vec<Vec<f64>> = (0..nmu)
+            .map(|i| (0..nmu).map(|j| f64::from(u8::from(i == j))).collect())
+            .collect();
+        let mut rows: Vec<Vec<&[f64]>> = vec![];
+        let mut k = 0;
+        for &size in &sizes {
+            rows.push(gains[k..k + size].iter().map(|g| g.as_slice()).collect());
+            k += size;
+        }
+        let offsets: Vec<Vec<f64>> = sizes.iter().map(|&n| vec![0.0; n]).collect();
+        let entries: Vec<MapEntry> = params
+            .iter()
+            .zip(&rows)
+            .zip(&offsets)
+            .map(|((name, gain), offset)| MapEntry { name, offset, gain })
+            .collect();
+        let map = ParamMap::new(&model, nmu, &entries).map_err(param_error)?;
+        let problem = Problem::new(&model, map, &lower, &upper, &prior, &scale)
+            .map_err(|e| osi_error("DiffOsi", e))?;
+        Ok(PyDiffOsi {
+            problem,
+            method,
+            names: params,
+            nv,
+        })
+    }
+
+    /// Estimates the parameters from a window of W transitions: q, v, tau,
+    /// q_next, v_next of shapes (W, nq), (W, nv), (W, nv), (W, nq), (W, nv),
+    /// starting from `init` (default: `prior`). Returns a dict: "params" and
+    /// "std" (float64 arrays of length nmu; an unexcited direction keeps its
+    /// start value and reports the uniform prior's std, never NaN), "loss"
+    /// (the scaled sum of squares), "iterations", "evaluations" and "flags"
+    /// (a list drawn from "unexcited", "at_bound", "not_converged").
+    #[pyo3(signature = (q, v, tau, q_next, v_next, init = None))]
+    #[allow(clippy::too_many_arguments)]
+    fn identify<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        v: &Bound<'py, PyAny>,
+        tau: &Bound<'py, PyAny>,
+        q_next: &Bound<'py, PyAny>,
+        v_next: &Bound<'py, PyAny>,
+        init: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let nv = self.nv;
+        let arrays = [
+            matrix(q, "q", nv, "nq")?,
+            matrix(v, "v", nv, "nv")?,
+            matrix(tau, "tau", nv, "nv")?,
+            matrix(q_next, "q_next", nv, "nq")?,
+            matrix(v_next, "v_next", nv, "nv")?,
+        ];
+        let w = arrays[0].nrows();
+        if w == 0 {
+            return Err(PyValueError::new_err(
+                "q: the window holds no transitions (W = 0)",
+            ));
+        }
+        let names = ["q", "v", "tau", "q_next", "v_next"];
+        if let Some(k) = arrays.iter().position(|a| a.nrows() != w) {
+            return Err(PyValueError::new_err(format!(
+                "{} has {} rows, but q has W = {w}: every array needs one row per transition",
+                names[k],
+                arrays[k].nrows()
+            )));
+        }
+        let row = |k: usize, t: usize| arrays[k].row(t).to_vec();
+        let window: Vec<Transition> = (0..w)
+            .map(|t| Transition {
+                q: row(0, t),
+                v: row(1, t),
+                tau: row(2, t),
+                q_next: row(3, t),
+                v_next: row(4, t),
+            })
+            .collect();
+        let nmu = self.problem.nmu();
+        let start = match init {
+            Some(init) => {
+                let init = vector(init, "init", nmu, "nmu")?;
+                let (lo, hi) = (self.problem.lower(), self.problem.upper());
+                if let Some(i) = (0..nmu).find(|&i| !(lo[i]..=hi[i]).contains(&init[i])) {
+                    return Err(PyValueError::new_err(format!(
+                        "init[{i}] = {} lies outside its bounds [{}, {}]",
+                        init[i], lo[i], hi[i]
+                    )));
+                }
+                init
+            }
+            None => self.problem.prior().to_vec(),
+        };
+        let problem = &mut self.problem;
+        let estimate = match self.method {
+            Method::Lm => Lm::default().identify(problem, &window, &start),
+            Method::Adam => Adam::default().identify(problem, &window, &start),
+        }
+        .map_err(|e| osi_error("identify", e))?;
+        estimate_dict(py, estimate)
+    }
+
+    /// Parameter names, in the order of mu.
+    #[getter]
+    fn params(&self) -> Vec<String> {
+        self.names.clone()
+    }
+
+    #[getter]
+    fn method(&self) -> &'static str {
+        match self.method {
+            Method::Lm => "lm",
+            Method::Adam => "adam",
+        }
+    }
+
+    #[getter]
+    fn lower<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.problem.lower())
+    }
+
+    #[getter]
+    fn upper<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.problem.upper())
+    }
+
+    /// The default start: the model's values clamped into the bounds.
+    #[getter]
+    fn prior<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.problem.prior())
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "<diffosi.DiffOsi method='{}' params={:?} nmu={}>",
+            self.method(),
+            self.names,
+            self.problem.nmu()
+        )
+    }
+}
+
+/// An `Estimate` as the contract's dict.
+fn estimate_dict(py: Python<'_>, e: Estimate) -> PyResult<Bound<'_, PyDict>> {
+    let out = PyDict::new(py);
+    out.set_item("params", PyArray1::from_vec(py, e.mu))?;
+    out.set_item("std", PyArray1::from_vec(py, e.std))?;
+    out.set_item("loss", e.loss)?;
+    out.set_item("iterations", e.iterations)?;
+    out.set_item("evaluations", e.evaluations)?;
+    let flags: Vec<&str> = [
+        (e.flags.unexcited, "unexcited"),
+        (e.flags.at_bound, "at_bound"),
+        (e.flags.not_converged, "not_converged"),
+    ]
+    .into_iter()
+    .filter_map(|(on, name)| on.then_some(name))
+    .collect();
+    out.set_item("flags", PyList::new(py, flags)?)?;
+    Ok(out)
+}
+
+fn osi_error(context: &str, e: OsiError) -> PyErr {
+    PyValueError::new_err(format!("{context}: {e}"))
+}
+
 /// `numpy.asarray(obj, dtype=float64)`, with a ValueError naming `name` if
 /// the object does not convert.
 fn float_array<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
@@ -336,6 +616,7 @@ fn param_error(e: ParamError) -> PyErr {
 #[pymodule]
 fn diffosi(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyModel>()?;
+    m.add_class::<PyDiffOsi>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
