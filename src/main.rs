@@ -76,7 +76,8 @@ enum Command {
         /// A first row that is not numeric is a header; blank lines are skipped.
         #[arg(long)]
         transitions: PathBuf,
-        /// Solver: lm (bounded Levenberg-Marquardt) or adam (the paper's variant).
+        /// Solver: lm (bounded Levenberg-Marquardt), adam (the paper's variant) or
+        /// cmaes (derivative-free baseline).
         #[arg(long, value_enum, default_value = "lm")]
         method: cli::identify::Method,
         /// Lower bounds, one per mu component, comma separated. Default, from

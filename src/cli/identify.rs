@@ -6,7 +6,7 @@ use std::path::Path;
 
 use diffosi::derivatives::Transition;
 use diffosi::model::{MapEntry, Param, ParamMap};
-use diffosi::osi::{Adam, Estimate, Identifier, Lm, Problem};
+use diffosi::osi::{Adam, CmaEs, Estimate, Identifier, Lm, Problem};
 use diffosi::Model;
 use serde_json::json;
 
@@ -16,6 +16,8 @@ pub enum Method {
     Lm,
     /// The paper's first-order variant: Adam on the loss gradient.
     Adam,
+    /// Derivative-free CMA-ES (seeded), a baseline.
+    Cmaes,
 }
 
 /// What `identify` is asked, as parsed from the command line.
@@ -97,6 +99,7 @@ pub fn identify(r: Request) -> Result<(), String> {
     let estimate = match r.method {
         Method::Lm => Lm::default().identify(&mut problem, &window, &init),
         Method::Adam => Adam::default().identify(&mut problem, &window, &init),
+        Method::Cmaes => CmaEs::default().identify(&mut problem, &window, &init),
     }
     .map_err(|e| e.to_string())?;
     if r.json {
@@ -290,6 +293,7 @@ fn method_name(m: Method) -> &'static str {
     match m {
         Method::Lm => "lm",
         Method::Adam => "adam",
+        Method::Cmaes => "cmaes",
     }
 }
 
