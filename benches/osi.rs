@@ -1,14 +1,18 @@
-//! DiffOSI timings, contact-free: one identification (an online update: the
-//! bounded Levenberg-Marquardt from the prior until a tolerance stops it) and
-//! one evaluation of the window's residuals and exact Jacobian (the work of
-//! one Gauss-Newton step), at windows W = 1, 2, 5, 10, 50, for the cartpole
-//! (pole COM offset) and the half cheetah (torso mass); see
-//! `benches/osi_problems/mod.rs`.
+//! DiffOSI timings, contact-free, at windows W = 1, 2, 5, 10, 50, for the
+//! cartpole (pole COM offset) and the half cheetah (torso mass); see
+//! `benches/osi_problems/mod.rs`:
 //!
-//! Ids: `osi_lm/<model>/W<W>` and `osi_fit/<model>/W<W>`; divide by W for the
-//! cost per transition (scripts/bench_reference.py does, next to the
-//! NimblePhysics anchors). Evaluations to tolerance, LM against Adam, are
-//! printed by `cargo run --release --example osi_evals`.
+//! - `osi_lm/<model>/W<W>`: one identification, the bounded
+//!   Levenberg-Marquardt from the prior until a tolerance stops it (a cold
+//!   update);
+//! - `osi_lm_warm/<model>/W<W>`: the online update when the parameter did not
+//!   change, warm-started from the previous window's estimate;
+//! - `osi_fit/<model>/W<W>`: one evaluation of the window's residuals and
+//!   exact Jacobian (the work of one Gauss-Newton step).
+//!
+//! Divide by W for the cost per transition (scripts/bench_reference.py does,
+//! next to the NimblePhysics anchors). Evaluations to tolerance, LM against
+//! Adam and CMA-ES: `cargo run --release --example osi_evals`.
 
 mod osi_problems;
 
@@ -41,6 +45,20 @@ fn bench_osi(c: &mut Criterion) {
                 b.iter(|| {
                     Lm::default()
                         .identify(&mut problem, black_box(&window), &[task.prior])
+                        .unwrap()
+                })
+            });
+            // An online update whose parameter did not change: warm start
+            // from the previous window's estimate.
+            let previous = task.window(mu, w, 5000 + w as u64);
+            let warm = Lm::default()
+                .identify(&mut problem, &previous, &[task.prior])
+                .unwrap()
+                .mu;
+            c.bench_function(&format!("osi_lm_warm/{}/W{w}", task.name), |b| {
+                b.iter(|| {
+                    Lm::default()
+                        .identify(&mut problem, black_box(&window), &warm)
                         .unwrap()
                 })
             });
