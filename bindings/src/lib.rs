@@ -10,7 +10,7 @@
 use engine::derivatives::{step_jacobians, Transition, Workspace, Wrt};
 use engine::dynamics::Data;
 use engine::model::{MapEntry, Param, ParamError, ParamMap};
-use engine::osi::{Adam, Estimate, Identifier, Lm, OsiError, Problem};
+use engine::osi::{Adam, CmaEs, CmaEsOptions, Estimate, Identifier, Lm, OsiError, Problem};
 use engine::{Model, ModelError};
 use numpy::ndarray::Array2;
 use numpy::{PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
@@ -281,10 +281,8 @@ enum Method {
 /// bounds (`prior`).
 #[pyclass(name = "DiffOsi", module = "diffosi")]
 struct PyDiffOsi {
-    problem: Problem,
+    osi: Osi,
     method: Method,
-    names: Vec<String>,
-    nv: usize,
 }
 
 #[pymethods]
@@ -299,7 +297,6 @@ impl PyDiffOsi {
         method: &str,
         scale: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let model = model.borrow().model.clone();
         let method = match method {
             "lm" => Method::Lm,
             "adam" => Method::Adam,
@@ -309,6 +306,211 @@ impl PyDiffOsi {
                 )))
             }
         };
+        let osi = Osi::new(model, params, lower, upper, scale, "DiffOsi")?;
+        Ok(PyDiffOsi { osi, method })
+    }
+
+    /// Estimates the parameters from a window of W transitions: q, v, tau,
+    /// q_next, v_next of shapes (W, nq), (W, nv), (W, nv), (W, nq), (W, nv),
+    /// starting from `init` (default: `prior`). Returns a dict: "params" and
+    /// "std" (float64 arrays of length nmu; an unexcited direction keeps its
+    /// start value and reports the uniform prior's std, never NaN), "loss"
+    /// (the scaled sum of squares), "iterations", "evaluations" and "flags"
+    /// (a list drawn from "unexcited", "at_bound", "not_converged").
+    #[pyo3(signature = (q, v, tau, q_next, v_next, init = None))]
+    #[allow(clippy::too_many_arguments)]
+    fn identify<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        v: &Bound<'py, PyAny>,
+        tau: &Bound<'py, PyAny>,
+        q_next: &Bound<'py, PyAny>,
+        v_next: &Bound<'py, PyAny>,
+        init: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let mut lm = Lm::default();
+        let mut adam = Adam::default();
+        let identifier: &mut dyn Identifier = match self.method {
+            Method::Lm => &mut lm,
+            Method::Adam => &mut adam,
+        };
+        self.osi
+            .identify(py, identifier, q, v, tau, q_next, v_next, init)
+    }
+
+    /// Parameter names, in the order of mu.
+    #[getter]
+    fn params(&self) -> Vec<String> {
+        self.osi.names.clone()
+    }
+
+    #[getter]
+    fn method(&self) -> &'static str {
+        match self.method {
+            Method::Lm => "lm",
+            Method::Adam => "adam",
+        }
+    }
+
+    #[getter]
+    fn lower<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.osi.problem.lower())
+    }
+
+    #[getter]
+    fn upper<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.osi.problem.upper())
+    }
+
+    /// The default start: the model's values clamped into the bounds.
+    #[getter]
+    fn prior<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.osi.problem.prior())
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "<diffosi.DiffOsi method='{}' params={:?} nmu={}>",
+            self.method(),
+            self.osi.names,
+            self.osi.problem.nmu()
+        )
+    }
+}
+
+/// The CMA-ES baseline behind the same interface as `DiffOsi`:
+/// `CmaEs(model, params, lower, upper, scale=None, seed=0,
+/// max_evaluations=20000)`. Derivative-free and seeded (the same window,
+/// start and seed give the same bits); it needs many more loss evaluations
+/// than DiffOsi's "lm" for the same answer. `identify` and its result are
+/// those of `DiffOsi` ("iterations" counts generations; hitting
+/// `max_evaluations` sets "not_converged").
+#[pyclass(name = "CmaEs", module = "diffosi")]
+struct PyCmaEs {
+    osi: Osi,
+    options: CmaEsOptions,
+}
+
+#[pymethods]
+impl PyCmaEs {
+    #[new]
+    #[pyo3(signature = (model, params, lower, upper, scale = None, seed = None, max_evaluations = None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        model: &Bound<'_, PyModel>,
+        params: Vec<String>,
+        lower: &Bound<'_, PyAny>,
+        upper: &Bound<'_, PyAny>,
+        scale: Option<&Bound<'_, PyAny>>,
+        seed: Option<&Bound<'_, PyAny>>,
+        max_evaluations: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let defaults = CmaEsOptions::default();
+        let seed: u64 = match seed {
+            None => defaults.seed,
+            Some(seed) => seed.extract().map_err(|_| {
+                PyValueError::new_err(format!("seed must be an integer in [0, 2^64), got {seed}"))
+            })?,
+        };
+        let max_evaluations: usize = match max_evaluations.map(|m| (m, m.extract::<usize>())) {
+            None => defaults.max_evaluations,
+            Some((_, Ok(n))) if n >= 1 => n,
+            Some((m, _)) => {
+                return Err(PyValueError::new_err(format!(
+                    "max_evaluations must be a positive integer, got {m}"
+                )))
+            }
+        };
+        let osi = Osi::new(model, params, lower, upper, scale, "CmaEs")?;
+        let options = CmaEsOptions {
+            seed,
+            max_evaluations,
+            ..defaults
+        };
+        Ok(PyCmaEs { osi, options })
+    }
+
+    /// As `DiffOsi.identify`.
+    #[pyo3(signature = (q, v, tau, q_next, v_next, init = None))]
+    #[allow(clippy::too_many_arguments)]
+    fn identify<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        v: &Bound<'py, PyAny>,
+        tau: &Bound<'py, PyAny>,
+        q_next: &Bound<'py, PyAny>,
+        v_next: &Bound<'py, PyAny>,
+        init: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let mut cmaes = CmaEs {
+            options: self.options,
+        };
+        self.osi
+            .identify(py, &mut cmaes, q, v, tau, q_next, v_next, init)
+    }
+
+    /// Parameter names, in the order of mu.
+    #[getter]
+    fn params(&self) -> Vec<String> {
+        self.osi.names.clone()
+    }
+
+    #[getter]
+    fn seed(&self) -> u64 {
+        self.options.seed
+    }
+
+    #[getter]
+    fn max_evaluations(&self) -> usize {
+        self.options.max_evaluations
+    }
+
+    #[getter]
+    fn lower<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.osi.problem.lower())
+    }
+
+    #[getter]
+    fn upper<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.osi.problem.upper())
+    }
+
+    /// The default start: the model's values clamped into the bounds.
+    #[getter]
+    fn prior<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.osi.problem.prior())
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "<diffosi.CmaEs seed={} params={:?} nmu={}>",
+            self.options.seed,
+            self.osi.names,
+            self.osi.problem.nmu()
+        )
+    }
+}
+
+/// What `DiffOsi` and `CmaEs` share: the problem (model copy, identity map,
+/// bounds, default start, scale) and the conversion of windows.
+struct Osi {
+    problem: Problem,
+    names: Vec<String>,
+    nv: usize,
+}
+
+impl Osi {
+    fn new(
+        model: &Bound<'_, PyModel>,
+        params: Vec<String>,
+        lower: &Bound<'_, PyAny>,
+        upper: &Bound<'_, PyAny>,
+        scale: Option<&Bound<'_, PyAny>>,
+        class: &str,
+    ) -> PyResult<Osi> {
+        let model = model.borrow().model.clone();
         if params.is_empty() {
             return Err(PyValueError::new_err(
                 "params must name at least one parameter",
@@ -380,27 +582,20 @@ impl PyDiffOsi {
             .collect();
         let map = ParamMap::new(&model, nmu, &entries).map_err(param_error)?;
         let problem = Problem::new(&model, map, &lower, &upper, &prior, &scale)
-            .map_err(|e| osi_error("DiffOsi", e))?;
-        Ok(PyDiffOsi {
+            .map_err(|e| osi_error(class, e))?;
+        Ok(Osi {
             problem,
-            method,
             names: params,
             nv,
         })
     }
 
-    /// Estimates the parameters from a window of W transitions: q, v, tau,
-    /// q_next, v_next of shapes (W, nq), (W, nv), (W, nv), (W, nq), (W, nv),
-    /// starting from `init` (default: `prior`). Returns a dict: "params" and
-    /// "std" (float64 arrays of length nmu; an unexcited direction keeps its
-    /// start value and reports the uniform prior's std, never NaN), "loss"
-    /// (the scaled sum of squares), "iterations", "evaluations" and "flags"
-    /// (a list drawn from "unexcited", "at_bound", "not_converged").
-    #[pyo3(signature = (q, v, tau, q_next, v_next, init = None))]
+    /// Checks the window and `init`, then runs `identifier`.
     #[allow(clippy::too_many_arguments)]
     fn identify<'py>(
         &mut self,
         py: Python<'py>,
+        identifier: &mut dyn Identifier,
         q: &Bound<'py, PyAny>,
         v: &Bound<'py, PyAny>,
         tau: &Bound<'py, PyAny>,
@@ -455,52 +650,10 @@ impl PyDiffOsi {
             }
             None => self.problem.prior().to_vec(),
         };
-        let problem = &mut self.problem;
-        let estimate = match self.method {
-            Method::Lm => Lm::default().identify(problem, &window, &start),
-            Method::Adam => Adam::default().identify(problem, &window, &start),
-        }
-        .map_err(|e| osi_error("identify", e))?;
+        let estimate = identifier
+            .identify(&mut self.problem, &window, &start)
+            .map_err(|e| osi_error("identify", e))?;
         estimate_dict(py, estimate)
-    }
-
-    /// Parameter names, in the order of mu.
-    #[getter]
-    fn params(&self) -> Vec<String> {
-        self.names.clone()
-    }
-
-    #[getter]
-    fn method(&self) -> &'static str {
-        match self.method {
-            Method::Lm => "lm",
-            Method::Adam => "adam",
-        }
-    }
-
-    #[getter]
-    fn lower<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        PyArray1::from_slice(py, self.problem.lower())
-    }
-
-    #[getter]
-    fn upper<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        PyArray1::from_slice(py, self.problem.upper())
-    }
-
-    /// The default start: the model's values clamped into the bounds.
-    #[getter]
-    fn prior<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        PyArray1::from_slice(py, self.problem.prior())
-    }
-
-    fn __repr__(&self) -> String {
-        format!(
-            "<diffosi.DiffOsi method='{}' params={:?} nmu={}>",
-            self.method(),
-            self.names,
-            self.problem.nmu()
-        )
     }
 }
 
@@ -516,6 +669,7 @@ fn estimate_dict(py: Python<'_>, e: Estimate) -> PyResult<Bound<'_, PyDict>> {
         (e.flags.unexcited, "unexcited"),
         (e.flags.at_bound, "at_bound"),
         (e.flags.not_converged, "not_converged"),
+        (e.flags.changed, "changed"),
     ]
     .into_iter()
     .filter_map(|(on, name)| on.then_some(name))
@@ -617,6 +771,7 @@ fn param_error(e: ParamError) -> PyErr {
 fn diffosi(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyModel>()?;
     m.add_class::<PyDiffOsi>()?;
+    m.add_class::<PyCmaEs>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -166,3 +166,59 @@ def test_bad_input_raises_value_error_naming_it():
             osi.identify(*args, **kwargs)
     # A failed call leaves the object usable.
     np.testing.assert_allclose(osi.identify(*window(seed=7), init=[1.0, 0.1])["params"], TRUTH, atol=1e-6)
+
+
+# ---------------------------------------------------------------- CMA-ES baseline
+
+
+def cmaes_for(**kwargs):
+    args = dict(params=PARAMS, lower=LOWER, upper=UPPER)
+    args.update(kwargs)
+    return diffosi.CmaEs(diffosi.Model.load(CARTPOLE), **args)
+
+
+def test_cmaes_reaches_the_same_answer_with_many_more_evaluations():
+    data = window(seed=3)
+    lm = diffosi_for("lm").identify(*data, init=[1.0, 0.1])
+    cma = cmaes_for(seed=1).identify(*data, init=[1.0, 0.1])
+    check_estimate(cma)
+    np.testing.assert_allclose(cma["params"], TRUTH, atol=1e-6)
+    assert cma["flags"] == []
+    assert cma["evaluations"] > 20 * lm["evaluations"]
+
+
+def test_cmaes_same_seed_same_bits_and_evaluation_cap():
+    data = window(seed=8)
+    a = cmaes_for(seed=5).identify(*data, init=[1.0, 0.1])
+    b = cmaes_for(seed=5).identify(*data, init=[1.0, 0.1])
+    np.testing.assert_array_equal(a["params"], b["params"])
+    assert a["evaluations"] == b["evaluations"]
+    capped = cmaes_for(seed=5, max_evaluations=30).identify(*data, init=[1.0, 0.1])
+    check_estimate(capped)
+    assert capped["evaluations"] <= 30 + 6 and "not_converged" in capped["flags"]
+
+
+def test_cmaes_unexcited_window_is_flagged_not_nan():
+    zero = np.zeros((3, 2))
+    est = cmaes_for().identify(zero, zero, zero, zero, zero, init=[1.0, 0.1])
+    check_estimate(est)
+    assert "unexcited" in est["flags"]
+    np.testing.assert_allclose(est["std"], (np.array(UPPER) - LOWER) / np.sqrt(12))
+
+
+def test_cmaes_bad_input_raises_value_error():
+    for kwargs, word in [
+        (dict(seed=-1), "seed"),
+        (dict(seed="a"), "seed"),
+        (dict(max_evaluations=0), "max_evaluations"),
+        (dict(lower=[0.01]), "lower"),
+        (dict(params=["body/pole/nonsense"]), "nonsense"),
+    ]:
+        with pytest.raises(ValueError, match=word):
+            cmaes_for(**kwargs)
+    cma = cmaes_for()
+    q, v, tau, q_next, v_next = window(w=2)
+    with pytest.raises(ValueError, match="init"):
+        cma.identify(q, v, tau, q_next, v_next, init=[20.0, 0.1])
+    with pytest.raises(ValueError, match="tau"):
+        cma.identify(q, v, tau[:, :1], q_next, v_next)
