@@ -28,7 +28,9 @@ use nalgebra::{DMatrix, DVector};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 
-use super::{standard_errors, Estimate, Excitation, Flags, Identifier, OsiError, Problem};
+use super::{
+    standard_errors, Estimate, Excitation, Flags, Identifier, OsiError, Problem, Subspace,
+};
 use crate::derivatives::{Transition, WindowError, WindowFit};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -205,7 +207,7 @@ impl Identifier for CmaEs {
         }
 
         // Nothing physical sampled (or no budget): answer the start.
-        let (mu, fit) = match best {
+        let (mut mu, mut fit) = match best {
             Some(b) => b,
             None => {
                 let mut mu = DVector::from_column_slice(start);
@@ -215,6 +217,15 @@ impl Identifier for CmaEs {
                 (mu, fit)
             }
         };
+        // Where the loss is flat the search stopped anywhere: those directions
+        // keep the start, as in Levenberg-Marquardt.
+        let sub = Subspace::new(fit.jacobian.tr_mul(&fit.jacobian), opt.excitation);
+        if !sub.all_excited() {
+            mu = sub.keep_unexcited(&mu, &DVector::from_column_slice(start));
+            problem.project(&mut mu);
+            evaluations += 1;
+            fit = problem.fit(mu.as_slice(), window)?;
+        }
         let (std, unexcited) = standard_errors(problem, &fit, opt.excitation);
         Ok(Estimate {
             flags: Flags {

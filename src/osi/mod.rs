@@ -335,6 +335,18 @@ impl Subspace {
         self.excited.iter().all(|e| *e)
     }
 
+    /// `mu` with its components along the unexcited directions taken from
+    /// `start`: what the window cannot tell stays where it began.
+    fn keep_unexcited(&self, mu: &DVector<f64>, start: &DVector<f64>) -> DVector<f64> {
+        let mut kept = mu.clone();
+        for (k, v) in self.vectors.column_iter().enumerate() {
+            if !self.excited[k] {
+                kept -= v * v.dot(&(mu - start));
+            }
+        }
+        kept
+    }
+
     /// Solves (J^T J + damping I) x = b within the excited directions; x has
     /// no component along the others.
     fn solve(&self, b: &DVector<f64>, damping: f64) -> DVector<f64> {
