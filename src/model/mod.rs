@@ -380,13 +380,7 @@ impl Spec {
             if (j.axis.norm() - 1.0).abs() > 1e-9 {
                 return bad(format!("joint '{}' axis is not a unit vector", j.name));
             }
-            let passive = [j.damping, j.stiffness, j.armature, j.frictionloss];
-            if passive.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
-                return bad(format!(
-                    "joint '{}': damping, stiffness, armature and frictionloss must be finite and >= 0",
-                    j.name
-                ));
-            }
+            check_passive(j)?;
         }
         for a in &self.actuators {
             if a.joint >= self.joints.len() || !a.gear.is_finite() {
@@ -395,6 +389,19 @@ impl Spec {
         }
         Ok(())
     }
+}
+
+/// Checks that a joint's damping, stiffness, armature and frictionloss are
+/// finite and non-negative.
+pub fn check_passive(j: &Joint) -> Result<(), ModelError> {
+    let passive = [j.damping, j.stiffness, j.armature, j.frictionloss];
+    if passive.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
+        return Err(ModelError::NotPhysical(format!(
+            "joint '{}': damping, stiffness, armature and frictionloss must be finite and >= 0",
+            j.name
+        )));
+    }
+    Ok(())
 }
 
 /// Checks that a body's inertial properties describe a physical rigid body:

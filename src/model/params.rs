@@ -11,7 +11,8 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
-use super::{Model, ModelError, Spec};
+use super::{check_inertial, check_passive, Body, Joint, Model, ModelError, Spec};
+use crate::dynamics::Tree;
 
 /// One named parameter, resolved to the body or joint it belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -134,15 +135,15 @@ impl Param {
         }
     }
 
-    /// Writes the value into the description; the caller validates the result.
-    fn put(&self, spec: &mut Spec, value: &[f64]) {
+    /// Writes the value into a copy of its body or joint; the caller checks it.
+    fn put(&self, edit: &mut Edit, value: &[f64]) {
         match *self {
-            Param::Mass(b) => spec.bodies[b].mass = value[0],
-            Param::Com(b) => spec.bodies[b].com = Vector3::from_column_slice(value),
-            Param::Inertia(b) => spec.bodies[b].inertia = inertia_from_six(value),
-            Param::Damping(j) => spec.joints[j].damping = value[0],
-            Param::Stiffness(j) => spec.joints[j].stiffness = value[0],
-            Param::Armature(j) => spec.joints[j].armature = value[0],
+            Param::Mass(b) => edit.body(b).mass = value[0],
+            Param::Com(b) => edit.body(b).com = Vector3::from_column_slice(value),
+            Param::Inertia(b) => edit.body(b).inertia = inertia_from_six(value),
+            Param::Damping(j) => edit.joint(j).damping = value[0],
+            Param::Stiffness(j) => edit.joint(j).stiffness = value[0],
+            Param::Armature(j) => edit.joint(j).armature = value[0],
         }
     }
 
@@ -204,22 +205,28 @@ impl Model {
         self.set(&[(param, value)])
     }
 
-    /// Sets several resolved parameters at once, validating the result once.
+    /// Sets several resolved parameters at once. The edited bodies and joints
+    /// are checked before anything changes, so a failed edit leaves the model
+    /// as it was; only they are copied, and the dynamics tree is rebuilt.
     pub fn set(&mut self, values: &[(Param, &[f64])]) -> Result<(), ParamError> {
         for (p, v) in values {
             p.check_value(self, v)?;
         }
-        let edited = self.edited(|spec| {
-            for (p, v) in values {
-                p.put(spec, v);
-            }
-        });
-        match edited {
-            Ok(model) => {
-                *self = model;
-                Ok(())
-            }
-            Err(source) => Err(ParamError::NotPhysical {
+        let mut edit = Edit {
+            spec: &self.spec,
+            bodies: vec![],
+            joints: vec![],
+        };
+        for (p, v) in values {
+            p.put(&mut edit, v);
+        }
+        let Edit { bodies, joints, .. } = edit;
+        let checked = bodies
+            .iter()
+            .try_for_each(|(_, b)| check_inertial(&b.name, b.mass, &b.com, &b.inertia))
+            .and_then(|_| joints.iter().try_for_each(|(_, j)| check_passive(j)));
+        if let Err(source) = checked {
+            return Err(ParamError::NotPhysical {
                 name: values
                     .iter()
                     .map(|(p, _)| p.name(self))
@@ -227,8 +234,47 @@ impl Model {
                     .join(", "),
                 value: values.iter().flat_map(|(_, v)| v.iter().copied()).collect(),
                 source: Box::new(source),
-            }),
+            });
         }
+        for (i, b) in bodies {
+            self.spec.bodies[i] = b;
+        }
+        for (i, j) in joints {
+            self.spec.joints[i] = j;
+        }
+        self.tree = Tree::build(&self.spec);
+        Ok(())
+    }
+}
+
+/// Copies of the bodies and joints an edit touches, made on first touch.
+struct Edit<'a> {
+    spec: &'a Spec,
+    bodies: Vec<(usize, Body)>,
+    joints: Vec<(usize, Joint)>,
+}
+
+impl Edit<'_> {
+    fn body(&mut self, b: usize) -> &mut Body {
+        let k = match self.bodies.iter().position(|(i, _)| *i == b) {
+            Some(k) => k,
+            None => {
+                self.bodies.push((b, self.spec.bodies[b].clone()));
+                self.bodies.len() - 1
+            }
+        };
+        &mut self.bodies[k].1
+    }
+
+    fn joint(&mut self, j: usize) -> &mut Joint {
+        let k = match self.joints.iter().position(|(i, _)| *i == j) {
+            Some(k) => k,
+            None => {
+                self.joints.push((j, self.spec.joints[j].clone()));
+                self.joints.len() - 1
+            }
+        };
+        &mut self.joints[k].1
     }
 }
 
