@@ -116,7 +116,7 @@ def osi_table():
         "| one GN step (µs) | per transition (µs) | Nimble GN step (µs) "
         "| ratio Nimble step / our cold identification | ratio Nimble step / our warm update "
         "| ratio Nimble step / our step |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---" * 12 + "|",
     ]
     for name in MODELS:
         for w in OSI_WINDOWS:
