@@ -18,26 +18,17 @@ use rand::rngs::StdRng;
 const SCALE: [f64; 4] = [2e-8, 2e-8, 1e-6, 1e-6];
 
 fn cartpole() -> Model {
-    Model::load(common::model_path("reference_models/cartpole.xml")).unwrap()
+    common::cartpole_with_mu().0
 }
 
 /// The paper's mu: pole COM at (mu, 0, 0.5 + 0.2 mu), mu in [-0.6, 0.6].
-fn cartpole_map(model: &Model) -> ParamMap {
-    ParamMap::new(
-        model,
-        1,
-        &[MapEntry {
-            name: "body/pole/com",
-            offset: &[0.0, 0.0, 0.5],
-            gain: &[&[1.0], &[0.0], &[0.2]],
-        }],
-    )
-    .unwrap()
+fn cartpole_map() -> ParamMap {
+    common::cartpole_with_mu().1
 }
 
 fn cartpole_problem(scale: &[f64]) -> Problem {
     let model = cartpole();
-    let map = cartpole_map(&model);
+    let map = cartpole_map();
     Problem::new(&model, map, &[-0.6], &[0.6], &[0.0], scale).unwrap()
 }
 
@@ -66,7 +57,7 @@ const CARTPOLE_RANGES: [f64; 6] = [1.0, 0.5, 1.0, 2.0, 10.0, 0.0];
 /// `len` transitions of the cartpole whose true mu is `mu`.
 fn cartpole_window(mu: f64, len: usize, seed: u64) -> Vec<Transition> {
     let mut truth = cartpole();
-    cartpole_map(&truth).apply(&mut truth, &[mu]).unwrap();
+    cartpole_map().apply(&mut truth, &[mu]).unwrap();
     let mut r = common::rng(seed);
     (0..len)
         .map(|_| transition(&truth, &mut r, &CARTPOLE_RANGES))
@@ -384,7 +375,7 @@ fn baselines_answer_without_solving() {
 #[test]
 fn bad_problems_and_windows_are_clear_errors() {
     let model = cartpole();
-    let map = cartpole_map(&model);
+    let map = cartpole_map();
     let err = |lo: f64, hi: f64, prior: f64| {
         Problem::new(&model, map.clone(), &[lo], &[hi], &[prior], &SCALE)
             .unwrap_err()

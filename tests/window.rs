@@ -5,23 +5,11 @@
 mod common;
 
 use diffosi::derivatives::{window_residuals, Transition, Workspace};
-use diffosi::model::{MapEntry, Model, ParamMap};
+use diffosi::model::{Model, ParamMap};
 use nalgebra::DVector;
 
 fn cartpole() -> (Model, ParamMap) {
-    let model = Model::load(common::model_path("reference_models/cartpole.xml")).unwrap();
-    // The paper's mu: pole COM at (mu, 0, 0.5 + 0.2 mu).
-    let map = ParamMap::new(
-        &model,
-        1,
-        &[MapEntry {
-            name: "body/pole/com",
-            offset: &[0.0, 0.0, 0.5],
-            gain: &[&[1.0], &[0.0], &[0.2]],
-        }],
-    )
-    .unwrap();
-    (model, map)
+    common::cartpole_with_mu()
 }
 
 /// Transitions of the true system (mu) from random states and forces.

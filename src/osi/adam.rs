@@ -4,7 +4,7 @@
 
 use nalgebra::DVector;
 
-use super::{standard_errors, Estimate, Excitation, Flags, Identifier, OsiError, Problem};
+use super::{Estimate, Excitation, Identifier, OsiError, Problem};
 use crate::derivatives::Transition;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -85,19 +85,13 @@ impl Identifier for Adam {
             fit = problem.fit(mu.as_slice(), window)?;
             evaluations += 1;
         }
-        let (std, unexcited) = standard_errors(problem, &fit, opt.excitation);
-        Ok(Estimate {
-            flags: Flags {
-                unexcited,
-                at_bound: problem.at_bound(mu.as_slice()),
-                not_converged: !converged,
-                ..Flags::default()
-            },
-            mu: mu.as_slice().to_vec(),
-            std,
-            loss: fit.loss,
-            iterations,
-            evaluations,
-        })
+        let work = (iterations, evaluations);
+        Ok(Estimate::at(
+            problem,
+            (&mu, &fit),
+            opt.excitation,
+            converged,
+            work,
+        ))
     }
 }

@@ -28,9 +28,7 @@ use nalgebra::{DMatrix, DVector};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 
-use super::{
-    standard_errors, Estimate, Excitation, Flags, Identifier, OsiError, Problem, Subspace,
-};
+use super::{Estimate, Excitation, Identifier, OsiError, Problem, Subspace};
 use crate::derivatives::{Transition, WindowError, WindowFit};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -226,19 +224,13 @@ impl Identifier for CmaEs {
             evaluations += 1;
             fit = problem.fit(mu.as_slice(), window)?;
         }
-        let (std, unexcited) = standard_errors(problem, &fit, opt.excitation);
-        Ok(Estimate {
-            flags: Flags {
-                unexcited,
-                at_bound: problem.at_bound(mu.as_slice()),
-                not_converged: !converged,
-                ..Flags::default()
-            },
-            mu: mu.as_slice().to_vec(),
-            std,
-            loss: fit.loss,
-            iterations: generations,
-            evaluations,
-        })
+        let work = (generations, evaluations);
+        Ok(Estimate::at(
+            problem,
+            (&mu, &fit),
+            opt.excitation,
+            converged,
+            work,
+        ))
     }
 }

@@ -24,9 +24,7 @@ use rand::rngs::StdRng;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 
-use super::{
-    standard_errors, Estimate, Excitation, Flags, Identifier, OsiError, Problem, Subspace,
-};
+use super::{Estimate, Excitation, Identifier, OsiError, Problem, Subspace};
 use crate::derivatives::{Transition, WindowError, WindowFit};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -97,20 +95,15 @@ impl Identifier for Lm {
                 best = run;
             }
         }
-        let (std, unexcited) = standard_errors(problem, &best.fit, opt.excitation);
-        Ok(Estimate {
-            flags: Flags {
-                unexcited,
-                at_bound: problem.at_bound(best.mu.as_slice()),
-                not_converged: !best.converged,
-                ..Flags::default()
-            },
-            mu: best.mu.as_slice().to_vec(),
-            std,
-            loss: best.fit.loss,
-            iterations,
-            evaluations,
-        })
+        let end = (&best.mu, &best.fit);
+        let work = (iterations, evaluations);
+        Ok(Estimate::at(
+            problem,
+            end,
+            opt.excitation,
+            best.converged,
+            work,
+        ))
     }
 }
 

@@ -277,6 +277,33 @@ pub struct Estimate {
     pub flags: Flags,
 }
 
+impl Estimate {
+    /// Where a solver ended: mu with its last fit, standard errors and flags
+    /// from that fit, and the work it took.
+    fn at(
+        problem: &Problem,
+        (mu, fit): (&DVector<f64>, &WindowFit),
+        excitation: Excitation,
+        converged: bool,
+        (iterations, evaluations): (usize, usize),
+    ) -> Estimate {
+        let (std, unexcited) = standard_errors(problem, fit, excitation);
+        Estimate {
+            flags: Flags {
+                unexcited,
+                at_bound: problem.at_bound(mu.as_slice()),
+                not_converged: !converged,
+                ..Flags::default()
+            },
+            mu: mu.as_slice().to_vec(),
+            std,
+            loss: fit.loss,
+            iterations,
+            evaluations,
+        }
+    }
+}
+
 /// Anything that estimates mu from a window of transitions.
 pub trait Identifier {
     /// Estimates mu, starting from `start` (the prior on a cold start, the

@@ -120,14 +120,29 @@ impl<I: Identifier> Online<I> {
             self.buffer.pop_front();
         }
         self.buffer.push_back(transition);
-        let window = self.sample();
         let start = match &self.estimate {
             Some(e) => e.mu.clone(),
             None => self.problem.prior().to_vec(),
         };
+        // The most recent transitions are a slice of the buffer; a uniform
+        // sample is gathered (in time order) into its own window.
+        let w = self.window.min(self.buffer.len());
+        let sampled: Vec<Transition>;
+        let window: &[Transition] = match self.sampling {
+            Sampling::Recent => {
+                let all = self.buffer.make_contiguous();
+                &all[all.len() - w..]
+            }
+            Sampling::Uniform { .. } => {
+                let mut picked = sample(&mut self.rng, self.buffer.len(), w).into_vec();
+                picked.sort_unstable();
+                sampled = picked.iter().map(|&i| self.buffer[i].clone()).collect();
+                &sampled
+            }
+        };
         let mut estimate = self
             .identifier
-            .identify(&mut self.problem, &window, &start)?;
+            .identify(&mut self.problem, window, &start)?;
         estimate.flags.changed = changed;
         Ok(self.estimate.insert(estimate))
     }
@@ -139,19 +154,5 @@ impl<I: Identifier> Online<I> {
 
     pub fn problem(&self) -> &Problem {
         &self.problem
-    }
-
-    fn sample(&mut self) -> Vec<Transition> {
-        let len = self.buffer.len();
-        let w = self.window.min(len);
-        let mut picked: Vec<usize> = match self.sampling {
-            Sampling::Recent => (len - w..len).collect(),
-            Sampling::Uniform { .. } => {
-                // w distinct indices.
-                sample(&mut self.rng, len, w).into_vec()
-            }
-        };
-        picked.sort_unstable();
-        picked.iter().map(|&i| self.buffer[i].clone()).collect()
     }
 }

@@ -1,7 +1,9 @@
 //! Shared helpers of the integration tests: random trees and states.
 #![allow(dead_code)]
 
-use diffosi::model::{Body, Integrator, Joint, JointKind, Model, Options, PassiveMode};
+use diffosi::model::{
+    Body, Integrator, Joint, JointKind, MapEntry, Model, Options, ParamMap, PassiveMode,
+};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
@@ -130,4 +132,20 @@ pub fn gym_assets() -> std::path::PathBuf {
     found.unwrap_or_else(|| {
         panic!("gymnasium's MuJoCo assets not found under {}: run `make setup` (or set DIFFOSI_GYM_ASSETS)", lib.display())
     })
+}
+
+/// The paper's cartpole and its mu: the pole COM at (mu, 0, 0.5 + 0.2 mu).
+pub fn cartpole_with_mu() -> (Model, ParamMap) {
+    let model = Model::load(model_path("reference_models/cartpole.xml")).unwrap();
+    let map = ParamMap::new(
+        &model,
+        1,
+        &[MapEntry {
+            name: "body/pole/com",
+            offset: &[0.0, 0.0, 0.5],
+            gain: &[&[1.0], &[0.0], &[0.2]],
+        }],
+    )
+    .unwrap();
+    (model, map)
 }
