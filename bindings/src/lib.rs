@@ -9,7 +9,7 @@
 
 use engine::derivatives::{step_jacobians, Transition, Workspace, Wrt};
 use engine::dynamics::Data;
-use engine::model::{MapEntry, Param, ParamError, ParamMap};
+use engine::model::{Integrator, MapEntry, Param, ParamError, ParamMap, PassiveMode};
 use engine::osi::{Adam, CmaEs, CmaEsOptions, Estimate, Identifier, Lm, OsiError, Problem};
 use engine::{Model, ModelError};
 use numpy::ndarray::Array2;
@@ -80,6 +80,58 @@ impl PyModel {
     #[getter]
     fn timestep(&self) -> f64 {
         self.model.opt.timestep
+    }
+
+    /// Gravity (x, y, z) in m/s^2, in the world frame.
+    #[getter]
+    fn gravity<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.model.opt.gravity.as_slice())
+    }
+
+    /// "Euler" (semi-implicit) or "RK4".
+    #[getter]
+    fn integrator(&self) -> &'static str {
+        name_of(&Integrator::NAMES, self.model.opt.integrator)
+    }
+
+    /// How joint damping and stiffness enter an Euler step: "explicit"
+    /// (PyBullet), "implicit_damping" (MuJoCo) or "implicit_damping_stiffness"
+    /// (DART).
+    #[getter]
+    fn passive(&self) -> &'static str {
+        name_of(&PassiveMode::NAMES, self.model.opt.passive)
+    }
+
+    /// A copy run with other options, e.g. the conventions of the engine it is
+    /// compared with: `m.with_options(passive="implicit_damping_stiffness",
+    /// timestep=0.005)`. Options not given keep their value.
+    #[pyo3(signature = (*, timestep = None, gravity = None, integrator = None, passive = None))]
+    fn with_options(
+        &self,
+        timestep: Option<f64>,
+        gravity: Option<&Bound<'_, PyAny>>,
+        integrator: Option<&str>,
+        passive: Option<&str>,
+    ) -> PyResult<Self> {
+        let gravity = gravity.map(|g| vector(g, "gravity", 3, "3")).transpose()?;
+        let integrator = integrator
+            .map(|i| keyword("integrator", i, &Integrator::NAMES))
+            .transpose()?;
+        let passive = passive
+            .map(|p| keyword("passive", p, &PassiveMode::NAMES))
+            .transpose()?;
+        let model = self
+            .model
+            .edited(|s| {
+                s.opt.timestep = timestep.unwrap_or(s.opt.timestep);
+                if let Some(g) = gravity {
+                    s.opt.gravity.copy_from_slice(&g);
+                }
+                s.opt.integrator = integrator.unwrap_or(s.opt.integrator);
+                s.opt.passive = passive.unwrap_or(s.opt.passive);
+            })
+            .map_err(model_error)?;
+        Ok(PyModel::new(model))
     }
 
     /// The model's name (from the file).
@@ -750,6 +802,30 @@ fn check_finite(name: &str, values: &[f64], index: impl Fn(usize) -> String) -> 
         ))),
         None => Ok(()),
     }
+}
+
+/// The spelling of an option value.
+fn name_of<T: PartialEq>(names: &[(&'static str, T)], value: T) -> &'static str {
+    names
+        .iter()
+        .find(|(_, v)| *v == value)
+        .map(|(n, _)| *n)
+        .expect("every option value has a name")
+}
+
+/// An option value from its spelling; ValueError lists the choices.
+fn keyword<T: Copy>(what: &str, text: &str, names: &[(&str, T)]) -> PyResult<T> {
+    names
+        .iter()
+        .find(|(n, _)| *n == text)
+        .map(|(_, v)| *v)
+        .ok_or_else(|| {
+            let choices: Vec<&str> = names.iter().map(|(n, _)| *n).collect();
+            PyValueError::new_err(format!(
+                "{what} must be one of {}, got '{text}'",
+                choices.join(", ")
+            ))
+        })
 }
 
 fn model_error(e: ModelError) -> PyErr {

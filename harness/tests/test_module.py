@@ -60,6 +60,33 @@ def test_urdf_twin_steps_like_mjcf():
     np.testing.assert_allclose(ur.get_param("body/pole/mass"), mj.get_param("body/pole/mass"))
 
 
+def test_options_follow_the_file_and_with_options_copies():
+    mj, ur = load(CARTPOLE), load(str(MODELS / "cartpole.urdf"))
+    assert (mj.integrator, mj.passive) == ("Euler", "implicit_damping")  # MuJoCo's Euler
+    assert ur.passive == "explicit"  # PyBullet's
+    np.testing.assert_array_equal(mj.gravity, [0.0, 0.0, -9.81])
+    dart = mj.with_options(passive="implicit_damping_stiffness", timestep=0.005, gravity=[0, 0, -1])
+    assert (dart.passive, dart.timestep, list(dart.gravity)) == ("implicit_damping_stiffness", 0.005, [0, 0, -1])
+    assert (mj.passive, mj.timestep) == ("implicit_damping", 0.02)  # the original is untouched
+    q, v, tau = np.array([0.1, 0.4]), np.array([0.3, -2.0]), np.array([1.0, 0.0])
+    h = 0.005
+    fine = mj.with_options(timestep=h)
+    q1, v1 = fine.step(q, v, tau)
+    np.testing.assert_allclose(q1, q + h * v1, rtol=0, atol=1e-15)  # semi-implicit Euler at the new h
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"passive": "implicit"}, "passive must be one of explicit, implicit_damping"),
+    ({"integrator": "implicitfast"}, "integrator must be one of Euler, RK4"),
+    ({"timestep": 0.0}, "timestep must be positive"),
+    ({"timestep": float("nan")}, "timestep must be positive"),
+    ({"gravity": [0.0, 1.0]}, "gravity"),
+])
+def test_bad_options_raise_value_error(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        load(CARTPOLE).with_options(**kwargs)
+
+
 # ---------------------------------------------------------------- step and rollout
 
 

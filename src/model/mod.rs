@@ -180,6 +180,12 @@ pub enum Integrator {
     Rk4,
 }
 
+impl Integrator {
+    /// The spelling in files and at the Python boundary (MuJoCo's).
+    pub const NAMES: [(&'static str, Integrator); 2] =
+        [("Euler", Integrator::Euler), ("RK4", Integrator::Rk4)];
+}
+
 /// How joint damping and stiffness enter a semi-implicit Euler step.
 /// (Under RK4 passive forces are always explicit, as in MuJoCo.)
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -191,6 +197,18 @@ pub enum PassiveMode {
     ImplicitDamping,
     /// Damping at the next velocity and stiffness at the next position: DART.
     ImplicitDampingStiffness,
+}
+
+impl PassiveMode {
+    /// The spelling in files (`<diffosi:options passive=..>`) and at the Python boundary.
+    pub const NAMES: [(&'static str, PassiveMode); 3] = [
+        ("explicit", PassiveMode::Explicit),
+        ("implicit_damping", PassiveMode::ImplicitDamping),
+        (
+            "implicit_damping_stiffness",
+            PassiveMode::ImplicitDampingStiffness,
+        ),
+    ];
 }
 
 #[derive(Clone, Debug, PartialEq)]

@@ -77,19 +77,10 @@ impl Reader<'_> {
         if let Some(gravity) = self.numbers::<3>(node, "gravity")? {
             opt.gravity = Vector3::from(gravity);
         }
-        let integrators = [("Euler", Integrator::Euler), ("RK4", Integrator::Rk4)];
-        if let Some(integrator) = self.keyword(node, "integrator", &integrators)? {
+        if let Some(integrator) = self.keyword(node, "integrator", &Integrator::NAMES)? {
             opt.integrator = integrator;
         }
-        let passive = [
-            ("explicit", PassiveMode::Explicit),
-            ("implicit_damping", PassiveMode::ImplicitDamping),
-            (
-                "implicit_damping_stiffness",
-                PassiveMode::ImplicitDampingStiffness,
-            ),
-        ];
-        if let Some(mode) = self.keyword(node, "passive", &passive)? {
+        if let Some(mode) = self.keyword(node, "passive", &PassiveMode::NAMES)? {
             opt.passive = mode;
         }
         Ok(opt)
