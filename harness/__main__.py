@@ -1,0 +1,41 @@
+"""`python -m harness COMMAND ...`: the harness's commands, one module each.
+
+A command module has a docstring (its first line is the help text), an
+`add_arguments(parser)` and a `run(args) -> int` (the exit status).
+"""
+
+import argparse
+import importlib
+import sys
+
+COMMANDS = {
+    "replay": "harness.replay",
+    "gradcheck": "harness.gradcheck",
+    "golden": "harness.golden",
+    "bench": "harness.bench",
+    "osi-bench": "harness.osi_bench",
+}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m harness", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    modules = {}
+    for name, path in COMMANDS.items():
+        try:
+            module = importlib.import_module(path)
+        except ModuleNotFoundError as e:
+            if e.name != path:  # a missing dependency is an error, not a missing command
+                raise
+            continue
+        modules[name] = module
+        doc = module.__doc__ or ""
+        cmd = sub.add_parser(name, help=doc.splitlines()[0] if doc else None, description=doc,
+                             formatter_class=argparse.RawDescriptionHelpFormatter)
+        module.add_arguments(cmd)
+    args = parser.parse_args(argv)
+    return modules[args.command].run(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
