@@ -38,7 +38,7 @@ test: setup
 
 bench: setup
 	cargo bench
-	$(VENV)/bin/python scripts/bench_reference.py
+	$(VENV)/bin/python -m harness bench
 
 # Regenerates the reference engines' golden data (committed; see reference_models/golden/README.md).
 golden: setup

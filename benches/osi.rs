@@ -10,7 +10,7 @@
 //! - `osi_fit/<model>/W<W>`: one evaluation of the window's residuals and
 //!   exact Jacobian (the work of one Gauss-Newton step).
 //!
-//! Divide by W for the cost per transition (scripts/bench_reference.py does,
+//! Divide by W for the cost per transition (`python -m harness bench` does,
 //! next to the NimblePhysics anchors). Evaluations to tolerance, LM against
 //! Adam and CMA-ES: `cargo run --release --example osi_evals`.
 

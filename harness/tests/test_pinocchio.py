@@ -48,12 +48,8 @@ def oracle(name):
 
 
 def pinocchio_q(model, q):
-    """Our joint angles as Pinocchio's configuration: (cos, sin) for unbounded revolute joints."""
-    parts = []
-    for joint, angle in zip(model.joints[1:], q):
-        assert joint.nv == 1, f"{joint.shortname()}: one-dof joints only"
-        parts.append([np.cos(angle), np.sin(angle)] if joint.nq == 2 else [angle])
-    return np.concatenate(parts)
+    """Our joint coordinates as Pinocchio's configuration: integrated from its neutral (all zero) one."""
+    return pinocchio.integrate(model, pinocchio.neutral(model), q)
 
 
 def random_states(n, seed):

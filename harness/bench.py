@@ -1,0 +1,243 @@
+"""Time our step and step Jacobians against MuJoCo and Pinocchio, all from Python; write reports/bench.md.
+
+`make bench` runs `cargo bench` and then this, so criterion's native numbers for
+our engine (target/criterion/*/new/estimates.json) come from the same machine and
+run; without them their cells read "—".
+
+Every Python-side number comes from one timer (`per_call`): a function is called
+many times in a Python for-loop (enough calls for ~20 ms), the loop is repeated,
+and the median time per call over the repeats is kept (wall clock,
+time.perf_counter, seconds; the report shows µs). So each includes the cost of
+one call from Python, measured as reading `model.nv` with getattr from each
+library and stated in the report. Work that loops in native code (MuJoCo's
+mj_step with nstep = N, our rollout over N steps) is timed with the same helper
+and divided by N: that is the engine without the Python overhead.
+
+Compared on the contact-free cartpole and half cheetah (MuJoCo: the MJCF files
+with contacts disabled; Pinocchio: the URDF twins, fixed base), at one fixed
+state (the one benches/common uses): q = q0 + 0.1 sin(i + 1), v = 0.5 cos(i + 2),
+tau = sin(i + 3) for dof i, tau as generalized forces (MuJoCo's qfrc_applied).
+
+- step: ours `Model.step`; MuJoCo `mj_step`; Pinocchio `aba` (the acceleration
+  only, no integration: a lower bound for a step);
+- step Jacobian d(x')/d(x, u): ours `Model.step_jacobians` (exact); MuJoCo
+  `mjd_transitionFD` (forward finite differences, eps 1e-6); Pinocchio
+  `computeABADerivatives` (analytic derivatives of the acceleration, no step);
+- step + one-parameter Jacobian: ours only (pole mass, torso mass). The paper's
+  engine, NimblePhysics, needed 52 µs (cartpole) and 395 µs (half cheetah) per
+  Gauss-Newton update (shared/notes/reference-engines.md).
+
+Ratio = their time / ours: > 1 means we are faster. An OSI table from
+benches/osi.rs follows (criterion only): one DiffOSI identification (LM from
+the prior until a tolerance stops it), the warm-started online update, and one
+evaluation of the window's residuals and exact Jacobian (one Gauss-Newton step)
+at windows W = 1, 2, 5, 10, 50, next to NimblePhysics' Gauss-Newton step where
+measured (ratio Nimble / ours).
+"""
+
+import json
+import time
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pinocchio
+
+import diffosi
+
+ROOT = Path(__file__).resolve().parent.parent
+MODELS = {"cartpole": "body/pole/mass", "half_cheetah": "body/torso/mass"}  # name -> the one parameter
+NATIVE_STEPS = 1000  # steps per call of the native loops (mj_step nstep, our rollout)
+REPEATS = 7
+TARGET_SECONDS = 0.02  # a repeat calls the function until about this long
+FD_EPS = 1e-6
+
+# NimblePhysics Gauss-Newton DiffOSI step, thread-CPU seconds per update
+# (shared/notes/reference-engines.md): (model, W) -> seconds.
+NIMBLE_GN_STEP = {
+    ("cartpole", 1): 52e-6,
+    ("cartpole", 10): 523e-6,
+    ("cartpole", 50): 2.7e-3,
+    ("half_cheetah", 1): 395e-6,
+}
+OSI_WINDOWS = [1, 2, 5, 10, 50]
+
+
+def add_arguments(parser):
+    parser.add_argument("--out", type=Path, default=ROOT / "reports" / "bench.md", help="Markdown report path")
+
+
+def per_call(fn, *args, steps=1):
+    """Median over REPEATS of the seconds per call of fn(*args) (per step if one call does `steps`)."""
+    calls = 1
+    while True:  # calibrate: double the calls until a loop lasts TARGET_SECONDS
+        start = time.perf_counter()
+        for _ in range(calls):
+            fn(*args)
+        if time.perf_counter() - start >= TARGET_SECONDS:
+            break
+        calls *= 2
+    times = []
+    for _ in range(REPEATS):
+        start = time.perf_counter()
+        for _ in range(calls):
+            fn(*args)
+        times.append((time.perf_counter() - start) / (calls * steps))
+    return float(np.median(times))
+
+
+def fixed_state(q0):
+    i = np.arange(len(q0))
+    return q0 + 0.1 * np.sin(i + 1.0), 0.5 * np.cos(i + 2.0), np.sin(i + 3.0)
+
+
+def time_ours(name, param):
+    m = diffosi.Model.load(str(ROOT / "reference_models" / f"{name}.xml"))
+    q, v, tau = fixed_state(np.zeros(m.nq))
+    taus = np.tile(tau, (NATIVE_STEPS, 1))
+    return {
+        "overhead": per_call(getattr, m, "nv"),
+        "step": per_call(m.step, q, v, tau),
+        "loop": per_call(m.rollout, q, v, taus, steps=NATIVE_STEPS),
+        "jacobian": per_call(m.step_jacobians, q, v, tau),
+        "param": per_call(m.step_jacobians, q, v, tau, [param]),
+    }
+
+
+def time_mujoco(name):
+    model = mujoco.MjModel.from_xml_path(str(ROOT / "reference_models" / f"{name}.xml"))
+    model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT  # contact-free, like ours
+    data = mujoco.MjData(model)
+    data.qpos[:], data.qvel[:], data.qfrc_applied[:] = fixed_state(model.qpos0)
+    n = 2 * model.nv + model.na
+    a, b = np.zeros((n, n)), np.zeros((n, model.nu))
+    return {
+        "overhead": per_call(getattr, model, "nv"),
+        "step": per_call(mujoco.mj_step, model, data),
+        "loop": per_call(mujoco.mj_step, model, data, NATIVE_STEPS, steps=NATIVE_STEPS),
+        "jacobian": per_call(mujoco.mjd_transitionFD, model, data, FD_EPS, False, a, b, None, None),
+    }
+
+
+def time_pinocchio(name):
+    model = pinocchio.buildModelFromUrdf(str(ROOT / "reference_models" / f"{name}.urdf"))
+    data = model.createData()
+    q, v, tau = fixed_state(np.zeros(model.nv))
+    q = pinocchio.integrate(model, pinocchio.neutral(model), q)  # (cos, sin) for unbounded hinges
+    return {
+        "overhead": per_call(getattr, model, "nv"),
+        "step": per_call(pinocchio.aba, model, data, q, v, tau),
+        "jacobian": per_call(pinocchio.computeABADerivatives, model, data, q, v, tau),
+    }
+
+
+def criterion(bench):
+    """Our native median (seconds) from criterion, None if `cargo bench` has not run."""
+    path = ROOT / "target" / "criterion" / bench / "new" / "estimates.json"
+    return json.loads(path.read_text())["median"]["point_estimate"] * 1e-9 if path.exists() else None
+
+
+def us(seconds):
+    return "—" if seconds is None else f"{seconds * 1e6:.2f}"
+
+
+def versus(theirs, ours):
+    return "—" if theirs is None else f"{us(theirs)} ({theirs / ours:.1f}x)"
+
+
+def speed_table():
+    lines = [
+        "| what | model | diffosi from Python (µs) | diffosi native, criterion (µs) "
+        "| MuJoCo (µs, ratio) | Pinocchio (µs, ratio) |",
+        "|---|---|---|---|---|---|",
+    ]
+    overheads = [
+        "| model | library | trivial call: getattr(model, \"nv\") (µs) | a step call beyond its native loop (µs) |",
+        "|---|---|---|---|",
+    ]
+    for name, param in MODELS.items():
+        ours, mj, pin = time_ours(name, param), time_mujoco(name), time_pinocchio(name)
+        rows = [
+            ("step, one Python call", ours["step"], f"step_{name}", mj["step"], pin["step"]),
+            (f"step, loop of {NATIVE_STEPS} in native code (rollout; mj_step nstep)", ours["loop"],
+             f"step_{name}", mj["loop"], None),
+            ("step Jacobian d(x')/d(x,u)", ours["jacobian"], f"jacobian_full_{name}", mj["jacobian"],
+             pin["jacobian"]),
+            ("step + 1-parameter Jacobian", ours["param"], f"jacobian_param_{name}", None, None),
+        ]
+        for what, mine, bench, theirs_mj, theirs_pin in rows:
+            cells = [what, name, us(mine), us(criterion(bench)), versus(theirs_mj, mine), versus(theirs_pin, mine)]
+            lines.append("| " + " | ".join(cells) + " |")
+        for library, times in [("diffosi", ours), ("MuJoCo", mj), ("Pinocchio", pin)]:
+            beyond = times["step"] - times["loop"] if "loop" in times else None
+            overheads.append(f"| {name} | {library} | {us(times['overhead'])} | {us(beyond)} |")
+    return "\n".join(lines), "\n".join(overheads)
+
+
+def osi_table():
+    def ratio(nimble, ours):
+        return "—" if nimble is None or ours is None else f"{nimble / ours:.1f}x"
+
+    def per(seconds, w):
+        return None if seconds is None else seconds / w
+
+    lines = [
+        "| model | W | identification, cold (µs) | per transition (µs) | warm update (µs) | per transition (µs) "
+        "| one GN step (µs) | per transition (µs) | Nimble GN step (µs) "
+        "| ratio Nimble step / our cold identification | ratio Nimble step / our warm update "
+        "| ratio Nimble step / our step |",
+        "|---" * 12 + "|",
+    ]
+    for name in MODELS:
+        for w in OSI_WINDOWS:
+            cold = criterion(f"osi_lm_{name}_W{w}")
+            warm = criterion(f"osi_lm_warm_{name}_W{w}")
+            step = criterion(f"osi_fit_{name}_W{w}")
+            nimble = NIMBLE_GN_STEP.get((name, w))
+            cells = [name, str(w)] + [us(x) for x in [cold, per(cold, w), warm, per(warm, w), step, per(step, w)]]
+            cells += [us(nimble)] + [ratio(nimble, x) for x in [cold, warm, step]]
+            lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def run(args):
+    table, overhead = speed_table()
+    osi = osi_table()
+    report = f"""# Speed, measured in one run
+
+{table}
+
+Medians of {REPEATS} repeats of a Python loop of many calls (wall clock); native loops divided by their
+{NATIVE_STEPS} steps. Ratio = their time / ours from Python (> 1: we are faster); in the native-loop row,
+MuJoCo's nstep loop / our rollout. Contacts off in MuJoCo. Pinocchio's rows are its ABA and ABA
+derivatives, without the integration step. MuJoCo's Jacobian is forward finite differences
+(mjd_transitionFD, eps {FD_EPS:g}); ours and Pinocchio's are exact.
+
+diffosi native = criterion's median of the same Rust call (`cargo bench`, same machine, same run).
+
+### Python call overhead
+
+Included in every one-call number above. A trivial call into each library (a property read) costs
+the first column; a real call also converts its arguments and results, which the second column
+measures as the one-call step minus the per-step time of the same library's native loop.
+
+{overhead}
+
+mujoco {mujoco.__version__}, pinocchio {pinocchio.__version__}, diffosi {diffosi.__version__}.
+
+## Online system identification (DiffOSI)
+
+{osi}
+
+Identification, cold: LM from the prior to convergence; warm update: from the previous window's
+estimate, the parameter unchanged (cartpole pole COM offset, true 0.3 from 0; half cheetah torso mass,
+true 7.0 from 4.9; noise-free, contact-free, seeded random states and forces). One GN step: residuals
+and exact parameter Jacobian of the whole window. Nimble: its Gauss-Newton step (forward + parameter
+Jacobian + solve), thread-CPU time. Criterion medians (benches/osi.rs). Evaluations to tolerance, LM vs
+Adam: `cargo run --release --example osi_evals`.
+"""
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(report)
+    print(report)
+    print(f"wrote {args.out}")
+    return 0
