@@ -1,0 +1,140 @@
+"""DART adapter: a URDF twin loaded with dartpy's DartLoader into a world of its own.
+
+DART treats joint damping AND stiffness implicitly (our implicit_damping_stiffness).
+Its MJCF parser ignores <inertial> (mass 1, identity inertia), so it always loads the
+URDF twin. DART 6.20 has no joint armature (no get/setArmature in dartpy, none in the
+GenericJoint properties): the model's armature is listed in `ignored`. Parameters are
+set with BodyNode.setMass / setLocalCOM (DART keeps the moment of inertia about the
+COM, as ours) and DegreeOfFreedom.setDampingCoefficient / setSpringStiffness.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import dartpy as dart
+import numpy as np
+
+from harness.engines.base import Engine, label_of, nonzero_by_joint, quiet_stdio
+from harness.engines.urdf import ignored_extras, read_urdf, timestep_gravity, twin_only
+
+
+def load_world(urdf: Path, h: float, gravity: list):
+    loader = dart.utils.DartLoader()
+    opts = dart.utils.DartLoader.Options()
+    # default root joint is FLOATING (6 extra dofs) unless the root link is named "world"
+    opts.mDefaultRootJointType = dart.utils.DartLoader.RootJointType.FIXED
+    with quiet_stdio():  # DART warns about a zero inertia (it still simulates it exactly)
+        # a link without <inertial> gets mass 1 and identity inertia: make it massless instead
+        opts.mDefaultInertia = dart.dynamics.Inertia(0.0, np.zeros(3), np.zeros((3, 3)))
+        loader.setOptions(opts)
+        skel = loader.parseSkeleton(str(urdf))
+    assert skel is not None, f"{urdf}: DART could not parse it"
+    world = dart.simulation.World()
+    world.setTimeStep(h)
+    world.setGravity(gravity)
+    deact = world.getDeactivationOptions()
+    deact.mEnabled = False  # DART 6.20 worlds sleep slow bodies by default (no effect seen here)
+    world.setDeactivationOptions(deact)
+    world.addSkeleton(skel)
+    skel.setSelfCollisionCheck(False)
+    return world, skel
+
+
+def strip(skel, urdf: Path) -> None:
+    """No limits of any kind; DART enforces none of a URDF's by default, but say so."""
+    for k in range(skel.getNumJoints()):
+        skel.getJoint(k).setLimitEnforcement(False)
+    for dof in (skel.getDof(i) for i in range(skel.getNumDofs())):
+        dof.setVelocityLimits(-np.inf, np.inf)
+        dof.setForceLimits(-np.inf, np.inf)
+        assert dof.getCoulombFriction() == 0.0, f"{urdf}: joint friction"
+
+
+def set_passive(skel, facts: dict, urdf: Path) -> tuple:
+    """Damping from <dynamics damping> (the loader reads it too); stiffness and springref from
+    the diffosi extensions, which DART's loader ignores: given by hand."""
+    damping = np.array([j.damping for j in facts["joints"]])
+    stiffness = np.array([j.extensions.get("stiffness", 0.0) for j in facts["joints"]])
+    springref = np.array([j.extensions.get("springref", 0.0) for j in facts["joints"]])
+    for k in range(skel.getNumDofs()):
+        dof = skel.getDof(k)
+        assert dof.getDampingCoefficient() == damping[k], f"{urdf}: DART read another damping"
+        dof.setDampingCoefficient(float(damping[k]))
+        dof.setSpringStiffness(float(stiffness[k]))
+        dof.setRestPosition(float(springref[k]))
+    return damping, stiffness, springref
+
+
+class DartEngine(Engine):
+    name = "dart"
+    version = dart.__version__
+
+    def __init__(self, path: Path):
+        super().__init__()
+        self.model_path, self.label = Path(path), label_of(Path(path))
+        facts = read_urdf(self.model_path)
+        self.timestep, self.gravity, settings = timestep_gravity(self.model_path, facts)
+        self.world, skel = load_world(self.model_path, self.timestep, self.gravity)
+        self.skel = skel
+        settings.update(root_joint="FIXED", deactivation="off", self_collision="off",
+                        joint_limits="off (position enforcement off; velocity and force limits infinite)",
+                        tau_applied_via="skeleton.setForces before every step (cleared by the step)")
+        if facts["massless_links"]:
+            settings["massless_links"] = {n: "mass 0, inertia 0 (DART default: mass 1, identity inertia)"
+                                          for n in facts["massless_links"]}
+        n = skel.getNumDofs()
+        names = self.joint_names = [skel.getDof(i).getName() for i in range(n)]
+        assert names == [j.name for j in facts["joints"]], f"{path}: DART dof order {names}"
+        self.body_names = [skel.getBodyNode(i).getName() for i in range(skel.getNumBodyNodes())]
+        strip(skel, self.model_path)
+        self.damping, self.stiffness, self.springref = set_passive(skel, facts, self.model_path)
+        if self.stiffness.any():
+            settings["stiffness_set_by_hand"] = nonzero_by_joint(names, self.stiffness)
+            settings["springref_set_by_hand"] = nonzero_by_joint(names, self.springref)
+        self.ignored = settings["ignored"] = ignored_extras(facts, understood={"stiffness", "springref"})
+        if only_in_twin := twin_only(self.model_path, facts):
+            settings["mjcf_twin_only"] = only_in_twin
+        self.settings = settings
+        self.passive, self.integrator = "implicit_damping_stiffness", "Euler"
+        self.q_ref, self.ranges = np.zeros(n), [j.limit for j in facts["joints"]]
+
+    def set_state(self, q, v):
+        self.skel.setPositions(np.asarray(q, float))
+        self.skel.setVelocities(np.asarray(v, float))
+
+    def get_state(self):
+        return np.array(self.skel.getPositions()), np.array(self.skel.getVelocities())
+
+    def step(self, tau):
+        self.skel.setForces(np.asarray(tau, float))  # cleared by the step: set before every step
+        self.world.step()
+        assert self.world.getLastCollisionResult().getNumContacts() == 0
+
+    def dynamics(self, q, v):
+        saved = self.get_state()
+        self.set_state(q, v)
+        # M excludes the implicit h D + h^2 K terms (those are getAugMassMatrix);
+        # M a + getCoriolisAndGravityForces() = tau + passive
+        M, c = np.array(self.skel.getMassMatrix()), np.array(self.skel.getCoriolisAndGravityForces())
+        self.set_state(*saved)
+        return M, c
+
+    def _set(self, kind, owner, field, value):
+        if kind == "body":
+            node = self.skel.getBodyNode(owner)
+            if field == "mass":
+                node.setMass(float(value[0]))
+            else:
+                node.setLocalCOM(value)
+        elif field == "damping":
+            self.skel.getDof(self.joint_names.index(owner)).setDampingCoefficient(float(value[0]))
+        else:
+            self.skel.getDof(self.joint_names.index(owner)).setSpringStiffness(float(value[0]))
+
+    def _get(self, kind, owner, field):
+        if kind == "body":
+            node = self.skel.getBodyNode(owner)
+            return np.array([node.getMass()]) if field == "mass" else np.array(node.getLocalCOM())
+        dof = self.skel.getDof(self.joint_names.index(owner))
+        return np.array([dof.getDampingCoefficient() if field == "damping" else dof.getSpringStiffness()])

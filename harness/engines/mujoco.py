@@ -1,0 +1,155 @@
+"""MuJoCo adapter: an MJCF file run as MuJoCo runs it, minus what our smooth dynamics
+do not model (contacts, limits, frictionloss, fluid forces).
+
+Forces go through qfrc_applied with ctrl 0. Under Euler, MuJoCo integrates joint
+damping implicitly ("eulerdamp", our implicit_damping) and stiffness explicitly;
+eulerdamp=False (mjDSBL_EULERDAMP) makes damping explicit; RK4 is explicit.
+Parameters are edited in the MjModel: body_mass, body_ipos, dof_damping, jnt_stiffness.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from harness.engines.base import Engine, label_of, nonzero_by_joint
+
+MJ_WARNINGS: list = []
+
+
+def load_mjcf(path: Path):
+    """Compile an MJCF file; its warnings go to MJ_WARNINGS instead of ./MUJOCO_LOG.TXT."""
+    mujoco.set_mju_user_warning(MJ_WARNINGS.append)
+    MJ_WARNINGS.clear()
+    return mujoco.MjModel.from_xml_path(str(path))
+
+
+def mjcf_facts(path: Path) -> dict:
+    """Timestep, gravity and per-joint passive parameters of an MJCF file, as MuJoCo compiles it."""
+    m = load_mjcf(path)
+    names = [m.joint(i).name for i in range(m.njnt)]
+    return {
+        "timestep": float(m.opt.timestep),
+        "gravity": [float(g) for g in m.opt.gravity],
+        "joint_names": names,
+        "stiffness": dict(zip(names, map(float, m.jnt_stiffness))),
+        "springref": dict(zip(names, map(float, m.qpos_spring))),
+        "armature": dict(zip(names, map(float, m.dof_armature))),
+        "damping": dict(zip(names, map(float, m.dof_damping))),
+    }
+
+
+def check_model(m, label: str) -> None:
+    """Only hinge and slide joints in joint order, and nothing beyond linear passive forces."""
+    assert m.neq == 0 and m.ntendon == 0, f"{label}: equality constraints or tendons"
+    one_dof = {int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)}
+    assert all(int(t) in one_dof for t in m.jnt_type), f"{label}: free or ball joints"
+    assert m.nq == m.nv == m.njnt and all(m.jnt_qposadr == np.arange(m.njnt)) \
+        and all(m.jnt_dofadr == np.arange(m.njnt)), f"{label}: dof order is not joint order"
+    # MuJoCo 4 has nonlinear passive terms; our linear passive model must be all there is.
+    assert not np.any(m.dof_dampingpoly) and not np.any(m.jnt_stiffnesspoly), f"{label}: polynomial passive"
+    assert not np.any(m.body_gravcomp), f"{label}: gravity compensation"
+
+
+def configure(m, label: str, eulerdamp: bool, rk4: bool) -> tuple[dict, str, str]:
+    """Switch off what our smooth dynamics do not model; returns (settings, passive, integrator)."""
+    settings: dict = {"tau_applied_via": "qfrc_applied (ctrl = 0)"}
+    if MJ_WARNINGS:
+        settings["compiler_warnings"] = list(MJ_WARNINGS)
+    bit = mujoco.mjtDisableBit
+    disabled = ["contact", "limit"]
+    m.opt.disableflags |= bit.mjDSBL_CONTACT | bit.mjDSBL_LIMIT
+    if np.any(m.dof_frictionloss):  # frictionloss is a constraint in MuJoCo, not smooth dynamics
+        m.opt.disableflags |= bit.mjDSBL_FRICTIONLOSS
+        disabled.append("frictionloss")
+    if m.opt.density or m.opt.viscosity:  # fluid forces (swimmer): our engine has none, so off
+        settings["fluid_off"] = {"density": float(m.opt.density), "viscosity": float(m.opt.viscosity)}
+        m.opt.density, m.opt.viscosity = 0.0, 0.0
+    spelled = {"EULER": "Euler", "RK4": "RK4", "IMPLICIT": "implicit", "IMPLICITFAST": "implicitfast"}
+    file_integrator = spelled.get(mujoco.mjtIntegrator(m.opt.integrator).name.removeprefix("mjINT_"), "other")
+    settings["file_integrator"] = file_integrator
+    if rk4:
+        m.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
+        settings["integrator_override"] = "RK4"
+    if m.opt.integrator not in (mujoco.mjtIntegrator.mjINT_EULER, mujoco.mjtIntegrator.mjINT_RK4):
+        # implicit linearises Coriolis (O(h) off semi-implicit Euler): none of our models use it
+        raise NotImplementedError(f"{label}: integrator {file_integrator}")
+    is_rk4 = m.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4
+    if not eulerdamp:
+        m.opt.disableflags |= bit.mjDSBL_EULERDAMP  # Euler damping explicit (default: implicit)
+        disabled.append("eulerdamp")
+    settings["disableflags"] = disabled
+    if is_rk4:
+        return settings, "explicit", "RK4"  # RK4 integrates passive forces explicitly
+    # Euler: the "eulerdamp" trap, damping implicit unless disabled; stiffness always explicit
+    return settings, "implicit_damping" if eulerdamp else "explicit", "Euler"
+
+
+class MujocoEngine(Engine):
+    name = "mujoco"
+    version = mujoco.__version__
+
+    def __init__(self, path: Path, eulerdamp: bool = True, rk4: bool = False):
+        super().__init__()
+        self.model_path, self.label = Path(path), label_of(Path(path))
+        m = self.m = load_mjcf(path)
+        check_model(m, self.label)
+        self.settings, self.passive, self.integrator = configure(m, self.label, eulerdamp, rk4)
+        self.d, self._probe = mujoco.MjData(m), mujoco.MjData(m)
+        self.timestep = float(m.opt.timestep)
+        self.gravity = [float(g) for g in m.opt.gravity]
+        self.joint_names = [m.joint(i).name for i in range(m.njnt)]
+        self.body_names = [m.body(i).name for i in range(1, m.nbody)]
+        self.ranges = [tuple(map(float, m.jnt_range[i])) if m.jnt_limited[i] else None for i in range(m.njnt)]
+        self.damping, self.stiffness = m.dof_damping.copy(), m.jnt_stiffness.copy()
+        self.springref, self.q_ref = m.qpos_spring.copy(), m.qpos0.copy()
+        self.settings["armature_in_mass_matrix"] = nonzero_by_joint(self.joint_names, m.dof_armature)
+        self.ignored = {}  # MuJoCo simulates every parameter our engine reads from an MJCF file
+
+    def set_state(self, q, v):
+        self.d.qpos[:], self.d.qvel[:] = q, v
+
+    def get_state(self):
+        return self.d.qpos.copy(), self.d.qvel.copy()
+
+    def reset(self):
+        mujoco.mj_resetData(self.m, self.d)  # clear time, warmstart and applied forces
+
+    def step(self, tau):
+        d = self.d
+        d.ctrl[:] = 0.0
+        d.qfrc_applied[:] = tau
+        mujoco.mj_step(self.m, d)
+        assert d.nefc == 0, f"{self.label}: constraint rows appeared"
+        assert not np.any(d.qfrc_actuator), f"{self.label}: actuator force with ctrl 0"
+
+    def dynamics(self, q, v):
+        m, probe = self.m, self._probe
+        probe.qpos[:], probe.qvel[:] = q, v
+        mujoco.mj_forward(m, probe)
+        M = np.zeros((m.nv, m.nv))
+        mujoco.mj_fullM(m, probe, M)  # MuJoCo 4: d.qM is gone; M includes armature
+        expected = -self.damping * v - self.stiffness * (q - self.springref)
+        assert np.allclose(probe.qfrc_passive, expected, rtol=0, atol=1e-13 * (1 + np.abs(expected).max())), \
+            f"{self.label}: passive forces beyond joint damping and stiffness"
+        return M, probe.qfrc_bias.copy()  # M qacc = tau - qfrc_bias + qfrc_passive
+
+    def _field(self, kind, owner, field):
+        """(array, index) of a parameter in the MjModel; body_mass and body_ipos mean what ours
+        do (body_inertia, about the COM, stays)."""
+        if kind == "body":
+            array = {"mass": self.m.body_mass, "com": self.m.body_ipos}[field]
+            return array, self.m.body(owner).id
+        array = {"damping": self.m.dof_damping, "stiffness": self.m.jnt_stiffness}[field]
+        return array, self.joint_names.index(owner)
+
+    def _set(self, kind, owner, field, value):
+        array, i = self._field(kind, owner, field)
+        array[i] = value if field == "com" else value[0]
+        mujoco.mj_setConst(self.m, self.d)  # body_subtreemass and the other derived constants
+
+    def _get(self, kind, owner, field):
+        array, i = self._field(kind, owner, field)
+        return np.atleast_1d(array[i]).astype(float)

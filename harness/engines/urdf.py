@@ -1,0 +1,117 @@
+"""URDF facts PyBullet and DART need, read with the standard library (not by any engine).
+
+Our URDF extensions live in the namespace urn:diffosi:urdf (see src/model/urdf.rs):
+<diffosi:options timestep gravity integrator> and, on <dynamics>, diffosi:stiffness,
+diffosi:springref, diffosi:armature. Neither PyBullet nor DART reads them.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+
+from harness.engines.base import label_of
+
+MOVABLE = {"revolute": "hinge", "continuous": "hinge", "prismatic": "slide"}
+DIFFOSI_NS = "{urn:diffosi:urdf}"
+DEFAULT_GRAVITY = [0.0, 0.0, -9.81]
+
+
+@dataclass
+class UrdfJoint:
+    name: str
+    kind: str  # hinge | slide
+    limit: tuple | None
+    damping: float
+    friction: float
+    extensions: dict  # other <dynamics> attributes: diffosi:stiffness, diffosi:springref, ...
+
+
+def local_name(key: str) -> str:
+    return key.split("}")[-1]
+
+
+def read_urdf(path: Path) -> dict:
+    """Movable joints in document order (asserted parent-first), links without <inertial>,
+    and the attributes of <diffosi:options>."""
+    root = ET.parse(path).getroot()
+    links = [link.get("name") for link in root.findall("link")]
+    children = {j.find("child").get("link") for j in root.findall("joint")}
+    roots = [link for link in links if link not in children]
+    assert len(roots) == 1, f"{path}: expected one root link, got {roots}"
+    placed, joints = {roots[0]}, []
+    for j in root.findall("joint"):
+        parent, child = j.find("parent").get("link"), j.find("child").get("link")
+        assert parent in placed, f"{path}: joint {j.get('name')} comes before its parent link"
+        placed.add(child)
+        kind = j.get("type")
+        if kind == "fixed":
+            continue
+        assert kind in MOVABLE, f"{path}: joint type {kind} is not supported"
+        lim = j.find("limit")
+        limit = None
+        if kind != "continuous" and lim is not None:
+            lo, hi = float(lim.get("lower", 0)), float(lim.get("upper", 0))
+            limit = (lo, hi) if lo < hi else None  # lower = upper (= 0 by default): no limit
+        dyn = j.find("dynamics")
+        attrs = {local_name(k): float(v) for k, v in (dyn.attrib if dyn is not None else {}).items()}
+        joints.append(UrdfJoint(
+            name=j.get("name"), kind=MOVABLE[kind], limit=limit,
+            damping=attrs.pop("damping", 0.0), friction=attrs.pop("friction", 0.0), extensions=attrs,
+        ))
+    massless = [link.get("name") for link in root.findall("link")
+                if link.find("inertial") is None and link.get("name") != roots[0]]
+    options = root.find(f"{DIFFOSI_NS}options")
+    return {"root": roots[0], "links": links, "joints": joints, "massless_links": massless,
+            "options": dict(options.attrib) if options is not None else {}}
+
+
+def mjcf_twin_facts(urdf: Path) -> dict | None:
+    from harness.engines.mujoco import mjcf_facts
+
+    twin = urdf.with_suffix(".xml")
+    return mjcf_facts(twin) if twin.exists() else None
+
+
+def timestep_gravity(urdf: Path, facts: dict) -> tuple[float, list, dict]:
+    """From the URDF's <diffosi:options> (gravity default -9.81 z), else from the MJCF twin;
+    when both exist they must agree."""
+    twin = urdf.with_suffix(".xml")
+    from_twin = mjcf_twin_facts(urdf)
+    opts = facts["options"]
+    if "timestep" in opts:
+        h = float(opts["timestep"])
+        g = [float(x) for x in opts["gravity"].split()] if "gravity" in opts else DEFAULT_GRAVITY
+        source = {"timestep_gravity_from": f"<diffosi:options> of {label_of(urdf)}"}
+        if from_twin:
+            assert (h, g) == (from_twin["timestep"], from_twin["gravity"]), \
+                f"{urdf}: timestep/gravity {h} {g} differ from the MJCF twin's"
+            source["mjcf_twin_agrees"] = label_of(twin)
+        return h, g, source
+    assert from_twin, f"{urdf}: no <diffosi:options timestep> and no MJCF twin"
+    return from_twin["timestep"], from_twin["gravity"], {"timestep_gravity_from": label_of(twin)}
+
+
+def ignored_extras(facts: dict, understood: set) -> dict:
+    """Nonzero diffosi extension attributes of the URDF's <dynamics> (stiffness, armature, ...)
+    that the engine did not simulate: {attribute: {joint: value}}. A comparison sets them to
+    zero in our model first. (springref is left out: without stiffness it is no force.)"""
+    out: dict = {}
+    for j in facts["joints"]:
+        for key, value in j.extensions.items():
+            if value and key not in understood and key != "springref":
+                out.setdefault(key, {})[j.name] = value
+    return out
+
+
+def twin_only(urdf: Path, facts: dict, keys=("stiffness", "armature")) -> dict:
+    """Passive parameters the MJCF twin has and the URDF does not carry (information only:
+    our engine loading the URDF has none of them either)."""
+    twin = mjcf_twin_facts(urdf)
+    out: dict = {}
+    for j in facts["joints"]:
+        for key in keys:
+            if twin and twin[key].get(j.name) and not j.extensions.get(key):
+                out.setdefault(key, {})[j.name] = twin[key][j.name]
+    return out
