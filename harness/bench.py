@@ -17,6 +17,8 @@ Compared on the contact-free cartpole and half cheetah (MuJoCo: the MJCF files
 with contacts disabled; Pinocchio: the URDF twins, fixed base), at one fixed
 state (the one benches/common uses): q = q0 + 0.1 sin(i + 1), v = 0.5 cos(i + 2),
 tau = sin(i + 3) for dof i, tau as generalized forces (MuJoCo's qfrc_applied).
+Our calls restart from that state; MuJoCo's state advances with its steps
+(without contacts the cost of a step does not depend on the state).
 
 - step: ours `Model.step`; MuJoCo `mj_step`; Pinocchio `aba` (the acceleration
   only, no integration: a lower bound for a step);
