@@ -42,4 +42,4 @@ bench: setup
 
 # Regenerates the reference engines' golden data (committed; see reference_models/golden/README.md).
 golden: setup
-	$(VENV)/bin/python scripts/golden.py --all --seed 0
+	$(VENV)/bin/python -m harness golden --all --seed 0

@@ -1,5 +1,5 @@
 //! Our engine against MuJoCo, PyBullet and DART on their recorded steps
-//! (reference_models/golden/dynamics/*.json, written by scripts/golden.py).
+//! (reference_models/golden/dynamics/*.json, written by `python -m harness golden`).
 //! Contact-free models must agree to 1e-12 in one step: anything worse is a
 //! convention bug, not an "engine difference".
 
