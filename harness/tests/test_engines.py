@@ -1,0 +1,147 @@
+"""Our engine against MuJoCo, PyBullet and DART through the adapters in harness/engines.
+
+For each contact-free reference model and each engine, `engine.ours()` is our model run
+as that engine runs the file (its file twin, timestep, gravity, integrator, passive-force
+mode; what the engine ignores zeroed). Errors are max(|dq| / max(1, |q|), |dv| / max(1, |v|))
+(harness/engines/numpy_step.step_error); mass matrices max |dM| / max |M|. Our M comes
+out of one step: with explicit passive forces and h = 1, dv'/dtau = M^-1.
+Run with `make test`.
+"""
+
+import numpy as np
+import pytest
+
+from harness import engines
+from harness.engines.numpy_step import step_error
+from harness.engines.sampling import sample_q, tau_scale
+from harness.golden import ROLLOUT_TAU_FRACTION, case_seed
+
+MODELS = ["cartpole", "pendulum", "double_pendulum", "half_cheetah"]
+CASES = [(e, m) for e in engines.ENGINES for m in MODELS]
+ONE_STEP_TOL, ROLLOUT_TOL, MASS_TOL = 1e-12, 1e-9, 1e-12
+SAMPLES, STEPS = 100, 500
+
+
+def ids(case):
+    return "-".join(case)
+
+
+def random_transitions(e, rng, n):
+    """n random (q, v, tau) with the golden data's distributions (harness/engines/sampling.py)."""
+    scale, nv = tau_scale(e), len(e.joint_names)
+    for _ in range(n):
+        yield sample_q(e, rng), rng.uniform(-1.0, 1.0, nv), rng.uniform(-1.0, 1.0, nv) * scale
+
+
+def worst_one_step(e, ours, rng, n=SAMPLES):
+    worst = 0.0
+    for q, v, tau in random_transitions(e, rng, n):
+        e.reset()
+        e.set_state(q, v)
+        e.step(tau)
+        worst = max(worst, step_error(*ours.step(q, v, tau), *e.get_state()))
+    return worst
+
+
+def our_mass_matrix(ours, q):
+    unit = ours.with_options(timestep=1.0, passive="explicit")
+    zero = np.zeros(ours.nv)
+    return np.linalg.inv(unit.step_jacobians(q, zero, zero)["dv_dtau"])
+
+
+def worst_mass_matrix(e, ours, rng, n=20):
+    worst = 0.0
+    for q, _, _ in random_transitions(e, rng, n):
+        theirs = e.mass_matrix(q)
+        worst = max(worst, np.abs(our_mass_matrix(ours, q) - theirs).max() / np.abs(theirs).max())
+    return worst
+
+
+@pytest.mark.parametrize("case", CASES, ids=ids)
+def test_one_step(case):
+    with engines.load(*case) as e:
+        worst = worst_one_step(e, e.ours(), case_seed(1, ids(case)))
+    assert worst <= ONE_STEP_TOL, f"{ids(case)}: one-step error {worst:.1e} over {SAMPLES} samples"
+
+
+@pytest.mark.parametrize("case", CASES, ids=ids)
+def test_rollout(case):
+    with engines.load(*case) as e:
+        rng, nv = case_seed(2, ids(case)), len(e.joint_names)
+        q0, v0 = sample_q(e, rng), rng.uniform(-1.0, 1.0, nv)
+        taus = rng.uniform(-1.0, 1.0, (STEPS, nv)) * tau_scale(e) * ROLLOUT_TAU_FRACTION
+        Q, V = e.ours().rollout(q0, v0, taus)
+        e.reset()
+        e.set_state(q0, v0)
+        worst = 0.0
+        for t, tau in enumerate(taus):
+            e.step(tau)
+            worst = max(worst, step_error(Q[t + 1], V[t + 1], *e.get_state()))
+    assert np.abs(V).max() < 100.0, f"{ids(case)}: the rollout is not well-behaved"
+    assert worst <= ROLLOUT_TOL, f"{ids(case)}: {STEPS}-step rollout error {worst:.1e}"
+
+
+@pytest.mark.parametrize("case", CASES, ids=ids)
+def test_mass_matrix(case):
+    with engines.load(*case) as e:
+        worst = worst_mass_matrix(e, e.ours(), case_seed(3, ids(case)))
+    assert worst <= MASS_TOL, f"{ids(case)}: mass matrix relative error {worst:.1e}"
+
+
+def changes(e):
+    """A COM, a mass, a damping and (where the engine has joint springs) a stiffness of the
+    model's last body and last joint, each moved well away from the file's value."""
+    body, joint = e.body_names[-1], e.joint_names[-1]
+    out = {f"body/{body}/com": e.get_param(f"body/{body}/com") + [0.03, -0.02, 0.05],
+           f"body/{body}/mass": e.get_param(f"body/{body}/mass") * 1.5,
+           f"joint/{joint}/damping": e.get_param(f"joint/{joint}/damping") + 0.2}
+    if e.name != "pybullet":
+        out[f"joint/{joint}/stiffness"] = e.get_param(f"joint/{joint}/stiffness") + 1.5
+    return out
+
+
+@pytest.mark.parametrize("case", CASES, ids=ids)
+def test_parameter_setters_agree(case):
+    with engines.load(*case) as e:
+        wanted = changes(e)
+        for name, value in wanted.items():
+            e.set_param(name, value)
+        for name, value in wanted.items():
+            np.testing.assert_array_equal(e.get_param(name), value, err_msg=name)
+        ours = e.ours()
+        for name, value in wanted.items():
+            np.testing.assert_array_equal(ours.get_param(name), value, err_msg=name)
+        one_step = worst_one_step(e, ours, case_seed(4, ids(case)), n=20)
+        mass = worst_mass_matrix(e, ours, case_seed(5, ids(case)))
+        # the change is seen: the file's model steps differently
+        with engines.load(*case) as unchanged:
+            plain = unchanged.ours()
+        q, v, tau = next(random_transitions(e, case_seed(6, ids(case)), 1))
+        moved = step_error(*ours.step(q, v, tau), *plain.step(q, v, tau))
+    assert one_step <= ONE_STEP_TOL, f"{ids(case)}: one-step error {one_step:.1e} after {list(wanted)}"
+    assert mass <= MASS_TOL, f"{ids(case)}: mass matrix relative error {mass:.1e} after {list(wanted)}"
+    assert moved > 1e-6, f"{ids(case)}: the changed parameters made no difference ({moved:.1e})"
+
+
+@pytest.mark.parametrize("engine", engines.ENGINES)
+def test_unknown_or_unsupported_parameters_raise(engine):
+    with engines.load(engine, "cartpole") as e:
+        for name in ["body/nobody/mass", "joint/hinge/friction", "body/pole/inertia", "pole/mass"]:
+            with pytest.raises(ValueError, match="unknown parameter"):
+                e.set_param(name, 1.0)
+        with pytest.raises(ValueError, match="3 finite"):
+            e.set_param("body/pole/com", [0.0, 0.0])
+        with pytest.raises(ValueError, match="negative"):
+            e.set_param("body/pole/mass", -1.0)
+        if engine == "pybullet":
+            with pytest.raises(ValueError, match="no joint springs"):
+                e.set_param("joint/hinge/stiffness", 1.0)
+
+
+def test_model_names_and_paths():
+    assert engines.model_path("mujoco", "cartpole").name == "cartpole.xml"
+    assert engines.model_path("dart", "cartpole").name == "cartpole.urdf"
+    with pytest.raises(ValueError, match="unknown engine"):
+        engines.load("bullet", "cartpole")
+    with pytest.raises(ValueError, match="no model file"):
+        engines.load("mujoco", "no_such_model")
