@@ -4,14 +4,17 @@
 our engine (target/criterion/*/new/estimates.json) come from the same machine and
 run; without them their cells read "—".
 
-Every Python-side number comes from one timer (`per_call`): a function is called
-many times in a Python for-loop (enough calls for ~20 ms), the loop is repeated,
-and the median time per call over the repeats is kept (wall clock,
+Every Python-side number comes from one timer (`medians`): a function is called
+many times in a Python for-loop (enough calls for ~10 ms), the loop is repeated,
+interleaved with the other functions' loops, and the median time per call over
+the repeats is kept (wall clock,
 time.perf_counter, seconds; the report shows µs). So each includes the cost of
-one call from Python, measured as reading `model.nv` with getattr from each
-library and stated in the report. Work that loops in native code (MuJoCo's
-mj_step with nstep = N, our rollout over N steps) is timed with the same helper
-and divided by N: that is the engine without the Python overhead.
+one call from Python. Work that loops in native code (MuJoCo's mj_step with
+nstep = N, our rollout over N steps) is timed with the same helper and divided
+by N: the engine without that cost. The report states the cost two ways: a
+trivial call into each library (getattr(model, "nv")), and a step call minus
+the per-step time of the same library's native loop (argument conversion
+included).
 
 Compared on the contact-free cartpole and half cheetah (MuJoCo: the MJCF files
 with contacts disabled; Pinocchio: the URDF twins, fixed base), at one fixed
@@ -50,8 +53,8 @@ import diffosi
 ROOT = Path(__file__).resolve().parent.parent
 MODELS = {"cartpole": "body/pole/mass", "half_cheetah": "body/torso/mass"}  # name -> the one parameter
 NATIVE_STEPS = 1000  # steps per call of the native loops (mj_step nstep, our rollout)
-REPEATS = 7
-TARGET_SECONDS = 0.02  # a repeat calls the function until about this long
+REPEATS = 15
+TARGET_SECONDS = 0.01  # a repeat calls the function until about this long
 FD_EPS = 1e-6
 
 # NimblePhysics Gauss-Newton DiffOSI step, thread-CPU seconds per update
@@ -66,26 +69,37 @@ OSI_WINDOWS = [1, 2, 5, 10, 50]
 
 
 def add_arguments(parser):
-    parser.add_argument("--out", type=Path, default=ROOT / "reports" / "bench.md", help="Markdown report path")
+    parser.add_argument("--out", type=Path, default=ROOT / "reports" / "bench.md",
+                        help="Markdown report path")
 
 
-def per_call(fn, *args, steps=1):
-    """Median over REPEATS of the seconds per call of fn(*args) (per step if one call does `steps`)."""
+def calls_for(fn, args):
+    """How many calls of fn(*args) last about TARGET_SECONDS (doubling from one)."""
     calls = 1
-    while True:  # calibrate: double the calls until a loop lasts TARGET_SECONDS
-        start = time.perf_counter()
-        for _ in range(calls):
-            fn(*args)
-        if time.perf_counter() - start >= TARGET_SECONDS:
-            break
+    while loop_seconds(fn, args, calls) < TARGET_SECONDS:
         calls *= 2
-    times = []
+    return calls
+
+
+def loop_seconds(fn, args, calls):
+    start = time.perf_counter()
+    for _ in range(calls):
+        fn(*args)
+    return time.perf_counter() - start
+
+
+def medians(jobs):
+    """Seconds per call (per step for native loops) of each job {key: (fn, args, steps)}.
+
+    Each repeat runs every job's loop once, in turn, so a slow spell of the
+    shared machine hits all libraries alike; the median over REPEATS is kept.
+    """
+    calls = {key: calls_for(fn, args) for key, (fn, args, _) in jobs.items()}
+    times = {key: [] for key in jobs}
     for _ in range(REPEATS):
-        start = time.perf_counter()
-        for _ in range(calls):
-            fn(*args)
-        times.append((time.perf_counter() - start) / (calls * steps))
-    return float(np.median(times))
+        for key, (fn, args, steps) in jobs.items():
+            times[key].append(loop_seconds(fn, args, calls[key]) / (calls[key] * steps))
+    return {key: float(np.median(t)) for key, t in times.items()}
 
 
 def fixed_state(q0):
@@ -93,20 +107,20 @@ def fixed_state(q0):
     return q0 + 0.1 * np.sin(i + 1.0), 0.5 * np.cos(i + 2.0), np.sin(i + 3.0)
 
 
-def time_ours(name, param):
+def ours_jobs(name):
     m = diffosi.Model.load(str(ROOT / "reference_models" / f"{name}.xml"))
     q, v, tau = fixed_state(np.zeros(m.nq))
     taus = np.tile(tau, (NATIVE_STEPS, 1))
     return {
-        "overhead": per_call(getattr, m, "nv"),
-        "step": per_call(m.step, q, v, tau),
-        "loop": per_call(m.rollout, q, v, taus, steps=NATIVE_STEPS),
-        "jacobian": per_call(m.step_jacobians, q, v, tau),
-        "param": per_call(m.step_jacobians, q, v, tau, [param]),
+        "overhead": (getattr, (m, "nv"), 1),
+        "step": (m.step, (q, v, tau), 1),
+        "loop": (m.rollout, (q, v, taus), NATIVE_STEPS),
+        "jacobian": (m.step_jacobians, (q, v, tau), 1),
+        "param": (m.step_jacobians, (q, v, tau, [MODELS[name]]), 1),
     }
 
 
-def time_mujoco(name):
+def mujoco_jobs(name):
     model = mujoco.MjModel.from_xml_path(str(ROOT / "reference_models" / f"{name}.xml"))
     model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT  # contact-free, like ours
     data = mujoco.MjData(model)
@@ -114,23 +128,38 @@ def time_mujoco(name):
     n = 2 * model.nv + model.na
     a, b = np.zeros((n, n)), np.zeros((n, model.nu))
     return {
-        "overhead": per_call(getattr, model, "nv"),
-        "step": per_call(mujoco.mj_step, model, data),
-        "loop": per_call(mujoco.mj_step, model, data, NATIVE_STEPS, steps=NATIVE_STEPS),
-        "jacobian": per_call(mujoco.mjd_transitionFD, model, data, FD_EPS, False, a, b, None, None),
+        "overhead": (getattr, (model, "nv"), 1),
+        "step": (mujoco.mj_step, (model, data), 1),
+        "loop": (mujoco.mj_step, (model, data, NATIVE_STEPS), NATIVE_STEPS),
+        "jacobian": (mujoco.mjd_transitionFD, (model, data, FD_EPS, False, a, b, None, None), 1),
     }
 
 
-def time_pinocchio(name):
+def pinocchio_jobs(name):
     model = pinocchio.buildModelFromUrdf(str(ROOT / "reference_models" / f"{name}.urdf"))
     data = model.createData()
     q, v, tau = fixed_state(np.zeros(model.nv))
     q = pinocchio.integrate(model, pinocchio.neutral(model), q)  # (cos, sin) for unbounded hinges
     return {
-        "overhead": per_call(getattr, model, "nv"),
-        "step": per_call(pinocchio.aba, model, data, q, v, tau),
-        "jacobian": per_call(pinocchio.computeABADerivatives, model, data, q, v, tau),
+        "overhead": (getattr, (model, "nv"), 1),
+        "step": (pinocchio.aba, (model, data, q, v, tau), 1),
+        "jacobian": (pinocchio.computeABADerivatives, (model, data, q, v, tau), 1),
     }
+
+
+LIBRARIES = {"diffosi": ours_jobs, "MuJoCo": mujoco_jobs, "Pinocchio": pinocchio_jobs}
+
+
+def measure():
+    """{model: {library: {what: seconds}}} for every job of every library on every model."""
+    jobs = {}
+    for name in MODELS:
+        for library, make_jobs in LIBRARIES.items():
+            jobs.update({(name, library, what): job for what, job in make_jobs(name).items()})
+    result = {name: {library: {} for library in LIBRARIES} for name in MODELS}
+    for (name, library, what), seconds in medians(jobs).items():
+        result[name][library][what] = seconds
+    return result
 
 
 def criterion(bench):
@@ -154,11 +183,13 @@ def speed_table():
         "|---|---|---|---|---|---|",
     ]
     overheads = [
-        "| model | library | trivial call: getattr(model, \"nv\") (µs) | a step call beyond its native loop (µs) |",
+        "| model | library | trivial call: getattr(model, \"nv\") (µs) "
+        "| a step call beyond its native loop (µs) |",
         "|---|---|---|---|",
     ]
-    for name, param in MODELS.items():
-        ours, mj, pin = time_ours(name, param), time_mujoco(name), time_pinocchio(name)
+    times = measure()
+    for name in MODELS:
+        ours, mj, pin = (times[name][library] for library in LIBRARIES)
         rows = [
             ("step, one Python call", ours["step"], f"step_{name}", mj["step"], pin["step"]),
             (f"step, loop of {NATIVE_STEPS} in native code (rollout; mj_step nstep)", ours["loop"],
@@ -168,11 +199,12 @@ def speed_table():
             ("step + 1-parameter Jacobian", ours["param"], f"jacobian_param_{name}", None, None),
         ]
         for what, mine, bench, theirs_mj, theirs_pin in rows:
-            cells = [what, name, us(mine), us(criterion(bench)), versus(theirs_mj, mine), versus(theirs_pin, mine)]
+            cells = [what, name, us(mine), us(criterion(bench)),
+                     versus(theirs_mj, mine), versus(theirs_pin, mine)]
             lines.append("| " + " | ".join(cells) + " |")
-        for library, times in [("diffosi", ours), ("MuJoCo", mj), ("Pinocchio", pin)]:
-            beyond = times["step"] - times["loop"] if "loop" in times else None
-            overheads.append(f"| {name} | {library} | {us(times['overhead'])} | {us(beyond)} |")
+        for library, t in times[name].items():
+            beyond = t["step"] - t["loop"] if "loop" in t else None
+            overheads.append(f"| {name} | {library} | {us(t['overhead'])} | {us(beyond)} |")
     return "\n".join(lines), "\n".join(overheads)
 
 
@@ -184,7 +216,8 @@ def osi_table():
         return None if seconds is None else seconds / w
 
     lines = [
-        "| model | W | identification, cold (µs) | per transition (µs) | warm update (µs) | per transition (µs) "
+        "| model | W | identification, cold (µs) | per transition (µs) "
+        "| warm update (µs) | per transition (µs) "
         "| one GN step (µs) | per transition (µs) | Nimble GN step (µs) "
         "| ratio Nimble step / our cold identification | ratio Nimble step / our warm update "
         "| ratio Nimble step / our step |",
@@ -196,7 +229,8 @@ def osi_table():
             warm = criterion(f"osi_lm_warm_{name}_W{w}")
             step = criterion(f"osi_fit_{name}_W{w}")
             nimble = NIMBLE_GN_STEP.get((name, w))
-            cells = [name, str(w)] + [us(x) for x in [cold, per(cold, w), warm, per(warm, w), step, per(step, w)]]
+            times = [cold, per(cold, w), warm, per(warm, w), step, per(step, w)]
+            cells = [name, str(w)] + [us(x) for x in times]
             cells += [us(nimble)] + [ratio(nimble, x) for x in [cold, warm, step]]
             lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
@@ -209,11 +243,12 @@ def run(args):
 
 {table}
 
-Medians of {REPEATS} repeats of a Python loop of many calls (wall clock); native loops divided by their
-{NATIVE_STEPS} steps. Ratio = their time / ours from Python (> 1: we are faster); in the native-loop row,
-MuJoCo's nstep loop / our rollout. Contacts off in MuJoCo. Pinocchio's rows are its ABA and ABA
-derivatives, without the integration step. MuJoCo's Jacobian is forward finite differences
-(mjd_transitionFD, eps {FD_EPS:g}); ours and Pinocchio's are exact.
+Medians of {REPEATS} repeats of a Python loop of many calls (~{TARGET_SECONDS * 1e3:g} ms each, wall
+clock), the libraries' loops interleaved so that the shared machine's slow spells hit all alike;
+native loops divided by their {NATIVE_STEPS} steps. Ratio = their time / ours from Python (> 1: we are
+faster); in the native-loop row, MuJoCo's nstep loop / our rollout. Contacts off in MuJoCo.
+Pinocchio's rows are its ABA and ABA derivatives, without the integration step. MuJoCo's Jacobian is
+forward finite differences (mjd_transitionFD, eps {FD_EPS:g}); ours and Pinocchio's are exact.
 
 diffosi native = criterion's median of the same Rust call (`cargo bench`, same machine, same run).
 
