@@ -68,7 +68,8 @@ class CartPoleEnv(gymnasium.Env):
         return self._observation(), {}
 
     def step(self, action):
-        force = self.max_force * float(np.clip(np.asarray(action, dtype=np.float64).reshape(-1)[0], -1.0, 1.0))
+        a = float(np.asarray(action, dtype=np.float64).reshape(-1)[0])
+        force = self.max_force * min(max(a, -1.0), 1.0)
         self._q, self._v = self.model.step(self._q, self._v, np.array([force, 0.0]))
         self._steps += 1
         x, theta = self._q

@@ -41,7 +41,8 @@ def test_registered_and_passes_the_env_checker_without_warnings():
 
 @pytest.mark.parametrize("mu", [-0.6, 0.0, 0.3])
 def test_mu_moves_the_pole_com(mu):
-    np.testing.assert_allclose(make(mu=mu).model.get_param("body/pole/com"), [mu, 0.0, 0.5 + 0.2 * mu], atol=1e-15)
+    com = make(mu=mu).model.get_param("body/pole/com")
+    np.testing.assert_allclose(com, [mu, 0.0, 0.5 + 0.2 * mu], atol=1e-15)
 
 
 def test_reset_is_seeded_and_in_range():
