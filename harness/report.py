@@ -49,9 +49,9 @@ def markdown_table(header: list[str], rows: list[list]) -> list[str]:
 
 
 def plot_lines(path: Path, series: dict[str, np.ndarray], title: str, xlabel: str, ylabel: str,
-               hlines: dict[str, float] | None = None, logy: bool = True) -> Path:
+               hlines: dict[str, float] | None = None, logy: bool = True, floor: float = 1e-18) -> Path:
     """One line per series (x = index), optional labelled horizontal lines (thresholds).
-    Zeros cannot be drawn on a log axis: they are clipped to the smallest positive float."""
+    On a log axis values below `floor` (zeros: exact agreement) are drawn at `floor`."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -60,7 +60,7 @@ def plot_lines(path: Path, series: dict[str, np.ndarray], title: str, xlabel: st
     fig, ax = plt.subplots(figsize=(7, 4), dpi=110)
     for name, y in series.items():
         y = np.asarray(y, float)
-        ax.plot(np.arange(len(y)), np.maximum(y, np.finfo(float).tiny) if logy else y, label=name, lw=1.2)
+        ax.plot(np.arange(len(y)), np.maximum(y, floor) if logy else y, label=name, lw=1.2)
     for name, y in (hlines or {}).items():
         ax.axhline(y, color="grey", ls="--", lw=0.8, label=name)
     if logy:
