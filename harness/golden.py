@@ -29,7 +29,7 @@ import numpy as np
 from harness import engines
 from harness.engines.base import MODELS, Engine, gym_assets_dir, label_of, path_of
 from harness.engines.numpy_step import reference_step, step_error
-from harness.engines.sampling import round3, sample_q, tau_scale
+from harness.engines.sampling import round3, sample_rollout, sample_state, sample_transition, tau_scale
 from harness.report import jsonable
 
 OUT_DIR = MODELS / "golden" / "dynamics"
@@ -65,9 +65,8 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
 
 def one_step_samples(e: Engine, rng, scale) -> tuple[list, float]:
     samples, worst = [], 0.0
-    nv = len(e.joint_names)
     for _ in range(N_ONE_STEP):
-        q, v, tau = sample_q(e, rng), rng.uniform(-1.0, 1.0, nv), rng.uniform(-1.0, 1.0, nv) * scale
+        q, v, tau = sample_transition(e, rng, scale)
         e.reset()
         e.set_state(q, v)
         e.step(tau)
@@ -80,9 +79,7 @@ def one_step_samples(e: Engine, rng, scale) -> tuple[list, float]:
 
 
 def rollout(e: Engine, rng, scale) -> tuple[dict, float, float, float]:
-    nv = len(e.joint_names)
-    q0, v0 = sample_q(e, rng), rng.uniform(-1.0, 1.0, nv)
-    taus = rng.uniform(-1.0, 1.0, (T_ROLLOUT, nv)) * scale
+    q0, v0, taus = sample_rollout(e, rng, scale, T_ROLLOUT)
     e.reset()
     e.set_state(q0, v0)
     Q, V = [q0], [v0]
@@ -164,7 +161,7 @@ def twin_check(urdf: Path, seed: int) -> dict:
             assert e.joint_names == mj.joint_names, f"{urdf.stem}: joint names {e.joint_names} vs {mj.joint_names}"
             dm = dc = 0.0
             for _ in range(N_ONE_STEP):
-                q, v = sample_q(mj, rng), rng.uniform(-1.0, 1.0, len(mj.joint_names))
+                q, v = sample_state(mj, rng)
                 (Mm, cm), (Me, ce) = mj.dynamics(q, v), e.dynamics(q, v)
                 dm = max(dm, float(np.abs(Mm - armature - Me).max()))
                 dc = max(dc, float(np.abs(cm - ce).max()))

@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from harness import engines
-from harness.engines.sampling import sample_q, tau_scale
+from harness.engines.sampling import sample_transitions
 from harness.report import REPORTS, markdown_table, write_json, write_markdown
 
 THRESHOLDS = {"ours_fd": 1e-6, "mujoco_fd": 1e-5}
@@ -204,14 +204,6 @@ class EngineOracle:
         return self.e.get_state()
 
 
-def sample_states(e, rng, n: int) -> list[tuple]:
-    """(q, v, tau): harness.engines.sampling's q and torque scale, v uniform in [-1, 1]."""
-    scale = tau_scale(e)
-    nv = len(e.joint_names)
-    return [(sample_q(e, rng), rng.uniform(-1.0, 1.0, nv), rng.uniform(-1.0, 1.0, nv) * scale)
-            for _ in range(n)]
-
-
 def engine_params(e, names) -> list[str]:
     """The parameters among `names` that the adapter can set."""
     def supported(name):
@@ -234,7 +226,7 @@ def gradcheck(name: str, n_states: int, seed: int, **options) -> dict:
     `options` go to the MuJoCo adapter (eulerdamp=False, rk4=True)."""
     with engines.load("mujoco", name, **options) as e:
         ours = e.ours()
-        states = sample_states(e, np.random.default_rng(seed), n_states)
+        states = sample_transitions(e, np.random.default_rng(seed), n_states)
         params = ours.param_names()
         steps = param_stepper(e)
         ours_fd = worst_errors(ours, ours, states, params, steps)

@@ -32,6 +32,12 @@ import diffosi
 
 ENV_ID = "diffosi/CartPole-v0"
 MODEL = Path(__file__).resolve().parent.parent / "reference_models" / "cartpole.xml"
+
+
+def pole_com(mu: float) -> list:
+    """The paper's mu as the pole COM in the pole frame (m): the geometric centre
+    (0, 0, 0.5), the hinge being the frame's origin, moved by (mu, 0, 0.2 mu)."""
+    return [mu, 0.0, 0.5 + 0.2 * mu]
 X_LIMIT = 2.5
 THETA_LIMIT = np.pi / 2
 MAX_STEPS = 500
@@ -45,8 +51,7 @@ class CartPoleEnv(gymnasium.Env):
 
     def __init__(self, mu=0.0, max_force=500.0):
         self.model = diffosi.Model.load(str(MODEL))
-        centre = self.model.get_param("body/pole/com")  # (0, 0, 0.5): the hinge is the pole frame's origin
-        self.model.set_param("body/pole/com", centre + np.array([mu, 0.0, 0.2 * mu]))
+        self.model.set_param("body/pole/com", pole_com(mu))
         self.mu = float(mu)
         self.max_force = float(max_force)
         # The state is unbounded (the step that terminates may overshoot any limit);

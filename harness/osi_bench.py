@@ -47,8 +47,9 @@ import numpy as np
 
 from harness import bench, engines
 from harness.engines.base import MODELS
+from harness.gym_env import pole_com
 from harness.engines.numpy_step import step_error
-from harness.engines.sampling import sample_q, tau_scale
+from harness.engines.sampling import sample_rollout, tau_scale
 from harness.report import REPORTS, markdown_table, write_json, write_markdown
 
 CHECK_TOL = 1e-12  # a correct engine matches MuJoCo to this on contact-free models
@@ -73,17 +74,12 @@ class Problem:
     scored: list
 
 
-def cartpole_com(mu: float) -> list:
-    """The paper's cartpole mu as the pole COM in the pole frame (m)."""
-    return [mu, 0.0, 0.5 + 0.2 * mu]
-
-
 PROBLEMS = {
     "cartpole": Problem(
         params=["body/pole/com"],
         lower=[-0.8, -0.2, 0.3],
         upper=[0.8, 0.2, 0.7],
-        truths=[cartpole_com(mu) for mu in (-0.6, -0.3, 0.3, 0.6)],
+        truths=[pole_com(mu) for mu in (-0.6, -0.3, 0.3, 0.6)],
         scored=[0, 2],
     ),
     "double_pendulum": Problem(
@@ -255,8 +251,7 @@ def make_case(name: str, truth, w: int, rng) -> Case:
         for pname, value in named_values(problem, truth):
             e.set_param(pname, value)
         ours = e.ours()
-        q0, v0 = sample_q(e, rng), rng.uniform(-1.0, 1.0, len(e.joint_names))
-        taus = rng.uniform(-1.0, 1.0, (w, len(e.joint_names))) * tau_scale(e)
+        q0, v0, taus = sample_rollout(e, rng, tau_scale(e), w)
         e.reset()
         e.set_state(q0, v0)
         states = [e.get_state()]

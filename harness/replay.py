@@ -29,7 +29,7 @@ import numpy as np
 
 from harness import engines
 from harness.engines.numpy_step import step_error
-from harness.engines.sampling import sample_q, tau_scale
+from harness.engines.sampling import sample_rollout, sample_transition, tau_scale
 from harness.golden import ROLLOUT_TAU_FRACTION, case_seed
 from harness.report import REPORTS, markdown_table, plot_lines, write_json, write_markdown
 
@@ -48,10 +48,10 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
 
 
 def one_step(e: engines.Engine, ours, rng, samples: int) -> dict:
-    scale, nv = tau_scale(e), len(e.joint_names)
+    scale = tau_scale(e)
     dq = dv = rel = 0.0
     for _ in range(samples):
-        q, v, tau = sample_q(e, rng), rng.uniform(-1.0, 1.0, nv), rng.uniform(-1.0, 1.0, nv) * scale
+        q, v, tau = sample_transition(e, rng, scale)
         e.reset()
         e.set_state(q, v)
         e.step(tau)
@@ -78,9 +78,7 @@ def replay(model: str, names: list[str], steps: int, samples: int, seed: int) ->
     try:
         rng = case_seed(seed, f"replay_{model}")
         scale = np.min([tau_scale(e) for e in loaded], axis=0) * ROLLOUT_TAU_FRACTION
-        nv = len(loaded[0].joint_names)
-        q0, v0 = sample_q(loaded[0], rng), rng.uniform(-1.0, 1.0, nv)
-        taus = rng.uniform(-1.0, 1.0, (steps, nv)) * scale
+        q0, v0, taus = sample_rollout(loaded[0], rng, scale, steps)
         results = {}
         for e in loaded:
             assert e.joint_names == loaded[0].joint_names, f"{e.name}: joints {e.joint_names}"

@@ -22,6 +22,29 @@ def sample_q(e: Engine, rng) -> np.ndarray:
     return q
 
 
+def sample_state(e: Engine, rng) -> tuple:
+    """(q, v): q by sample_q, v uniform in [-1, 1]."""
+    return sample_q(e, rng), rng.uniform(-1.0, 1.0, len(e.joint_names))
+
+
+def sample_transition(e: Engine, rng, scale) -> tuple:
+    """(q, v, tau) with tau_i uniform in [-1, 1] times scale_i."""
+    q, v = sample_state(e, rng)
+    return q, v, rng.uniform(-1.0, 1.0, len(v)) * scale
+
+
+def sample_transitions(e: Engine, rng, n: int) -> list:
+    """n transitions (q, v, tau) at the engine's tau_scale."""
+    scale = tau_scale(e)
+    return [sample_transition(e, rng, scale) for _ in range(n)]
+
+
+def sample_rollout(e: Engine, rng, scale, steps: int) -> tuple:
+    """(q0, v0, taus): a start state and `steps` torque rows, each scaled as in sample_transition."""
+    q0, v0 = sample_state(e, rng)
+    return q0, v0, rng.uniform(-1.0, 1.0, (steps, len(v0))) * scale
+
+
 def round3(x) -> np.ndarray:
     return np.array([float(f"{v:.3g}") for v in x])
 

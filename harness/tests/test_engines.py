@@ -13,7 +13,7 @@ import pytest
 
 from harness import engines
 from harness.engines.numpy_step import step_error
-from harness.engines.sampling import sample_q, tau_scale
+from harness.engines.sampling import sample_rollout, sample_transitions, tau_scale
 from harness.golden import ROLLOUT_TAU_FRACTION, case_seed
 
 MODELS = ["cartpole", "pendulum", "double_pendulum", "half_cheetah"]
@@ -26,16 +26,9 @@ def ids(case):
     return "-".join(case)
 
 
-def random_transitions(e, rng, n):
-    """n random (q, v, tau) with the golden data's distributions (harness/engines/sampling.py)."""
-    scale, nv = tau_scale(e), len(e.joint_names)
-    for _ in range(n):
-        yield sample_q(e, rng), rng.uniform(-1.0, 1.0, nv), rng.uniform(-1.0, 1.0, nv) * scale
-
-
 def worst_one_step(e, ours, rng, n=SAMPLES):
     worst = 0.0
-    for q, v, tau in random_transitions(e, rng, n):
+    for q, v, tau in sample_transitions(e, rng, n):
         e.reset()
         e.set_state(q, v)
         e.step(tau)
@@ -51,7 +44,7 @@ def our_mass_matrix(ours, q):
 
 def worst_mass_matrix(e, ours, rng, n=20):
     worst = 0.0
-    for q, _, _ in random_transitions(e, rng, n):
+    for q, _, _ in sample_transitions(e, rng, n):
         theirs = e.mass_matrix(q)
         worst = max(worst, np.abs(our_mass_matrix(ours, q) - theirs).max() / np.abs(theirs).max())
     return worst
@@ -67,9 +60,8 @@ def test_one_step(case):
 @pytest.mark.parametrize("case", CASES, ids=ids)
 def test_rollout(case):
     with engines.load(*case) as e:
-        rng, nv = case_seed(2, ids(case)), len(e.joint_names)
-        q0, v0 = sample_q(e, rng), rng.uniform(-1.0, 1.0, nv)
-        taus = rng.uniform(-1.0, 1.0, (STEPS, nv)) * tau_scale(e) * ROLLOUT_TAU_FRACTION
+        scale = tau_scale(e) * ROLLOUT_TAU_FRACTION
+        q0, v0, taus = sample_rollout(e, case_seed(2, ids(case)), scale, STEPS)
         Q, V = e.ours().rollout(q0, v0, taus)
         e.reset()
         e.set_state(q0, v0)
@@ -116,7 +108,7 @@ def test_parameter_setters_agree(case):
         # the change is seen: the file's model steps differently
         with engines.load(*case) as unchanged:
             plain = unchanged.ours()
-        q, v, tau = next(random_transitions(e, case_seed(6, ids(case)), 1))
+        q, v, tau = sample_transitions(e, case_seed(6, ids(case)), 1)[0]
         moved = step_error(*ours.step(q, v, tau), *plain.step(q, v, tau))
     assert one_step <= ONE_STEP_TOL, f"{ids(case)}: one-step error {one_step:.1e} after {list(wanted)}"
     assert mass <= MASS_TOL, f"{ids(case)}: mass matrix relative error {mass:.1e} after {list(wanted)}"

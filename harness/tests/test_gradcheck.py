@@ -12,6 +12,7 @@ import pytest
 
 from harness import engines
 from harness import gradcheck as gc
+from harness.engines.sampling import sample_transitions
 from harness.__main__ import main
 
 MODELS = ["cartpole", "double_pendulum", "half_cheetah"]
@@ -63,7 +64,7 @@ def test_our_other_modes_against_our_differences(options):
     # DART's implicit damping and stiffness has no MuJoCo twin: ours-FD only.
     with engines.load("mujoco", "half_cheetah") as e:
         ours = e.ours().with_options(**options)
-        states = gc.sample_states(e, np.random.default_rng(SEED), 2)
+        states = sample_transitions(e, np.random.default_rng(SEED), 2)
         errors = gc.worst_errors(ours, ours, states, ours.param_names(), gc.param_stepper(e))
     assert max(r["error"] for r in errors.values()) <= gc.THRESHOLDS["ours_fd"]
 
@@ -74,7 +75,7 @@ def test_a_wrong_jacobian_fails():
         ours = e.ours()
         wrong = e.ours()
         wrong.set_param("body/pole/mass", ours.get_param("body/pole/mass") * (1 + 1e-4))
-        states = gc.sample_states(e, np.random.default_rng(SEED), 1)
+        states = sample_transitions(e, np.random.default_rng(SEED), 1)
         errors = gc.worst_errors(wrong, ours, states, ["body/pole/com"], gc.param_stepper(e))
     assert errors["dv'/dq"]["error"] > 1e-6
     assert errors["body/pole/com"]["error"] > 1e-6

@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
+import diffosi
 from harness import gym_env
+from harness.gym_env import MODEL
 
 
 def make(**kwargs):
@@ -40,9 +42,12 @@ def test_registered_and_passes_the_env_checker_without_warnings():
 
 
 @pytest.mark.parametrize("mu", [-0.6, 0.0, 0.3])
-def test_mu_moves_the_pole_com(mu):
+def test_mu_moves_the_pole_com_from_its_geometric_centre(mu):
+    # the file's pole: 1 m long from the hinge (the pole frame's origin), COM at its middle
+    centre = diffosi.Model.load(str(MODEL)).get_param("body/pole/com")
+    np.testing.assert_array_equal(centre, [0.0, 0.0, 0.5])
     com = make(mu=mu).model.get_param("body/pole/com")
-    np.testing.assert_allclose(com, [mu, 0.0, 0.5 + 0.2 * mu], atol=1e-15)
+    np.testing.assert_allclose(com, centre + [mu, 0.0, 0.2 * mu], atol=1e-15)
 
 
 def test_reset_is_seeded_and_in_range():

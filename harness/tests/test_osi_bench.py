@@ -16,7 +16,8 @@ import numpy as np
 
 from harness import bench
 from harness.__main__ import main
-from harness.osi_bench import PROBLEMS, cartpole_com, identify, make_case
+from harness.gym_env import pole_com
+from harness.osi_bench import PROBLEMS, identify, make_case
 
 MU = (-0.6, -0.3, 0.3, 0.6)
 TOLERANCE = 1e-5
@@ -25,7 +26,7 @@ TOOLS = ("diffosi", "sysid", "sysid_tuned")
 
 def test_osi_bench_cartpole_recovers_mu_and_writes_the_report(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(bench, "REPEATS", 2)  # timings are reported, not tested: keep the test short
-    assert PROBLEMS["cartpole"].truths == [cartpole_com(mu) for mu in MU]
+    assert PROBLEMS["cartpole"].truths == [pole_com(mu) for mu in MU]
     assert main(["osi-bench", "--problems", "cartpole", "--windows", "2", "--out", str(tmp_path)]) == 0
     report = json.loads((tmp_path / "osi-bench.json").read_text())
     assert report["meta"]["repeats"] == 2
