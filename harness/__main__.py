@@ -22,13 +22,7 @@ def main(argv=None) -> int:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     modules = {}
     for name, path in COMMANDS.items():
-        try:
-            module = importlib.import_module(path)
-        except ModuleNotFoundError as e:
-            if e.name != path:  # a missing dependency is an error, not a missing command
-                raise
-            continue
-        modules[name] = module
+        module = modules[name] = importlib.import_module(path)
         doc = module.__doc__ or ""
         cmd = sub.add_parser(name, help=doc.splitlines()[0] if doc else None, description=doc,
                              formatter_class=argparse.RawDescriptionHelpFormatter)
