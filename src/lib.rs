@@ -18,7 +18,10 @@
 pub mod derivatives;
 pub mod dynamics;
 pub mod model;
+pub mod nn;
 pub mod osi;
+pub mod rl;
 pub mod spatial;
+pub mod tasks;
 
 pub use model::{Model, ModelError};

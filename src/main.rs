@@ -104,6 +104,53 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Train a task's policy with PPO; writes the policy (JSON) and its
+    /// learning curve (CSV).
+    Train {
+        /// Task name (cartpole).
+        #[arg(long, default_value = "cartpole")]
+        task: String,
+        /// uc: Universal Controller (observes the state and mu); dr:
+        /// domain-randomised baseline (state only). Both see a fresh uniform mu
+        /// each episode.
+        #[arg(long, value_enum)]
+        policy: diffosi::rl::PolicyKind,
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Environment steps (default: the task's tuned budget).
+        #[arg(long)]
+        steps: Option<usize>,
+        /// Output policy file (.json).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Learning-curve CSV (default: the output path with extension .curve.csv).
+        #[arg(long)]
+        curve: Option<PathBuf>,
+    },
+    /// Evaluate trained policies: mean +- std of the task metric over
+    /// episodes with the true mu drawn uniformly (the same episodes for every
+    /// policy and source). With several --policy files the summary pools them.
+    Eval {
+        /// Task name (cartpole).
+        #[arg(long, default_value = "cartpole")]
+        task: String,
+        /// Policy file(s) written by `diffosi train`; repeat for several.
+        #[arg(long, required = true)]
+        policy: Vec<PathBuf>,
+        /// The mu fed to a Universal Controller: oracle (the true mu), random
+        /// (uniform guess per episode) or average (middle of the range).
+        /// Domain-randomised policies ignore it.
+        #[arg(long, value_enum, default_value = "oracle")]
+        mu_source: diffosi::rl::MuSource,
+        #[arg(long, default_value_t = 10)]
+        episodes: usize,
+        /// Seed of the episodes (true mu, initial states, random guesses).
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Print JSON (per-episode metrics and mu) instead of text.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 fn main() -> ExitCode {
@@ -141,6 +188,36 @@ fn main() -> ExitCode {
             upper,
             init,
             scale,
+            json,
+        }),
+        Command::Train {
+            task,
+            policy,
+            seed,
+            steps,
+            output,
+            curve,
+        } => cli::train::train(cli::train::Request {
+            task: &task,
+            kind: policy,
+            seed,
+            steps,
+            output: &output,
+            curve,
+        }),
+        Command::Eval {
+            task,
+            policy,
+            mu_source,
+            episodes,
+            seed,
+            json,
+        } => cli::eval::eval(cli::eval::Request {
+            task: &task,
+            policies: &policy,
+            source: mu_source,
+            episodes,
+            seed,
             json,
         }),
     };

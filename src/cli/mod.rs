@@ -1,5 +1,7 @@
 //! The subcommands of the `diffosi` binary, one file each.
 
+pub mod eval;
 pub mod identify;
 pub mod jacobian;
 pub mod simulate;
+pub mod train;

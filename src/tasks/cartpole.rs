@@ -1,0 +1,283 @@
+//! The paper's cartpole (Section 4.2) on `reference_models/cartpole.xml`.
+//!
+//! - State q = (x, theta), v = (x_dot, theta_dot): cart position along world x
+//!   (m) and pole angle about +y (rad), theta = 0 upright, positive theta
+//!   tilting the pole's top toward +x.
+//! - mu (m), uniform in [-0.6, 0.6], offsets the pole's COM from its geometric
+//!   centre by (mu, 0.2 mu): mu across the pole (pole-frame x, in the plane of
+//!   motion) and 0.2 mu along it (pole-frame z). The pole frame sits at the
+//!   hinge with +z along the pole, and the model's COM is the centre of the
+//!   1 m pole, (0, 0, 0.5), so COM = (mu, 0, 0.5 + 0.2 mu) (`body/pole/com`).
+//!   Mass and inertia about the COM are unchanged.
+//! - Reset: x, theta, x_dot, theta_dot each uniform in [-0.05, 0.05].
+//! - Action: one component a; the cart force is 500 clamp(a, -1, 1) N.
+//! - Timing: the paper's controller applies "an impulse of [-500 N, 500 N] dt at
+//!   50 Hz". We read it as a force F in [-500, 500] N held for one control
+//!   period dt = 0.02 s (an impulse F dt). The model's timestep is 0.02 s, so a
+//!   control step is one physics step (semi-implicit Euler).
+//! - An episode is 500 control steps (10 s). It ends early when |theta| > pi/2
+//!   or |x| > 2.5 m; the task metric counts the steps whose resulting state has
+//!   |theta| <= pi/2 and |x| <= 2.5, so a full episode scores 500.
+//! - Training reward: 1 per step that ends in bounds, less a small penalty
+//!   (at most 0.1) for the cart's distance from the origin, which keeps the
+//!   cart from drifting to the track's end late in an episode.
+
+use std::f64::consts::FRAC_PI_2;
+
+use rand::rngs::StdRng;
+use rand::RngExt;
+
+use super::Task;
+use crate::model::{mjcf, MapEntry, Model, ParamError, ParamMap, State};
+
+/// The model file, compiled in so the task needs no path at run time.
+const MJCF: &str = include_str!("../../reference_models/cartpole.xml");
+
+pub struct Cartpole {
+    model: Model,
+    map: ParamMap,
+}
+
+impl Cartpole {
+    pub const MU_LOWER: [f64; 1] = [-0.6];
+    pub const MU_UPPER: [f64; 1] = [0.6];
+    /// Largest cart force (N).
+    pub const FORCE_LIMIT: f64 = 500.0;
+    pub const HORIZON: usize = 500;
+    /// Bounds of the task metric: |x| <= X_LIMIT (m), |theta| <= THETA_LIMIT (rad).
+    pub const X_LIMIT: f64 = 2.5;
+    pub const THETA_LIMIT: f64 = FRAC_PI_2;
+    /// Half-width of the uniform reset distribution of each state component.
+    pub const RESET_HALF_WIDTH: f64 = 0.05;
+
+    /// The task on the shipped `reference_models/cartpole.xml`.
+    pub fn new() -> Cartpole {
+        let model = mjcf::parse(MJCF, "reference_models/cartpole.xml")
+            .expect("the shipped cartpole model loads");
+        Cartpole::with_model(model).expect("the shipped cartpole has a pole")
+    }
+
+    /// The task on another cartpole model (e.g. the URDF twin, or other options).
+    pub fn with_model(model: Model) -> Result<Cartpole, ParamError> {
+        let map = Cartpole::mu_map_of(&model)?;
+        Ok(Cartpole { model, map })
+    }
+
+    /// The mu map on a cartpole model: `body/pole/com` = (0, 0, 0.5) + (1, 0, 0.2) mu.
+    pub fn mu_map_of(model: &Model) -> Result<ParamMap, ParamError> {
+        ParamMap::new(
+            model,
+            1,
+            &[MapEntry {
+                name: "body/pole/com",
+                offset: &[0.0, 0.0, 0.5],
+                gain: &[&[1.0], &[0.0], &[0.2]],
+            }],
+        )
+    }
+
+    fn in_bounds((q, _): &State) -> bool {
+        q[0].abs() <= Self::X_LIMIT && q[1].abs() <= Self::THETA_LIMIT
+    }
+}
+
+impl Default for Cartpole {
+    fn default() -> Self {
+        Cartpole::new()
+    }
+}
+
+impl Task for Cartpole {
+    fn name(&self) -> &'static str {
+        "cartpole"
+    }
+
+    fn model(&self) -> &Model {
+        &self.model
+    }
+
+    fn mu_map(&self) -> &ParamMap {
+        &self.map
+    }
+
+    fn mu_range(&self) -> (&[f64], &[f64]) {
+        (&Self::MU_LOWER, &Self::MU_UPPER)
+    }
+
+    fn horizon(&self) -> usize {
+        Self::HORIZON
+    }
+
+    fn substeps(&self) -> usize {
+        1
+    }
+
+    fn obs_dim(&self) -> usize {
+        4
+    }
+
+    fn act_dim(&self) -> usize {
+        1
+    }
+
+    fn reset(&self, rng: &mut StdRng) -> State {
+        let w = Self::RESET_HALF_WIDTH;
+        let mut draw = || rng.random_range(-w..=w);
+        let (x, theta, x_dot, theta_dot) = (draw(), draw(), draw(), draw());
+        (vec![x, theta], vec![x_dot, theta_dot])
+    }
+
+    fn observe(&self, (q, v): &State, out: &mut Vec<f64>) {
+        out.extend_from_slice(q);
+        out.extend_from_slice(v);
+    }
+
+    fn forces(&self, action: &[f64]) -> Vec<f64> {
+        vec![Self::FORCE_LIMIT * action[0].clamp(-1.0, 1.0), 0.0]
+    }
+
+    fn reward(&self, _state: &State, _action: &[f64], next: &State) -> f64 {
+        if Self::in_bounds(next) {
+            1.0 - 0.1 * (next.0[0] / Self::X_LIMIT).powi(2)
+        } else {
+            0.0
+        }
+    }
+
+    fn terminated(&self, state: &State) -> bool {
+        !Self::in_bounds(state)
+    }
+
+    fn metric(&self, _state: &State, _action: &[f64], next: &State) -> f64 {
+        if Self::in_bounds(next) {
+            1.0
+        } else {
+            0.0
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tasks::{average_mu, sample_mu, Env};
+    use rand::SeedableRng;
+
+    #[test]
+    fn mu_moves_the_pole_com_across_and_along_the_pole() {
+        let task = Cartpole::new();
+        // The pole frame: hinge at the origin, pole along +z, centre at 0.5.
+        assert_eq!(
+            task.model().get_param("body/pole/com").unwrap(),
+            vec![0.0, 0.0, 0.5]
+        );
+        let mut model = task.model().clone();
+        task.mu_map().apply(&mut model, &[-0.5]).unwrap();
+        let com = model.get_param("body/pole/com").unwrap();
+        assert_eq!(com, vec![-0.5, 0.0, 0.4]);
+        assert_eq!(average_mu(&task), vec![0.0]);
+    }
+
+    #[test]
+    fn a_com_offset_to_plus_x_tips_the_pole_toward_plus_theta() {
+        let task = Cartpole::new();
+        let mut rng = StdRng::seed_from_u64(0);
+        for (mu, sign) in [(0.3, 1.0), (-0.3, -1.0)] {
+            let mut env = Env::new(&task);
+            env.reset(&[mu], &mut rng).unwrap();
+            env.state = (vec![0.0, 0.0], vec![0.0, 0.0]);
+            env.step(&[0.0]).unwrap();
+            assert!(sign * env.state().1[1] > 0.0, "mu {mu}: {:?}", env.state());
+        }
+    }
+
+    #[test]
+    fn resets_are_uniform_in_the_small_box() {
+        let task = Cartpole::new();
+        let mut rng = StdRng::seed_from_u64(3);
+        let (mut lo, mut hi) = ([f64::MAX; 4], [f64::MIN; 4]);
+        for _ in 0..2000 {
+            let mut obs = vec![];
+            task.observe(&task.reset(&mut rng), &mut obs);
+            for i in 0..4 {
+                lo[i] = lo[i].min(obs[i]);
+                hi[i] = hi[i].max(obs[i]);
+            }
+        }
+        for i in 0..4 {
+            assert!(lo[i] >= -0.05 && lo[i] < -0.049, "{lo:?}");
+            assert!(hi[i] <= 0.05 && hi[i] > 0.049, "{hi:?}");
+        }
+        let mus: Vec<f64> = (0..2000).map(|_| sample_mu(&task, &mut rng)[0]).collect();
+        assert!(mus.iter().all(|m| (-0.6..=0.6).contains(m)));
+        assert!(mus.iter().any(|&m| m < -0.59) && mus.iter().any(|&m| m > 0.59));
+    }
+
+    #[test]
+    fn termination_and_metric_use_the_closed_bounds() {
+        let task = Cartpole::new();
+        let state = |x: f64, theta: f64| (vec![x, theta], vec![0.0, 0.0]);
+        let inside = [
+            state(2.5, 0.0),
+            state(-2.5, -FRAC_PI_2),
+            state(0.0, FRAC_PI_2),
+        ];
+        for s in &inside {
+            assert!(!task.terminated(s), "{s:?}");
+            assert_eq!(task.metric(s, &[0.0], s), 1.0);
+            assert!(task.reward(s, &[0.0], s) >= 0.9);
+        }
+        for s in [state(2.5001, 0.0), state(0.0, -1.5709), state(-3.0, 2.0)] {
+            assert!(task.terminated(&s), "{s:?}");
+            assert_eq!(task.metric(&s, &[0.0], &s), 0.0);
+            assert_eq!(task.reward(&s, &[0.0], &s), 0.0);
+        }
+        assert_eq!(task.forces(&[0.5]), vec![250.0, 0.0]);
+        assert_eq!(task.forces(&[-3.0]), vec![-500.0, 0.0]);
+    }
+
+    #[test]
+    fn an_unactuated_episode_scores_the_steps_before_the_pole_falls() {
+        let task = Cartpole::new();
+        let mut rng = StdRng::seed_from_u64(5);
+        let mut env = Env::new(&task);
+        env.reset(&[0.4], &mut rng).unwrap();
+        let mut score = 0.0;
+        let last = loop {
+            let out = env.step(&[0.0]).unwrap();
+            score += out.metric;
+            if out.terminated || out.truncated {
+                break out;
+            }
+        };
+        // The offset COM tips the pole over in about a second; the failing
+        // step itself does not count.
+        assert!(last.terminated && !last.truncated);
+        assert!(env.state().0[1] > FRAC_PI_2, "{:?}", env.state());
+        assert_eq!(score, (env.t() - 1) as f64);
+        assert!((20.0..100.0).contains(&score), "{score}");
+    }
+
+    #[test]
+    fn a_held_pole_runs_to_the_horizon() {
+        // Zero gravity and zero velocity: the state stays put for 500 steps.
+        let model = Cartpole::new()
+            .model()
+            .edited(|spec| spec.opt.gravity = nalgebra::Vector3::zeros())
+            .unwrap();
+        let task = Cartpole::with_model(model).unwrap();
+        let mut rng = StdRng::seed_from_u64(1);
+        let mut env = Env::new(&task);
+        env.reset(&[0.2], &mut rng).unwrap();
+        env.state.1 = vec![0.0, 0.0];
+        let mut score = 0.0;
+        let mut outcome = env.step(&[0.0]).unwrap();
+        score += outcome.metric;
+        while !(outcome.terminated || outcome.truncated) {
+            outcome = env.step(&[0.0]).unwrap();
+            score += outcome.metric;
+        }
+        assert!(outcome.truncated && !outcome.terminated);
+        assert_eq!(score, 500.0);
+    }
+}

@@ -1,0 +1,173 @@
+//! Control tasks: what a controller observes, how its actions drive the model,
+//! what training rewards, when an episode ends and how it is scored.
+//!
+//! Conventions shared by every task:
+//! - The state is the model's (q, v), SI units ([`State`]).
+//! - An action has [`Task::act_dim`] components, each meaningful in [-1, 1]
+//!   (the task clamps); [`Task::forces`] maps it to generalized forces on the
+//!   model's dofs (N on slides, N m on hinges).
+//! - mu, the task's environment parameters, sets physical parameters of the
+//!   model through the task's affine [`ParamMap`]; experiments draw mu
+//!   uniformly in the box [`Task::mu_range`].
+//! - One control step holds its forces for [`Task::substeps`] physics steps of
+//!   the model's timestep.
+//! - An episode lasts [`Task::horizon`] control steps, or fewer when
+//!   [`Task::terminated`] says so; its score, the task metric, is the sum of the
+//!   per-step [`Task::metric`] values.
+
+mod cartpole;
+
+pub use cartpole::Cartpole;
+
+use rand::rngs::StdRng;
+use rand::RngExt;
+
+use crate::dynamics::{Data, StepError};
+use crate::model::{Model, ParamError, ParamMap, State};
+
+/// A control task on a simulated model (see the module docs for conventions).
+pub trait Task: Send + Sync {
+    /// The name the command line and the weights files use.
+    fn name(&self) -> &'static str;
+    /// The nominal model; an episode runs on a copy with mu applied.
+    fn model(&self) -> &Model;
+    fn mu_map(&self) -> &ParamMap;
+    /// Lower and upper bound of each component of mu.
+    fn mu_range(&self) -> (&[f64], &[f64]);
+    /// Control steps of a full episode.
+    fn horizon(&self) -> usize;
+    /// Physics steps per control step.
+    fn substeps(&self) -> usize;
+    /// Length of [`Task::observe`]'s output (without mu).
+    fn obs_dim(&self) -> usize;
+    fn act_dim(&self) -> usize;
+    /// An initial state drawn from the task's reset distribution.
+    fn reset(&self, rng: &mut StdRng) -> State;
+    /// Appends the controller's observation of `state` to `out`.
+    fn observe(&self, state: &State, out: &mut Vec<f64>);
+    /// Generalized forces (length nv) for an action.
+    fn forces(&self, action: &[f64]) -> Vec<f64>;
+    /// The training reward of one control step.
+    fn reward(&self, state: &State, action: &[f64], next: &State) -> f64;
+    /// Whether the episode ends at `state`.
+    fn terminated(&self, state: &State) -> bool;
+    /// One control step's contribution to the task metric.
+    fn metric(&self, state: &State, action: &[f64], next: &State) -> f64;
+}
+
+/// The tasks the command line knows, by name.
+pub fn by_name(name: &str) -> Result<Box<dyn Task>, String> {
+    match name {
+        "cartpole" => Ok(Box::new(Cartpole::new())),
+        _ => Err(format!("unknown task '{name}' (known: cartpole)")),
+    }
+}
+
+/// mu drawn uniformly in the task's box.
+pub fn sample_mu(task: &dyn Task, rng: &mut StdRng) -> Vec<f64> {
+    let (lo, hi) = task.mu_range();
+    lo.iter()
+        .zip(hi)
+        .map(|(&l, &h)| l + (h - l) * rng.random::<f64>())
+        .collect()
+}
+
+/// The middle of the task's mu box.
+pub fn average_mu(task: &dyn Task) -> Vec<f64> {
+    let (lo, hi) = task.mu_range();
+    lo.iter().zip(hi).map(|(l, h)| 0.5 * (l + h)).collect()
+}
+
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum EnvError {
+    #[error("setting mu: {0}")]
+    Mu(#[from] ParamError),
+    #[error("simulating: {0}")]
+    Step(#[from] StepError),
+}
+
+/// What one control step produced.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Outcome {
+    pub reward: f64,
+    pub metric: f64,
+    /// The task ended the episode.
+    pub terminated: bool,
+    /// The horizon ended the episode (and the task did not).
+    pub truncated: bool,
+}
+
+/// One running episode of a task: the model with the episode's mu applied,
+/// its state and its step count.
+pub struct Env<'a> {
+    task: &'a dyn Task,
+    model: Model,
+    data: Data<f64>,
+    mu: Vec<f64>,
+    state: State,
+    t: usize,
+}
+
+impl<'a> Env<'a> {
+    /// An environment at the nominal model, at rest; call [`Env::reset`] first.
+    pub fn new(task: &'a dyn Task) -> Env<'a> {
+        let model = task.model().clone();
+        let data = model.data();
+        Env {
+            task,
+            data,
+            mu: vec![],
+            state: (vec![0.0; model.nq()], vec![0.0; model.nv()]),
+            model,
+            t: 0,
+        }
+    }
+
+    /// Starts an episode with environment parameters `mu`.
+    pub fn reset(&mut self, mu: &[f64], rng: &mut StdRng) -> Result<(), EnvError> {
+        self.task.mu_map().apply(&mut self.model, mu)?;
+        self.mu = mu.to_vec();
+        self.state = self.task.reset(rng);
+        self.t = 0;
+        Ok(())
+    }
+
+    pub fn task(&self) -> &'a dyn Task {
+        self.task
+    }
+
+    pub fn state(&self) -> &State {
+        &self.state
+    }
+
+    /// The true mu of this episode.
+    pub fn mu(&self) -> &[f64] {
+        &self.mu
+    }
+
+    /// Control steps taken in this episode.
+    pub fn t(&self) -> usize {
+        self.t
+    }
+
+    /// Applies an action for one control step.
+    pub fn step(&mut self, action: &[f64]) -> Result<Outcome, EnvError> {
+        let tau = self.task.forces(action);
+        let mut next = self.state.clone();
+        for _ in 0..self.task.substeps() {
+            next = self.model.step(&mut self.data, &next.0, &next.1, &tau)?;
+        }
+        let reward = self.task.reward(&self.state, action, &next);
+        let metric = self.task.metric(&self.state, action, &next);
+        let terminated = self.task.terminated(&next);
+        self.state = next;
+        self.t += 1;
+        Ok(Outcome {
+            reward,
+            metric,
+            terminated,
+            truncated: !terminated && self.t >= self.task.horizon(),
+        })
+    }
+}
