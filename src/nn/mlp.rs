@@ -223,17 +223,16 @@ mod tests {
         let mut grad = vec![0.0; net.params().len()];
         net.backward(&mut tape, &dout, &mut grad);
         let h = 1e-6;
-        for i in 0..grad.len() {
+        for (i, &g) in grad.iter().enumerate() {
             let mut plus = net.clone();
             plus.params_mut()[i] += h;
             let mut minus = net.clone();
             minus.params_mut()[i] -= h;
             let fd = (loss(&plus, &x, &c) - loss(&minus, &x, &c)) / (2.0 * h);
-            let err = (fd - grad[i]).abs();
+            let err = (fd - g).abs();
             assert!(
                 err < 1e-8 * (1.0 + fd.abs()),
-                "param {i}: fd {fd}, backward {}",
-                grad[i]
+                "param {i}: fd {fd}, backward {g}"
             );
         }
     }

@@ -59,12 +59,13 @@ pub struct PpoConfig {
 }
 
 impl Default for PpoConfig {
-    /// The cartpole settings: 2 x 64 networks as in the paper.
+    /// The cartpole settings: 2 x 64 networks as in the paper; 300k steps
+    /// (about 10 s on one core) reach the plateau on seeds 0-2.
     fn default() -> Self {
         PpoConfig {
             seed: 0,
-            total_steps: 1_000_000,
-            num_envs: 8,
+            total_steps: 300_000,
+            num_envs: 16,
             rollout_len: 256,
             epochs: 10,
             minibatches: 32,

@@ -18,9 +18,12 @@
 //! - An episode is 500 control steps (10 s). It ends early when |theta| > pi/2
 //!   or |x| > 2.5 m; the task metric counts the steps whose resulting state has
 //!   |theta| <= pi/2 and |x| <= 2.5, so a full episode scores 500.
-//! - Training reward: 1 per step that ends in bounds, less a small penalty
-//!   (at most 0.1) for the cart's distance from the origin, which keeps the
-//!   cart from drifting to the track's end late in an episode.
+//! - Training reward, for a step that ends in bounds (0 otherwise):
+//!   0.5 + 0.5 cos(psi) - 0.1 (x / 2.5)^2, where psi is the angle of the
+//!   hinge-to-COM line from vertical (psi = theta + atan2(com_x, com_z), zero
+//!   when the offset COM is balanced above the hinge). Surviving dominates;
+//!   the terms guide the pole toward its mu-dependent balance angle and keep
+//!   the cart from drifting to the track's end late in an episode.
 
 use std::f64::consts::FRAC_PI_2;
 
@@ -136,12 +139,13 @@ impl Task for Cartpole {
         vec![Self::FORCE_LIMIT * action[0].clamp(-1.0, 1.0), 0.0]
     }
 
-    fn reward(&self, _state: &State, _action: &[f64], next: &State) -> f64 {
-        if Self::in_bounds(next) {
-            1.0 - 0.1 * (next.0[0] / Self::X_LIMIT).powi(2)
-        } else {
-            0.0
+    fn reward(&self, mu: &[f64], _state: &State, _action: &[f64], next: &State) -> f64 {
+        if !Self::in_bounds(next) {
+            return 0.0;
         }
+        let com = &self.map.values(mu)[0];
+        let upright = next.0[1] + com[0].atan2(com[2]);
+        0.5 + 0.5 * upright.cos() - 0.1 * (next.0[0] / Self::X_LIMIT).powi(2)
     }
 
     fn terminated(&self, state: &State) -> bool {
@@ -225,12 +229,18 @@ mod tests {
         for s in &inside {
             assert!(!task.terminated(s), "{s:?}");
             assert_eq!(task.metric(s, &[0.0], s), 1.0);
-            assert!(task.reward(s, &[0.0], s) >= 0.9);
+            assert!(task.reward(&[0.0], s, &[0.0], s) > 0.4);
         }
+        // Best with the COM balanced above the hinge and the cart centred.
+        let mu = 0.3_f64;
+        let balanced = state(0.0, -mu.atan2(0.5 + 0.2 * mu));
+        assert!((task.reward(&[mu], &balanced, &[0.0], &balanced) - 1.0).abs() < 1e-12);
+        let upright = state(0.0, 0.0);
+        assert!(task.reward(&[mu], &upright, &[0.0], &upright) < 0.95);
         for s in [state(2.5001, 0.0), state(0.0, -1.5709), state(-3.0, 2.0)] {
             assert!(task.terminated(&s), "{s:?}");
             assert_eq!(task.metric(&s, &[0.0], &s), 0.0);
-            assert_eq!(task.reward(&s, &[0.0], &s), 0.0);
+            assert_eq!(task.reward(&[0.0], &s, &[0.0], &s), 0.0);
         }
         assert_eq!(task.forces(&[0.5]), vec![250.0, 0.0]);
         assert_eq!(task.forces(&[-3.0]), vec![-500.0, 0.0]);

@@ -47,8 +47,8 @@ pub trait Task: Send + Sync {
     fn observe(&self, state: &State, out: &mut Vec<f64>);
     /// Generalized forces (length nv) for an action.
     fn forces(&self, action: &[f64]) -> Vec<f64>;
-    /// The training reward of one control step.
-    fn reward(&self, state: &State, action: &[f64], next: &State) -> f64;
+    /// The training reward of one control step, in an episode with parameters mu.
+    fn reward(&self, mu: &[f64], state: &State, action: &[f64], next: &State) -> f64;
     /// Whether the episode ends at `state`.
     fn terminated(&self, state: &State) -> bool;
     /// One control step's contribution to the task metric.
@@ -158,7 +158,7 @@ impl<'a> Env<'a> {
         for _ in 0..self.task.substeps() {
             next = self.model.step(&mut self.data, &next.0, &next.1, &tau)?;
         }
-        let reward = self.task.reward(&self.state, action, &next);
+        let reward = self.task.reward(&self.mu, &self.state, action, &next);
         let metric = self.task.metric(&self.state, action, &next);
         let terminated = self.task.terminated(&next);
         self.state = next;

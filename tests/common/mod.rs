@@ -1,9 +1,7 @@
 //! Shared helpers of the integration tests: random trees and states.
 #![allow(dead_code)]
 
-use diffosi::model::{
-    Body, Integrator, Joint, JointKind, MapEntry, Model, Options, ParamMap, PassiveMode,
-};
+use diffosi::model::{Body, Integrator, Joint, JointKind, Model, Options, ParamMap, PassiveMode};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
@@ -134,18 +132,10 @@ pub fn gym_assets() -> std::path::PathBuf {
     })
 }
 
-/// The paper's cartpole and its mu: the pole COM at (mu, 0, 0.5 + 0.2 mu).
+/// The paper's cartpole and its mu (the task's map: the pole COM at
+/// (mu, 0, 0.5 + 0.2 mu)), loaded from the repository's file.
 pub fn cartpole_with_mu() -> (Model, ParamMap) {
     let model = Model::load(model_path("reference_models/cartpole.xml")).unwrap();
-    let map = ParamMap::new(
-        &model,
-        1,
-        &[MapEntry {
-            name: "body/pole/com",
-            offset: &[0.0, 0.0, 0.5],
-            gain: &[&[1.0], &[0.0], &[0.2]],
-        }],
-    )
-    .unwrap();
+    let map = diffosi::tasks::Cartpole::mu_map_of(&model).unwrap();
     (model, map)
 }
