@@ -6,6 +6,11 @@
 //! here so that the messages name the Python argument. Every engine error maps
 //! to a Python exception (`OSError` for files, `ValueError` for everything
 //! else); nothing the caller passes can reach a panic.
+//!
+//! The tasks, trained policies and online identification (`Task`, `Policy`,
+//! `OnlineOsi`) live in `task.rs`.
+
+mod task;
 
 use engine::derivatives::{step_jacobians, Transition, Workspace, Wrt};
 use engine::dynamics::Data;
@@ -24,8 +29,8 @@ use pyo3::types::{PyDict, PyList, PyTuple};
 /// (q, v) with q of length nq and v of length nv; tau are generalized forces
 /// of length nv. Parameters are named as in `param_names()`.
 #[pyclass(name = "Model", module = "diffosi")]
-struct PyModel {
-    model: Model,
+pub(crate) struct PyModel {
+    pub(crate) model: Model,
     /// Scratch for `step`; rebuilt whenever the model changes.
     data: Data<f64>,
     /// Scratch for `step_jacobians`; rebuilt whenever the model changes.
@@ -33,7 +38,7 @@ struct PyModel {
 }
 
 impl PyModel {
-    fn new(model: Model) -> Self {
+    pub(crate) fn new(model: Model) -> Self {
         let data = model.data();
         let ws = Workspace::new(&model);
         PyModel { model, data, ws }
@@ -304,6 +309,15 @@ impl PyModel {
 /// The residual scale on velocities when `scale` is not given; positions get
 /// `timestep` times this (see `DiffOsi`).
 const DEFAULT_V_SCALE: f64 = 1e-3;
+
+/// The default residual scale: `DEFAULT_V_SCALE` on every v and `timestep`
+/// times it on every q (see `DiffOsi`).
+pub(crate) fn default_scale(model: &Model) -> Vec<f64> {
+    let nv = model.nv();
+    let mut s = vec![model.opt.timestep * DEFAULT_V_SCALE; nv];
+    s.extend(std::iter::repeat_n(DEFAULT_V_SCALE, nv));
+    s
+}
 
 /// Which solver a `DiffOsi` runs.
 #[derive(Clone, Copy, Debug)]
@@ -601,12 +615,7 @@ impl Osi {
                 }
                 s
             }
-            None => {
-                let dt = model.opt.timestep;
-                let mut s = vec![dt * DEFAULT_V_SCALE; nv];
-                s.extend(std::iter::repeat_n(DEFAULT_V_SCALE, nv));
-                s
-            }
+            None => default_scale(&model),
         };
         // Identity map: mu component k is the k-th flattened parameter scalar.
         let mut prior = Vec::with_capacity(nmu);
@@ -705,14 +714,19 @@ impl Osi {
         let estimate = identifier
             .identify(&mut self.problem, &window, &start)
             .map_err(|e| osi_error("identify", e))?;
-        estimate_dict(py, estimate)
+        estimate_dict(py, estimate, "params")
     }
 }
 
-/// An `Estimate` as the contract's dict.
-fn estimate_dict(py: Python<'_>, e: Estimate) -> PyResult<Bound<'_, PyDict>> {
+/// An `Estimate` as the contract's dict, the estimate under the key `key`
+/// ("params" for `DiffOsi` and `CmaEs`, "mu" for `OnlineOsi`).
+pub(crate) fn estimate_dict<'py>(
+    py: Python<'py>,
+    e: Estimate,
+    key: &str,
+) -> PyResult<Bound<'py, PyDict>> {
     let out = PyDict::new(py);
-    out.set_item("params", PyArray1::from_vec(py, e.mu))?;
+    out.set_item(key, PyArray1::from_vec(py, e.mu))?;
     out.set_item("std", PyArray1::from_vec(py, e.std))?;
     out.set_item("loss", e.loss)?;
     out.set_item("iterations", e.iterations)?;
@@ -730,13 +744,16 @@ fn estimate_dict(py: Python<'_>, e: Estimate) -> PyResult<Bound<'_, PyDict>> {
     Ok(out)
 }
 
-fn osi_error(context: &str, e: OsiError) -> PyErr {
+pub(crate) fn osi_error(context: &str, e: OsiError) -> PyErr {
     PyValueError::new_err(format!("{context}: {e}"))
 }
 
 /// `numpy.asarray(obj, dtype=float64)`, with a ValueError naming `name` if
 /// the object does not convert.
-fn float_array<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+pub(crate) fn float_array<'py>(
+    obj: &Bound<'py, PyAny>,
+    name: &str,
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
     // A float64 array passes as it is; only other inputs pay for numpy.asarray.
     if let Ok(array) = obj.cast::<PyArrayDyn<f64>>() {
         return Ok(array.clone());
@@ -755,7 +772,12 @@ fn float_array<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Bound<'py, 
 }
 
 /// A 1-D array of length `n` with finite entries.
-fn vector(obj: &Bound<'_, PyAny>, name: &str, n: usize, what: &str) -> PyResult<Vec<f64>> {
+pub(crate) fn vector(
+    obj: &Bound<'_, PyAny>,
+    name: &str,
+    n: usize,
+    what: &str,
+) -> PyResult<Vec<f64>> {
     let array = float_array(obj, name)?;
     if array.ndim() != 1 || array.len() != n {
         return Err(PyValueError::new_err(format!(
@@ -769,7 +791,12 @@ fn vector(obj: &Bound<'_, PyAny>, name: &str, n: usize, what: &str) -> PyResult<
 }
 
 /// A 2-D array with `n` columns and finite entries, in standard layout.
-fn matrix(obj: &Bound<'_, PyAny>, name: &str, n: usize, what: &str) -> PyResult<Array2<f64>> {
+pub(crate) fn matrix(
+    obj: &Bound<'_, PyAny>,
+    name: &str,
+    n: usize,
+    what: &str,
+) -> PyResult<Array2<f64>> {
     let array = float_array(obj, name)?;
     let dims = array.shape().to_vec();
     if dims.len() != 2 || dims[1] != n {
@@ -784,7 +811,7 @@ fn matrix(obj: &Bound<'_, PyAny>, name: &str, n: usize, what: &str) -> PyResult<
 }
 
 /// A shape as Python prints it: (3,), (2, 4), ().
-fn shape(dims: &[usize]) -> String {
+pub(crate) fn shape(dims: &[usize]) -> String {
     match dims {
         [n] => format!("({n},)"),
         _ => format!(
@@ -797,7 +824,11 @@ fn shape(dims: &[usize]) -> String {
     }
 }
 
-fn check_finite(name: &str, values: &[f64], index: impl Fn(usize) -> String) -> PyResult<()> {
+pub(crate) fn check_finite(
+    name: &str,
+    values: &[f64],
+    index: impl Fn(usize) -> String,
+) -> PyResult<()> {
     match values.iter().position(|x| !x.is_finite()) {
         Some(i) => Err(PyValueError::new_err(format!(
             "{name}{} is not finite ({})",
@@ -818,7 +849,7 @@ fn name_of<T: PartialEq>(names: &[(&'static str, T)], value: T) -> &'static str 
 }
 
 /// An option value from its spelling; ValueError lists the choices.
-fn keyword<T: Copy>(what: &str, text: &str, names: &[(&str, T)]) -> PyResult<T> {
+pub(crate) fn keyword<T: Copy>(what: &str, text: &str, names: &[(&str, T)]) -> PyResult<T> {
     names
         .iter()
         .find(|(n, _)| *n == text)
@@ -842,7 +873,7 @@ fn model_error(e: ModelError) -> PyErr {
     }
 }
 
-fn param_error(e: ParamError) -> PyErr {
+pub(crate) fn param_error(e: ParamError) -> PyErr {
     PyValueError::new_err(e.to_string())
 }
 
@@ -852,6 +883,9 @@ fn diffosi(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyModel>()?;
     m.add_class::<PyDiffOsi>()?;
     m.add_class::<PyCmaEs>()?;
+    m.add_class::<task::PyTask>()?;
+    m.add_class::<task::PyPolicy>()?;
+    m.add_class::<task::PyOnlineOsi>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
