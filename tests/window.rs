@@ -1,12 +1,15 @@
 //! The identification loss over a window of transitions: zero at the true
-//! parameters, exact gradient, and Gauss-Newton on its residual Jacobian finds
-//! the cartpole's COM offset.
+//! parameters, exact gradient, the same rows as the step and its Jacobians
+//! on random trees, and Gauss-Newton on its residual Jacobian finds the
+//! cartpole's COM offset.
 
 mod common;
 
-use diffosi::derivatives::{window_residuals, Transition, Workspace};
-use diffosi::model::{Model, ParamMap};
-use nalgebra::DVector;
+use diffosi::derivatives::{
+    step_jacobians, window_residuals, window_residuals_into, Transition, WindowFit, Workspace, Wrt,
+};
+use diffosi::model::{Integrator, MapEntry, Model, Param, ParamMap, PassiveMode};
+use nalgebra::{DMatrix, DVector};
 
 fn cartpole() -> (Model, ParamMap) {
     common::cartpole_with_mu()
@@ -82,6 +85,129 @@ fn gradient_matches_finite_differences() {
             (fit.gradient[0] - 2.0 * fit.jacobian.column(0).dot(&fit.residuals)).abs()
                 < 1e-12 * (1.0 + fd.abs())
         );
+    }
+}
+
+/// A map of two mu onto every body and joint parameter of `model`, with
+/// seeded gains in [0, 1e-3] (several scalars per column; non-negative,
+/// so zero damping or armature stays physical at positive mu).
+fn every_parameter(model: &Model, seed: u64) -> ParamMap {
+    let mut r = common::rng(seed);
+    let params = Param::all(model);
+    let values: Vec<(String, Vec<f64>, Vec<[f64; 2]>)> = params
+        .iter()
+        .map(|p| {
+            let gains = (0..p.size())
+                .map(|_| [0, 1].map(|_| common::uniform(&mut r, 0.0, 1e-3)))
+                .collect();
+            (p.name(model), p.get(model), gains)
+        })
+        .collect();
+    let rows: Vec<Vec<&[f64]>> = values
+        .iter()
+        .map(|(_, _, g)| g.iter().map(|row| &row[..]).collect())
+        .collect();
+    let entries: Vec<MapEntry> = values
+        .iter()
+        .zip(&rows)
+        .map(|((name, offset, _), gain)| MapEntry { name, offset, gain })
+        .collect();
+    ParamMap::new(model, 2, &entries).unwrap()
+}
+
+#[test]
+fn rows_match_the_step_and_its_parameter_jacobians() {
+    let settings = [
+        (Integrator::Euler, PassiveMode::Explicit),
+        (Integrator::Euler, PassiveMode::ImplicitDamping),
+        (Integrator::Euler, PassiveMode::ImplicitDampingStiffness),
+        (Integrator::Rk4, PassiveMode::Explicit),
+    ];
+    for seed in 0..8u64 {
+        let (integrator, passive) = settings[seed as usize % 4];
+        let mut model = common::random_model(seed, 3 + seed as usize % 3, passive, integrator);
+        let map = every_parameter(&model, seed);
+        let mu = [0.3, 0.2];
+        let mut truth = model.clone();
+        map.apply(&mut truth, &mu).unwrap();
+        let n = model.nv();
+        let scale: Vec<f64> = (0..2 * n).map(|i| 1e-3 * (1.0 + i as f64)).collect();
+        let window: Vec<Transition> = (0..3)
+            .map(|k| {
+                let (q, v, tau) = common::random_state(&model, 100 * seed + k);
+                let next = |tau: &[f64]| truth.step(&mut truth.data(), &q, &v, tau).unwrap();
+                let (q_next, v_next) = next(&tau.iter().map(|t| t + 0.1).collect::<Vec<_>>());
+                Transition {
+                    q,
+                    v,
+                    tau,
+                    q_next,
+                    v_next,
+                }
+            })
+            .collect();
+        let mut ws = Workspace::new(&model);
+        let fit = window_residuals(&mut model, &mut ws, &map, &mu, &window, &scale).unwrap();
+        // The evaluation edited the model in place: its tree is the one a
+        // rebuild from the edited description gives, bit for bit.
+        let rebuilt = Model::from_spec((*model).clone()).unwrap();
+        assert_eq!(model.tree(), rebuilt.tree(), "seed {seed}");
+        // The same rows from the model's step and the step Jacobians of
+        // every parameter, times the map's gains.
+        let params = map.params();
+        let wrt = Wrt {
+            params: &params,
+            ..Wrt::default()
+        };
+        let gains = map.jacobian();
+        let mut worst = (0.0f64, 0.0f64);
+        for (t, tr) in window.iter().enumerate() {
+            let j = step_jacobians(
+                &model,
+                &mut Workspace::new(&model),
+                (&tr.q, &tr.v, &tr.tau),
+                &wrt,
+            )
+            .unwrap();
+            let (q_next, v_next) = model
+                .step(&mut model.data(), &tr.q, &tr.v, &tr.tau)
+                .unwrap();
+            let predicted = q_next.iter().chain(&v_next);
+            let observed = tr.q_next.iter().chain(&tr.v_next);
+            let expected = DMatrix::from_fn(2 * n, 2, |i, c| {
+                let block = if i < n { &j.dq_dp } else { &j.dv_dp };
+                (block.row(i % n) * gains.column(c))[0] / scale[i]
+            });
+            let rows = fit.jacobian.rows(2 * n * t, 2 * n);
+            let size = expected.amax().max(1e-300);
+            worst.1 = worst.1.max((rows - &expected).amax() / size);
+            for (i, (p, o)) in predicted.zip(observed).enumerate() {
+                let r = fit.residuals[2 * n * t + i];
+                worst.0 = worst.0.max((r - (p - o) / scale[i]).abs());
+            }
+        }
+        println!(
+            "seed {seed} {integrator:?} {passive:?}: residuals {:.1e}, Jacobian {:.1e} (relative)",
+            worst.0, worst.1
+        );
+        // The residuals come from the same articulated-body pass as the step.
+        assert!(worst.0 == 0.0 && worst.1 < 1e-12, "seed {seed}: {worst:?}");
+        // Residuals only: the same residuals and loss, no Jacobian columns.
+        let mut only = WindowFit::empty();
+        window_residuals_into(
+            &mut model,
+            &mut ws,
+            (&map, &mu),
+            (&window, &scale),
+            false,
+            &mut only,
+        )
+        .unwrap();
+        assert_eq!(
+            (only.residuals.clone(), only.loss),
+            (fit.residuals.clone(), fit.loss)
+        );
+        assert_eq!((only.jacobian.ncols(), only.gradient.len()), (0, 0));
     }
 }
 

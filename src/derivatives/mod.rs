@@ -24,4 +24,4 @@ mod window;
 
 pub use rnea::{rnea_derivatives, Sweep};
 pub use step::{step_jacobians, StepJacobians, Workspace, Wrt};
-pub use window::{window_residuals, Transition, WindowError, WindowFit};
+pub use window::{window_residuals, window_residuals_into, Transition, WindowError, WindowFit};

@@ -7,7 +7,9 @@
 //! acceleration, gravity included), felt by the node and its ancestors. dI is
 //! the derivative of the body's inertia placed in the node frame, taken with
 //! dual numbers through the same generic code that builds the tree. A joint
-//! parameter enters only its own joint's row.
+//! parameter enters only its own joint's row. Both pieces take a direction
+//! (one weight per scalar of the parameter), so a mu column that moves
+//! several scalars at once costs one pass.
 
 use num_dual::Dual64;
 
@@ -26,25 +28,36 @@ pub fn residual_derivative(
     out: &mut [f64],
 ) {
     out.fill(0.0);
-    let tree = model.tree();
+    let unit = |c: usize| if c == component { 1.0 } else { 0.0 };
     match param {
         Param::Mass(b) | Param::Com(b) | Param::Inertia(b) => {
-            let frame = tree.body[b];
-            let Some(node) = frame.node else {
-                return; // welded to the world: no effect on the dynamics
-            };
-            let di = inertia_derivative(b, &model.bodies[b], (param, component), &frame.offset);
-            let (vel, acc) = (&data.vel[node], &data.acc[node]);
-            let df = di.mul_motion(acc) + vel.cross_force(&di.mul_motion(vel));
-            body_force_to_joints(tree, data, node, df, out);
+            if let Some((node, di)) = node_inertia_derivative(model, b, param, unit) {
+                add_body_force(model.tree(), data, node, &di, out);
+            }
         }
+        _ => {
+            let (i, value) = joint_derivative(model.tree(), (mode, h), (q_spring, v, a), param);
+            out[i] = value;
+        }
+    }
+}
+
+/// dR_i / d(joint parameter) for the joint i it belongs to: (i, value).
+/// Panics on a body parameter.
+pub fn joint_derivative(
+    tree: &Tree<f64>,
+    (mode, h): (PassiveMode, f64),
+    (q_spring, v, a): (&[f64], &[f64], &[f64]),
+    param: Param,
+) -> (usize, f64) {
+    match param {
         Param::Damping(i) => {
             let implicit = if mode == PassiveMode::Explicit {
                 0.0
             } else {
                 h
             };
-            out[i] = implicit * a[i] + v[i];
+            (i, implicit * a[i] + v[i])
         }
         Param::Stiffness(i) => {
             let implicit = if mode == PassiveMode::ImplicitDampingStiffness {
@@ -52,14 +65,47 @@ pub fn residual_derivative(
             } else {
                 0.0
             };
-            out[i] = implicit * a[i] + q_spring[i] - tree.springref[i];
+            (i, implicit * a[i] + q_spring[i] - tree.springref[i])
         }
-        Param::Armature(i) => out[i] = a[i],
+        Param::Armature(i) => (i, a[i]),
+        Param::Mass(_) | Param::Com(_) | Param::Inertia(_) => {
+            unreachable!("{param:?} is a body parameter")
+        }
     }
 }
 
-/// The joint forces S_k . F_k that a force `f` on node `node` adds along its
-/// path to the root.
+/// The node carrying body `b` and the derivative of the inertia it adds
+/// there along `direction` (a weight per scalar of the body parameter
+/// `param`); None for a body welded to the world.
+pub fn node_inertia_derivative(
+    model: &Model,
+    b: usize,
+    param: Param,
+    direction: impl Fn(usize) -> f64,
+) -> Option<(usize, Inertia<f64>)> {
+    let frame = model.tree().body[b];
+    let node = frame.node?;
+    let di = inertia_derivative(b, &model.bodies[b], (param, direction), &frame.offset);
+    Some((node, di))
+}
+
+/// Adds to `out` the joint forces S_k . dF_k of the body force
+/// dF = dI a_n + v_n x* (dI v_n) on node `node`, along its path to the root.
+/// `data` holds the velocities and accelerations (gravity included) at the point.
+pub fn add_body_force(
+    tree: &Tree<f64>,
+    data: &Data<f64>,
+    node: usize,
+    di: &Inertia<f64>,
+    out: &mut [f64],
+) {
+    let (vel, acc) = (&data.vel[node], &data.acc[node]);
+    let df = di.mul_motion(acc) + vel.cross_force(&di.mul_motion(vel));
+    body_force_to_joints(tree, data, node, df, out);
+}
+
+/// Adds the joint forces S_k . F_k that a force `f` on node `node` causes
+/// along its path to the root.
 fn body_force_to_joints(
     tree: &Tree<f64>,
     data: &Data<f64>,
@@ -70,31 +116,23 @@ fn body_force_to_joints(
     let mut f = f;
     let mut k = node;
     loop {
-        out[k] = tree.joint[k].s.dot(&f);
+        out[k] += tree.joint[k].s.dot(&f);
         let Some(p) = tree.parent[k] else { break };
         f = data.x_up[k].inverse_apply_force(&f);
         k = p;
     }
 }
 
-/// d(spatial inertia of body `index`, in its node's frame) / d(param component),
-/// for a body parameter (mass, COM or inertia).
+/// d(spatial inertia of body `index`, in its node's frame) along `direction`
+/// (a weight per scalar of the body parameter `param`: mass, COM or inertia).
 fn inertia_derivative(
     index: usize,
     body: &Body,
-    (param, component): (Param, usize),
+    (param, direction): (Param, impl Fn(usize) -> f64),
     offset: &Transform<f64>,
 ) -> Inertia<f64> {
-    let seed = |p: Param, c: usize, x: f64| {
-        Dual64::new(
-            x,
-            if (p, c) == (param, component) {
-                1.0
-            } else {
-                0.0
-            },
-        )
-    };
+    let seed =
+        |p: Param, c: usize, x: f64| Dual64::new(x, if p == param { direction(c) } else { 0.0 });
     let offset = Transform {
         rot: offset.rot.map(Dual64::from),
         trans: offset.trans.map(Dual64::from),

@@ -4,6 +4,7 @@ use nalgebra::DMatrix;
 
 use super::params::residual_derivative;
 use super::rnea::{rnea_derivatives, Sweep};
+use super::window::WindowScratch;
 use crate::dynamics::{
     acceleration, check_inputs, crba, implicit_terms, integrate_euler, ltdl_factor,
     ltdl_solve_columns, rnea, step,
@@ -42,19 +43,21 @@ pub struct StepJacobians {
 /// [`step_jacobians`] if used with a model of another size).
 #[derive(Clone, Debug)]
 pub struct Workspace {
-    data: Data<f64>,
+    pub(super) data: Data<f64>,
     sweep: Sweep,
     /// Scratch of length nv: inverse dynamics, spring position, implicit diagonal.
-    tau: Vec<f64>,
-    q_spring: Vec<f64>,
-    extra: Vec<f64>,
+    pub(super) tau: Vec<f64>,
+    pub(super) q_spring: Vec<f64>,
+    pub(super) extra: Vec<f64>,
     /// The acceleration at the last point, and its derivatives: n x (columns),
     /// columns [q, v] if the state was asked for, then tau, then parameters.
-    qdd: Vec<f64>,
+    pub(super) qdd: Vec<f64>,
     dqdd: DMatrix<f64>,
     /// dR/d(columns) before the solve, and M^-1 for wide solves.
     r: DMatrix<f64>,
     inverse: DMatrix<f64>,
+    /// What the window evaluation keeps between transitions.
+    pub(super) window: WindowScratch,
 }
 
 impl Workspace {
@@ -70,6 +73,14 @@ impl Workspace {
             dqdd: DMatrix::zeros(n, 0),
             r: DMatrix::zeros(n, 0),
             inverse: DMatrix::zeros(n, n),
+            window: WindowScratch::new(n),
+        }
+    }
+
+    /// Rebuilt for `model` if it was sized for another nv.
+    pub(super) fn size_for(&mut self, model: &Model) {
+        if self.qdd.len() != model.nv() {
+            *self = Workspace::new(model);
         }
     }
 }
@@ -82,9 +93,7 @@ pub fn step_jacobians(
     wrt: &Wrt,
 ) -> Result<StepJacobians, StepError> {
     let n = model.nv();
-    if ws.qdd.len() != n {
-        *ws = Workspace::new(model);
-    }
+    ws.size_for(model);
     let (mut q_next, mut v_next) = (vec![0.0; n], vec![0.0; n]);
     let blocks = match model.opt.integrator {
         Integrator::Euler => {

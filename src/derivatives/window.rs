@@ -2,12 +2,24 @@
 //! L(mu) = sum_t ||(g_mu(x_t, tau_t) - x_{t+1}) / scale||^2, with g_mu our step
 //! under the parameters mu maps to; its stacked residuals, their Jacobian
 //! (for Gauss-Newton) and the gradient.
+//!
+//! Under semi-implicit Euler (the default) a transition costs one
+//! articulated-body pass (the step itself, the same numbers as
+//! [`Model::step`]) plus, per mu column, one sweep up the tree for dR/dmu
+//! (see the module `derivatives`) and one solve with the articulated-body
+//! factors that pass left behind: no mass matrix, no state Jacobian. The
+//! inertia derivatives of a column are taken once per evaluation, not per
+//! transition. Under RK4 each transition goes through [`step_jacobians`].
+//! Buffers live in the [`Workspace`] and in the [`WindowFit`] filled, so an
+//! evaluation into a reused fit allocates nothing.
 
 use nalgebra::{DMatrix, DVector};
 
+use super::params::{add_body_force, joint_derivative, node_inertia_derivative};
 use super::step::{step_jacobians, Workspace, Wrt};
-use crate::dynamics::StepError;
-use crate::model::{Model, ParamError, ParamMap};
+use crate::dynamics::{acceleration, implicit_terms, integrate_euler, Data, StepError, Tree};
+use crate::model::{Integrator, Model, Param, ParamError, ParamMap};
+use crate::spatial::{Force, Inertia, Motion};
 
 /// One observed transition (q, v) --tau--> (q_next, v_next).
 #[derive(Clone, Debug, PartialEq)]
@@ -49,7 +61,20 @@ pub struct WindowFit {
     pub gradient: DVector<f64>,
 }
 
-/// Evaluates the window loss at mu. `model` is set to the parameters of mu.
+impl WindowFit {
+    /// A fit with no rows, for [`window_residuals_into`] to size and fill.
+    pub fn empty() -> WindowFit {
+        WindowFit {
+            residuals: DVector::zeros(0),
+            jacobian: DMatrix::zeros(0, 0),
+            loss: 0.0,
+            gradient: DVector::zeros(0),
+        }
+    }
+}
+
+/// Evaluates the window loss at mu, with its Jacobian. `model` is set to the
+/// parameters of mu.
 pub fn window_residuals(
     model: &mut Model,
     ws: &mut Workspace,
@@ -58,43 +83,267 @@ pub fn window_residuals(
     window: &[Transition],
     scale: &[f64],
 ) -> Result<WindowFit, WindowError> {
+    let mut fit = WindowFit::empty();
+    window_residuals_into(model, ws, (map, mu), (window, scale), true, &mut fit)?;
+    Ok(fit)
+}
+
+/// [`window_residuals`] into the buffers of `fit` (resized only when the
+/// window's shape changes). Without `jacobian` only the residuals and the
+/// loss are computed; the Jacobian and the gradient are left with no columns.
+pub fn window_residuals_into(
+    model: &mut Model,
+    ws: &mut Workspace,
+    (map, mu): (&ParamMap, &[f64]),
+    (window, scale): (&[Transition], &[f64]),
+    jacobian: bool,
+    fit: &mut WindowFit,
+) -> Result<(), WindowError> {
     let n = model.nv();
     if scale.len() != 2 * n || scale.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
         return Err(WindowError::Scale { expected: 2 * n });
     }
     map.apply(model, mu)?;
-    let params = map.params();
+    ws.size_for(model);
+    let (rows, cols) = (2 * n * window.len(), if jacobian { map.nmu } else { 0 });
+    if fit.residuals.len() != rows {
+        fit.residuals = DVector::zeros(rows);
+    }
+    if fit.jacobian.shape() != (rows, cols) {
+        fit.jacobian = DMatrix::zeros(rows, cols);
+    }
+    if fit.gradient.len() != cols {
+        fit.gradient = DVector::zeros(cols);
+    }
+    let euler = model.opt.integrator == Integrator::Euler;
+    if jacobian && euler {
+        directions(model, map, &mut ws.window.columns);
+    }
+    for (t, tr) in window.iter().enumerate() {
+        check_transition(t, tr, n)?;
+        let rows = 2 * n * t..2 * n * (t + 1);
+        let step = if euler {
+            euler_rows(model, ws, tr, scale, jacobian, fit, rows)
+        } else {
+            general_rows(model, ws, map, tr, scale, jacobian, fit, rows)
+        };
+        step.map_err(|source| WindowError::Step { t, source })?;
+    }
+    fit.loss = fit.residuals.norm_squared();
+    if jacobian {
+        fit.gradient
+            .gemv_tr(2.0, &fit.jacobian, &fit.residuals, 0.0);
+    }
+    Ok(())
+}
+
+/// What one unit of a mu column changes in the residual R of a step: the
+/// inertia a node carries, or a joint parameter (with its gain).
+#[derive(Clone, Debug)]
+pub(super) enum Term {
+    Inertia { node: usize, di: Inertia<f64> },
+    Joint { param: Param, gain: f64 },
+}
+
+/// The scratch the Euler rows keep: the terms of each mu column (for the
+/// model's current parameters), the solve's sweeps, the predicted state.
+#[derive(Clone, Debug)]
+pub(super) struct WindowScratch {
+    pub(super) columns: Vec<Vec<Term>>,
+    forces: Vec<Force<f64>>,
+    motions: Vec<Motion<f64>>,
+    q_next: Vec<f64>,
+    v_next: Vec<f64>,
+}
+
+impl WindowScratch {
+    pub(super) fn new(n: usize) -> Self {
+        WindowScratch {
+            columns: vec![],
+            forces: vec![Force::zero(); n],
+            motions: vec![Motion::zero(); n],
+            q_next: vec![0.0; n],
+            v_next: vec![0.0; n],
+        }
+    }
+}
+
+/// The terms of every mu column at the model's current parameters: for a
+/// body parameter the node inertia derivative along the column's gains
+/// (summed per node), for a joint parameter the gain.
+fn directions(model: &Model, map: &ParamMap, columns: &mut Vec<Vec<Term>>) {
+    columns.resize_with(map.nmu, Vec::new);
+    for (j, column) in columns.iter_mut().enumerate() {
+        column.clear();
+        for (param, _, gain) in &map.targets {
+            let weight = |c: usize| gain[(c, j)];
+            if (0..param.size()).all(|c| weight(c) == 0.0) {
+                continue;
+            }
+            match *param {
+                Param::Mass(b) | Param::Com(b) | Param::Inertia(b) => {
+                    let Some((node, di)) = node_inertia_derivative(model, b, *param, weight) else {
+                        continue; // welded to the world
+                    };
+                    let same = column.iter_mut().find_map(|t| match t {
+                        Term::Inertia { node: k, di } if *k == node => Some(di),
+                        _ => None,
+                    });
+                    match same {
+                        Some(sum) => *sum += di,
+                        None => column.push(Term::Inertia { node, di }),
+                    }
+                }
+                _ => column.push(Term::Joint {
+                    param: *param,
+                    gain: weight(0),
+                }),
+            }
+        }
+    }
+}
+
+/// One transition's rows under semi-implicit Euler: q' = q + h v',
+/// v' = v + h qdd, so d v' = h d qdd and d q' = h^2 d qdd, with
+/// d qdd / d mu_j = -(M + diag(extra))^-1 dR/d mu_j.
+fn euler_rows(
+    model: &Model,
+    ws: &mut Workspace,
+    tr: &Transition,
+    scale: &[f64],
+    jacobian: bool,
+    fit: &mut WindowFit,
+    rows: std::ops::Range<usize>,
+) -> Result<(), StepError> {
+    let n = model.nv();
+    let tree = model.tree();
+    let (mode, h) = (model.opt.passive, model.opt.timestep);
+    let point = (&tr.q[..], &tr.v[..], &tr.tau[..]);
+    acceleration(tree, &mut ws.data, (mode, h), point, &mut ws.qdd);
+    let scratch = &mut ws.window;
+    let next = (&mut scratch.q_next[..], &mut scratch.v_next[..]);
+    integrate_euler(h, (&tr.q, &tr.v, &ws.qdd), next);
+    if !scratch
+        .q_next
+        .iter()
+        .chain(&scratch.v_next)
+        .all(|x| x.is_finite())
+    {
+        return Err(StepError::Diverged);
+    }
+    let predicted = (&scratch.q_next[..], &scratch.v_next[..]);
+    put_residuals(fit, rows.clone(), predicted, tr, scale);
+    if !jacobian {
+        return Ok(());
+    }
+    implicit_terms(
+        tree,
+        (mode, h),
+        (&tr.q, &tr.v),
+        &mut ws.q_spring,
+        &mut ws.extra,
+    );
+    let at = (&ws.q_spring[..], &tr.v[..], &ws.qdd[..]);
+    for (j, column) in scratch.columns.iter().enumerate() {
+        let dr = &mut ws.tau;
+        dr.fill(0.0);
+        for term in column {
+            match term {
+                Term::Inertia { node, di } => add_body_force(tree, &ws.data, *node, di, dr),
+                Term::Joint { param, gain } => {
+                    let (i, value) = joint_derivative(tree, (mode, h), at, *param);
+                    dr[i] += gain * value;
+                }
+            }
+        }
+        let sweeps = (&mut scratch.forces[..], &mut scratch.motions[..]);
+        articulated_solve(tree, &ws.data, dr, sweeps);
+        let mut col = fit.jacobian.column_mut(j);
+        for i in 0..n {
+            let dv = -h * dr[i];
+            col[rows.start + i] = h * dv / scale[i];
+            col[rows.start + n + i] = dv / scale[n + i];
+        }
+    }
+    Ok(())
+}
+
+/// Writes one transition's scaled residuals (predicted - observed) / scale,
+/// q then v, into `rows` of the fit.
+fn put_residuals(
+    fit: &mut WindowFit,
+    rows: std::ops::Range<usize>,
+    (q_next, v_next): (&[f64], &[f64]),
+    tr: &Transition,
+    scale: &[f64],
+) {
+    let predicted = q_next.iter().chain(v_next);
+    let observed = tr.q_next.iter().chain(&tr.v_next);
+    let mut r = fit.residuals.rows_range_mut(rows);
+    for (((r, p), o), s) in r.iter_mut().zip(predicted).zip(observed).zip(scale) {
+        *r = (p - o) / s;
+    }
+}
+
+/// Solves (M + diag(extra)) x = b in place with the factors an
+/// articulated-body pass left in `data` (transforms, U_i = I^A_i S_i and
+/// D_i, extra included): that pass's last two sweeps with no velocity and
+/// no gravity. `forces` and `motions` are scratch of length nv.
+fn articulated_solve(
+    tree: &Tree<f64>,
+    data: &Data<f64>,
+    b: &mut [f64],
+    (forces, motions): (&mut [Force<f64>], &mut [Motion<f64>]),
+) {
+    let n = tree.nv();
+    forces.fill(Force::zero());
+    for i in (0..n).rev() {
+        b[i] -= tree.joint[i].s.dot(&forces[i]);
+        if let Some(p) = tree.parent[i] {
+            let passed = forces[i] + data.u_force[i] * (b[i] / data.d[i]);
+            forces[p] += data.x_up[i].inverse_apply_force(&passed);
+        }
+    }
+    for i in 0..n {
+        let a = match tree.parent[i] {
+            Some(p) => data.x_up[i].apply_motion(&motions[p]),
+            None => Motion::zero(),
+        };
+        b[i] = (b[i] - a.dot(&data.u_force[i])) / data.d[i];
+        motions[i] = a + tree.joint[i].s * b[i];
+    }
+}
+
+/// One transition's rows through [`step_jacobians`] (any integrator).
+#[allow(clippy::too_many_arguments)]
+fn general_rows(
+    model: &Model,
+    ws: &mut Workspace,
+    map: &ParamMap,
+    tr: &Transition,
+    scale: &[f64],
+    jacobian: bool,
+    fit: &mut WindowFit,
+    rows: std::ops::Range<usize>,
+) -> Result<(), StepError> {
+    let n = model.nv();
+    let params = if jacobian { map.params() } else { vec![] };
     let wrt = Wrt {
         params: &params,
         ..Wrt::default()
     };
-    let dp_dmu = map.jacobian();
-    let mut residuals = DVector::zeros(2 * n * window.len());
-    let mut jacobian = DMatrix::zeros(2 * n * window.len(), map.nmu);
-    for (t, tr) in window.iter().enumerate() {
-        check_transition(t, tr, n)?;
-        let j = step_jacobians(model, ws, (&tr.q, &tr.v, &tr.tau), &wrt)
-            .map_err(|source| WindowError::Step { t, source })?;
-        let rows = 2 * n * t;
-        let predicted = j.q_next.iter().chain(&j.v_next);
-        let observed = tr.q_next.iter().chain(&tr.v_next);
-        for (i, (p, o)) in predicted.zip(observed).enumerate() {
-            residuals[rows + i] = (p - o) / scale[i];
-        }
-        let mut block = jacobian.rows_mut(rows, 2 * n);
+    let j = step_jacobians(model, ws, (&tr.q, &tr.v, &tr.tau), &wrt)?;
+    put_residuals(fit, rows.clone(), (&j.q_next, &j.v_next), tr, scale);
+    if jacobian {
+        let dp_dmu = map.jacobian();
+        let mut block = fit.jacobian.rows_mut(rows.start, 2 * n);
         block.rows_mut(0, n).copy_from(&(&j.dq_dp * &dp_dmu));
         block.rows_mut(n, n).copy_from(&(&j.dv_dp * &dp_dmu));
         for (i, s) in scale.iter().enumerate() {
             block.row_mut(i).unscale_mut(*s);
         }
     }
-    let gradient = jacobian.tr_mul(&residuals) * 2.0;
-    Ok(WindowFit {
-        loss: residuals.norm_squared(),
-        residuals,
-        jacobian,
-        gradient,
-    })
+    Ok(())
 }
 
 fn check_transition(t: usize, tr: &Transition, n: usize) -> Result<(), WindowError> {

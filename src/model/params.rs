@@ -11,8 +11,11 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
-use super::{check_inertial, check_passive, Body, Joint, Model, ModelError, Spec};
+use super::{check_inertial, check_passive, Model, ModelError, Spec};
+use crate::dynamics::body_inertia;
+#[cfg(doc)]
 use crate::dynamics::Tree;
+use crate::spatial::Inertia;
 
 /// One named parameter, resolved to the body or joint it belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -135,15 +138,19 @@ impl Param {
         }
     }
 
-    /// Writes the value into a copy of its body or joint; the caller checks it.
+    /// Writes the value into the edit of its body or joint; the caller checks it.
     fn put(&self, edit: &mut Edit, value: &[f64]) {
         match *self {
             Param::Mass(b) => edit.body(b).mass = value[0],
             Param::Com(b) => edit.body(b).com = Vector3::from_column_slice(value),
-            Param::Inertia(b) => edit.body(b).inertia = inertia_from_six(value),
-            Param::Damping(j) => edit.joint(j).damping = value[0],
-            Param::Stiffness(j) => edit.joint(j).stiffness = value[0],
-            Param::Armature(j) => edit.joint(j).armature = value[0],
+            Param::Inertia(b) => {
+                let body = edit.body(b);
+                body.inertia = inertia_from_six(value);
+                body.tensor = true;
+            }
+            Param::Damping(j) => edit.joint(j).passive[0] = value[0],
+            Param::Stiffness(j) => edit.joint(j).passive[1] = value[0],
+            Param::Armature(j) => edit.joint(j).passive[2] = value[0],
         }
     }
 
@@ -205,9 +212,10 @@ impl Model {
         self.set(&[(param, value)])
     }
 
-    /// Sets several resolved parameters at once. The edited bodies and joints
-    /// are checked before anything changes, so a failed edit leaves the model
-    /// as it was; only they are copied, and the dynamics tree is rebuilt.
+    /// Sets several resolved parameters at once. The new values are checked
+    /// before anything changes, so a failed edit leaves the model as it was;
+    /// then the description is written and the dynamics tree patched where
+    /// the edit reaches (see [`Model::patch_tree`]).
     pub fn set(&mut self, values: &[(Param, &[f64])]) -> Result<(), ParamError> {
         for (p, v) in values {
             p.check_value(self, v)?;
@@ -221,11 +229,7 @@ impl Model {
             p.put(&mut edit, v);
         }
         let Edit { bodies, joints, .. } = edit;
-        let checked = bodies
-            .iter()
-            .try_for_each(|(_, b)| check_inertial(&b.name, b.mass, &b.com, &b.inertia))
-            .and_then(|_| joints.iter().try_for_each(|(_, j)| check_passive(j)));
-        if let Err(source) = checked {
+        if let Err(source) = self.check_edit(&bodies, &joints) {
             return Err(ParamError::NotPhysical {
                 name: values
                     .iter()
@@ -236,45 +240,130 @@ impl Model {
                 source: Box::new(source),
             });
         }
-        for (i, b) in bodies {
-            self.spec.bodies[i] = b;
+        for b in &bodies {
+            let body = &mut self.spec.bodies[b.index];
+            (body.mass, body.com, body.inertia) = (b.mass, b.com, b.inertia);
         }
-        for (i, j) in joints {
-            self.spec.joints[i] = j;
+        for j in &joints {
+            let joint = &mut self.spec.joints[j.index];
+            [joint.damping, joint.stiffness, joint.armature] = j.passive;
         }
-        self.tree = Tree::build(&self.spec);
+        self.patch_tree(
+            bodies.iter().map(|b| b.index),
+            joints.iter().map(|j| j.index),
+        );
         Ok(())
+    }
+
+    /// The checks of a valid model on the edited values (already finite).
+    /// The full checks run only where an edit can fail them: a body whose
+    /// tensor changed or whose mass went negative (a valid tensor stays
+    /// valid under any mass >= 0 and COM), a joint with a negative value.
+    fn check_edit(&self, bodies: &[BodyEdit], joints: &[JointEdit]) -> Result<(), ModelError> {
+        for b in bodies.iter().filter(|b| b.tensor || b.mass < 0.0) {
+            let name = &self.spec.bodies[b.index].name;
+            check_inertial(name, b.mass, &b.com, &b.inertia)?;
+        }
+        for j in joints.iter().filter(|j| j.passive.iter().any(|x| *x < 0.0)) {
+            let mut joint = self.spec.joints[j.index].clone();
+            [joint.damping, joint.stiffness, joint.armature] = j.passive;
+            check_passive(&joint)?;
+        }
+        Ok(())
+    }
+
+    /// Brings the tree up to date after edits of the inertial values of
+    /// `bodies` and the passive values of `joints`: each node carrying an
+    /// edited body sums its bodies' inertias again, in body order from zero
+    /// as [`Tree::build`] does, so the result equals a rebuilt tree bit for
+    /// bit; an edited joint's node (node index = joint index) takes its
+    /// damping, stiffness and armature.
+    fn patch_tree(
+        &mut self,
+        bodies: impl Iterator<Item = usize>,
+        joints: impl Iterator<Item = usize>,
+    ) {
+        let tree = &mut self.tree;
+        let mut done: Vec<usize> = vec![];
+        for node in bodies.filter_map(|b| tree.body[b].node) {
+            if done.contains(&node) {
+                continue;
+            }
+            done.push(node);
+            let mut sum = Inertia::zero();
+            for (k, frame) in tree.body.iter().enumerate().skip(1) {
+                if frame.node == Some(node) {
+                    let own = body_inertia(k, &self.spec.bodies[k], |_, _, x| x);
+                    sum += own.to_source(&frame.offset);
+                }
+            }
+            tree.inertia[node] = sum;
+        }
+        for k in joints {
+            let j = &self.spec.joints[k];
+            tree.damping[k] = j.damping;
+            tree.stiffness[k] = j.stiffness;
+            tree.armature[k] = j.armature;
+        }
     }
 }
 
-/// Copies of the bodies and joints an edit touches, made on first touch.
+/// The new inertial values of a body an edit touches, and whether its
+/// inertia tensor is among them.
+struct BodyEdit {
+    index: usize,
+    mass: f64,
+    com: Vector3<f64>,
+    inertia: Matrix3<f64>,
+    tensor: bool,
+}
+
+/// The new damping, stiffness and armature of a joint an edit touches.
+struct JointEdit {
+    index: usize,
+    passive: [f64; 3],
+}
+
+/// The bodies and joints an edit touches, each taken from the model on
+/// first touch.
 struct Edit<'a> {
     spec: &'a Spec,
-    bodies: Vec<(usize, Body)>,
-    joints: Vec<(usize, Joint)>,
+    bodies: Vec<BodyEdit>,
+    joints: Vec<JointEdit>,
 }
 
 impl Edit<'_> {
-    fn body(&mut self, b: usize) -> &mut Body {
-        let k = match self.bodies.iter().position(|(i, _)| *i == b) {
+    fn body(&mut self, b: usize) -> &mut BodyEdit {
+        let k = match self.bodies.iter().position(|e| e.index == b) {
             Some(k) => k,
             None => {
-                self.bodies.push((b, self.spec.bodies[b].clone()));
+                let body = &self.spec.bodies[b];
+                self.bodies.push(BodyEdit {
+                    index: b,
+                    mass: body.mass,
+                    com: body.com,
+                    inertia: body.inertia,
+                    tensor: false,
+                });
                 self.bodies.len() - 1
             }
         };
-        &mut self.bodies[k].1
+        &mut self.bodies[k]
     }
 
-    fn joint(&mut self, j: usize) -> &mut Joint {
-        let k = match self.joints.iter().position(|(i, _)| *i == j) {
+    fn joint(&mut self, j: usize) -> &mut JointEdit {
+        let k = match self.joints.iter().position(|e| e.index == j) {
             Some(k) => k,
             None => {
-                self.joints.push((j, self.spec.joints[j].clone()));
+                let joint = &self.spec.joints[j];
+                self.joints.push(JointEdit {
+                    index: j,
+                    passive: [joint.damping, joint.stiffness, joint.armature],
+                });
                 self.joints.len() - 1
             }
         };
-        &mut self.joints[k].1
+        &mut self.joints[k]
     }
 }
 
@@ -319,12 +408,20 @@ impl ParamMap {
     }
 
     /// The parameters' values at mu, in target order, flattened.
-    pub fn values(&self, mu: &[f64]) -> Vec<DVector<f64>> {
-        let mu = DVector::from_column_slice(mu);
-        self.targets
-            .iter()
-            .map(|(_, offset, gain)| offset + gain * &mu)
-            .collect()
+    pub fn values(&self, mu: &[f64]) -> Vec<f64> {
+        let mut values = Vec::with_capacity(self.targets.iter().map(|(p, ..)| p.size()).sum());
+        for (_, offset, gain) in &self.targets {
+            for (r, o) in offset.iter().enumerate() {
+                values.push(
+                    o + mu
+                        .iter()
+                        .enumerate()
+                        .map(|(j, m)| gain[(r, j)] * m)
+                        .sum::<f64>(),
+                );
+            }
+        }
+        values
     }
 
     /// Sets the model's parameters to their values at mu.
@@ -340,11 +437,15 @@ impl ParamMap {
             return Err(ParamError::Map(format!("mu value {bad} is not finite")));
         }
         let values = self.values(mu);
+        let mut rest = &values[..];
         let pairs: Vec<(Param, &[f64])> = self
             .targets
             .iter()
-            .zip(&values)
-            .map(|((p, ..), v)| (*p, v.as_slice()))
+            .map(|(p, ..)| {
+                let (value, tail) = rest.split_at(p.size());
+                rest = tail;
+                (*p, value)
+            })
             .collect();
         model.set(&pairs)
     }
