@@ -7,8 +7,8 @@
 //! d qdd / d theta = -(M + diag(extra))^-1 dR/d theta, for theta any of q, v,
 //! tau or p. dR/dq and dR/dv come from analytic RNEA derivatives
 //! ([`rnea_derivatives`]); dR/dp analytically too: a body parameter adds one
-//! body force along one path to the root (its inertia derivative taken with
-//! dual numbers), a joint parameter one entry. So a one-parameter Jacobian
+//! body force along one path to the root (its inertia derivative by hand),
+//! a joint parameter one entry. So a one-parameter Jacobian
 //! costs one RNEA pass and a triangular solve, not a state Jacobian. Dual
 //! numbers pushed through the whole scalar-generic step are the test oracle.
 //! The integrator's chain rule (Euler or RK4) then gives d(q', v').

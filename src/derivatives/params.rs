@@ -5,17 +5,19 @@
 //! A body parameter changes one node's spatial inertia by dI, so it adds the
 //! body force dI a_n + v_n x* (dI v_n) at that node (with RNEA's velocity and
 //! acceleration, gravity included), felt by the node and its ancestors. dI is
-//! the derivative of the body's inertia placed in the node frame, taken with
-//! dual numbers through the same generic code that builds the tree. A joint
+//! the derivative of the body's inertia placed in the node frame, by hand:
+//! a spatial inertia (m, m c, I_c - m [c]x[c]x) is simple in mass, COM and
+//! tensor, and placing it in another frame is linear in it. A joint
 //! parameter enters only its own joint's row. Both pieces take a direction
 //! (one weight per scalar of the parameter), so a mu column that moves
 //! several scalars at once costs one pass.
 
-use num_dual::Dual64;
+use nalgebra::{Matrix3, Vector3};
 
-use crate::dynamics::{body_inertia, Data, Tree};
+use crate::dynamics::{Data, Tree};
+use crate::model::params::inertia_from_six;
 use crate::model::{Body, Model, Param, PassiveMode};
-use crate::spatial::{Force, Inertia, Transform};
+use crate::spatial::{skew, Force, Inertia};
 
 /// Writes dR/d(param component) into `out` (length nv). `data` holds RNEA's
 /// velocities and accelerations at (q, v, a).
@@ -85,8 +87,8 @@ pub fn node_inertia_derivative(
 ) -> Option<(usize, Inertia<f64>)> {
     let frame = model.tree().body[b];
     let node = frame.node?;
-    let di = inertia_derivative(b, &model.bodies[b], (param, direction), &frame.offset);
-    Some((node, di))
+    let di = inertia_derivative(&model.bodies[b], param, direction);
+    Some((node, di.to_source(&frame.offset)))
 }
 
 /// Adds to `out` the joint forces S_k . dF_k of the body force
@@ -123,24 +125,30 @@ fn body_force_to_joints(
     }
 }
 
-/// d(spatial inertia of body `index`, in its node's frame) along `direction`
-/// (a weight per scalar of the body parameter `param`: mass, COM or inertia).
-fn inertia_derivative(
-    index: usize,
-    body: &Body,
-    (param, direction): (Param, impl Fn(usize) -> f64),
-    offset: &Transform<f64>,
-) -> Inertia<f64> {
-    let seed =
-        |p: Param, c: usize, x: f64| Dual64::new(x, if p == param { direction(c) } else { 0.0 });
-    let offset = Transform {
-        rot: offset.rot.map(Dual64::from),
-        trans: offset.trans.map(Dual64::from),
-    };
-    let placed = body_inertia(index, body, seed).to_source(&offset);
-    Inertia {
-        mass: placed.mass.eps,
-        h: placed.h.map(|x| x.eps),
-        rot: placed.rot.map(|x| x.eps),
+/// d(spatial inertia of `body` about its own frame) along `direction` (a
+/// weight per scalar of the body parameter `param`: mass, COM or inertia),
+/// from I = (m, m c, I_c - m [c]x[c]x).
+fn inertia_derivative(body: &Body, param: Param, direction: impl Fn(usize) -> f64) -> Inertia<f64> {
+    let (m, c) = (body.mass, &body.com);
+    match param {
+        Param::Mass(_) => Inertia::from_com(direction(0), c, &Matrix3::zeros()),
+        Param::Com(_) => {
+            let d = Vector3::from_fn(|r, _| direction(r));
+            let (cx, dx) = (skew(c), skew(&d));
+            Inertia {
+                mass: 0.0,
+                h: d * m,
+                rot: -(dx * cx + cx * dx) * m,
+            }
+        }
+        Param::Inertia(_) => {
+            let six: [f64; 6] = std::array::from_fn(direction);
+            Inertia {
+                mass: 0.0,
+                h: Vector3::zeros(),
+                rot: inertia_from_six(&six),
+            }
+        }
+        _ => unreachable!("{param:?} is a joint parameter"),
     }
 }

@@ -82,7 +82,7 @@ impl Identifier for Adam {
                 break;
             }
             mu = next;
-            fit = problem.fit(mu.as_slice(), window)?;
+            problem.fit_into(mu.as_slice(), window, &mut fit)?;
             evaluations += 1;
         }
         let work = (iterations, evaluations);

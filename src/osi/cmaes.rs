@@ -16,20 +16,20 @@
 //!   below `f_tol` (loss units), both counted as converged; or
 //!   `max_evaluations` (flagged not converged).
 //! - The answer is the best sample evaluated. Its standard errors are the
-//!   Gauss-Newton ones at that point (as for LM, from the Jacobian the loss
-//!   evaluation returns anyway): the final sigma^2 C describes the search
+//!   Gauss-Newton ones at that point (as for LM, from one evaluation with
+//!   the Jacobian there; samples are scored on residuals alone): the final sigma^2 C describes the search
 //!   distribution, which shrinks to the stopping tolerance, not the
 //!   uncertainty of mu. Unexcited directions report the prior's standard
 //!   deviation as everywhere else.
 //! - Iterations count generations, evaluations loss evaluations (lambda per
-//!   generation).
+//!   generation, residuals only) plus the Jacobian evaluation at the answer.
 
 use nalgebra::{DMatrix, DVector};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 
 use super::{Estimate, Excitation, Identifier, OsiError, Problem, Subspace};
-use crate::derivatives::{Transition, WindowError, WindowFit};
+use crate::derivatives::{Transition, WindowError};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CmaEsOptions {
@@ -122,7 +122,7 @@ impl Identifier for CmaEs {
         let mut axes = DMatrix::<f64>::identity(n, n);
         let mut lengths = DVector::from_element(n, 1.0);
         let (mut pc, mut ps) = (DVector::zeros(n), DVector::zeros(n));
-        let mut best: Option<(DVector<f64>, WindowFit)> = None;
+        let mut best: Option<(DVector<f64>, f64)> = None;
         let mut bests: Vec<f64> = vec![];
         let (mut generations, mut evaluations) = (0, 0);
         let mut converged = false;
@@ -139,11 +139,11 @@ impl Identifier for CmaEs {
                 let d2 = (&x - &clamped).norm_squared();
                 let mu = to_mu(&clamped);
                 evaluations += 1;
-                let score = match problem.fit(mu.as_slice(), window) {
-                    Ok(fit) => {
-                        let score = fit.loss * (1.0 + d2) + d2;
-                        if best.as_ref().is_none_or(|(_, b)| fit.loss < b.loss) {
-                            best = Some((mu, fit));
+                let score = match problem.loss(mu.as_slice(), window) {
+                    Ok(loss) => {
+                        let score = loss * (1.0 + d2) + d2;
+                        if best.as_ref().is_none_or(|(_, b)| loss < *b) {
+                            best = Some((mu, loss));
                         }
                         if score.is_nan() {
                             f64::INFINITY
@@ -204,20 +204,21 @@ impl Identifier for CmaEs {
             }
         }
 
-        // Nothing physical sampled (or no budget): answer the start.
-        let (mut mu, mut fit) = match best {
-            Some(b) => b,
+        // The best sample with its Jacobian; nothing physical sampled (or no
+        // budget): the start.
+        let mut mu = match best {
+            Some((mu, _)) => mu,
             None => {
                 let mut mu = DVector::from_column_slice(start);
                 problem.project(&mut mu);
-                evaluations += 1;
-                let fit = problem.fit(mu.as_slice(), window)?;
-                (mu, fit)
+                mu
             }
         };
+        evaluations += 1;
+        let mut fit = problem.fit(mu.as_slice(), window)?;
         // Where the loss is flat the search stopped anywhere: those directions
         // keep the start, as in Levenberg-Marquardt.
-        let sub = Subspace::new(fit.jacobian.tr_mul(&fit.jacobian), opt.excitation);
+        let sub = Subspace::new(&fit.jacobian.tr_mul(&fit.jacobian), opt.excitation);
         if !sub.all_excited() {
             mu = sub.keep_unexcited(&mu, &DVector::from_column_slice(start));
             problem.project(&mut mu);

@@ -19,7 +19,7 @@
 //! only along the excited eigenvectors ([`Excitation`]), so an unexcited
 //! direction keeps its start value instead of becoming NaN.
 
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
 use rand::rngs::StdRng;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
@@ -85,14 +85,17 @@ impl Identifier for Lm {
         let misfit = |run: &Run| run.fit.loss / dof.max(1) as f64;
         let mut best = self.solve(problem, window, start)?;
         let (mut iterations, mut evaluations) = (best.iterations, best.evaluations);
-        let mut starts = latin_hypercube(problem, opt.restarts, opt.seed).into_iter();
-        while misfit(&best) > opt.misfit {
-            let Some(start) = starts.next() else { break };
-            let run = self.solve(problem, window, &start)?;
-            iterations += run.iterations;
-            evaluations += run.evaluations;
-            if run.fit.loss < best.fit.loss {
-                best = run;
+        if misfit(&best) > opt.misfit {
+            for start in latin_hypercube(problem, opt.restarts, opt.seed) {
+                let run = self.solve(problem, window, &start)?;
+                iterations += run.iterations;
+                evaluations += run.evaluations;
+                if run.fit.loss < best.fit.loss {
+                    best = run;
+                }
+                if misfit(&best) <= opt.misfit {
+                    break;
+                }
             }
         }
         let end = (&best.mu, &best.fit);
@@ -129,13 +132,18 @@ impl Lm {
             .collect();
         let mut mu = DVector::from_column_slice(start);
         problem.project(&mut mu);
-        let mut fit = problem.fit(mu.as_slice(), window)?;
+        let mut fit = WindowFit::empty();
+        problem.fit_into(mu.as_slice(), window, &mut fit)?;
+        let mut next = WindowFit::empty();
         let (mut iterations, mut evaluations) = (0, 1);
         let mut damping = opt.damping;
         let mut converged = false;
+        let n = problem.nmu();
+        let mut jtj = DMatrix::zeros(n, n);
         'outer: while iterations < opt.max_iterations {
-            let g = fit.jacobian.tr_mul(&fit.residuals);
-            let free: Vec<bool> = (0..problem.nmu())
+            // The gradient of the loss is 2 J^T r.
+            let g = &fit.gradient;
+            let free: Vec<bool> = (0..n)
                 .map(|i| {
                     let outward_low = mu[i] <= problem.lower()[i] && g[i] > 0.0;
                     let outward_high = mu[i] >= problem.upper()[i] && g[i] < 0.0;
@@ -143,23 +151,23 @@ impl Lm {
                 })
                 .collect();
             let stationary =
-                (0..problem.nmu()).all(|i| !free[i] || g[i].abs() * width[i] <= opt.gradient_tol);
+                (0..n).all(|i| !free[i] || 0.5 * g[i].abs() * width[i] <= opt.gradient_tol);
             if stationary {
                 converged = true;
                 break;
             }
-            let mut jtj = fit.jacobian.tr_mul(&fit.jacobian);
-            for i in (0..problem.nmu()).filter(|i| !free[*i]) {
+            fit.jacobian.tr_mul_to(&fit.jacobian, &mut jtj);
+            for i in (0..n).filter(|i| !free[*i]) {
                 jtj.row_mut(i).fill(0.0);
                 jtj.column_mut(i).fill(0.0);
             }
-            let sub = Subspace::new(jtj, opt.excitation);
+            let sub = Subspace::new(&jtj, opt.excitation);
             let largest = sub.values.max().max(0.0);
             iterations += 1;
             loop {
-                let mut trial = &mu - sub.solve(&g, damping * largest);
+                let mut trial = &mu - sub.solve(g, damping * largest) * 0.5;
                 problem.project(&mut trial);
-                let moved = (0..problem.nmu())
+                let moved = (0..n)
                     .map(|i| (trial[i] - mu[i]).abs() / width[i])
                     .fold(0.0, f64::max);
                 if moved <= opt.step_tol {
@@ -167,11 +175,11 @@ impl Lm {
                     break 'outer;
                 }
                 evaluations += 1;
-                match problem.fit(trial.as_slice(), window) {
-                    Ok(next) if next.loss < fit.loss => {
+                match problem.fit_into(trial.as_slice(), window, &mut next) {
+                    Ok(()) if next.loss < fit.loss => {
                         let decrease = (fit.loss - next.loss) / fit.loss;
                         mu = trial;
-                        fit = next;
+                        std::mem::swap(&mut fit, &mut next);
                         damping /= 10.0;
                         if decrease <= opt.loss_tol {
                             converged = true;
@@ -179,7 +187,7 @@ impl Lm {
                         }
                         break;
                     }
-                    Ok(_) | Err(OsiError::Window(WindowError::Param(_))) => damping *= 10.0,
+                    Ok(()) | Err(OsiError::Window(WindowError::Param(_))) => damping *= 10.0,
                     Err(e) => return Err(e),
                 }
             }

@@ -32,7 +32,7 @@ pub use lm::{Lm, LmOptions};
 pub use online::{Online, Sampling};
 pub use trivial::{Average, Oracle, Random};
 
-use crate::derivatives::{window_residuals, Transition, WindowError, WindowFit, Workspace};
+use crate::derivatives::{window_residuals_into, Transition, WindowError, WindowFit, Workspace};
 use crate::model::{Model, ParamError, ParamMap};
 
 #[derive(Debug, thiserror::Error)]
@@ -85,6 +85,8 @@ pub enum OsiError {
 pub struct Problem {
     model: Model,
     ws: Workspace,
+    /// The residuals of [`Problem::loss`].
+    scratch: WindowFit,
     map: ParamMap,
     lower: Vec<f64>,
     upper: Vec<f64>,
@@ -146,6 +148,7 @@ impl Problem {
         map.apply(&mut model, prior)?;
         Ok(Problem {
             ws: Workspace::new(&model),
+            scratch: WindowFit::empty(),
             model,
             map,
             lower: lower.to_vec(),
@@ -183,15 +186,39 @@ impl Problem {
 
     /// The scaled residuals, their Jacobian, the loss and its gradient at mu.
     pub fn fit(&mut self, mu: &[f64], window: &[Transition]) -> Result<WindowFit, OsiError> {
+        let mut fit = WindowFit::empty();
+        self.fit_into(mu, window, &mut fit)?;
+        Ok(fit)
+    }
+
+    /// [`Problem::fit`] into the buffers of `fit` (reused while the window's
+    /// size stays the same).
+    pub fn fit_into(
+        &mut self,
+        mu: &[f64],
+        window: &[Transition],
+        fit: &mut WindowFit,
+    ) -> Result<(), OsiError> {
         let (model, ws) = (&mut self.model, &mut self.ws);
-        Ok(window_residuals(
+        let at = (&self.map, mu);
+        window_residuals_into(model, ws, at, (window, &self.scale), true, fit)?;
+        Ok(())
+    }
+
+    /// The loss at mu alone: residuals without their Jacobian, what a
+    /// derivative-free search or a one-step prediction needs.
+    pub fn loss(&mut self, mu: &[f64], window: &[Transition]) -> Result<f64, OsiError> {
+        let (model, ws) = (&mut self.model, &mut self.ws);
+        let at = (&self.map, mu);
+        window_residuals_into(
             model,
             ws,
-            &self.map,
-            mu,
-            window,
-            &self.scale,
-        )?)
+            at,
+            (window, &self.scale),
+            false,
+            &mut self.scratch,
+        )?;
+        Ok(self.scratch.loss)
     }
 
     /// Rejects an empty window and names any wrong length or non-finite value.
@@ -347,14 +374,23 @@ struct Subspace {
 }
 
 impl Subspace {
-    fn new(jtj: DMatrix<f64>, thresholds: Excitation) -> Subspace {
-        let eigen = jtj.symmetric_eigen();
-        let max = eigen.eigenvalues.max().max(0.0);
+    fn new(jtj: &DMatrix<f64>, thresholds: Excitation) -> Subspace {
+        // One parameter (the common case) needs no eigen-solver.
+        let (vectors, values) = if jtj.nrows() == 1 {
+            (
+                DMatrix::identity(1, 1),
+                DVector::from_element(1, jtj[(0, 0)]),
+            )
+        } else {
+            let eigen = jtj.clone().symmetric_eigen();
+            (eigen.eigenvectors, eigen.eigenvalues)
+        };
+        let max = values.max().max(0.0);
         let floor = (thresholds.relative * max).max(thresholds.absolute);
         Subspace {
-            excited: eigen.eigenvalues.iter().map(|l| *l > floor).collect(),
-            vectors: eigen.eigenvectors,
-            values: eigen.eigenvalues,
+            excited: values.iter().map(|l| *l > floor).collect(),
+            vectors,
+            values,
         }
     }
 
@@ -392,23 +428,36 @@ impl Subspace {
 /// excited directions; plus the prior's variance projected onto the
 /// unexcited ones. Returns them with whether any direction was unexcited.
 fn standard_errors(problem: &Problem, fit: &WindowFit, thresholds: Excitation) -> (Vec<f64>, bool) {
-    let sub = Subspace::new(fit.jacobian.tr_mul(&fit.jacobian), thresholds);
+    let sub = Subspace::new(&fit.jacobian.tr_mul(&fit.jacobian), thresholds);
     let p = sub.excited.iter().filter(|e| **e).count();
     let m = fit.residuals.len();
     let sigma2 = fit.loss / (m.saturating_sub(p).max(1) as f64);
-    let prior_var =
-        DVector::from_iterator(problem.nmu(), problem.prior_std().iter().map(|s| s * s));
     let n = problem.nmu();
-    let mut cov = DMatrix::zeros(n, n);
-    let mut unexcited = DMatrix::zeros(n, n);
-    for (k, v) in sub.vectors.column_iter().enumerate() {
-        if sub.excited[k] {
-            cov += v * v.transpose() * (sigma2 / sub.values[k]);
-        } else {
-            unexcited += v * v.transpose();
+    // The diagonal of sum over excited k of v_k v_k^T sigma^2 / lambda_k.
+    let mut var: Vec<f64> = (0..n)
+        .map(|i| {
+            (0..n)
+                .filter(|k| sub.excited[*k])
+                .map(|k| sub.vectors[(i, k)].powi(2) * sigma2 / sub.values[k])
+                .sum()
+        })
+        .collect();
+    if !sub.all_excited() {
+        // P D P, P the projector onto the unexcited directions, D the prior
+        // variances.
+        let mut unexcited = DMatrix::zeros(n, n);
+        for (k, v) in sub.vectors.column_iter().enumerate() {
+            if !sub.excited[k] {
+                unexcited += v * v.transpose();
+            }
+        }
+        let prior = problem.prior_std();
+        for (i, var) in var.iter_mut().enumerate() {
+            *var += (0..n)
+                .map(|l| (unexcited[(i, l)] * prior[l]).powi(2))
+                .sum::<f64>();
         }
     }
-    cov += &unexcited * DMatrix::from_diagonal(&prior_var) * &unexcited;
-    let std = cov.diagonal().iter().map(|c| c.max(0.0).sqrt()).collect();
+    let std = var.iter().map(|c| c.max(0.0).sqrt()).collect();
     (std, !sub.all_excited())
 }

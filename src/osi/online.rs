@@ -108,7 +108,7 @@ impl<I: Identifier> Online<I> {
         let mut changed = false;
         if let Some(detector) = &mut self.detector {
             self.residual = match &self.estimate {
-                Some(e) => Some(self.problem.fit(&e.mu, one)?.loss),
+                Some(e) => Some(self.problem.loss(&e.mu, one)?),
                 None => None,
             };
             changed = detector.judge(self.residual, 2 * self.problem.nv());

@@ -19,7 +19,7 @@ fn answer(
 ) -> Result<Estimate, OsiError> {
     problem.check_window(window)?;
     problem.check_mu("mu", &mu)?;
-    let loss = problem.fit(&mu, window)?.loss;
+    let loss = problem.loss(&mu, window)?;
     Ok(Estimate {
         flags: Flags {
             at_bound: problem.at_bound(&mu),
