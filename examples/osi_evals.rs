@@ -6,8 +6,9 @@
 //!
 //! Run: `cargo run --release --example osi_evals`.
 //!
-//! An evaluation is one residuals-and-Jacobian pass over the window (the work
-//! of one Gauss-Newton step). For each solver and window the table gives the
+//! An evaluation is one pass over the window: residuals and Jacobian for LM
+//! and Adam (the work of one Gauss-Newton step), residuals alone for a
+//! CMA-ES sample (plus one pass with the Jacobian at its answer). For each solver and window the table gives the
 //! median (and maximum) number of evaluations after which |mu - truth| is
 //! below the tolerance, found by running the deterministic solver under an
 //! iteration cap k (CMA-ES: an evaluation cap), doubling k and then bisecting,

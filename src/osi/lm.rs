@@ -165,7 +165,9 @@ impl Lm {
             let largest = sub.values.max().max(0.0);
             iterations += 1;
             loop {
-                let mut trial = &mu - sub.solve(g, damping * largest) * 0.5;
+                // The step solves (J^T J + damping) step = -J^T r = -g / 2.
+                let mut trial = sub.solve(g, damping * largest);
+                trial.axpy(1.0, &mu, -0.5);
                 problem.project(&mut trial);
                 let moved = (0..n)
                     .map(|i| (trial[i] - mu[i]).abs() / width[i])
