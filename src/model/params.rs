@@ -407,18 +407,22 @@ impl ParamMap {
         Ok(ParamMap { nmu, targets })
     }
 
-    /// The parameters' values at mu, in target order, flattened.
-    pub fn values(&self, mu: &[f64]) -> Vec<f64> {
+    /// The parameters' values at mu, in target order.
+    pub fn values(&self, mu: &[f64]) -> Vec<DVector<f64>> {
+        let mu = DVector::from_column_slice(mu);
+        self.targets
+            .iter()
+            .map(|(_, offset, gain)| offset + gain * &mu)
+            .collect()
+    }
+
+    /// The same values flattened into one vector (one allocation).
+    fn flat_values(&self, mu: &[f64]) -> Vec<f64> {
         let mut values = Vec::with_capacity(self.targets.iter().map(|(p, ..)| p.size()).sum());
         for (_, offset, gain) in &self.targets {
             for (r, o) in offset.iter().enumerate() {
-                values.push(
-                    o + mu
-                        .iter()
-                        .enumerate()
-                        .map(|(j, m)| gain[(r, j)] * m)
-                        .sum::<f64>(),
-                );
+                let moved: f64 = mu.iter().enumerate().map(|(j, m)| gain[(r, j)] * m).sum();
+                values.push(o + moved);
             }
         }
         values
@@ -436,7 +440,7 @@ impl ParamMap {
         if let Some(bad) = mu.iter().find(|x| !x.is_finite()) {
             return Err(ParamError::Map(format!("mu value {bad} is not finite")));
         }
-        let values = self.values(mu);
+        let values = self.flat_values(mu);
         let mut rest = &values[..];
         let pairs: Vec<(Param, &[f64])> = self
             .targets
