@@ -9,6 +9,15 @@ A model is a reference model's name (MuJoCo loads reference_models/<name>.xml, P
 and DART the URDF twin reference_models/<name>.urdf), a path, or gymnasium:<file> for
 gymnasium's MuJoCo assets. MuJoCo's options: eulerdamp=True (False: explicit damping),
 rk4=False (True: integrator RK4).
+
+Every engine also takes native=False and friction=None. By default an adapter switches
+off whatever breaks agreement with our engine (replay, golden: 1e-12). native=True
+leaves the engine's own modelling where a user would leave it (PyBullet's default link
+damping 0.04 and velocity cap 100; MuJoCo's and DART's passive-force treatment and any
+frictionloss in the file), still with contacts and limits off, the file's gravity and
+timestep, and forces applied as by default: a real dynamics gap for transfer studies.
+friction={joint: value} adds Coulomb joint friction (N or N m) by each engine's own
+mechanism. Either makes `engine.ours()` an approximation, not a twin.
 """
 
 from __future__ import annotations

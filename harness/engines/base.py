@@ -113,6 +113,18 @@ class Engine:
     def __init__(self):
         self._changed: dict = {}  # parameters changed by set_param, in order, for ours()
 
+    @staticmethod
+    def check_friction(friction: dict | None, joints: list) -> dict:
+        """Coulomb joint friction {joint: force (N) or torque (N m) >= 0}, the unmodelled
+        effect the `friction` option adds (our engine has none): names and values checked."""
+        friction = dict(friction or {})
+        for joint, value in friction.items():
+            if joint not in joints:
+                raise ValueError(f"friction: unknown joint {joint!r} (joints {joints})")
+            if not (np.isfinite(value) and value >= 0):
+                raise ValueError(f"friction: {joint} must be finite and >= 0, got {value}")
+        return {j: float(x) for j, x in friction.items()}
+
     # ---- the engine-specific part
 
     def set_state(self, q, v) -> None:

@@ -6,6 +6,10 @@ URDF twin. DART 6.20 has no joint armature (no get/setArmature in dartpy, none i
 GenericJoint properties): the model's armature is listed in `ignored`. Parameters are
 set with BodyNode.setMass / setLocalCOM (DART keeps the moment of inertia about the
 COM, as ours) and DegreeOfFreedom.setDampingCoefficient / setSpringStiffness.
+
+native=True changes nothing here (DART's implicit passive forces are its own either way;
+it is recorded in the settings). friction={joint: f} is DART's joint Coulomb friction,
+DegreeOfFreedom.setCoulombFriction(f), a constraint of its LCP solver.
 """
 
 from __future__ import annotations
@@ -70,7 +74,7 @@ class DartEngine(Engine):
     name = "dart"
     version = dart.__version__
 
-    def __init__(self, path: Path):
+    def __init__(self, path: Path, native: bool = False, friction: dict | None = None):
         super().__init__()
         self.model_path, self.label = Path(path), label_of(Path(path))
         facts = read_urdf(self.model_path)
@@ -95,6 +99,11 @@ class DartEngine(Engine):
         self.ignored = settings["ignored"] = ignored_extras(facts, understood={"stiffness", "springref"})
         if only_in_twin := twin_only(self.model_path, facts):
             settings["mjcf_twin_only"] = only_in_twin
+        if native:
+            settings["native"] = "nothing to leave on: passive forces are implicit in DART either way"
+        for joint, value in self.check_friction(friction, names).items():
+            skel.getDof(names.index(joint)).setCoulombFriction(value)
+            settings.setdefault("joint_friction", {})[joint] = f"setCoulombFriction({value})"
         self.settings = settings
         self.passive, self.integrator = "implicit_damping_stiffness", "Euler"
         self.q_ref, self.ranges = np.zeros(n), [j.limit for j in facts["joints"]]

@@ -5,6 +5,10 @@ Forces go through qfrc_applied with ctrl 0. Under Euler, MuJoCo integrates joint
 damping implicitly ("eulerdamp", our implicit_damping) and stiffness explicitly;
 eulerdamp=False (mjDSBL_EULERDAMP) makes damping explicit; RK4 is explicit.
 Parameters are edited in the MjModel: body_mass, body_ipos, dof_damping, jnt_stiffness.
+
+native=True keeps the file's frictionloss and fluid forces (MuJoCo's passive-force
+treatment is its own either way). friction={joint: f} sets dof_frictionloss = f:
+MuJoCo's joint friction, a soft constraint row solved with the dynamics each step.
 """
 
 from __future__ import annotations
@@ -53,18 +57,21 @@ def check_model(m, label: str) -> None:
     assert not np.any(m.body_gravcomp), f"{label}: gravity compensation"
 
 
-def configure(m, label: str, eulerdamp: bool, rk4: bool) -> tuple[dict, str, str]:
-    """Switch off what our smooth dynamics do not model; returns (settings, passive, integrator)."""
+def configure(m, label: str, eulerdamp: bool, rk4: bool, native: bool = False) -> tuple[dict, str, str]:
+    """Switch off what our smooth dynamics do not model (native: only contacts and limits);
+    returns (settings, passive, integrator)."""
     settings: dict = {"tau_applied_via": "qfrc_applied (ctrl = 0)"}
     if MJ_WARNINGS:
         settings["compiler_warnings"] = list(MJ_WARNINGS)
     bit = mujoco.mjtDisableBit
     disabled = ["contact", "limit"]
     m.opt.disableflags |= bit.mjDSBL_CONTACT | bit.mjDSBL_LIMIT
-    if np.any(m.dof_frictionloss):  # frictionloss is a constraint in MuJoCo, not smooth dynamics
+    if native:
+        settings["native"] = "the file's frictionloss and fluid forces kept"
+    elif np.any(m.dof_frictionloss):  # frictionloss is a constraint in MuJoCo, not smooth dynamics
         m.opt.disableflags |= bit.mjDSBL_FRICTIONLOSS
         disabled.append("frictionloss")
-    if m.opt.density or m.opt.viscosity:  # fluid forces (swimmer): our engine has none, so off
+    if not native and (m.opt.density or m.opt.viscosity):  # fluid forces (swimmer): ours has none
         settings["fluid_off"] = {"density": float(m.opt.density), "viscosity": float(m.opt.viscosity)}
         m.opt.density, m.opt.viscosity = 0.0, 0.0
     spelled = {"EULER": "Euler", "RK4": "RK4", "IMPLICIT": "implicit", "IMPLICITFAST": "implicitfast"}
@@ -91,12 +98,21 @@ class MujocoEngine(Engine):
     name = "mujoco"
     version = mujoco.__version__
 
-    def __init__(self, path: Path, eulerdamp: bool = True, rk4: bool = False):
+    def __init__(self, path: Path, eulerdamp: bool = True, rk4: bool = False, native: bool = False,
+                 friction: dict | None = None):
         super().__init__()
         self.model_path, self.label = Path(path), label_of(Path(path))
         m = self.m = load_mjcf(path)
         check_model(m, self.label)
-        self.settings, self.passive, self.integrator = configure(m, self.label, eulerdamp, rk4)
+        self.settings, self.passive, self.integrator = configure(m, self.label, eulerdamp, rk4, native)
+        names = [m.joint(i).name for i in range(m.njnt)]
+        self._constrained = native and bool(np.any(m.dof_frictionloss))
+        if friction := self.check_friction(friction, names):
+            for joint, value in friction.items():
+                m.dof_frictionloss[names.index(joint)] = value
+            m.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_FRICTIONLOSS)
+            self.settings["joint_friction"] = {j: f"dof_frictionloss {f}" for j, f in friction.items()}
+            self._constrained = True
         self.d, self._probe = mujoco.MjData(m), mujoco.MjData(m)
         self.timestep = float(m.opt.timestep)
         self.gravity = [float(g) for g in m.opt.gravity]
@@ -122,7 +138,7 @@ class MujocoEngine(Engine):
         d.ctrl[:] = 0.0
         d.qfrc_applied[:] = tau
         mujoco.mj_step(self.m, d)
-        assert d.nefc == 0, f"{self.label}: constraint rows appeared"
+        assert self._constrained or d.nefc == 0, f"{self.label}: constraint rows appeared"
         assert not np.any(d.qfrc_actuator), f"{self.label}: actuator force with ctrl 0"
 
     def dynamics(self, q, v):

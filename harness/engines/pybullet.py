@@ -9,6 +9,12 @@ the first calculateMassMatrix / calculateInverseDynamics and caches it, so a mas
 changed later by changeDynamics would step with the new value but report M and c with
 the old one. A reload is one mechanism for every parameter, with the URDF's meaning:
 <inertial><origin xyz> is the COM and <inertia> is about the COM, as ours.
+
+native=True keeps PyBullet's link damping (linearDamping = angularDamping = 0.04, a
+force -0.04 m v on each link and a torque -0.04 I w, applied explicitly) and its joint
+velocity cap (100). friction={joint: f} is PyBullet's usual joint friction: the joint's
+velocity motor with target velocity 0 and maximum force f, a constraint that holds the
+joint still unless more than f pushes it (TORQUE_CONTROL forces add to it).
 """
 
 from __future__ import annotations
@@ -51,10 +57,12 @@ class PybulletEngine(Engine):
     name = "pybullet"
     version = importlib.metadata.version("pybullet")
 
-    def __init__(self, path: Path):
+    def __init__(self, path: Path, native: bool = False, friction: dict | None = None):
         super().__init__()
         self.model_path, self.label = Path(path), label_of(Path(path))
         facts = read_urdf(self.model_path)
+        self._native = native
+        self._friction = self.check_friction(friction, [j.name for j in facts["joints"]])
         h, self.gravity, self.settings = timestep_gravity(self.model_path, facts)
         self._facts, self._urdf, self._tmp = facts, ET.parse(self.model_path), None
         self._load(self.model_path, h, self.settings)
@@ -95,11 +103,15 @@ class PybulletEngine(Engine):
         """Switch off what our smooth dynamics do not model. Every changeDynamics must come
         before the first calculateMassMatrix / calculateInverseDynamics (see the module doc)."""
         p, body, movable = self._p, self._body, self._movable
-        # linearDamping, angularDamping and maxJointVelocity are per multibody, and the C API resets
-        # the command's link index to -1 for them: set them alone, never with per-link arguments.
-        p.changeDynamics(body, -1, linearDamping=0.0, angularDamping=0.0, maxJointVelocity=1e6)
-        settings["link_damping"] = "linearDamping = angularDamping = 0 (default 0.04)"
-        settings["maxJointVelocity"] = 1e6  # default 100: silent clamping
+        if self._native:
+            settings["link_damping"] = "PyBullet's default: linearDamping = angularDamping = 0.04 (native)"
+            settings["maxJointVelocity"] = "PyBullet's default: 100 (native)"
+        else:
+            # linearDamping, angularDamping and maxJointVelocity are per multibody, and the C API
+            # resets the command's link index to -1 for them: set them alone, never per link.
+            p.changeDynamics(body, -1, linearDamping=0.0, angularDamping=0.0, maxJointVelocity=1e6)
+            settings["link_damping"] = "linearDamping = angularDamping = 0 (default 0.04)"
+            settings["maxJointVelocity"] = 1e6  # default 100: silent clamping
         for i in movable:  # URDF limits become limit constraints: widen them and give them no force
             p.changeDynamics(body, i, jointLowerLimit=-1e30, jointUpperLimit=1e30, jointLimitForce=0.0)
         settings["joint_limits"] = "off (bounds +-1e30, jointLimitForce 0)"
@@ -112,8 +124,14 @@ class PybulletEngine(Engine):
         for i in [-1] + links:
             p.setCollisionFilterGroupMask(body, i, 0, 0)
         settings["collisions"] = "off (collision filter group and mask 0)"
-        # every revolute/prismatic joint gets a velocity motor: zero its force
-        p.setJointMotorControlArray(body, movable, pybullet.VELOCITY_CONTROL, forces=[0.0] * len(movable))
+        # every revolute/prismatic joint gets a velocity motor: zero its force (or make it friction)
+        names = [j.name for j in self._facts["joints"]]
+        friction = [self._friction.get(n, 0.0) for n in names]
+        p.setJointMotorControlArray(body, movable, pybullet.VELOCITY_CONTROL, targetVelocities=[0.0] * len(movable),
+                                    forces=friction)
+        if self._friction:
+            settings["joint_friction"] = {n: f"velocity motor, target 0, max force {f}"
+                                          for n, f in self._friction.items()}
 
     def set_state(self, q, v):
         for k, i in enumerate(self._movable):

@@ -1,0 +1,360 @@
+"""Transfer gaps: our cartpole controllers and DiffOSI run against MuJoCo, PyBullet and DART (paper Table 5).
+
+The paper (Section 4.6, Table 5) trains in one engine (NimblePhysics) and tests in
+another (PyBullet). Here the controllers were trained in ours (policies/cartpole/) and
+the target environment is a reference engine (harness/engines/) left where a user would
+leave it (`native=True`): PyBullet with its default link damping (0.04) and velocity cap
+(100), MuJoCo with its implicit Euler damping, DART with its implicit passive forces;
+contacts and limits off, the file's gravity and timestep, generalized forces applied
+directly. The cartpole has no joint damping, so MuJoCo and DART run the same dynamics as
+ours (to ~1e-13); PyBullet's link damping is a real gap. `--unmodelled` widens it:
+`friction` adds Coulomb friction on the slider (--friction N, each engine's own
+mechanism), `delay` applies the previous control step's force (zero on the first step).
+Neither is in our model, and DiffOSI is told the commanded force.
+
+Each episode: the target runs with the episode's true mu (Task.mu_params(mu): the pole
+COM at (mu, 0, 0.5 + 0.2 mu)) from its initial state; every control step the policy
+acts on the target's state, the target steps under the resulting force, and the metric
+counts the steps that end with |theta| <= pi/2 and |x| <= 2.5 (the episode ends at the
+first that does not). Methods (diffosi.Task / Policy / OnlineOsi, the Rust task,
+shipped policies and identifier):
+- DR: the domain-randomised policy (no mu);
+- UC-DiffOSI: the Universal Controller fed DiffOSI's current estimate; each observed
+  transition (q, v, tau, q', v') of the target is pushed to OnlineOsi (bounded
+  Levenberg-Marquardt on our engine, window --window, warm start, mu in [-0.6, 0.6]);
+  the first step is fed the prior, the middle of the range (0);
+- UC-Oracle: the Universal Controller fed the true mu (the oracle in the target engine).
+Episodes: --episodes (mu, initial state) pairs drawn with --seed by Task.episodes (the
+ones `diffosi eval --seed` meets), each run with every shipped policy seed (--seeds), so
+every method and target meets the same episodes; a fresh engine per episode. Per
+episode: the metric, and for the UC methods the mean over control steps of |mu_fed - mu|
+(MAE) and of |mu_fed - mu| / |mu| (MARE). Tables give mean +- population std over all
+episodes and seeds.
+
+Writes <out>/transfer-<task>-<target>[-<unmodelled>].{md,json,png} per target and, for
+--target all, transfer-<task>-summary[-<unmodelled>].{md,json,png}.
+
+    python -m harness transfer --task cartpole --target all
+    python -m harness transfer --task cartpole --target pybullet --unmodelled friction,delay
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+
+import diffosi
+from harness import engines
+from harness.engines.base import REPO
+from harness.report import REPORTS, markdown_table, write_json, write_markdown
+
+METHODS = ("DR", "UC-DiffOSI", "UC-Oracle")
+UNMODELLED = ("friction", "delay")
+POLICIES = REPO / "policies"
+GOAL = 0.95  # issue 7: UC-DiffOSI reaches 95% of UC-Oracle's task performance in every target
+# Table 5 of the paper (NimblePhysics -> PyBullet): (MAE, MARE, task performance), mean and std
+PAPER = {
+    "DR": (None, None, (297.26, 197.85)),
+    "UC-DiffOSI": ((0.02, 0.04), (0.03, 0.06), (434.10, 110.88)),
+    "UC-Oracle": ((0.0, 0.0), (0.0, 0.0), (451.00, 73.81)),
+}
+
+
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    ap.add_argument("--task", default="cartpole", choices=["cartpole"], help="task (default %(default)s)")
+    ap.add_argument("--target", required=True, choices=[*engines.ENGINES, "all"], help="target engine")
+    ap.add_argument("--episodes", type=int, default=20, help="episodes per policy seed (default %(default)s)")
+    ap.add_argument("--seeds", default="0,1,2", help="shipped policy seeds (default %(default)s)")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the episodes (default %(default)s)")
+    ap.add_argument("--horizon", type=int, default=None, help="control steps per episode (default: the task's)")
+    ap.add_argument("--window", type=int, default=1, help="DiffOSI window in transitions (default %(default)s)")
+    ap.add_argument("--unmodelled", default="", help=f"comma-separated effects from {', '.join(UNMODELLED)}")
+    ap.add_argument("--friction", type=float, default=1.0,
+                    help="Coulomb friction on the cart's slider, N (default %(default)s)")
+    ap.add_argument("--plot-episodes", type=int, default=3, help="episodes whose mu_hat is plotted and kept")
+    ap.add_argument("--out", type=Path, default=REPORTS, help="report directory (default reports/)")
+
+
+class Setup:
+    """What every episode of one run shares: the task, policies, episodes and target options."""
+
+    def __init__(self, args, unmodelled: list[str]):
+        self.task = diffosi.Task(args.task)
+        assert self.task.substeps == 1, "one physics step per transition pushed to DiffOSI"
+        self.horizon = min(args.horizon or self.task.horizon, self.task.horizon)
+        self.seeds = [int(s) for s in args.seeds.split(",") if s.strip()]
+        self.mu, self.q0, self.v0 = self.task.episodes(args.episodes, args.seed)
+        self.window, self.delay = args.window, "delay" in unmodelled
+        self.friction = {"slider": args.friction} if "friction" in unmodelled else {}
+        self.policies = {(kind, s): diffosi.Policy.load(POLICIES / args.task / f"{kind}-seed{s}.json")
+                         for kind in ("uc", "dr") for s in self.seeds}
+
+    def target(self, name: str):
+        return engines.load(name, self.task.name, native=True, friction=self.friction)
+
+
+def run_episode(setup: Setup, target: str, method: str, seed: int, k: int, keep_trace: bool) -> dict:
+    """One episode of one method in a fresh target engine."""
+    task, mu = setup.task, setup.mu[k]
+    policy = setup.policies[("dr" if method == "DR" else "uc", seed)]
+    osi = diffosi.OnlineOsi(task, window=setup.window, seed=seed) if method == "UC-DiffOSI" else None
+    fed_trace, score, flags = [], 0.0, 0
+    with setup.target(target) as env:
+        for name, value in task.mu_params(mu).items():
+            env.set_param(name, value)
+        q, v = setup.q0[k], setup.v0[k]
+        env.set_state(q, v)
+        previous = np.zeros(len(v))
+        for _ in range(setup.horizon):
+            fed = None if method == "DR" else (mu if osi is None else osi.mu)
+            action = policy.act(task, q, v, fed)
+            tau = task.forces(action)
+            env.step(previous if setup.delay else tau)
+            previous = tau
+            q1, v1 = env.get_state()
+            if osi is not None:
+                flags += "at_bound" in osi.push(q, v, tau, q1, v1)["flags"]
+            if fed is not None:
+                fed_trace.append(float(fed[0]))
+            score += task.metric(q, v, action, q1, v1)
+            q, v = q1, v1
+            if task.terminated(q, v):
+                break
+    out = {"policy_seed": seed, "episode": k, "mu": float(mu[0]), "score": score}
+    if method != "DR":
+        err = np.abs(np.array(fed_trace) - mu[0])
+        out.update(mae=float(err.mean()), mare=float((err / abs(mu[0])).mean()))
+    if osi is not None:
+        out.update(mu_hat_final=float(osi.mu[0]), steps_at_bound=flags)
+    if keep_trace and osi is not None:
+        out["mu_fed"] = fed_trace
+    return out
+
+
+def mean_std(x) -> list:
+    x = np.asarray(x, float)
+    return [float(x.mean()), float(x.std())]
+
+
+def summarize(episodes: list[dict]) -> dict:
+    out = {"score": mean_std([e["score"] for e in episodes])}
+    if "mae" in episodes[0]:
+        out.update(mae=mean_std([e["mae"] for e in episodes]), mare=mean_std([e["mare"] for e in episodes]))
+    out["per_seed_score"] = {str(s): mean_std([e["score"] for e in episodes if e["policy_seed"] == s])
+                             for s in sorted({e["policy_seed"] for e in episodes})}
+    return out
+
+
+def run_target(setup: Setup, target: str, plot_episodes: int) -> dict:
+    """Every method on one target, with progress per (method, policy seed) batch."""
+    results = {}
+    for method in METHODS:
+        episodes = []
+        for seed in setup.seeds:
+            start = time.perf_counter()
+            batch = [run_episode(setup, target, method, seed, k, seed == setup.seeds[0] and k < plot_episodes)
+                     for k in range(len(setup.mu))]
+            episodes += batch
+            print(f"  {target:8s} {method:10s} policy seed {seed}: {len(batch)} episodes, task performance "
+                  f"{np.mean([e['score'] for e in batch]):6.1f}  ({time.perf_counter() - start:.1f} s)", flush=True)
+        results[method] = {"summary": summarize(episodes), "episodes": episodes}
+    oracle = results["UC-Oracle"]["summary"]["score"][0]
+    ratio = results["UC-DiffOSI"]["summary"]["score"][0] / oracle if oracle else float("nan")
+    with setup.target(target) as env:
+        engine = {"name": env.name, "version": env.version, "model": env.label, "passive": env.passive,
+                  "integrator": env.integrator, "timestep": env.timestep, "gravity": env.gravity,
+                  "settings": env.settings}
+    return {"target": target, "engine": engine, "methods": results,
+            "diffosi_over_oracle": ratio, "goal": GOAL, "meets_goal": bool(ratio >= GOAL)}
+
+
+def fmt(pair, digits: int = 3) -> str:
+    return f"{pair[0]:.{digits}f} ± {pair[1]:.{digits}f}"
+
+
+def paper_cells(method: str) -> list[str]:
+    mae, mare, score = PAPER[method]
+    na = "N/A"
+    return [fmt(mae, 2) if mae else na, fmt(mare, 2) if mare else na, fmt(score, 2)]
+
+
+def method_rows(doc: dict) -> list[list]:
+    rows = []
+    for method, r in doc["methods"].items():
+        s = r["summary"]
+        rows.append([method, fmt(s["mae"]) if "mae" in s else "N/A", fmt(s["mare"]) if "mare" in s else "N/A",
+                     fmt(s["score"], 1), *paper_cells(method)])
+    return rows
+
+
+def gap_words(meta: dict) -> str:
+    effects = []
+    if meta["friction"]:
+        effects.append(f"Coulomb friction {meta['friction']['slider']} N on the slider")
+    if meta["delay"]:
+        effects.append("a one-control-step actuator delay")
+    return ", plus unmodelled " + " and ".join(effects) if effects else ", no unmodelled effects"
+
+
+def markdown(doc: dict, meta: dict, png: str) -> list[str]:
+    e = doc["engine"]
+    ratio = doc["diffosi_over_oracle"]
+    verdict = "meets" if doc["meets_goal"] else f"**misses by {100 * (GOAL - ratio):.1f} points**"
+    lines = [
+        f"# Transfer: {meta['task']} controllers from our engine to {e['name']} {e['version']}",
+        "",
+        f"`{meta['command']}`",
+        "",
+        f"Target: {e['name']} {e['version']} running `{e['model']}` as a user would leave it (`native=True`), "
+        f"{e['passive']} passive forces, {e['integrator']}, h = {e['timestep']:g} s{gap_words(meta)}. "
+        f"The policies and DiffOSI run on our engine. {meta['episodes']} episodes (mu, initial state; "
+        f"seed {meta['seed']}) x policy seeds {meta['seeds']} = {meta['episodes'] * len(meta['seeds'])} "
+        f"per method, horizon {meta['horizon']} control steps; DiffOSI window {meta['window']}.",
+        "",
+        f"UC-DiffOSI reaches {100 * ratio:.1f}% of UC-Oracle's task performance in this target "
+        f"(goal {100 * GOAL:.0f}%: {verdict}; the paper: 96.3% in PyBullet).",
+        "",
+    ]
+    lines += markdown_table(["Approach", "MAE (mu)", "MARE (mu)", "Task performance",
+                             "paper MAE", "paper MARE", "paper task performance"], method_rows(doc))
+    lines += ["", "Paper: Table 5, NimblePhysics -> PyBullet, 20 models. Mean ± population std over episodes; "
+              "MAE and MARE average |mu fed to the UC - mu| (divided by |mu| for MARE) over an episode's "
+              "control steps.", "", "Task performance per policy seed:", ""]
+    seeds = list(doc["methods"]["DR"]["summary"]["per_seed_score"])
+    lines += markdown_table(["Approach", *[f"seed {s}" for s in seeds]],
+                            [[m, *[fmt(r["summary"]["per_seed_score"][s], 1) for s in seeds]]
+                             for m, r in doc["methods"].items()])
+    lines += ["", f"![task performance and mu estimates]({png})", "", f"## What {e['name']} ran", ""]
+    lines += [f"- {key}: {value}" for key, value in e["settings"].items()]
+    if meta["delay"]:
+        lines.append("- actuator delay (harness): each step applies the previous control step's force, "
+                     "zero on the first; DiffOSI is given the commanded force")
+    return lines
+
+
+def plot(path: Path, doc: dict, meta: dict) -> Path:
+    """Left: task performance per episode and method; right: mu fed by DiffOSI vs true mu."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4), dpi=110)
+    for i, (method, r) in enumerate(doc["methods"].items()):
+        scores = [e["score"] for e in r["episodes"]]
+        jitter = np.linspace(-0.25, 0.25, len(scores))
+        left.scatter(i + jitter, scores, s=8, alpha=0.6)
+        left.errorbar(i, *r["summary"]["score"], fmt="k_", capsize=6, ms=20)
+    left.set_xticks(range(len(doc["methods"])), list(doc["methods"]))
+    left.set(title=f"{doc['target']}: task performance per episode", ylabel="steps in bounds",
+             ylim=(-10, meta["horizon"] * 1.05))
+    for k, e in enumerate(e for e in doc["methods"]["UC-DiffOSI"]["episodes"] if "mu_fed" in e):
+        line, = right.plot(e["mu_fed"], lw=1.2, label=f"episode {e['episode']}: mu_hat")
+        right.axhline(e["mu"], color=line.get_color(), ls="--", lw=0.8)
+    right.set(title="UC-DiffOSI: mu fed to the UC (dashed: true mu)", xlabel="control step", ylabel="mu (m)",
+              ylim=(-0.65, 0.65))
+    right.legend(fontsize=7)
+    for ax in (left, right):
+        ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, metadata={"Software": None})
+    plt.close(fig)
+    return path
+
+
+def summary_markdown(docs: dict, meta: dict, png: str) -> list[str]:
+    rows = []
+    for target, doc in docs.items():
+        for method, r in doc["methods"].items():
+            s = r["summary"]
+            rows.append([target, method, fmt(s["mae"]) if "mae" in s else "N/A", fmt(s["score"], 1),
+                         f"{100 * s['score'][0] / doc['methods']['UC-Oracle']['summary']['score'][0]:.1f}%"])
+    lines = [f"# Transfer summary: {meta['task']} controllers from our engine to every reference engine",
+             "", f"`{meta['command']}`", "",
+             f"Targets left as a user would leave them{gap_words(meta)}; {meta['episodes']} episodes x policy "
+             f"seeds {meta['seeds']} per method and target. Per-target reports: "
+             + ", ".join(f"[{t}]({stem}.md)" for t, stem in meta["stems"].items()) + ".", ""]
+    lines += markdown_table(["Target", "Approach", "MAE (mu)", "Task performance", "of UC-Oracle"], rows)
+    lines += ["", "UC-DiffOSI vs the goal (95% of UC-Oracle in the same target): "
+              + "; ".join(f"{t} {100 * d['diffosi_over_oracle']:.1f}% "
+                          f"({'meets' if d['meets_goal'] else 'misses'})" for t, d in docs.items()) + ".",
+              "", f"![task performance per target]({png})"]
+    return lines
+
+
+def summary_plot(path: Path, docs: dict) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4), dpi=110)
+    width = 0.8 / len(METHODS)
+    for i, method in enumerate(METHODS):
+        stats = [docs[t]["methods"][method]["summary"]["score"] for t in docs]
+        ax.bar(np.arange(len(docs)) + (i - 1) * width, [s[0] for s in stats], width,
+               yerr=[s[1] for s in stats], capsize=3, label=method)
+    ax.set_xticks(range(len(docs)), list(docs))
+    ax.set(title="Task performance per target (mean ± std over episodes)", ylabel="steps in bounds")
+    ax.grid(True, axis="y", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, metadata={"Software": None})
+    plt.close(fig)
+    return path
+
+
+def parse_unmodelled(text: str) -> list[str]:
+    effects = [u.strip() for u in text.split(",") if u.strip()]
+    unknown = sorted(set(effects) - set(UNMODELLED))
+    if unknown:
+        raise ValueError(f"unknown unmodelled effects {unknown}; choose from {', '.join(UNMODELLED)}")
+    return [u for u in UNMODELLED if u in effects]
+
+
+def command(args, unmodelled: list[str]) -> str:
+    parts = [f"python -m harness transfer --task {args.task} --target {args.target}"]
+    defaults = {"episodes": 20, "seeds": "0,1,2", "seed": 0, "horizon": None, "window": 1}
+    parts += [f"--{k} {getattr(args, k)}" for k, d in defaults.items() if getattr(args, k) != d]
+    if unmodelled:
+        parts.append(f"--unmodelled {','.join(unmodelled)}")
+        if "friction" in unmodelled and args.friction != 1.0:
+            parts.append(f"--friction {args.friction:g}")
+    return " ".join(parts)
+
+
+def run(args) -> int:
+    try:
+        unmodelled = parse_unmodelled(args.unmodelled)
+    except ValueError as e:
+        print(f"transfer: {e}")
+        return 2
+    setup = Setup(args, unmodelled)
+    suffix = "".join(f"-{u}" for u in unmodelled)
+    targets = list(engines.ENGINES) if args.target == "all" else [args.target]
+    meta = {"task": args.task, "command": command(args, unmodelled), "episodes": len(setup.mu),
+            "seeds": setup.seeds, "seed": args.seed, "horizon": setup.horizon, "window": setup.window,
+            "unmodelled": unmodelled, "friction": setup.friction, "delay": setup.delay,
+            "stems": {t: f"transfer-{args.task}-{t}{suffix}" for t in targets}}
+    docs = {}
+    for target in targets:
+        print(f"transfer: {args.task} -> {target}{gap_words(meta)}", flush=True)
+        doc = docs[target] = run_target(setup, target, args.plot_episodes)
+        stem = args.out / meta["stems"][target]
+        png = plot(stem.with_suffix(".png"), doc, meta)
+        write_json(stem.with_suffix(".json"), {"meta": meta, **doc})
+        write_markdown(stem.with_suffix(".md"), markdown(doc, meta, png.name))
+        print(f"  UC-DiffOSI / UC-Oracle = {100 * doc['diffosi_over_oracle']:.1f}%; wrote {stem}.md, .json, .png")
+    if args.target == "all":
+        stem = args.out / f"transfer-{args.task}-summary{suffix}"
+        png = summary_plot(stem.with_suffix(".png"), docs)
+        summary = {t: {"diffosi_over_oracle": d["diffosi_over_oracle"], "meets_goal": d["meets_goal"],
+                       **{m: r["summary"] for m, r in d["methods"].items()}} for t, d in docs.items()}
+        write_json(stem.with_suffix(".json"), {"meta": meta, "targets": summary})
+        write_markdown(stem.with_suffix(".md"), summary_markdown(docs, meta, png.name))
+        print(f"wrote {stem}.md, .json, .png")
+    return 0
