@@ -13,6 +13,7 @@
 use diffosi::derivatives::Transition;
 use diffosi::model::{MapEntry, Model, ParamMap};
 use diffosi::osi::Problem;
+use diffosi::tasks::Cartpole;
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 
@@ -37,16 +38,7 @@ pub fn load(name: &str) -> Model {
 
 pub fn cartpole() -> Task {
     let model = load("cartpole");
-    let map = ParamMap::new(
-        &model,
-        1,
-        &[MapEntry {
-            name: "body/pole/com",
-            offset: &[0.0, 0.0, 0.5],
-            gain: &[&[1.0], &[0.0], &[0.2]],
-        }],
-    )
-    .unwrap();
+    let map = Cartpole::mu_map_of(&model).unwrap();
     Task {
         name: "cartpole",
         model,

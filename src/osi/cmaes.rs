@@ -26,7 +26,8 @@
 
 use nalgebra::{DMatrix, DVector};
 use rand::rngs::StdRng;
-use rand::{RngExt, SeedableRng};
+use rand::SeedableRng;
+use rand_distr::{Distribution, StandardNormal};
 
 use super::{Estimate, Excitation, Identifier, OsiError, Problem, Subspace};
 use crate::derivatives::{Transition, WindowError};
@@ -67,13 +68,6 @@ impl Default for CmaEsOptions {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CmaEs {
     pub options: CmaEsOptions,
-}
-
-/// A standard normal draw (Box-Muller).
-fn normal(rng: &mut StdRng) -> f64 {
-    let u1 = 1.0 - rng.random::<f64>(); // (0, 1]
-    let u2 = rng.random::<f64>();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
 impl Identifier for CmaEs {
@@ -132,7 +126,7 @@ impl Identifier for CmaEs {
             let mut steps = Vec::with_capacity(lambda);
             let mut scores = Vec::with_capacity(lambda);
             for _ in 0..lambda {
-                let z = DVector::from_fn(n, |_, _| normal(&mut rng));
+                let z = DVector::from_fn(n, |_, _| StandardNormal.sample(&mut rng));
                 let y = &axes * lengths.component_mul(&z);
                 let x = &mean + &y * sigma;
                 let clamped = x.map(|xi| xi.clamp(0.0, 1.0));
