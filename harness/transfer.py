@@ -7,7 +7,8 @@ leave it (`native=True`): PyBullet with its default link damping (0.04) and velo
 (100), MuJoCo with its implicit Euler damping, DART with its implicit passive forces;
 contacts and limits off, the file's gravity and timestep, generalized forces applied
 directly. The cartpole has no joint damping, so MuJoCo and DART run the same dynamics as
-ours (to ~1e-13); PyBullet's link damping is a real gap. `--unmodelled` widens it:
+ours (to ~1e-13); PyBullet's link damping is a real gap (a force -0.04 (1 + |v|) m v per
+link: at the 5-7 m/s of a recovering swing, a residual 30-100 times DiffOSI's scale). `--unmodelled` widens it:
 `friction` adds Coulomb friction on the slider (--friction N, each engine's own
 mechanism), `delay` applies the previous control step's force (zero on the first step).
 Neither is in our model, and DiffOSI is told the commanded force.
@@ -31,7 +32,8 @@ ones `diffosi eval --seed` meets), each run with every shipped policy seed (--se
 every method and target meets the same episodes; a fresh engine per episode. Per
 episode: the metric, and for the UC methods the mean over control steps of |mu_fed - mu|
 (MAE) and of |mu_fed - mu| / |mu| (MARE). Tables give mean +- population std over all
-episodes and seeds.
+episodes and seeds. Our engine itself runs the same episodes first (the source: no gap,
+no unmodelled effects), so each table shows the transfer gap next to the target's numbers.
 
 Writes <out>/transfer-<task>-<target>[-<unmodelled>].{md,json,png} per target and, for
 --target all, transfer-<task>-summary[-<unmodelled>].{md,json,png}.
@@ -54,6 +56,7 @@ from harness.engines.base import REPO
 from harness.report import REPORTS, markdown_table, write_json, write_markdown
 
 METHODS = ("DR", "UC-DiffOSI", "UC-Oracle")
+SOURCE = "ours"  # our engine as the environment: the training engine, no transfer gap
 UNMODELLED = ("friction", "delay")
 POLICIES = REPO / "policies"
 GOAL = 0.95  # issue 7: UC-DiffOSI reaches 95% of UC-Oracle's task performance in every target
@@ -95,7 +98,36 @@ class Setup:
                          for kind in ("uc", "dr") for s in self.seeds}
 
     def target(self, name: str):
+        """A fresh environment: a reference engine, or SOURCE (our engine, no gap)."""
+        if name == SOURCE:
+            return Source(self.task)
         return engines.load(name, self.task.name, native=True, friction=self.friction)
+
+
+class Source:
+    """Our engine as the environment, the one the policies were trained in: the task's model,
+    stepped by diffosi.Model, behind the adapters' interface (no friction, no delay)."""
+
+    def __init__(self, task):
+        self.model, self.state = task.model(), None
+
+    def set_param(self, name: str, value) -> None:
+        self.model.set_param(name, value)
+
+    def set_state(self, q, v) -> None:
+        self.state = (q, v)
+
+    def get_state(self) -> tuple:
+        return self.state
+
+    def step(self, tau) -> None:
+        self.state = self.model.step(*self.state, tau)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        pass
 
 
 def run_episode(setup: Setup, target: str, method: str, seed: int, k: int, keep_trace: bool) -> dict:
@@ -114,7 +146,7 @@ def run_episode(setup: Setup, target: str, method: str, seed: int, k: int, keep_
             fed = None if method == "DR" else (mu if osi is None else osi.mu)
             action = policy.act(task, q, v, fed)
             tau = task.forces(action)
-            env.step(previous if setup.delay else tau)
+            env.step(previous if setup.delay and target != SOURCE else tau)
             previous = tau
             q1, v1 = env.get_state()
             if osi is not None:
@@ -150,8 +182,8 @@ def summarize(episodes: list[dict]) -> dict:
     return out
 
 
-def run_target(setup: Setup, target: str, plot_episodes: int) -> dict:
-    """Every method on one target, with progress per (method, policy seed) batch."""
+def run_methods(setup: Setup, target: str, plot_episodes: int) -> dict:
+    """Every method on one target (or SOURCE), with progress per (method, policy seed) batch."""
     results = {}
     for method in METHODS:
         episodes = []
@@ -163,13 +195,19 @@ def run_target(setup: Setup, target: str, plot_episodes: int) -> dict:
             print(f"  {target:8s} {method:10s} policy seed {seed}: {len(batch)} episodes, task performance "
                   f"{np.mean([e['score'] for e in batch]):6.1f}  ({time.perf_counter() - start:.1f} s)", flush=True)
         results[method] = {"summary": summarize(episodes), "episodes": episodes}
+    return results
+
+
+def run_target(setup: Setup, target: str, plot_episodes: int, source: dict) -> dict:
+    """Every method on one target; `source` holds the same episodes' summaries in our engine."""
+    results = run_methods(setup, target, plot_episodes)
     oracle = results["UC-Oracle"]["summary"]["score"][0]
     ratio = results["UC-DiffOSI"]["summary"]["score"][0] / oracle if oracle else float("nan")
     with setup.target(target) as env:
         engine = {"name": env.name, "version": env.version, "model": env.label, "passive": env.passive,
                   "integrator": env.integrator, "timestep": env.timestep, "gravity": env.gravity,
                   "settings": env.settings}
-    return {"target": target, "engine": engine, "methods": results,
+    return {"target": target, "engine": engine, "methods": results, "source": source,
             "diffosi_over_oracle": ratio, "goal": GOAL, "meets_goal": bool(ratio >= GOAL)}
 
 
@@ -188,7 +226,7 @@ def method_rows(doc: dict) -> list[list]:
     for method, r in doc["methods"].items():
         s = r["summary"]
         rows.append([method, fmt(s["mae"]) if "mae" in s else "N/A", fmt(s["mare"]) if "mare" in s else "N/A",
-                     fmt(s["score"], 1), *paper_cells(method)])
+                     fmt(s["score"], 1), fmt(doc["source"][method]["score"], 1), *paper_cells(method)])
     return rows
 
 
@@ -237,11 +275,13 @@ def markdown(doc: dict, meta: dict, png: str) -> list[str]:
         f"(goal {100 * GOAL:.0f}%: {verdict}; the paper: 96.3% in PyBullet).",
         "",
     ]
-    lines += markdown_table(["Approach", "MAE (mu)", "MARE (mu)", "Task performance",
+    lines += markdown_table(["Approach", "MAE (mu)", "MARE (mu)", "Task performance", "in our engine",
                              "paper MAE", "paper MARE", "paper task performance"], method_rows(doc))
     lines += ["", "Paper: Table 5, NimblePhysics -> PyBullet, 20 models. Mean ± population std over episodes; "
               "MAE and MARE average |mu fed to the UC - mu| (divided by |mu| for MARE) over an episode's "
-              "control steps.", "", "Task performance per policy seed:", ""]
+              "control steps. \"In our engine\": the same episodes and policies with our engine as the "
+              "environment (the training engine: no gap, no unmodelled effects); the transfer gap is the "
+              "difference.", "", "Task performance per policy seed:", ""]
     seeds = list(doc["methods"]["DR"]["summary"]["per_seed_score"])
     lines += markdown_table(["Approach", *[f"seed {s}" for s in seeds]],
                             [[m, *[fmt(r["summary"]["per_seed_score"][s], 1) for s in seeds]]
@@ -289,13 +329,19 @@ def plot(path: Path, doc: dict, meta: dict) -> Path:
     return path
 
 
+def summary_blocks(docs: dict) -> dict:
+    """{environment: {method: summary}}: our engine (the source) first, then every target."""
+    source = next(iter(docs.values()))["source"]
+    return {f"{SOURCE} (source, no gap)": source,
+            **{t: {m: r["summary"] for m, r in d["methods"].items()} for t, d in docs.items()}}
+
+
 def summary_markdown(docs: dict, meta: dict, png: str) -> list[str]:
     rows = []
-    for target, doc in docs.items():
-        for method, r in doc["methods"].items():
-            s = r["summary"]
+    for target, methods in summary_blocks(docs).items():
+        for method, s in methods.items():
             rows.append([target, method, fmt(s["mae"]) if "mae" in s else "N/A", fmt(s["score"], 1),
-                         f"{100 * s['score'][0] / doc['methods']['UC-Oracle']['summary']['score'][0]:.1f}%"])
+                         f"{100 * s['score'][0] / methods['UC-Oracle']['score'][0]:.1f}%"])
     lines = [f"# Transfer summary: {meta['task']} controllers from our engine to every reference engine",
              "", f"`{meta['command']}`", "",
              f"Targets left as a user would leave them{gap_words(meta)}; {meta['episodes']} episodes x policy "
@@ -305,6 +351,7 @@ def summary_markdown(docs: dict, meta: dict, png: str) -> list[str]:
     lines += ["", "UC-DiffOSI vs the goal (95% of UC-Oracle in the same target): "
               + "; ".join(f"{t} {100 * d['diffosi_over_oracle']:.1f}% "
                           f"({'meets' if d['meets_goal'] else 'misses'})" for t, d in docs.items()) + ".",
+              "", "Where a target misses, its report lists the episodes where UC-DiffOSI and UC-Oracle part.",
               "", f"![task performance per target]({png})"]
     return lines
 
@@ -315,14 +362,15 @@ def summary_plot(path: Path, docs: dict) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 4), dpi=110)
+    blocks = summary_blocks(docs)
+    fig, ax = plt.subplots(figsize=(8, 4), dpi=110)
     width = 0.8 / len(METHODS)
     for i, method in enumerate(METHODS):
-        stats = [docs[t]["methods"][method]["summary"]["score"] for t in docs]
-        ax.bar(np.arange(len(docs)) + (i - 1) * width, [s[0] for s in stats], width,
+        stats = [methods[method]["score"] for methods in blocks.values()]
+        ax.bar(np.arange(len(blocks)) + (i - 1) * width, [s[0] for s in stats], width,
                yerr=[s[1] for s in stats], capsize=3, label=method)
-    ax.set_xticks(range(len(docs)), list(docs))
-    ax.set(title="Task performance per target (mean ± std over episodes)", ylabel="steps in bounds")
+    ax.set_xticks(range(len(blocks)), list(blocks))
+    ax.set(title="Task performance per environment (mean ± std over episodes)", ylabel="steps in bounds")
     ax.grid(True, axis="y", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
@@ -363,10 +411,12 @@ def run(args) -> int:
             "seeds": setup.seeds, "seed": args.seed, "horizon": setup.horizon, "window": setup.window,
             "unmodelled": unmodelled, "friction": setup.friction, "delay": setup.delay,
             "stems": {t: f"transfer-{args.task}-{t}{suffix}" for t in targets}}
+    print(f"transfer: {args.task} in our engine (the source: no gap)", flush=True)
+    source = {m: r["summary"] for m, r in run_methods(setup, SOURCE, 0).items()}
     docs = {}
     for target in targets:
         print(f"transfer: {args.task} -> {target}{gap_words(meta)}", flush=True)
-        doc = docs[target] = run_target(setup, target, args.plot_episodes)
+        doc = docs[target] = run_target(setup, target, args.plot_episodes, source)
         stem = args.out / meta["stems"][target]
         png = plot(stem.with_suffix(".png"), doc, meta)
         write_json(stem.with_suffix(".json"), {"meta": meta, **doc})
@@ -377,7 +427,7 @@ def run(args) -> int:
         png = summary_plot(stem.with_suffix(".png"), docs)
         summary = {t: {"diffosi_over_oracle": d["diffosi_over_oracle"], "meets_goal": d["meets_goal"],
                        **{m: r["summary"] for m, r in d["methods"].items()}} for t, d in docs.items()}
-        write_json(stem.with_suffix(".json"), {"meta": meta, "targets": summary})
+        write_json(stem.with_suffix(".json"), {"meta": meta, "source": source, "targets": summary})
         write_markdown(stem.with_suffix(".md"), summary_markdown(docs, meta, png.name))
         print(f"wrote {stem}.md, .json, .png")
     return 0
