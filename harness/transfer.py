@@ -8,10 +8,11 @@ leave it (`native=True`): PyBullet with its default link damping (0.04) and velo
 contacts and limits off, the file's gravity and timestep, generalized forces applied
 directly. The cartpole has no joint damping, so MuJoCo and DART run the same dynamics as
 ours (to ~1e-13); PyBullet's link damping is a real gap (a force -0.04 (1 + |v|) m v per
-link: at the 5-7 m/s of a recovering swing, a residual 30-100 times DiffOSI's scale). `--unmodelled` widens it:
-`friction` adds Coulomb friction on the slider (--friction N, each engine's own
-mechanism), `delay` applies the previous control step's force (zero on the first step).
-Neither is in our model, and DiffOSI is told the commanded force.
+link: at the 5-7 m/s of a recovering swing, one-step residuals 30-100 times DiffOSI's
+residual scale). `--unmodelled` widens the gap: `friction` adds Coulomb friction on the
+slider (--friction N, each engine's own mechanism), `delay` applies the previous control
+step's force (zero on the first step). Neither is in our model, and DiffOSI is told the
+commanded force.
 
 Each episode: the target runs with the episode's true mu (Task.mu_params(mu): the pole
 COM at (mu, 0, 0.5 + 0.2 mu)) from its initial state; every control step the policy
@@ -89,6 +90,7 @@ class Setup:
     def __init__(self, args, unmodelled: list[str]):
         self.task = diffosi.Task(args.task)
         assert self.task.substeps == 1, "one physics step per transition pushed to DiffOSI"
+        assert self.task.nmu == 1, "the errors and plots read mu as one number (the cartpole's)"
         self.horizon = min(args.horizon or self.task.horizon, self.task.horizon)
         self.seeds = [int(s) for s in args.seeds.split(",") if s.strip()]
         self.mu, self.q0, self.v0 = self.task.episodes(args.episodes, args.seed)

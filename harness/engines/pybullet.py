@@ -13,9 +13,10 @@ the old one. A reload is one mechanism for every parameter, with the URDF's mean
 native=True keeps PyBullet's link damping and its joint velocity cap (100). The damping,
 linearDamping = angularDamping = 0.04, is explicit and quadratic: a force
 -0.04 (1 + |v|) m v and a torque -0.04 (1 + |w|) I w on each link (v, w the link frame's
-velocities; measured: a cart coasting at 1 and 5 m/s slows at 0.08 and 0.24 times v per s). friction={joint: f} is PyBullet's usual joint friction: the joint's
-velocity motor with target velocity 0 and maximum force f, a constraint that holds the
-joint still unless more than f pushes it (TORQUE_CONTROL forces add to it).
+velocities; measured: a cart coasting at 1 and 5 m/s slows at 0.08 and 0.24 times v per s).
+friction={joint: f} is PyBullet's usual joint friction: the joint's velocity motor with
+target velocity 0 and maximum force f, a constraint that holds the joint still unless
+more than f pushes it (TORQUE_CONTROL forces add to it).
 """
 
 from __future__ import annotations
