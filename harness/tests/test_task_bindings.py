@@ -103,3 +103,23 @@ def test_a_rejected_push_changes_nothing(task):
     with pytest.raises(ValueError):
         osi.push([0.0, 0.1], [0.0, 0.0], [5.0, 0.0], q1, [np.nan, 0.0])
     assert osi.mu[0] == first[0]
+
+
+def test_change_detection_flags_a_new_mu(task):
+    """mu jumps from 0.3 to -0.3 after 8 transitions: with change detection the window is
+    emptied at once (flag "changed") and the estimate follows; without it, a window of 3
+    still holds old transitions on the first push after the jump."""
+    runs = {}
+    for detect in (True, False):
+        rng = np.random.default_rng(0)
+        osi, q, v = diffosi.OnlineOsi(task, window=3, change_detection=detect), np.array([0.0, 0.1]), np.zeros(2)
+        runs[detect] = []
+        for k in range(12):
+            tau = [rng.uniform(-5, 5), 0.0]
+            q1, v1 = task.model([0.3 if k < 8 else -0.3]).step(q, v, tau)
+            est = osi.push(q, v, tau, q1, v1)
+            runs[detect].append((est["mu"][0], est["flags"]))
+            q, v = q1, v1
+    flagged = [k for k, (_, flags) in enumerate(runs[True]) if "changed" in flags]
+    assert flagged == [8] and abs(runs[True][8][0] + 0.3) < 1e-9
+    assert abs(runs[False][8][0] + 0.3) > 1e-3 and not any("changed" in f for _, f in runs[False])
