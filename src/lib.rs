@@ -15,6 +15,7 @@
 //! # }
 //! ```
 
+pub mod control;
 pub mod derivatives;
 pub mod dynamics;
 pub mod model;

@@ -189,6 +189,47 @@ impl<T: Float> Mlp<T> {
     }
 }
 
+/// One layer as the weights files store it: `w` as `out` rows of `in`
+/// values, `b` with `out` values.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct LayerFile {
+    pub w: Vec<Vec<f32>>,
+    pub b: Vec<f32>,
+}
+
+impl Mlp<f32> {
+    /// The layers in their file form.
+    pub fn to_files(&self) -> Vec<LayerFile> {
+        self.layers()
+            .map(|(w, b)| LayerFile {
+                w: w.chunks_exact(w.len() / b.len())
+                    .map(<[f32]>::to_vec)
+                    .collect(),
+                b: b.to_vec(),
+            })
+            .collect()
+    }
+
+    /// A network from its layers in file form, checking that they chain.
+    pub fn from_files(layers: &[LayerFile]) -> Result<Mlp<f32>, String> {
+        let Some(first) = layers.first() else {
+            return Err("no layers".into());
+        };
+        let mut sizes = vec![first.w.first().map_or(0, Vec::len)];
+        let mut params = vec![];
+        for layer in layers {
+            let n_in = *sizes.last().expect("non-empty");
+            if layer.w.len() != layer.b.len() || layer.w.iter().any(|row| row.len() != n_in) {
+                return Err(format!("a layer is not {} rows of {n_in}", layer.b.len()));
+            }
+            sizes.push(layer.b.len());
+            params.extend(layer.w.iter().flatten());
+            params.extend(&layer.b);
+        }
+        Mlp::from_params(&sizes, params)
+    }
+}
+
 /// Number of parameters of a network with these layer sizes.
 fn param_count(sizes: &[usize]) -> usize {
     sizes.windows(2).map(|p| (p[0] + 1) * p[1]).sum()

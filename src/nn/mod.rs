@@ -15,7 +15,7 @@ mod adam;
 mod mlp;
 
 pub use adam::Adam;
-pub use mlp::{Mlp, Tape};
+pub use mlp::{LayerFile, Mlp, Tape};
 
 use std::fmt::Debug;
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub};

@@ -20,6 +20,7 @@ mod adam;
 mod change;
 mod cmaes;
 mod lm;
+pub mod mlp;
 mod online;
 mod trivial;
 

@@ -5,13 +5,16 @@
 use rand::rngs::StdRng;
 use rand::SeedableRng;
 
-use super::{Policy, PolicyKind};
-use crate::tasks::{average_mu, sample_mu, Env, EnvError, Task};
+use super::Policy;
+use crate::control::{
+    run_episode, AverageMu, ControlError, Episode, MuEstimator, OracleMu, RandomMu,
+};
+use crate::tasks::{EnvError, Task};
 
 /// Where a Universal Controller's mu comes from during evaluation (a
 /// domain-randomised policy ignores it). Each source fixes the fed mu at the
-/// start of an episode; an online identifier would update it after every
-/// transition.
+/// start of an episode; the online identifiers are in
+/// [`crate::control::Source`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum MuSource {
@@ -62,34 +65,28 @@ pub fn evaluate(
     seed: u64,
 ) -> Result<Evaluation, EnvError> {
     let mut episode_rng = StdRng::seed_from_u64(seed);
-    let mut guess_rng = StdRng::seed_from_u64(seed ^ 0x6a09_e667_f3bc_c908);
-    let mut env = Env::new(task);
+    let mut estimator: Box<dyn MuEstimator> = match source {
+        MuSource::Oracle => Box::new(OracleMu::default()),
+        MuSource::Random => Box::new(RandomMu::new(task, seed ^ 0x6a09_e667_f3bc_c908)),
+        MuSource::Average => Box::new(AverageMu::new(task)),
+    };
     let mut result = Evaluation {
         metrics: vec![],
         mu_true: vec![],
         mu_fed: vec![],
     };
     for _ in 0..episodes {
-        let mu = sample_mu(task, &mut episode_rng);
-        env.reset(&mu, &mut episode_rng)?;
-        let fed = match (policy.kind, source) {
-            (PolicyKind::Dr, _) => vec![],
-            (PolicyKind::Uc, MuSource::Oracle) => mu.clone(),
-            (PolicyKind::Uc, MuSource::Random) => sample_mu(task, &mut guess_rng),
-            (PolicyKind::Uc, MuSource::Average) => average_mu(task),
+        let episode = Episode::draw(task, &mut episode_rng);
+        let trace = match run_episode(task, policy, Some(estimator.as_mut()), &episode) {
+            Ok(trace) => trace,
+            Err(ControlError::Env(e)) => return Err(e),
+            Err(e) => unreachable!("fixed mu sources do not identify: {e}"),
         };
-        let mut score = 0.0;
-        loop {
-            let action = policy.act(&policy.observation(task, env.state(), &fed));
-            let out = env.step(&action)?;
-            score += out.metric;
-            if out.terminated || out.truncated {
-                break;
-            }
-        }
-        result.metrics.push(score);
-        result.mu_true.push(mu);
-        result.mu_fed.push(fed);
+        result.metrics.push(trace.score());
+        result.mu_true.push(episode.mu);
+        result
+            .mu_fed
+            .push(trace.mu_hat.first().cloned().unwrap_or_default());
     }
     Ok(result)
 }

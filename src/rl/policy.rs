@@ -29,7 +29,7 @@ use serde::{Deserialize, Serialize};
 
 use super::stats::normalize_into;
 use crate::model::State;
-use crate::nn::{Mlp, Tape};
+use crate::nn::{LayerFile, Mlp, Tape};
 use crate::tasks::Task;
 
 const FORMAT: &str = "diffosi-policy/1";
@@ -68,12 +68,6 @@ pub struct Policy {
 }
 
 #[derive(Serialize, Deserialize)]
-struct Layer {
-    w: Vec<Vec<f32>>,
-    b: Vec<f32>,
-}
-
-#[derive(Serialize, Deserialize)]
 struct File {
     format: String,
     task: String,
@@ -81,7 +75,7 @@ struct File {
     obs_mean: Vec<f64>,
     obs_std: Vec<f64>,
     obs_clip: f64,
-    layers: Vec<Layer>,
+    layers: Vec<LayerFile>,
     log_std: Vec<f32>,
     training: Option<TrainingInfo>,
 }
@@ -110,16 +104,7 @@ impl Policy {
             obs_mean: self.obs_mean.clone(),
             obs_std: self.obs_std.clone(),
             obs_clip: self.obs_clip,
-            layers: self
-                .actor
-                .layers()
-                .map(|(w, b)| Layer {
-                    w: w.chunks_exact(w.len() / b.len())
-                        .map(<[f32]>::to_vec)
-                        .collect(),
-                    b: b.to_vec(),
-                })
-                .collect(),
+            layers: self.actor.to_files(),
             log_std: self.log_std.clone(),
             training: self.training.clone(),
         };
@@ -140,24 +125,7 @@ impl Policy {
             ));
         }
         let bad = |why: String| format!("{shown}: {why}");
-        let Some(first) = file.layers.first() else {
-            return Err(bad("no layers".into()));
-        };
-        let mut sizes = vec![first.w.first().map_or(0, Vec::len)];
-        let mut params = vec![];
-        for layer in &file.layers {
-            let n_in = *sizes.last().expect("non-empty");
-            if layer.w.len() != layer.b.len() || layer.w.iter().any(|row| row.len() != n_in) {
-                return Err(bad(format!(
-                    "a layer is not {} rows of {n_in}",
-                    layer.b.len()
-                )));
-            }
-            sizes.push(layer.b.len());
-            params.extend(layer.w.iter().flatten());
-            params.extend(&layer.b);
-        }
-        let actor = Mlp::from_params(&sizes, params).map_err(bad)?;
+        let actor = Mlp::from_files(&file.layers).map_err(bad)?;
         let inputs = actor.inputs();
         if file.obs_mean.len() != inputs || file.obs_std.len() != inputs {
             return Err(bad(format!("obs_mean and obs_std need {inputs} values")));

@@ -126,10 +126,23 @@ impl<'a> Env<'a> {
 
     /// Starts an episode with environment parameters `mu`.
     pub fn reset(&mut self, mu: &[f64], rng: &mut StdRng) -> Result<(), EnvError> {
+        let state = self.task.reset(rng);
+        self.reset_to(mu, state)
+    }
+
+    /// Starts an episode with environment parameters `mu` from `state`.
+    pub fn reset_to(&mut self, mu: &[f64], state: State) -> Result<(), EnvError> {
+        self.set_mu(mu)?;
+        self.state = state;
+        self.t = 0;
+        Ok(())
+    }
+
+    /// Changes the true mu in the middle of an episode (the state and the
+    /// step count carry on).
+    pub fn set_mu(&mut self, mu: &[f64]) -> Result<(), EnvError> {
         self.task.mu_map().apply(&mut self.model, mu)?;
         self.mu = mu.to_vec();
-        self.state = self.task.reset(rng);
-        self.t = 0;
         Ok(())
     }
 

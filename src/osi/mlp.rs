@@ -1,0 +1,415 @@
+//! UC-MLP, the learned identifier of Yu et al. (2017) that the paper compares
+//! against: an MLP (hidden 256, 128, 64, tanh; linear output) that predicts mu
+//! from the observations DiffOSI sees.
+//!
+//! Conventions:
+//! - Input: the last [`MlpConfig::transitions`] transitions (default 4, a
+//!   context window of N = 5 states), oldest first, each as q_t, v_t, tau_t,
+//!   q_t+1, v_t+1 (SI units, tau the generalized forces on every dof). Each
+//!   input component is standardised, z = (x - input_mean) / input_std, with
+//!   the statistics of the training set (a constant component gets std 1).
+//! - Output: y, with mu = mid + half y, where mid and half are the centre and
+//!   half-width of the training range of mu (so y lies in [-1, 1] on it).
+//!   The prediction is not clamped here; a caller feeding a controller clamps
+//!   it to the controller's range.
+//! - Training data: episodes of the task in our engine with mu uniform in the
+//!   training range, driven by the given Universal Controllers fed the true mu
+//!   and sampling their Gaussian actions (the exploration they were trained
+//!   with, so the states cover more than the deterministic controller visits);
+//!   every run of consecutive transitions of an episode is one example. The
+//!   loss is the mean squared error of y; Adam on minibatches; a tenth of the
+//!   episodes is held out and its loss reported after every epoch.
+//!
+//! The weights file is JSON (`format: "diffosi-mu-mlp/1"`): `task`,
+//! `transitions`, `input_mean`, `input_std`, `mu_lower`, `mu_upper` (the
+//! training range), `layers` (as in the policy files: `w` as `out` rows of
+//! `in` values, `b`), `training` (informational). In Python:
+//! ```text
+//! f = json.load(open(path)); z = (x - f["input_mean"]) / f["input_std"]
+//! for i, l in enumerate(f["layers"]):
+//!     z = np.asarray(l["w"]) @ z + l["b"]; z = np.tanh(z) if i + 1 < len(f["layers"]) else z
+//! lo, hi = np.array(f["mu_lower"]), np.array(f["mu_upper"]); mu = (lo + hi) / 2 + (hi - lo) / 2 * z
+//! ```
+
+use std::path::Path;
+use std::time::Instant;
+
+use rand::rngs::StdRng;
+use rand::seq::SliceRandom;
+use rand::{RngExt, SeedableRng};
+use rand_distr::{Distribution, StandardNormal};
+use serde::{Deserialize, Serialize};
+
+use crate::derivatives::Transition;
+use crate::nn::{Adam, LayerFile, Mlp, Tape};
+use crate::rl::Policy;
+use crate::tasks::{Env, EnvError, Task};
+
+const FORMAT: &str = "diffosi-mu-mlp/1";
+
+/// How a UC-MLP is made.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MlpConfig {
+    pub seed: u64,
+    /// Training range of mu, per component.
+    pub mu_lower: Vec<f64>,
+    pub mu_upper: Vec<f64>,
+    /// Transitions per input.
+    pub transitions: usize,
+    pub hidden: Vec<usize>,
+    /// Episodes collected per controller.
+    pub episodes: usize,
+    pub epochs: usize,
+    pub batch: usize,
+    /// Adam's step size, annealed linearly to zero.
+    pub lr: f64,
+}
+
+impl MlpConfig {
+    /// The paper's network (256, 128, 64) on a mu range, with the settings
+    /// used for the shipped cartpole weights.
+    pub fn new(mu_lower: &[f64], mu_upper: &[f64]) -> MlpConfig {
+        MlpConfig {
+            seed: 0,
+            mu_lower: mu_lower.to_vec(),
+            mu_upper: mu_upper.to_vec(),
+            transitions: 4,
+            hidden: vec![256, 128, 64],
+            episodes: 60,
+            epochs: 15,
+            batch: 256,
+            lr: 1e-3,
+        }
+    }
+}
+
+/// How the weights were made, kept in their file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MlpTraining {
+    pub config: MlpConfig,
+    pub examples: usize,
+    /// Mean squared error of y on the held-out episodes before training, then
+    /// after each epoch.
+    pub validation_loss: Vec<f64>,
+    pub wall_seconds: f64,
+}
+
+/// A trained UC-MLP (see the module docs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MuMlp {
+    pub task: String,
+    pub transitions: usize,
+    pub input_mean: Vec<f64>,
+    pub input_std: Vec<f64>,
+    pub mu_lower: Vec<f64>,
+    pub mu_upper: Vec<f64>,
+    pub net: Mlp<f32>,
+    pub training: Option<MlpTraining>,
+}
+
+#[derive(Serialize, Deserialize)]
+struct File {
+    format: String,
+    task: String,
+    transitions: usize,
+    input_mean: Vec<f64>,
+    input_std: Vec<f64>,
+    mu_lower: Vec<f64>,
+    mu_upper: Vec<f64>,
+    layers: Vec<LayerFile>,
+    training: Option<MlpTraining>,
+}
+
+/// Appends the raw input of a run of transitions (oldest first).
+fn features(window: &[Transition], out: &mut Vec<f64>) {
+    for t in window {
+        for x in [&t.q, &t.v, &t.tau, &t.q_next, &t.v_next] {
+            out.extend_from_slice(x);
+        }
+    }
+}
+
+impl MuMlp {
+    /// mu predicted from the last `transitions` transitions of `window`
+    /// (oldest first); None if it holds fewer.
+    pub fn predict(&self, window: &[Transition]) -> Option<Vec<f64>> {
+        let k = self.transitions;
+        if window.len() < k {
+            return None;
+        }
+        let mut raw = vec![];
+        features(&window[window.len() - k..], &mut raw);
+        let z: Vec<f32> = raw
+            .iter()
+            .zip(self.input_mean.iter().zip(&self.input_std))
+            .map(|(x, (m, s))| ((x - m) / s) as f32)
+            .collect();
+        let y = self.net.forward(&z, &mut Tape::default()).to_vec();
+        Some(self.denormalize(&y))
+    }
+
+    fn denormalize(&self, y: &[f32]) -> Vec<f64> {
+        let lo_hi = self.mu_lower.iter().zip(&self.mu_upper);
+        lo_hi
+            .zip(y)
+            .map(|((l, h), &y)| 0.5 * (l + h) + 0.5 * (h - l) * y as f64)
+            .collect()
+    }
+
+    pub fn save(&self, path: &Path) -> Result<(), String> {
+        let file = File {
+            format: FORMAT.into(),
+            task: self.task.clone(),
+            transitions: self.transitions,
+            input_mean: self.input_mean.clone(),
+            input_std: self.input_std.clone(),
+            mu_lower: self.mu_lower.clone(),
+            mu_upper: self.mu_upper.clone(),
+            layers: self.net.to_files(),
+            training: self.training.clone(),
+        };
+        let text = serde_json::to_string(&file).expect("a UC-MLP serialises");
+        std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    }
+
+    pub fn load(path: &Path) -> Result<MuMlp, String> {
+        let shown = path.display();
+        let text =
+            std::fs::read_to_string(path).map_err(|e| format!("cannot read {shown}: {e}"))?;
+        let file: File =
+            serde_json::from_str(&text).map_err(|e| format!("{shown}: not a UC-MLP file: {e}"))?;
+        if file.format != FORMAT {
+            return Err(format!(
+                "{shown}: format '{}', expected '{FORMAT}'",
+                file.format
+            ));
+        }
+        let bad = |why: String| format!("{shown}: {why}");
+        let net = Mlp::from_files(&file.layers).map_err(bad)?;
+        let nmu = net.outputs();
+        if file.input_mean.len() != net.inputs() || file.input_std.len() != net.inputs() {
+            return Err(bad(format!(
+                "input_mean and input_std need {} values",
+                net.inputs()
+            )));
+        }
+        if file.mu_lower.len() != nmu || file.mu_upper.len() != nmu || file.transitions == 0 {
+            return Err(bad(format!(
+                "mu_lower and mu_upper need {nmu} values, transitions >= 1"
+            )));
+        }
+        Ok(MuMlp {
+            task: file.task,
+            transitions: file.transitions,
+            input_mean: file.input_mean,
+            input_std: file.input_std,
+            mu_lower: file.mu_lower,
+            mu_upper: file.mu_upper,
+            net,
+            training: file.training,
+        })
+    }
+}
+
+/// Training examples: raw inputs (rows) and normalised targets y.
+struct Dataset {
+    inputs: Vec<f64>,
+    targets: Vec<f64>,
+}
+
+impl Dataset {
+    fn len(&self, nmu: usize) -> usize {
+        self.targets.len() / nmu
+    }
+}
+
+/// Runs each controller for `config.episodes` episodes (see the module docs)
+/// and returns the training and the held-out examples.
+fn collect(
+    task: &dyn Task,
+    controllers: &[Policy],
+    config: &MlpConfig,
+) -> Result<(Dataset, Dataset), EnvError> {
+    let mut rng = StdRng::seed_from_u64(config.seed);
+    let (mut train, mut held_out) = (Dataset::new(), Dataset::new());
+    let mut env = Env::new(task);
+    let k = config.transitions;
+    for policy in controllers {
+        let std: Vec<f64> = policy.log_std.iter().map(|s| (*s as f64).exp()).collect();
+        for episode in 0..config.episodes {
+            let mu: Vec<f64> = config
+                .mu_lower
+                .iter()
+                .zip(&config.mu_upper)
+                .map(|(l, h)| l + (h - l) * rng.random::<f64>())
+                .collect();
+            env.reset(&mu, &mut rng)?;
+            let mut history: Vec<Transition> = vec![];
+            loop {
+                let (q, v) = env.state().clone();
+                let mean = policy.act(&policy.observation(task, env.state(), &mu));
+                let action: Vec<f64> = mean
+                    .iter()
+                    .zip(&std)
+                    .map(|(m, s)| {
+                        let z: f64 = StandardNormal.sample(&mut rng);
+                        m + s * z
+                    })
+                    .collect();
+                let out = env.step(&action)?;
+                let (q_next, v_next) = env.state().clone();
+                let tau = task.forces(&action);
+                history.push(Transition {
+                    q,
+                    v,
+                    tau,
+                    q_next,
+                    v_next,
+                });
+                if out.terminated || out.truncated {
+                    break;
+                }
+            }
+            let set = if episode % 10 == 9 {
+                &mut held_out
+            } else {
+                &mut train
+            };
+            let y: Vec<f64> = mu
+                .iter()
+                .zip(config.mu_lower.iter().zip(&config.mu_upper))
+                .map(|(m, (l, h))| (m - 0.5 * (l + h)) / (0.5 * (h - l)))
+                .collect();
+            for run in history.windows(k) {
+                features(run, &mut set.inputs);
+                set.targets.extend_from_slice(&y);
+            }
+        }
+    }
+    Ok((train, held_out))
+}
+
+impl Dataset {
+    fn new() -> Dataset {
+        Dataset {
+            inputs: vec![],
+            targets: vec![],
+        }
+    }
+}
+
+/// Mean and standard deviation of each input component (std 1 where constant).
+fn input_stats(rows: &[f64], dim: usize) -> (Vec<f64>, Vec<f64>) {
+    let n = (rows.len() / dim) as f64;
+    let mut mean = vec![0.0; dim];
+    let mut var = vec![0.0; dim];
+    for row in rows.chunks_exact(dim) {
+        mean.iter_mut().zip(row).for_each(|(m, x)| *m += x / n);
+    }
+    for row in rows.chunks_exact(dim) {
+        for i in 0..dim {
+            var[i] += (row[i] - mean[i]).powi(2) / n;
+        }
+    }
+    let std = var
+        .iter()
+        .map(|v| if *v > 1e-24 { v.sqrt() } else { 1.0 })
+        .collect();
+    (mean, std)
+}
+
+/// Standardised f32 rows.
+fn standardise(rows: &[f64], mean: &[f64], std: &[f64]) -> Vec<f32> {
+    let dim = mean.len();
+    rows.iter()
+        .enumerate()
+        .map(|(k, x)| ((x - mean[k % dim]) / std[k % dim]) as f32)
+        .collect()
+}
+
+/// Mean squared error of the network on standardised inputs.
+fn mse(net: &Mlp<f32>, z: &[f32], targets: &[f64]) -> f64 {
+    let mut tape = Tape::default();
+    let chunk = 4096 * net.inputs();
+    let mut total = 0.0;
+    for (zc, tc) in z.chunks(chunk).zip(targets.chunks(4096 * net.outputs())) {
+        let y = net.forward(zc, &mut tape);
+        total += y
+            .iter()
+            .zip(tc)
+            .map(|(y, t)| (*y as f64 - t).powi(2))
+            .sum::<f64>();
+    }
+    total / targets.len().max(1) as f64
+}
+
+/// Collects data with the Universal Controllers `controllers` and trains a
+/// UC-MLP; `progress` sees (epoch, held-out loss) after every epoch.
+pub fn train_mlp(
+    task: &dyn Task,
+    controllers: &[Policy],
+    config: &MlpConfig,
+    mut progress: impl FnMut(usize, f64),
+) -> Result<MuMlp, EnvError> {
+    let started = Instant::now();
+    let nmu = task.mu_map().nmu;
+    assert_eq!(config.mu_lower.len(), nmu, "mu_lower has nmu values");
+    assert_eq!(config.mu_upper.len(), nmu, "mu_upper has nmu values");
+    let (train, held_out) = collect(task, controllers, config)?;
+    let dim = train.inputs.len() / train.len(nmu).max(1);
+    let (input_mean, input_std) = input_stats(&train.inputs, dim);
+    let z_train = standardise(&train.inputs, &input_mean, &input_std);
+    let z_held = standardise(&held_out.inputs, &input_mean, &input_std);
+    let mut rng = StdRng::seed_from_u64(config.seed ^ 0x5bd1_e995);
+    let sizes = [&[dim][..], &config.hidden, &[nmu]].concat();
+    let mut net = Mlp::<f32>::new(&sizes, 1.0, &mut rng);
+    let mut adam = Adam::new(net.params().len(), config.lr);
+    let mut order: Vec<usize> = (0..train.len(nmu)).collect();
+    let steps_per_epoch = order.len().div_ceil(config.batch);
+    let total_steps = (steps_per_epoch * config.epochs).max(1);
+    let (mut tape, mut grad) = (Tape::default(), vec![0.0f32; net.params().len()]);
+    let (mut zb, mut tb, mut dout) = (vec![], vec![], vec![]);
+    let mut validation_loss = vec![mse(&net, &z_held, &held_out.targets)];
+    let mut step = 0;
+    for epoch in 0..config.epochs {
+        order.shuffle(&mut rng);
+        for batch in order.chunks(config.batch) {
+            adam.lr = config.lr * (1.0 - step as f64 / total_steps as f64);
+            step += 1;
+            zb.clear();
+            tb.clear();
+            for &i in batch {
+                zb.extend_from_slice(&z_train[i * dim..(i + 1) * dim]);
+                tb.extend_from_slice(&train.targets[i * nmu..(i + 1) * nmu]);
+            }
+            let y = net.forward(&zb, &mut tape);
+            let scale = 2.0 / tb.len() as f64;
+            dout.clear();
+            dout.extend(
+                y.iter()
+                    .zip(&tb)
+                    .map(|(y, t)| (scale * (*y as f64 - t)) as f32),
+            );
+            net.backward(&mut tape, &dout, &mut grad);
+            adam.step(net.params_mut(), &grad);
+        }
+        let loss = mse(&net, &z_held, &held_out.targets);
+        progress(epoch + 1, loss);
+        validation_loss.push(loss);
+    }
+    Ok(MuMlp {
+        task: task.name().into(),
+        transitions: config.transitions,
+        input_mean,
+        input_std,
+        mu_lower: config.mu_lower.clone(),
+        mu_upper: config.mu_upper.clone(),
+        net,
+        training: Some(MlpTraining {
+            config: config.clone(),
+            examples: train.len(nmu),
+            validation_loss,
+            wall_seconds: started.elapsed().as_secs_f64(),
+        }),
+    })
+}
