@@ -104,20 +104,25 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Train a task's policy with PPO; writes the policy (JSON) and its
-    /// learning curve (CSV).
+    /// Train a task's policy with PPO (writes the policy JSON and its learning
+    /// curve, CSV and SVG), or a UC-MLP identifier (writes its weights JSON).
     Train {
         /// Task name (cartpole).
         #[arg(long, default_value = "cartpole")]
         task: String,
         /// uc: Universal Controller (observes the state and mu); dr:
-        /// domain-randomised baseline (state only). Both see a fresh uniform mu
-        /// each episode.
+        /// domain-randomised baseline (state only); both see a fresh uniform mu
+        /// each episode. mlp / mlp-narrow: the UC-MLP identifier on the whole /
+        /// the narrow ([-0.2, 0.2]) mu range, from episodes of --controller.
         #[arg(long, value_enum)]
-        policy: diffosi::rl::PolicyKind,
+        policy: cli::train::Target,
+        /// Universal Controllers that collect a UC-MLP's data (repeat).
+        #[arg(long = "controller", default_values = ["policies/cartpole/uc-seed0.json", "policies/cartpole/uc-seed1.json", "policies/cartpole/uc-seed2.json"])]
+        controllers: Vec<PathBuf>,
         #[arg(long, default_value_t = 0)]
         seed: u64,
-        /// Environment steps (default: the task's tuned budget).
+        /// Environment steps (default: the task's tuned budget; for a UC-MLP,
+        /// roughly the steps of data collected).
         #[arg(long)]
         steps: Option<usize>,
         /// Output policy file (.json).
@@ -138,10 +143,22 @@ enum Command {
         #[arg(long, required = true)]
         policy: Vec<PathBuf>,
         /// The mu fed to a Universal Controller: oracle (the true mu), random
-        /// (uniform guess per episode) or average (middle of the range).
-        /// Domain-randomised policies ignore it.
+        /// (uniform guess per episode), average (middle of the range), mlp /
+        /// mlp-narrow (UC-MLP, predicted from the last transitions), cmaes,
+        /// diffosi (identified online from the recent window; diffosi with
+        /// change detection, diffosi-no-cd without). The first step uses the
+        /// middle of the range. Domain-randomised policies ignore it.
         #[arg(long, value_enum, default_value = "oracle")]
-        mu_source: diffosi::rl::MuSource,
+        mu_source: diffosi::control::Source,
+        /// UC-MLP weights for --mu-source mlp.
+        #[arg(long, default_value = "policies/cartpole/uc-mlp.json")]
+        mlp: PathBuf,
+        /// UC-MLP weights for --mu-source mlp-narrow.
+        #[arg(long, default_value = "policies/cartpole/uc-mlp-narrow.json")]
+        mlp_narrow: PathBuf,
+        /// Transitions per DiffOSI / CMA-ES window (context window N = this + 1).
+        #[arg(long, default_value_t = 4)]
+        window: usize,
         #[arg(long, default_value_t = 10)]
         episodes: usize,
         /// Seed of the episodes (true mu, initial states, random guesses).
@@ -150,6 +167,33 @@ enum Command {
         /// Print JSON (per-episode metrics and mu) instead of text.
         #[arg(long)]
         json: bool,
+    },
+    /// Reproduce the paper's experiments on the shipped controllers and UC-MLP
+    /// weights: for cartpole, Tables 1 and 4 and the context-window study;
+    /// prints the tables and writes reports/{table1,table4}-cartpole.{md,json}
+    /// and reports/window-cartpole.{json,svg}. `all` runs every task's.
+    Reproduce {
+        /// cartpole or all.
+        #[arg(default_value = "all")]
+        what: String,
+        /// Directory of the shipped weights (one subdirectory per task).
+        #[arg(long, default_value = "policies")]
+        policies: PathBuf,
+        /// Output directory.
+        #[arg(long, default_value = "reports")]
+        reports: PathBuf,
+        /// Episodes per trained model.
+        #[arg(long, default_value_t = 10)]
+        episodes: usize,
+        /// Trained models (seeds 0..models) per policy kind.
+        #[arg(long, default_value_t = 3)]
+        models: usize,
+        /// Seed of the episodes.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Worker threads (default: all cores); results do not depend on it.
+        #[arg(long)]
+        threads: Option<usize>,
     },
 }
 
@@ -193,13 +237,15 @@ fn main() -> ExitCode {
         Command::Train {
             task,
             policy,
+            controllers,
             seed,
             steps,
             output,
             curve,
         } => cli::train::train(cli::train::Request {
             task: &task,
-            kind: policy,
+            target: policy,
+            controllers: &controllers,
             seed,
             steps,
             output: &output,
@@ -209,6 +255,9 @@ fn main() -> ExitCode {
             task,
             policy,
             mu_source,
+            mlp,
+            mlp_narrow,
+            window,
             episodes,
             seed,
             json,
@@ -216,9 +265,30 @@ fn main() -> ExitCode {
             task: &task,
             policies: &policy,
             source: mu_source,
+            mlp: &mlp,
+            mlp_narrow: &mlp_narrow,
+            window,
             episodes,
             seed,
             json,
+        }),
+        Command::Reproduce {
+            what,
+            policies,
+            reports,
+            episodes,
+            models,
+            seed,
+            threads,
+        } => cli::reproduce::reproduce(cli::reproduce::Request {
+            what: &what,
+            policies: &policies,
+            reports: &reports,
+            episodes,
+            models,
+            seed,
+            threads: threads
+                .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())),
         }),
     };
     match result {

@@ -3,5 +3,6 @@
 pub mod eval;
 pub mod identify;
 pub mod jacobian;
+pub mod reproduce;
 pub mod simulate;
 pub mod train;

@@ -3,13 +3,29 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use diffosi::rl::{self, CurveRow, PolicyKind, PpoConfig};
+use diffosi::osi::mlp::{self, MlpConfig};
+use diffosi::rl::{self, CurveRow, Policy, PolicyKind, PpoConfig};
 use diffosi::tasks;
 use indicatif::{ProgressBar, ProgressStyle};
 
+/// What `diffosi train` trains.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Target {
+    /// Universal Controller (PPO; observes the state and mu).
+    Uc,
+    /// Domain-randomised baseline (PPO; the state only).
+    Dr,
+    /// UC-MLP on the task's whole mu range.
+    Mlp,
+    /// UC-MLP on the narrow range [-0.2, 0.2] (the paper's MLP-Narrow).
+    MlpNarrow,
+}
+
 pub struct Request<'a> {
     pub task: &'a str,
-    pub kind: PolicyKind,
+    pub target: Target,
+    /// Universal Controllers that collect the UC-MLP's data.
+    pub controllers: &'a [PathBuf],
     pub seed: u64,
     pub steps: Option<usize>,
     pub output: &'a Path,
@@ -17,6 +33,11 @@ pub struct Request<'a> {
 }
 
 pub fn train(request: Request) -> Result<(), String> {
+    let kind = match request.target {
+        Target::Uc => PolicyKind::Uc,
+        Target::Dr => PolicyKind::Dr,
+        Target::Mlp | Target::MlpNarrow => return train_mlp(request),
+    };
     let task = tasks::by_name(request.task)?;
     let mut config = PpoConfig {
         seed: request.seed,
@@ -33,7 +54,7 @@ pub fn train(request: Request) -> Result<(), String> {
         ProgressStyle::with_template("{bar:40} {pos}/{len} iterations {elapsed}<{eta} {msg}")
             .expect("valid template"),
     );
-    let trained = rl::train(task.as_ref(), request.kind, &config, |row| {
+    let trained = rl::train(task.as_ref(), kind, &config, |row| {
         bar.set_message(format!("metric {:.1}", row.mean_metric));
         bar.inc(1);
     })
@@ -48,7 +69,7 @@ pub fn train(request: Request) -> Result<(), String> {
     println!(
         "{} {:?} seed {}: {} env steps in {:.1} s, mean task metric of the last {} training episodes {:.1}",
         request.task,
-        request.kind,
+        kind,
         request.seed,
         info.env_steps,
         info.wall_seconds,
@@ -60,6 +81,58 @@ pub fn train(request: Request) -> Result<(), String> {
         request.output.display(),
         curve_path.display(),
         plot_path.display()
+    );
+    Ok(())
+}
+
+/// The narrow training range of UC-MLP-Narrow, per mu component.
+const NARROW: f64 = 0.2;
+
+fn train_mlp(request: Request) -> Result<(), String> {
+    let task = tasks::by_name(request.task)?;
+    let controllers = request
+        .controllers
+        .iter()
+        .map(|p| Policy::load(p))
+        .collect::<Result<Vec<_>, _>>()?;
+    if controllers.is_empty() || controllers.iter().any(|p| p.kind != PolicyKind::Uc) {
+        return Err("--controller: give one or more Universal Controller files".into());
+    }
+    let (lower, upper) = task.mu_range();
+    let mut config = match request.target {
+        Target::MlpNarrow => {
+            MlpConfig::new(&vec![-NARROW; lower.len()], &vec![NARROW; upper.len()])
+        }
+        _ => MlpConfig::new(lower, upper),
+    };
+    config.seed = request.seed;
+    if let Some(steps) = request.steps {
+        // A smaller budget: episodes per controller of at most 500 steps.
+        config.episodes = steps.div_ceil(500 * controllers.len()).max(10);
+    }
+    let bar = ProgressBar::new(config.epochs as u64).with_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} epochs {elapsed}<{eta} {msg}")
+            .expect("valid template"),
+    );
+    let net = mlp::train_mlp(task.as_ref(), &controllers, &config, |_, loss| {
+        bar.set_message(format!("held-out mse {loss:.4}"));
+        bar.inc(1);
+    })
+    .map_err(|e| e.to_string())?;
+    bar.finish_and_clear();
+    net.save(request.output)?;
+    let info = net.training.as_ref().expect("set by training");
+    println!(
+        "{} UC-MLP on mu in {:?}..{:?}, seed {}: {} examples, held-out mse of the normalised mu {:.4} -> {:.4} in {:.1} s; wrote {}",
+        request.task,
+        config.mu_lower,
+        config.mu_upper,
+        request.seed,
+        info.examples,
+        info.validation_loss[0],
+        info.validation_loss.last().expect("at least the initial loss"),
+        info.wall_seconds,
+        request.output.display()
     );
     Ok(())
 }

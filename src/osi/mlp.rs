@@ -75,8 +75,8 @@ impl MlpConfig {
             mu_upper: mu_upper.to_vec(),
             transitions: 4,
             hidden: vec![256, 128, 64],
-            episodes: 60,
-            epochs: 15,
+            episodes: 150,
+            epochs: 30,
             batch: 256,
             lr: 1e-3,
         }
