@@ -18,6 +18,7 @@
 pub mod control;
 pub mod derivatives;
 pub mod dynamics;
+pub mod experiments;
 pub mod model;
 pub mod nn;
 pub mod osi;
