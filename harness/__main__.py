@@ -14,6 +14,7 @@ COMMANDS = {
     "golden": "harness.golden",
     "bench": "harness.bench",
     "osi-bench": "harness.osi_bench",
+    "figures": "harness.figures",
     "transfer": "harness.transfer",
 }
 
