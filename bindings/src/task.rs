@@ -12,7 +12,8 @@
 use engine::derivatives::Transition;
 use engine::model::State;
 use engine::osi::{
-    Adam, ChangeDetection, Estimate, Identifier, Lm, LmOptions, Online, OsiError, Problem, Sampling,
+    Adam, ChangeDetection, Estimate, Identifier, Lm, LmOptions, Loss, Online, OsiError, Problem,
+    Sampling, HUBER_THRESHOLD,
 };
 use engine::rl::{Policy, PolicyKind};
 use engine::tasks::{self, Task};
@@ -25,7 +26,9 @@ use pyo3::types::{PyDict, PyTuple};
 use rand::rngs::StdRng;
 use rand::SeedableRng;
 
-use crate::{default_scale, estimate_dict, osi_error, param_error, vector, PyModel};
+use crate::{
+    default_scale, estimate_dict, loss_name, osi_error, param_error, robust_loss, vector, PyModel,
+};
 
 /// A control task by name: `Task("cartpole")`.
 ///
@@ -337,7 +340,7 @@ impl Identifier for Solver {
 
 /// Online DiffOSI of a task's mu (src/osi/online.rs):
 /// `OnlineOsi(task, window=1, method="lm", change_detection=False, seed=0,
-/// scale=None)`.
+/// scale=None, loss="squared", huber=1.345)`.
 ///
 /// Each `push(q, v, tau, q_next, v_next)` of one observed transition (tau the
 /// generalized forces, length nv) re-identifies mu on the `window` most recent
@@ -345,8 +348,8 @@ impl Identifier for Solver {
 /// mu range before the first), within the task's mu range, on the task's
 /// nominal model. `method` "lm" (bounded Levenberg-Marquardt; `seed` seeds
 /// its restarts) or "adam"; `change_detection=True` empties the window when a
-/// transition no longer fits (the engine's default rule); `scale` as in
-/// `DiffOsi`. Returns a dict: "mu", "std", "loss", "iterations",
+/// transition no longer fits (the engine's default rule); `scale`, `loss`
+/// and `huber` as in `DiffOsi`. Returns a dict: "mu", "std", "loss", "iterations",
 /// "evaluations", "flags" (a list drawn from "unexcited", "at_bound",
 /// "not_converged", "changed").
 #[pyclass(name = "OnlineOsi", module = "diffosi")]
@@ -354,12 +357,14 @@ pub(crate) struct PyOnlineOsi {
     online: Online<Solver>,
     method: &'static str,
     window: usize,
+    loss: Loss,
 }
 
 #[pymethods]
 impl PyOnlineOsi {
     #[new]
-    #[pyo3(signature = (task, window = 1, method = "lm", change_detection = false, seed = 0, scale = None))]
+    #[pyo3(signature = (task, window = 1, method = "lm", change_detection = false, seed = 0, scale = None, loss = "squared", huber = HUBER_THRESHOLD))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         task: &PyTask,
         window: usize,
@@ -367,12 +372,16 @@ impl PyOnlineOsi {
         change_detection: bool,
         seed: u64,
         scale: Option<&Bound<'_, PyAny>>,
+        loss: &str,
+        huber: f64,
     ) -> PyResult<Self> {
         let t = task.task.as_ref();
+        let loss = robust_loss(loss, huber, method == "lm")?;
         let (solver, method): (Solver, &'static str) = match method {
             "lm" => {
                 let options = LmOptions {
                     seed,
+                    loss,
                     ..LmOptions::default()
                 };
                 (Solver(Box::new(Lm { options })), "lm")
@@ -413,6 +422,7 @@ impl PyOnlineOsi {
             online,
             method,
             window,
+            loss,
         })
     }
 
@@ -461,6 +471,12 @@ impl PyOnlineOsi {
     #[getter]
     fn method(&self) -> &'static str {
         self.method
+    }
+
+    /// "squared" or "huber" (see `DiffOsi`).
+    #[getter]
+    fn loss(&self) -> &'static str {
+        loss_name(self.loss)
     }
 
     #[getter]

@@ -8,7 +8,8 @@
 //! - The loss is L(mu) = sum over the window of ||(g_mu(x_t, tau_t) - x_{t+1}) / scale||^2
 //!   ([`window_residuals`]); `scale` holds 2 nv positive values, q then v,
 //!   best set to each component's measurement noise (then J^T J is the
-//!   Fisher information).
+//!   Fisher information). [`Lm`] can minimise a Huber loss of the same
+//!   scaled residuals instead ([`Loss`]).
 //! - The prior is uniform on the bounds: its standard deviation is
 //!   (upper - lower) / sqrt(12). A direction of mu the window does not excite
 //!   keeps its start value and reports that prior standard deviation, so an
@@ -29,7 +30,7 @@ use nalgebra::{DMatrix, DVector};
 pub use adam::{Adam, AdamOptions};
 pub use change::ChangeDetection;
 pub use cmaes::{CmaEs, CmaEsOptions};
-pub use lm::{Lm, LmOptions};
+pub use lm::{Lm, LmOptions, Loss, HUBER_THRESHOLD};
 pub use online::{Online, Sampling};
 pub use trivial::{Average, Oracle, Random};
 
@@ -73,6 +74,10 @@ pub enum OsiError {
         min_window: usize,
         memory: usize,
     },
+    #[error(
+        "Huber threshold {threshold} must be finite and positive (in units of the residual scale)"
+    )]
+    Huber { threshold: f64 },
     #[error(transparent)]
     Param(#[from] ParamError),
     #[error(transparent)]
