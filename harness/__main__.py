@@ -16,6 +16,7 @@ COMMANDS = {
     "osi-bench": "harness.osi_bench",
     "figures": "harness.figures",
     "transfer": "harness.transfer",
+    "robustness": "harness.robustness",
 }
 
 
