@@ -23,7 +23,7 @@ Cases (the data; every case is identified with the squared and with the Huber lo
   per component (a residual differences two noisy samples).
 - delay: MuJoCo applies the previous step's forces (zero before the first); the
   identifier is told the forces commanded at each step (one-step actuator delay).
-- outliers: the noise-0.0001 data (scale told as there) with one transition in 20
+- outliers: Gaussian noise as in noise-0.0001 (scale told as there), and one transition in 20
   corrupted: its next state replaced by the state plus uniform noise of one range per
   component (a sensor glitch).
 - rest: W steps at rest at the true model's equilibrium (found by Newton's method on our
@@ -35,10 +35,10 @@ Columns: error = max |estimate - truth| over the components (kg and N m s/rad mi
 the double pendulum), z = max |estimate - truth| / std (the reported standard error's
 honesty; > 3 means the std understates the error), loss / dof = the final loss over
 (2 nv W - nmu) (about 1 or below when the residuals are at the scale's level), flags as
-the identifier raised them (z is left out where the error is rounding), wall ms = the identification's wall-clock time from Python
-(cartpole: all W online updates; double pendulum: one identify). Scale is the default
-(1e-3 on v, timestep x 1e-3 on q) except in the noise cases. The run asserts that no
-number in it is NaN or infinite.
+the identifier raised them (z is left out where the error is rounding), wall ms = the
+identification's wall-clock time from Python (cartpole: all W online updates; double
+pendulum: one identify). Scale is the default (1e-3 on v, timestep x 1e-3 on q) except
+in the noise and outlier cases. The run asserts that no number in it is NaN or infinite.
 """
 
 from __future__ import annotations
@@ -311,6 +311,12 @@ NOTES = [
 ]
 
 
+def case_descriptions() -> list[str]:
+    """The module docstring's list of cases, as Markdown lines."""
+    cases = __doc__.split("Cases (", 1)[1].split("\n\nColumns", 1)[0]
+    return cases.split("\n\n", 1)[1].split("\n")
+
+
 def markdown(report: dict) -> list:
     meta = report["meta"]
     lines = [
@@ -332,8 +338,7 @@ def markdown(report: dict) -> list:
                 else "link1, link2 mass (kg), hinge1, hinge2 damping (N m s/rad), DiffOsi")
         lines += [f"## {name}: {what}", "", *case_table(report, name), ""]
     lines += ["## Findings", "", *[f"- {x}" for x in findings(report)], "", "## Notes", "",
-              *[f"- {x}" for x in NOTES], "", "## Cases", "", *__doc__.split("Cases (")[1].split("\n\nColumns")[0]
-              .split("\n")[1:]]
+              *[f"- {x}" for x in NOTES], "", "## Cases", "", *case_descriptions()]
     return lines
 
 

@@ -71,8 +71,9 @@ def test_bad_loss_options_are_value_errors():
     args = (m, ["body/link1/mass"], [0.1], [5.0])
     assert diffosi.DiffOsi(*args).loss == "squared" and diffosi.DiffOsi(*args).huber is None
     assert diffosi.DiffOsi(*args, loss="huber").huber == 1.345
-    for kwargs, words in [({"loss": "huber", "huber": 0.0}, "huber = 0"), ({"loss": "huber", "huber": np.nan}, "huber = NaN"),
-                          ({"loss": "l1"}, "'l1'"), ({"loss": "huber", "method": "adam"}, "method='lm'")]:
+    bad = [({"loss": "huber", "huber": 0.0}, "huber = 0"), ({"loss": "huber", "huber": np.nan}, "huber = NaN"),
+           ({"loss": "l1"}, "'l1'"), ({"loss": "huber", "method": "adam"}, "method='lm'")]
+    for kwargs, words in bad:
         with pytest.raises(ValueError, match=words):
             diffosi.DiffOsi(*args, **kwargs)
     with pytest.raises(ValueError, match="huber = -1"):
