@@ -39,9 +39,15 @@ pub enum ControlError {
 /// Observes transitions, gives the current mu (see the module conventions).
 pub trait MuEstimator: Send {
     /// A new episode starts (its true mu is `truth`): forget the old one.
-    fn reset(&mut self, truth: &[f64]) -> Result<(), ControlError>;
+    /// A fixed source keeps what it has.
+    fn reset(&mut self, _truth: &[f64]) -> Result<(), ControlError> {
+        Ok(())
+    }
     /// The transition just made; `truth` is the true mu of the next step.
-    fn observe(&mut self, transition: Transition, truth: &[f64]) -> Result<(), ControlError>;
+    /// A source that does not learn ignores it.
+    fn observe(&mut self, _transition: Transition, _truth: &[f64]) -> Result<(), ControlError> {
+        Ok(())
+    }
     /// The mu to feed the controller now.
     fn mu(&self) -> &[f64];
 }
@@ -81,12 +87,6 @@ impl AverageMu {
 }
 
 impl MuEstimator for AverageMu {
-    fn reset(&mut self, _: &[f64]) -> Result<(), ControlError> {
-        Ok(())
-    }
-    fn observe(&mut self, _: Transition, _: &[f64]) -> Result<(), ControlError> {
-        Ok(())
-    }
     fn mu(&self) -> &[f64] {
         &self.mu
     }
@@ -121,9 +121,6 @@ impl MuEstimator for RandomMu {
         self.mu = bounds
             .map(|(&l, &h)| l + (h - l) * rng.random::<f64>())
             .collect();
-        Ok(())
-    }
-    fn observe(&mut self, _: Transition, _: &[f64]) -> Result<(), ControlError> {
         Ok(())
     }
     fn mu(&self) -> &[f64] {
