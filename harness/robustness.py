@@ -281,8 +281,8 @@ def findings(report: dict) -> list[str]:
                                   f"{noisy['huber']['error']:.1e}).")
         delay = by[(name, "delay")]["losses"]["squared"]
         out.append(f"{name}, delay: error {delay['error']:.1e}, flags {', '.join(delay['flags']) or 'none'}; "
-                   f"loss / dof {delay['loss_per_dof']:.3g} against {clean['squared']['loss_per_dof']:.1e} on clean data: "
-                   "the unmodelled delay shows in the misfit, which no flag reports.")
+                   f"loss / dof {delay['loss_per_dof']:.3g} against {clean['squared']['loss_per_dof']:.1e} on "
+                   "clean data: the unmodelled delay shows in the misfit, which no flag reports.")
         z = max(x["z"] for c in CASES if c.startswith("noise-") for x in by[(name, c)]["losses"].values())
         out.append(f"{name}, noise: the largest z over the noise rows is {z:.2g}.")
         rest = by[(name, "rest")]["losses"]["squared"]
