@@ -397,7 +397,9 @@ impl PyDiffOsi {
     /// start value and reports the uniform prior's std, never NaN), "loss"
     /// (the scaled sum of squares, or the Huber loss with loss="huber"),
     /// "iterations", "evaluations" and "flags" (a list drawn from
-    /// "unexcited", "at_bound", "not_converged").
+    /// "unexcited", "at_bound", "not_converged", "misfit": loss per
+    /// residual above 4, i.e. residuals larger than `scale`; with `scale` at
+    /// the measurement noise, the model does not explain the data).
     #[pyo3(signature = (q, v, tau, q_next, v_next, init = None))]
     #[allow(clippy::too_many_arguments)]
     fn identify<'py>(
@@ -798,6 +800,7 @@ pub(crate) fn estimate_dict<'py>(
         (e.flags.unexcited, "unexcited"),
         (e.flags.at_bound, "at_bound"),
         (e.flags.not_converged, "not_converged"),
+        (e.flags.misfit, "misfit"),
         (e.flags.changed, "changed"),
     ]
     .into_iter()

@@ -351,7 +351,7 @@ impl Identifier for Solver {
 /// transition no longer fits (the engine's default rule); `scale`, `loss`
 /// and `huber` as in `DiffOsi`. Returns a dict: "mu", "std", "loss", "iterations",
 /// "evaluations", "flags" (a list drawn from "unexcited", "at_bound",
-/// "not_converged", "changed").
+/// "not_converged", "misfit", "changed").
 #[pyclass(name = "OnlineOsi", module = "diffosi")]
 pub(crate) struct PyOnlineOsi {
     online: Online<Solver>,

@@ -46,7 +46,7 @@ def check_estimate(est, nmu=2):
     assert np.isfinite(est["loss"]) and est["loss"] >= 0.0
     assert est["iterations"] >= 0 and est["evaluations"] >= 1
     assert isinstance(est["flags"], list)
-    assert set(est["flags"]) <= {"unexcited", "at_bound", "not_converged"}
+    assert set(est["flags"]) <= {"unexcited", "at_bound", "not_converged", "misfit"}
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -109,6 +109,7 @@ def test_init_defaults_to_the_model_values_clamped_into_the_bounds():
 
 def test_vector_parameters_flatten_into_mu():
     m = diffosi.Model.load(CARTPOLE)
+    m.set_param("body/pole/mass", TRUTH[0])  # the window's pole mass, which is not identified here
     osi = diffosi.DiffOsi(
         m, params=["body/pole/com", "joint/hinge/damping"], lower=[-1, -1, 0, 0], upper=[1, 1, 1, 1]
     )
@@ -117,7 +118,17 @@ def test_vector_parameters_flatten_into_mu():
     est = osi.identify(*window(seed=6))
     check_estimate(est, nmu=4)
     # The pole's COM off its axis (y) cannot show in a planar cartpole.
-    assert "unexcited" in est["flags"]
+    assert "unexcited" in est["flags"] and "misfit" not in est["flags"]
+    np.testing.assert_allclose(est["params"][[0, 2, 3]], [0.0, 0.5, TRUTH[1]], atol=1e-6)
+
+
+def test_data_the_model_cannot_explain_is_flagged():
+    # The window's pole mass is 0.3 while this model keeps its own and identifies only the damping.
+    m = diffosi.Model.load(CARTPOLE)
+    assert m.get_param("body/pole/mass")[0] != TRUTH[0]
+    osi = diffosi.DiffOsi(m, params=["joint/hinge/damping"], lower=[0.0], upper=[5.0])
+    est = osi.identify(*window(seed=6))
+    assert "misfit" in est["flags"]
 
 
 def test_bad_input_raises_value_error_naming_it():

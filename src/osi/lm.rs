@@ -169,13 +169,9 @@ impl Identifier for Lm {
         }
         let end = (&best.mu, &best.fit);
         let work = (iterations, evaluations);
-        Ok(Estimate::at(
-            problem,
-            end,
-            opt.excitation,
-            best.converged,
-            work,
-        ))
+        let mut estimate = Estimate::at(problem, end, opt.excitation, best.converged, work);
+        estimate.flags.misfit = misfit(&best) > opt.misfit;
+        Ok(estimate)
     }
 }
 
@@ -393,6 +389,22 @@ mod tests {
         assert!(e_sq > 1e-3, "squared loss error {e_sq}");
         assert!(e_hu < 1e-6 && e_hu < e_sq / 100.0, "Huber error {e_hu}");
         assert!(robust.std.iter().all(|s| s.is_finite()) && robust.loss.is_finite());
+    }
+
+    #[test]
+    fn data_the_model_cannot_explain_is_flagged_as_misfit() {
+        let (mut problem, task) = cartpole_problem();
+        let clean = window(task.as_ref(), 20, usize::MAX);
+        let e = Lm::default()
+            .identify(&mut problem, &clean, &[0.0])
+            .unwrap();
+        assert!(!e.flags.misfit && (e.mu[0] - 0.3).abs() < 1e-9, "{e:?}");
+        // One next velocity in five pushed by 0.5 rad/s: no mu explains it.
+        let corrupted = window(task.as_ref(), 20, 5);
+        let e = Lm::default()
+            .identify(&mut problem, &corrupted, &[0.0])
+            .unwrap();
+        assert!(e.flags.misfit, "{e:?}");
     }
 
     #[test]

@@ -293,6 +293,13 @@ pub struct Flags {
     pub at_bound: bool,
     /// The iteration limit stopped the solver before a tolerance did.
     pub not_converged: bool,
+    /// The best fit leaves the loss per degree of freedom, loss / max(1, m -
+    /// nmu), above [`LmOptions::misfit`](super::LmOptions::misfit): the
+    /// residuals are larger than `scale` says the noise is. Either the scale
+    /// is too small for the data, or the model does not explain them (an
+    /// unmodelled effect, a delay, mu changing inside the window), and mu
+    /// may be biased. Set by LM.
+    pub misfit: bool,
     /// [`Online`]'s change detection judged the last pushed transition a
     /// change of mu: the window held only transitions from it on.
     pub changed: bool,
