@@ -138,12 +138,20 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         gravity,
         integrator,
         passive,
+        contact,
+        limits,
+        soft,
     } = opt;
     let o = &theirs.opt;
     assert_eq!(
         (timestep, gravity, integrator, passive),
         (&o.timestep, &o.gravity, &o.integrator, &o.passive),
         "{model}: options"
+    );
+    assert_eq!(
+        (contact, limits, soft),
+        (&o.contact, &o.limits, &o.soft),
+        "{model}: contact options"
     );
     let mut worst = Worst::default();
     let mut rebuilt = Worst::default();

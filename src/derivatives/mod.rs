@@ -12,6 +12,9 @@
 //! costs one RNEA pass and a triangular solve, not a state Jacobian. Dual
 //! numbers pushed through the whole scalar-generic step are the test oracle.
 //! The integrator's chain rule (Euler or RK4) then gives d(q', v').
+//! Contact and joint-limit forces add -tau_soft(q, v; k, c, mu) to R; their
+//! derivatives come from dual numbers through the scalar-generic force code
+//! (module `soft`), exact as the rest.
 //! No finite differences anywhere: they exist only in the tests.
 
 // Node-indexed sweeps read several per-node arrays at the node's index.
@@ -19,6 +22,7 @@
 
 mod params;
 mod rnea;
+mod soft;
 mod step;
 mod window;
 

@@ -14,10 +14,11 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+use crate::dynamics::contact::body_force_to_joints;
 use crate::dynamics::{Data, Tree};
 use crate::model::params::inertia_from_six;
 use crate::model::{Body, Model, Param, PassiveMode};
-use crate::spatial::{skew, Force, Inertia};
+use crate::spatial::{skew, Inertia};
 
 /// Writes dR/d(param component) into `out` (length nv). `data` holds RNEA's
 /// velocities and accelerations at (q, v, a).
@@ -37,6 +38,9 @@ pub fn residual_derivative(
                 add_body_force(model.tree(), data, node, &di, out);
             }
         }
+        // Contact parameters act through the soft forces alone, added by
+        // `soft_derivatives`.
+        Param::ContactStiffness | Param::ContactDamping | Param::ContactFriction => {}
         _ => {
             let (i, value) = joint_derivative(model.tree(), (mode, h), (q_spring, v, a), param);
             out[i] = value;
@@ -70,9 +74,7 @@ pub fn joint_derivative(
             (i, implicit * a[i] + q_spring[i] - tree.springref[i])
         }
         Param::Armature(i) => (i, a[i]),
-        Param::Mass(_) | Param::Com(_) | Param::Inertia(_) => {
-            unreachable!("{param:?} is a body parameter")
-        }
+        _ => unreachable!("{param:?} is not a joint parameter"),
     }
 }
 
@@ -103,26 +105,7 @@ pub fn add_body_force(
 ) {
     let (vel, acc) = (&data.vel[node], &data.acc[node]);
     let df = di.mul_motion(acc) + vel.cross_force(&di.mul_motion(vel));
-    body_force_to_joints(tree, data, node, df, out);
-}
-
-/// Adds the joint forces S_k . F_k that a force `f` on node `node` causes
-/// along its path to the root.
-fn body_force_to_joints(
-    tree: &Tree<f64>,
-    data: &Data<f64>,
-    node: usize,
-    f: Force<f64>,
-    out: &mut [f64],
-) {
-    let mut f = f;
-    let mut k = node;
-    loop {
-        out[k] += tree.joint[k].s.dot(&f);
-        let Some(p) = tree.parent[k] else { break };
-        f = data.x_up[k].inverse_apply_force(&f);
-        k = p;
-    }
+    body_force_to_joints(tree, &data.x_up, node, df, out);
 }
 
 /// d(spatial inertia of `body` about its own frame) along `direction` (a

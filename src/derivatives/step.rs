@@ -4,6 +4,7 @@ use nalgebra::DMatrix;
 
 use super::params::residual_derivative;
 use super::rnea::{rnea_derivatives, Sweep};
+use super::soft::{subtract_soft_derivatives, Columns};
 use super::window::WindowScratch;
 use crate::dynamics::{
     acceleration, check_inputs, crba, implicit_terms, integrate_euler, ltdl_factor,
@@ -283,7 +284,11 @@ fn accel_derivatives(
         ws.r[(i, 2 * n_state + i)] = -1.0;
     }
     let mut col = 2 * n_state + n_tau;
+    let mut contact_columns = vec![];
     for &param in wrt.params {
+        if param.is_contact() {
+            contact_columns.push((param, col));
+        }
         for component in 0..param.size() {
             let point = (&ws.q_spring[..], v, &ws.qdd[..]);
             residual_derivative(
@@ -298,6 +303,12 @@ fn accel_derivatives(
             col += 1;
         }
     }
+    let soft = Columns {
+        state: wrt.state,
+        v_start: n,
+        params: &contact_columns,
+    };
+    subtract_soft_derivatives(model, (q, v), &soft, &mut ws.r);
     // dqdd = -M^-1 R: column by column when R is narrow, else through M^-1.
     reset(&mut ws.dqdd, n, columns);
     if columns <= n {

@@ -9,7 +9,9 @@
 //! (see the module `derivatives`) and one solve with the articulated-body
 //! factors that pass left behind: no mass matrix, no state Jacobian. The
 //! inertia derivatives of a column are taken once per evaluation, not per
-//! transition. Under RK4 each transition goes through [`step_jacobians`].
+//! transition. Contact and limit forces depend on no inertial or joint
+//! parameter, so they change the step but not dR/dmu. Under RK4, or when mu
+//! moves a contact parameter, each transition goes through [`step_jacobians`].
 //! Buffers live in the [`Workspace`] and in the [`WindowFit`] filled, so an
 //! evaluation into a reused fit allocates nothing.
 
@@ -115,7 +117,10 @@ pub fn window_residuals_into(
     if fit.gradient.len() != cols {
         fit.gradient = DVector::zeros(cols);
     }
-    let euler = model.opt.integrator == Integrator::Euler;
+    // The contact parameters' columns need tau_soft's derivatives: those
+    // windows go through step_jacobians.
+    let euler = model.opt.integrator == Integrator::Euler
+        && !map.targets.iter().any(|(p, ..)| p.is_contact());
     if jacobian && euler {
         directions(model, map, &mut ws.window.columns);
     }

@@ -1,17 +1,20 @@
 //! Rigid-body dynamics on a [`Tree`]: kinematics, inverse dynamics (RNEA), the
-//! mass matrix (CRBA), forward dynamics (ABA), passive forces and the step.
+//! mass matrix (CRBA), forward dynamics (ABA), passive forces, soft contact
+//! and joint limits, and the step.
 //!
 //! Every algorithm is generic over the scalar (f64 or dual numbers) and works in
 //! a [`Data`] workspace allocated once per tree, so nothing allocates per call.
-//! The equation of motion is M(q) a = tau + tau_passive - c(q, v), with M
+//! The equation of motion is M(q) a = tau + tau_passive + tau_soft - c(q, v), with M
 //! including the joints' armature on its diagonal and c the Coriolis,
-//! centrifugal and gravity forces.
+//! centrifugal and gravity forces and tau_soft the contact and joint-limit
+//! forces of [`contact`].
 
 // The algorithms sweep tree nodes by index and read several per-node arrays at
 // that index; the index is the node, not an incidental loop counter.
 #![allow(clippy::needless_range_loop)]
 
 mod aba;
+pub mod contact;
 mod crba;
 mod kinematics;
 mod ltdl;
@@ -21,6 +24,7 @@ mod step;
 mod tree;
 
 pub use aba::aba;
+pub use contact::{add_soft_forces, body_contact_forces, Contact};
 pub use crba::crba;
 pub use kinematics::{body_poses, update_transforms};
 pub use ltdl::{ltdl_factor, ltdl_solve, ltdl_solve_columns};
@@ -50,6 +54,12 @@ pub struct Data<T: Real> {
     pub u: Vec<T>,
     pub composite: Vec<Inertia<T>>,
     pub mass_matrix: DMatrix<T>,
+    /// From the world to node i's frame, and from the world to each of the
+    /// tree's contact geoms' frames (filled by [`add_soft_forces`]).
+    pub world: Vec<Transform<T>>,
+    pub geom_pose: Vec<Transform<T>>,
+    /// The contacts of the last force evaluation.
+    pub contacts: Vec<Contact<T>>,
     /// Scratch vectors of length nv: the acceleration's, and RK4's stages.
     scratch: [Vec<T>; 3],
     stage: [Vec<T>; 3],
@@ -71,6 +81,9 @@ impl<T: Real> Data<T> {
             u: vec![T::zero(); n],
             composite: vec![Inertia::zero(); n],
             mass_matrix: DMatrix::zeros(n, n),
+            world: vec![Transform::identity(); n],
+            geom_pose: vec![Transform::identity(); tree.geoms.len()],
+            contacts: vec![],
             scratch: std::array::from_fn(|_| vec![T::zero(); n]),
             stage: std::array::from_fn(|_| vec![T::zero(); n]),
         }

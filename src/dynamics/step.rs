@@ -1,6 +1,6 @@
 //! One timestep of the equations of motion.
 
-use super::{aba, passive_forces, Data, Tree};
+use super::{aba, add_soft_forces, passive_forces, Data, Tree};
 use crate::model::{Integrator, Options, PassiveMode};
 use crate::spatial::{lift, Real};
 
@@ -30,6 +30,9 @@ pub enum StepError {
 ///   i.e. damping at v' and the spring at q' (DART)
 ///
 /// RK4 integrates q' = v, v' = M^-1 (tau - c - D v - K (q - q_s)) classically.
+///
+/// Contact and joint-limit forces ([`super::contact`]) join tau on the right:
+/// explicit in the Euler step (evaluated at (q, v)), at each stage under RK4.
 pub fn step<T: Real>(
     tree: &Tree<T>,
     opt: &Options,
@@ -83,7 +86,7 @@ fn check<T: Real>(name: &'static str, x: &[T], n: usize) -> Result<(), StepError
 }
 
 /// The acceleration of a semi-implicit Euler step of length h under passive
-/// mode `mode`: qdd solving (M + diag(extra)) qdd = tau + tau_passive - c, with
+/// mode `mode`: qdd solving (M + diag(extra)) qdd = tau + tau_passive + tau_soft - c, with
 /// the spring position and implicit diagonal of [`implicit_terms`]. Under
 /// `Explicit` this is the plain forward dynamics with passive forces, which
 /// RK4 evaluates at its stages.
@@ -101,6 +104,7 @@ pub fn acceleration<T: Real>(
     for i in 0..tree.nv() {
         force[i] += tau[i];
     }
+    add_soft_forces(tree, data, (q, v), force);
     let implicit = mode != PassiveMode::Explicit;
     aba(tree, data, q, v, force, implicit.then_some(&extra[..]), qdd);
     data.scratch = scratch;

@@ -9,8 +9,9 @@
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
+use super::contact::{contact_pairs, GeomFrame, Soft};
 use crate::model::params::inertia_to_six;
-use crate::model::{Body, JointKind, Param, Spec};
+use crate::model::{Body, JointKind, Param, SoftOptions, Spec};
 use crate::spatial::{lift, lift_vector, Inertia, Motion, Real, Transform};
 
 /// A one-dof joint in its node's frame. Its motion subspace `s` is the same
@@ -80,6 +81,13 @@ pub struct Tree<T: Real> {
     pub armature: Vec<T>,
     pub gravity: Vector3<T>,
     pub body: Vec<BodyFrame<T>>,
+    /// The geoms in contact pairs, and the pairs as indices into `geoms`
+    /// (see [`super::contact`]); both empty when contacts are off.
+    pub geoms: Vec<GeomFrame<T>>,
+    pub pairs: Vec<[usize; 2]>,
+    /// Per node: the joint's range if it is limited and limits are on.
+    pub limits: Vec<Option<(f64, f64)>>,
+    pub soft: Soft<T>,
 }
 
 impl<T: Real> Tree<T> {
@@ -96,7 +104,17 @@ impl<T: Real> Tree<T> {
             armature: vec![],
             gravity: Vector3::zeros(),
             body: vec![],
+            geoms: vec![],
+            pairs: vec![],
+            limits: vec![],
+            soft: Soft::new(&SoftOptions::default(), [T::zero(); 3]),
         }
+    }
+
+    /// Whether contact or limit forces can act (else the step is the plain
+    /// articulated dynamics).
+    pub fn has_soft_forces(&self) -> bool {
+        !self.pairs.is_empty() || self.limits.iter().any(Option::is_some)
     }
 
     pub fn nv(&self) -> usize {
@@ -140,6 +158,8 @@ impl<T: Real> Tree<T> {
                 tree.springref.push(lift(j.springref));
                 tree.armature
                     .push(lift_param(Param::Armature(k), 0, j.armature));
+                tree.limits
+                    .push(j.range.filter(|_| model.opt.limits));
                 tree.inertia.push(Inertia::zero());
                 node = Some(tree.parent.len() - 1);
                 x_tree = Transform::identity();
@@ -155,7 +175,37 @@ impl<T: Real> Tree<T> {
                 tree.inertia[n] += own.to_source(&x_tree);
             }
         }
+        let soft = &model.opt.soft;
+        let constants = [
+            (Param::ContactStiffness, soft.stiffness),
+            (Param::ContactDamping, soft.damping),
+            (Param::ContactFriction, soft.friction),
+        ];
+        tree.soft = Soft::new(soft, constants.map(|(p, x)| lift_param(p, 0, x)));
+        tree.add_pairs(model);
         tree
+    }
+
+    /// Places the geoms of the model's contact pairs and indexes the pairs.
+    fn add_pairs(&mut self, model: &Spec) {
+        for [a, b] in contact_pairs(model) {
+            let pair = [a, b].map(|g| {
+                if let Some(k) = self.geoms.iter().position(|f| f.geom == g) {
+                    return k;
+                }
+                let geom = &model.geoms[g];
+                let frame = self.body[geom.body];
+                self.geoms.push(GeomFrame {
+                    geom: g,
+                    body: geom.body,
+                    node: frame.node,
+                    offset: Transform::from_pose_f64(&geom.rot, &geom.pos).compose(&frame.offset),
+                    shape: geom.shape,
+                });
+                self.geoms.len() - 1
+            });
+            self.pairs.push(pair);
+        }
     }
 }
 

@@ -8,11 +8,15 @@
 //! - `body/<name>/inertia` (6 values, kg m^2): xx yy zz xy xz yz about the COM in
 //!   body axes.
 //! - `joint/<name>/damping`, `joint/<name>/stiffness`, `joint/<name>/armature`.
+//! - `contact/stiffness` (N/m), `contact/damping` (N s/m), `contact/friction`:
+//!   the model's global soft-contact constants ([`super::SoftOptions`]); listed
+//!   by [`Param::all`] only when the model has contact pairs.
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
-use super::{check_inertial, check_passive, Model, ModelError, Spec};
+use super::{check_inertial, check_passive, check_soft, Model, ModelError, SoftOptions, Spec};
 use crate::dynamics::body_inertia;
+use crate::dynamics::contact::contact_pairs;
 #[cfg(doc)]
 use crate::dynamics::Tree;
 use crate::spatial::Inertia;
@@ -26,6 +30,9 @@ pub enum Param {
     Damping(usize),
     Stiffness(usize),
     Armature(usize),
+    ContactStiffness,
+    ContactDamping,
+    ContactFriction,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -59,10 +66,19 @@ impl Param {
             hint,
         };
         let parts: Vec<&str> = name.split('/').collect();
+        let expected = " (expected body/<name>/<field>, joint/<name>/<field> or contact/<field>)";
+        if let ["contact", field] = parts[..] {
+            return match field {
+                "stiffness" => Ok(Param::ContactStiffness),
+                "damping" => Ok(Param::ContactDamping),
+                "friction" => Ok(Param::ContactFriction),
+                _ => Err(unknown(
+                    ": contact fields are stiffness, damping, friction".into(),
+                )),
+            };
+        }
         let [kind, object, field] = parts[..] else {
-            return Err(unknown(
-                " (expected body/<name>/<field> or joint/<name>/<field>)".into(),
-            ));
+            return Err(unknown(expected.into()));
         };
         match kind {
             "body" => {
@@ -90,19 +106,34 @@ impl Param {
                     )),
                 }
             }
-            _ => Err(unknown(
-                " (expected body/<name>/<field> or joint/<name>/<field>)".into(),
-            )),
+            _ => Err(unknown(expected.into())),
         }
     }
 
-    /// Every identifiable parameter of a model, bodies first, in model order.
+    /// Every identifiable parameter of a model, bodies first, in model order,
+    /// then the contact parameters if the model has contact pairs.
     pub fn all(spec: &Spec) -> Vec<Param> {
         let bodies =
             (1..spec.bodies.len()).flat_map(|b| [Param::Mass(b), Param::Com(b), Param::Inertia(b)]);
         let joints = (0..spec.joints.len())
             .flat_map(|j| [Param::Damping(j), Param::Stiffness(j), Param::Armature(j)]);
-        bodies.chain(joints).collect()
+        let contact = if contact_pairs(spec).is_empty() {
+            vec![]
+        } else {
+            Param::CONTACT.to_vec()
+        };
+        bodies.chain(joints).chain(contact).collect()
+    }
+
+    /// The three contact parameters.
+    pub const CONTACT: [Param; 3] = [
+        Param::ContactStiffness,
+        Param::ContactDamping,
+        Param::ContactFriction,
+    ];
+
+    pub fn is_contact(&self) -> bool {
+        Param::CONTACT.contains(self)
     }
 
     pub fn name(&self, spec: &Spec) -> String {
@@ -115,6 +146,9 @@ impl Param {
             Param::Damping(j) => format!("joint/{}/damping", joint(j)),
             Param::Stiffness(j) => format!("joint/{}/stiffness", joint(j)),
             Param::Armature(j) => format!("joint/{}/armature", joint(j)),
+            Param::ContactStiffness => "contact/stiffness".into(),
+            Param::ContactDamping => "contact/damping".into(),
+            Param::ContactFriction => "contact/friction".into(),
         }
     }
 
@@ -135,6 +169,9 @@ impl Param {
             Param::Damping(j) => vec![spec.joints[j].damping],
             Param::Stiffness(j) => vec![spec.joints[j].stiffness],
             Param::Armature(j) => vec![spec.joints[j].armature],
+            Param::ContactStiffness => vec![spec.opt.soft.stiffness],
+            Param::ContactDamping => vec![spec.opt.soft.damping],
+            Param::ContactFriction => vec![spec.opt.soft.friction],
         }
     }
 
@@ -151,6 +188,9 @@ impl Param {
             Param::Damping(j) => edit.joint(j).passive[0] = value[0],
             Param::Stiffness(j) => edit.joint(j).passive[1] = value[0],
             Param::Armature(j) => edit.joint(j).passive[2] = value[0],
+            Param::ContactStiffness => edit.contact().stiffness = value[0],
+            Param::ContactDamping => edit.contact().damping = value[0],
+            Param::ContactFriction => edit.contact().friction = value[0],
         }
     }
 
@@ -224,12 +264,22 @@ impl Model {
             spec: &self.spec,
             bodies: vec![],
             joints: vec![],
+            contact: None,
         };
         for (p, v) in values {
             p.put(&mut edit, v);
         }
-        let Edit { bodies, joints, .. } = edit;
-        if let Err(source) = self.check_edit(&bodies, &joints) {
+        let Edit {
+            bodies,
+            joints,
+            contact,
+            ..
+        } = edit;
+        let checked = match &contact {
+            Some(soft) => check_soft(soft),
+            None => Ok(()),
+        };
+        if let Err(source) = checked.and_then(|_| self.check_edit(&bodies, &joints)) {
             return Err(ParamError::NotPhysical {
                 name: values
                     .iter()
@@ -247,6 +297,11 @@ impl Model {
         for j in &joints {
             let joint = &mut self.spec.joints[j.index];
             [joint.damping, joint.stiffness, joint.armature] = j.passive;
+        }
+        if let Some(soft) = contact {
+            self.spec.opt.soft = soft;
+            let s = &mut self.tree.soft;
+            (s.stiffness, s.damping, s.friction) = (soft.stiffness, soft.damping, soft.friction);
         }
         self.patch_tree(
             bodies.iter().map(|b| b.index),
@@ -325,14 +380,19 @@ struct JointEdit {
 }
 
 /// The bodies and joints an edit touches, each taken from the model on
-/// first touch.
+/// first touch, and the soft-contact constants if it touches them.
 struct Edit<'a> {
     spec: &'a Spec,
     bodies: Vec<BodyEdit>,
     joints: Vec<JointEdit>,
+    contact: Option<SoftOptions>,
 }
 
 impl Edit<'_> {
+    fn contact(&mut self) -> &mut SoftOptions {
+        self.contact.get_or_insert_with(|| self.spec.opt.soft.clone())
+    }
+
     fn body(&mut self, b: usize) -> &mut BodyEdit {
         let k = match self.bodies.iter().position(|e| e.index == b) {
             Some(k) => k,

@@ -87,6 +87,7 @@ pub fn random_model(seed: u64, n: usize, passive: PassiveMode, integrator: Integ
         gravity: Vector3::new(0.0, 0.0, -9.81),
         integrator,
         passive,
+        ..Options::default()
     };
     Model::new(format!("random{seed}"), bodies, joints, vec![], vec![], opt).unwrap()
 }

@@ -8,7 +8,9 @@
 //! [`PassiveMode::ImplicitDamping`]. `implicit` also linearises Coriolis forces
 //! (an O(h) difference) and is rejected. Passive forces are explicit under RK4
 //! or when `<flag eulerdamp="disable">` (Euler only), else damping is implicit.
-//! `<flag gravity="disable">` loads as zero gravity.
+//! `<flag gravity="disable">` loads as zero gravity; `<flag contact="disable">`
+//! and `<flag limit="disable">` switch off [`Options::contact`] and
+//! [`Options::limits`].
 
 use nalgebra::Vector3;
 
@@ -20,7 +22,7 @@ use crate::model::{Integrator, Options, PassiveMode};
 /// Flags that only concern contacts, constraints, sensors or the solver.
 #[rustfmt::skip]
 const IGNORED_FLAGS: &[&str] = &[
-    "constraint", "equality", "frictionloss", "limit", "contact", "warmstart", "filterparent",
+    "constraint", "equality", "frictionloss", "warmstart", "filterparent",
     "refsafe", "sensor", "midphase", "autoreset", "nativeccd", "island", "multiccd", "override",
     "energy", "fwdinv", "invdiscrete", "sleep", "diagexact",
 ];
@@ -34,6 +36,9 @@ struct Flags {
     eulerdamp: bool,
     /// Gravity; disabled it is the same as zero gravity.
     gravity: bool,
+    /// Contacts and joint limits ([`Options::contact`], [`Options::limits`]).
+    contact: bool,
+    limit: bool,
 }
 
 pub fn read(file: &str, root: Node) -> Result<Options> {
@@ -42,6 +47,8 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
     let mut flags = Flags {
         eulerdamp: true,
         gravity: true,
+        contact: true,
+        limit: true,
     };
     for node in children(root, "option") {
         check_attributes(file, node, OPTION_ATTRS)?;
@@ -65,6 +72,7 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
     if !flags.gravity {
         opt.gravity = Vector3::zeros();
     }
+    (opt.contact, opt.limits) = (flags.contact, flags.limit);
     opt.integrator = if integrator == "RK4" {
         Integrator::Rk4
     } else {
@@ -121,6 +129,8 @@ fn read_flags(file: &str, flag: Node, flags: &mut Flags) -> Result<()> {
         match attr.name() {
             "eulerdamp" => flags.eulerdamp = enabled,
             "gravity" => flags.gravity = enabled,
+            "contact" => flags.contact = enabled,
+            "limit" => flags.limit = enabled,
             name if IGNORED_FLAGS.contains(&name) => {}
             name if REJECTED_FLAGS.contains(&name) => {
                 if !enabled {

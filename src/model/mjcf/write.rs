@@ -15,7 +15,10 @@
 //! - Options: Euler with implicit damping is MuJoCo's default; explicit
 //!   passive forces under Euler are `<flag eulerdamp="disable"/>`. Under RK4
 //!   passive forces are always explicit, so the passive mode, which RK4 does
-//!   not use, reads back as [`PassiveMode::Explicit`].
+//!   not use, reads back as [`PassiveMode::Explicit`]. Contacts or limits
+//!   switched off are `<flag contact="disable"/>`, `<flag limit="disable"/>`;
+//!   the soft-contact constants ([`crate::model::SoftOptions`]) are not
+//!   written and read back as their defaults.
 //!
 //! What MJCF cannot express is an error ([`ModelError::Unwritable`]): implicit
 //! stiffness under Euler ([`PassiveMode::ImplicitDampingStiffness`], DART's
@@ -79,22 +82,31 @@ fn write_options(doc: &mut Document, opt: &Options) -> Result<(), ModelError> {
         .number("timestep", opt.timestep)
         .numbers("gravity", opt.gravity.as_slice())
         .text("integrator", integrator);
-    match (opt.integrator, opt.passive) {
-        (Integrator::Euler, PassiveMode::ImplicitDampingStiffness) => Err(unwritable(
+    if (opt.integrator, opt.passive) == (Integrator::Euler, PassiveMode::ImplicitDampingStiffness) {
+        return Err(unwritable(
             "MuJoCo has no implicit joint stiffness (passive mode ImplicitDampingStiffness, \
              DART's); its Euler integrator makes only damping implicit",
-        )),
-        (Integrator::Euler, PassiveMode::Explicit) => {
-            doc.open(1, option);
-            doc.empty(2, Tag::new("flag").text("eulerdamp", "disable"));
-            doc.close(1, "option");
-            Ok(())
-        }
-        _ => {
-            doc.empty(1, option);
-            Ok(())
-        }
+        ));
     }
+    let mut flag = Tag::new("flag");
+    let mut any = false;
+    let disabled = [
+        ("eulerdamp", (opt.integrator, opt.passive) == (Integrator::Euler, PassiveMode::Explicit)),
+        ("contact", !opt.contact),
+        ("limit", !opt.limits),
+    ];
+    for (name, _) in disabled.into_iter().filter(|(_, off)| *off) {
+        flag = flag.text(name, "disable");
+        any = true;
+    }
+    if any {
+        doc.open(1, option);
+        doc.empty(2, flag);
+        doc.close(1, "option");
+    } else {
+        doc.empty(1, option);
+    }
+    Ok(())
 }
 
 /// The world's geoms, then the bodies, each nested in its parent.

@@ -1,0 +1,352 @@
+//! Smooth soft contact between geoms, and soft joint limits: forces that are
+//! smooth functions of (q, v) and of the contact parameters, so a step
+//! through them is exactly differentiable and depends on nothing but its
+//! inputs (no solver, no warm start, no contact cache).
+//!
+//! Conventions:
+//! - A contact between geoms a and b has a world point `point` (halfway
+//!   between the two surfaces along the normal), a unit `normal` in world
+//!   coordinates pointing from b into a (the direction of the force on a), and
+//!   a penetration `depth` d (> 0 overlapping, < 0 at a separation of -d).
+//!   When one geom is a plane it is b.
+//! - Normal force on a, with s(d) = w ln(1 + e^(d/w)) (softplus of width w,
+//!   s' = sigmoid(d/w)) and the penetration rate d' = -n . (v_a - v_b) at the point:
+//!   N = k s(d) + c s'(d) d'. It can pull (N < 0) while separating fast: the
+//!   price of smoothness.
+//! - Friction on a, regularised Coulomb with slip speed e: with v_t the
+//!   tangential part of v_a - v_b, F_t = -mu k s(d) v_t / sqrt(|v_t|^2 + e^2);
+//!   its bound uses the elastic part of N, which is never negative.
+//! - Force N n + F_t acts on a at the point, its opposite on b; each maps to
+//!   generalized forces through the bodies' point Jacobians (J^T f).
+//! - Contacts deeper out than 30 widths (s < 1e-13 w) are skipped.
+//! - Joint limits (lo, hi): with d = lo - q below the range, tau += k_l s_l(d)
+//!   - c_l s_l'(d) v; with d = q - hi above it, tau -= k_l s_l(d) + c_l s_l'(d) v
+//!   (width w_l), skipped likewise beyond 30 widths inside the range.
+//! - k, c, mu are the named parameters `contact/stiffness`, `contact/damping`,
+//!   `contact/friction`; the rest are fixed settings ([`SoftOptions`]).
+//!
+//! Pairs ([`contact_pairs`]): geoms of different bodies whose MJCF bitmasks
+//! match (contype_a & conaffinity_b or contype_b & conaffinity_a), unless the
+//! bodies are the same rigid body (welded together) or parent and child
+//! (MuJoCo's rule; the world counts as nobody's parent). Supported shapes:
+//! plane against sphere, capsule (its two end spheres) and box (its eight
+//! corners), and sphere against sphere; other pairs make no contact.
+
+use nalgebra::Vector3;
+
+use super::{update_transforms, Data, Tree};
+use crate::model::{Shape, SoftOptions, Spec};
+#[cfg(doc)]
+use crate::model::Options;
+use crate::spatial::{lift, Force, Motion, Real, Transform};
+
+/// Contacts are skipped beyond this many widths of separation.
+const CUTOFF_WIDTHS: f64 = 30.0;
+
+/// The contact constants in the scalar of a tree (the named parameters lifted).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Soft<T: Real> {
+    pub stiffness: T,
+    pub damping: T,
+    pub friction: T,
+    pub width: f64,
+    pub slip: f64,
+    pub limit_stiffness: f64,
+    pub limit_damping: f64,
+    pub limit_width: f64,
+}
+
+impl<T: Real> Soft<T> {
+    /// The settings of `soft` with k, c and mu given in T.
+    pub fn new(soft: &SoftOptions, [stiffness, damping, friction]: [T; 3]) -> Self {
+        Soft {
+            stiffness,
+            damping,
+            friction,
+            width: soft.width,
+            slip: soft.slip,
+            limit_stiffness: soft.limit_stiffness,
+            limit_damping: soft.limit_damping,
+            limit_width: soft.limit_width,
+        }
+    }
+}
+
+/// A geom that takes part in a contact pair, placed in its node's frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GeomFrame<T: Real> {
+    /// Index of the geom in the model, and its body.
+    pub geom: usize,
+    pub body: usize,
+    pub node: Option<usize>,
+    /// From the node's frame (or the world's) to the geom's frame.
+    pub offset: Transform<T>,
+    pub shape: Shape,
+}
+
+/// One contact at a state; see the module documentation for the frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Contact<T: Real> {
+    /// Model indices of the geoms a and b, and of their bodies.
+    pub geoms: [usize; 2],
+    pub bodies: [usize; 2],
+    pub point: Vector3<T>,
+    pub normal: Vector3<T>,
+    pub depth: T,
+    /// N, along `normal` on a (N).
+    pub normal_force: T,
+    /// F_t on a, world coordinates (N).
+    pub friction: Vector3<T>,
+}
+
+impl<T: Real> Contact<T> {
+    /// The total force on geom a (world coordinates); b feels its opposite.
+    pub fn force(&self) -> Vector3<T> {
+        self.normal * self.normal_force + self.friction
+    }
+}
+
+/// The net contact force on each body (world coordinates, N), from a list of
+/// contacts; `nbody` is the model's number of bodies.
+pub fn body_contact_forces<T: Real>(contacts: &[Contact<T>], nbody: usize) -> Vec<Vector3<T>> {
+    let mut out = vec![Vector3::zeros(); nbody];
+    for c in contacts {
+        let f = c.force();
+        out[c.bodies[0]] += f;
+        out[c.bodies[1]] -= f;
+    }
+    out
+}
+
+/// The geom pairs that may touch, as model geom indices [a, b] (b the plane
+/// when there is one), in model order; empty when contacts are off.
+pub fn contact_pairs(spec: &Spec) -> Vec<[usize; 2]> {
+    if !spec.opt.contact {
+        return vec![];
+    }
+    // The rigid body each body moves with: itself, or its parent's if welded.
+    let mut weld = vec![0; spec.bodies.len()];
+    for (b, body) in spec.bodies.iter().enumerate().skip(1) {
+        weld[b] = if body.joints.is_empty() {
+            weld[body.parent]
+        } else {
+            b
+        };
+    }
+    let weld_parent = |w: usize| weld[spec.bodies[w].parent];
+    let mut pairs = vec![];
+    for (i, gi) in spec.geoms.iter().enumerate() {
+        for (j, gj) in spec.geoms.iter().enumerate().skip(i + 1) {
+            let (wi, wj) = (weld[gi.body], weld[gj.body]);
+            let masks = gi.contype & gj.conaffinity != 0 || gj.contype & gi.conaffinity != 0;
+            let related = wi == wj
+                || (wi != 0 && wj != 0 && (wi == weld_parent(wj) || wj == weld_parent(wi)));
+            if !masks || related {
+                continue;
+            }
+            match (gi.shape, gj.shape) {
+                (Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. }, Shape::Plane)
+                | (Shape::Sphere { .. }, Shape::Sphere { .. }) => pairs.push([i, j]),
+                (Shape::Plane, Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. }) => {
+                    pairs.push([j, i])
+                }
+                _ => {}
+            }
+        }
+    }
+    pairs
+}
+
+/// softplus of width w and its derivative: (w ln(1 + e^(d/w)), sigmoid(d/w)),
+/// in forms that never overflow (both branches are the same function).
+fn softplus<T: Real>(d: T, w: f64) -> (T, T) {
+    let z = d / lift::<T>(w);
+    let one = T::one();
+    if z > T::zero() {
+        let e = (-z).exp();
+        ((z + e.ln_1p()) * lift::<T>(w), one / (one + e))
+    } else {
+        let e = z.exp();
+        (e.ln_1p() * lift::<T>(w), e / (one + e))
+    }
+}
+
+/// Adds the generalized forces of the soft joint limits and contacts at
+/// (q, v) to `out` (length nv) and records the contacts in `data.contacts`.
+/// Leaves `data.x_up` at q.
+pub fn add_soft_forces<T: Real>(
+    tree: &Tree<T>,
+    data: &mut Data<T>,
+    (q, v): (&[T], &[T]),
+    out: &mut [T],
+) {
+    add_limit_forces(tree, (q, v), out);
+    data.contacts.clear();
+    if tree.pairs.is_empty() {
+        return;
+    }
+    update_transforms(tree, data, q);
+    for i in 0..tree.nv() {
+        let joint_vel = tree.joint[i].s * v[i];
+        (data.world[i], data.vel[i]) = match tree.parent[i] {
+            Some(p) => (
+                data.x_up[i].compose(&data.world[p]),
+                data.x_up[i].apply_motion(&data.vel[p]) + joint_vel,
+            ),
+            None => (data.x_up[i], joint_vel),
+        };
+    }
+    for (k, g) in tree.geoms.iter().enumerate() {
+        data.geom_pose[k] = match g.node {
+            Some(n) => g.offset.compose(&data.world[n]),
+            None => g.offset,
+        };
+    }
+    let cutoff = -CUTOFF_WIDTHS * tree.soft.width;
+    for &[a, b] in &tree.pairs {
+        let (ga, gb) = (&tree.geoms[a], &tree.geoms[b]);
+        let (xa, xb) = (data.geom_pose[a], data.geom_pose[b]);
+        let mut emit = |point, normal, depth: T| {
+            if depth > lift(cutoff) {
+                data.contacts.push(Contact {
+                    geoms: [ga.geom, gb.geom],
+                    bodies: [ga.body, gb.body],
+                    point,
+                    normal,
+                    depth,
+                    normal_force: T::zero(),
+                    friction: Vector3::zeros(),
+                });
+            }
+        };
+        collide((&ga.shape, &xa), (&gb.shape, &xb), &mut emit);
+    }
+    let mut contacts = std::mem::take(&mut data.contacts);
+    for c in &mut contacts {
+        let [a, b] = c.geoms.map(|g| geom_node(tree, g));
+        let velocity = |node: Option<usize>| match node {
+            Some(n) => {
+                let m: Motion<T> = data.world[n].inverse_apply_motion(&data.vel[n]);
+                m.lin + m.ang.cross(&c.point)
+            }
+            None => Vector3::zeros(),
+        };
+        let rel = velocity(a) - velocity(b);
+        let normal_speed = c.normal.dot(&rel);
+        let soft = &tree.soft;
+        let (s, ds) = softplus(c.depth, soft.width);
+        let elastic = soft.stiffness * s;
+        c.normal_force = elastic - soft.damping * ds * normal_speed;
+        let tangent = rel - c.normal * normal_speed;
+        let slip: T = lift(soft.slip);
+        let norm = (tangent.norm_squared() + slip * slip).sqrt();
+        c.friction = tangent * (-soft.friction * elastic / norm);
+        let f = c.force();
+        let world = Force::new(c.point.cross(&f), f);
+        for (node, sign) in [(a, T::one()), (b, -T::one())] {
+            if let Some(n) = node {
+                let local = data.world[n].apply_force(&world) * sign;
+                body_force_to_joints(tree, &data.x_up, n, local, out);
+            }
+        }
+    }
+    data.contacts = contacts;
+}
+
+/// The node a model geom moves with (it is in a pair, so in `tree.geoms`).
+fn geom_node<T: Real>(tree: &Tree<T>, geom: usize) -> Option<usize> {
+    let g = tree.geoms.iter().find(|g| g.geom == geom);
+    g.expect("a contact's geoms are in the tree").node
+}
+
+/// The soft joint-limit forces (see the module documentation).
+fn add_limit_forces<T: Real>(tree: &Tree<T>, (q, v): (&[T], &[T]), out: &mut [T]) {
+    let soft = &tree.soft;
+    let (k, c, w) = (
+        lift::<T>(soft.limit_stiffness),
+        lift::<T>(soft.limit_damping),
+        soft.limit_width,
+    );
+    let cutoff: T = lift(-CUTOFF_WIDTHS * w);
+    for (i, range) in tree.limits.iter().enumerate() {
+        let Some((lo, hi)) = *range else { continue };
+        let below = lift::<T>(lo) - q[i];
+        if below > cutoff {
+            let (s, ds) = softplus(below, w);
+            out[i] += k * s - c * ds * v[i];
+        }
+        let above = q[i] - lift::<T>(hi);
+        if above > cutoff {
+            let (s, ds) = softplus(above, w);
+            out[i] -= k * s + c * ds * v[i];
+        }
+    }
+}
+
+/// Contact points of shape a against shape b at their world poses: calls
+/// `emit(point, normal from b into a, depth)` for each (see the module
+/// documentation for the supported pairs).
+fn collide<T: Real>(
+    (sa, xa): (&Shape, &Transform<T>),
+    (sb, xb): (&Shape, &Transform<T>),
+    emit: &mut impl FnMut(Vector3<T>, Vector3<T>, T),
+) {
+    match (sa, sb) {
+        (_, Shape::Plane) => {
+            let n: Vector3<T> = xb.rot.row(2).transpose();
+            let mut sphere = |c: Vector3<T>, r: T| {
+                let height = n.dot(&(c - xb.trans));
+                let two = T::one() + T::one();
+                emit(c - n * ((height + r) / two), n, r - height);
+            };
+            let axes = xa.axes();
+            match *sa {
+                Shape::Sphere { radius } => sphere(xa.trans, lift(radius)),
+                Shape::Capsule {
+                    radius,
+                    half_length,
+                } => {
+                    let end = axes.column(2) * lift::<T>(half_length);
+                    sphere(xa.trans + end, lift(radius));
+                    sphere(xa.trans - end, lift(radius));
+                }
+                Shape::Box { half } => {
+                    for corner in 0..8 {
+                        let sign = |bit: usize| if corner >> bit & 1 == 1 { 1.0 } else { -1.0 };
+                        let local = Vector3::from_fn(|r, _| lift::<T>(sign(r) * half[r]));
+                        sphere(xa.trans + axes * local, T::zero());
+                    }
+                }
+                _ => {}
+            }
+        }
+        (Shape::Sphere { radius: ra }, Shape::Sphere { radius: rb }) => {
+            let gap = xa.trans - xb.trans;
+            let distance = gap.norm();
+            let n = gap / distance;
+            let depth = lift::<T>(ra + rb) - distance;
+            let two = T::one() + T::one();
+            emit(xb.trans + n * (lift::<T>(*rb) - depth / two), n, depth);
+        }
+        _ => {}
+    }
+}
+
+/// Adds the joint forces S_k . F_k that a force `f` on node `node` (in its
+/// frame) causes along its path to the root, with the transforms `x_up`.
+pub fn body_force_to_joints<T: Real>(
+    tree: &Tree<T>,
+    x_up: &[Transform<T>],
+    node: usize,
+    f: Force<T>,
+    out: &mut [T],
+) {
+    let mut f = f;
+    let mut k = node;
+    loop {
+        out[k] += tree.joint[k].s.dot(&f);
+        let Some(p) = tree.parent[k] else { break };
+        f = x_up[k].inverse_apply_force(&f);
+        k = p;
+    }
+}
