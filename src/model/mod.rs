@@ -267,17 +267,21 @@ impl Default for SoftOptions {
     /// Chosen for explicit (semi-implicit Euler) stability at the half
     /// cheetah's 0.01 s step: a 1 kg point on a 1e4 N/m spring has period
     /// 0.063 s (h sqrt(k/m) = 1 < 2); damping 100 N s/m is half of critical
-    /// for 1 kg and keeps h c / m <= 1 down to 1 kg; a 0.1 m/s slip speed keeps
-    /// h mu g / slip < 2; a 1 mm width sits well below a typical 1-2 cm
-    /// resting depth. Limits: 1000 N m/rad, 10 N m s/rad, 1 mrad, stable for
-    /// joint inertias (armature included) down to about 0.05 kg m^2.
+    /// for 1 kg and keeps h c / m <= 1 down to 1 kg; a 1 mm width sits well
+    /// below a typical 5-10 mm resting depth. Friction 1 is MuJoCo's default
+    /// geom friction. Explicit friction is stable while h mu N / (slip m) < 2
+    /// for the normal load N on a contact and the effective mass m there:
+    /// the cheetah's feet (N ~ 100 N on ~1 kg) chatter at slip 0.1 m/s and
+    /// stand still at 0.5 m/s, so keep mu / slip <= 2 s/m at that step.
+    /// Limits: 1000 N m/rad, 10 N m s/rad, 1 mrad, stable for joint
+    /// inertias (armature included) down to about 0.05 kg m^2.
     fn default() -> Self {
         SoftOptions {
             stiffness: 1e4,
             damping: 100.0,
             friction: 1.0,
             width: 1e-3,
-            slip: 0.1,
+            slip: 0.5,
             limit_stiffness: 1000.0,
             limit_damping: 10.0,
             limit_width: 1e-3,
