@@ -141,7 +141,10 @@ fn a_resting_box_carries_its_weight() {
     let weight = mass * 9.81;
     let thing = model.body_index("thing").unwrap();
     let error = (forces[thing] - nalgebra::Vector3::new(0.0, 0.0, weight)).amax();
-    println!("resting box: contact force {:?}, error {error:.1e} N", forces[thing]);
+    println!(
+        "resting box: contact force {:?}, error {error:.1e} N",
+        forces[thing]
+    );
     assert!(error < 1e-6, "net contact force {:?}", forces[thing]);
     assert_eq!(forces[0], -forces[thing], "the floor feels the opposite");
     let normal: f64 = contacts.iter().map(|c| c.normal_force).sum();

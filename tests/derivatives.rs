@@ -123,8 +123,12 @@ fn perturbable(model: &Model) -> Vec<Param> {
 }
 
 fn check_against_fd(model: &Model, seed: u64, label: &str) {
+    check_state_against_fd(model, common::random_state(model, seed), label);
+}
+
+/// Every Jacobian block at (q, v, tau) against central differences.
+fn check_state_against_fd(model: &Model, (q, v, tau): (Vec<f64>, Vec<f64>, Vec<f64>), label: &str) {
     let params = perturbable(model);
-    let (q, v, tau) = common::random_state(model, seed);
     let mut ws = Workspace::new(model);
     let wrt = Wrt {
         state: true,
@@ -303,4 +307,88 @@ fn a_workspace_follows_the_model_it_is_used_with() {
     )
     .unwrap();
     assert_eq!(shared, own);
+}
+
+/// A body on six one-dof joints (slides x y z, hinges x y z) carrying one
+/// geom above the floor plane; the same as tests/contact.rs builds.
+fn dropped(shape: &str) -> Model {
+    let text = format!(
+        r#"<mujoco model="dropped">
+  <option timestep="0.002"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1"/>
+    <body name="thing">
+      <joint name="x" type="slide" axis="1 0 0"/>
+      <joint name="y" type="slide" axis="0 1 0"/>
+      <joint name="z" type="slide" axis="0 0 1"/>
+      <joint name="rx" type="hinge" axis="1 0 0"/>
+      <joint name="ry" type="hinge" axis="0 1 0"/>
+      <joint name="rz" type="hinge" axis="0 0 1"/>
+      <geom name="thing" {shape} mass="1.5"/>
+    </body>
+  </worldbody>
+</mujoco>"#
+    );
+    diffosi::model::mjcf::parse(&text, "dropped.xml").unwrap()
+}
+
+/// A random state of `model` (velocities in [-1, 1]) with its root joint
+/// `height` moved so that the deepest contact is `depth` deep (negative: that
+/// far above the floor).
+fn at_depth(model: &Model, seed: u64, height: usize, depth: f64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let (mut q, v, tau) = common::random_state(model, seed);
+    q[height] = 0.0;
+    let contacts = model.contacts(&mut model.data(), &q, &v).unwrap();
+    let deepest = contacts.iter().map(|c| c.depth).fold(f64::MIN, f64::max);
+    // Contacts beyond the cutoff are not listed: start from a touching pose.
+    assert!(deepest > -0.02, "seed {seed}: no contact to move from");
+    q[height] += deepest - depth;
+    (q, v, tau)
+}
+
+/// Jacobians through contact (state, control, every parameter including
+/// contact/stiffness, damping, friction) against central differences, in
+/// contact (5 mm and 0.5 mm deep) and out of it (2 cm above), for a sphere, a
+/// box and the half cheetah on its floor. Soft forces are smooth everywhere
+/// but at the 30-width cutoff, which these states stay away from.
+#[test]
+fn jacobians_through_contact_match_finite_differences() {
+    let sphere = dropped(r#"type="sphere" size="0.1""#);
+    let boxed = dropped(r#"type="box" size="0.2 0.15 0.1""#);
+    let cheetah = load("half_cheetah.xml");
+    let (mut touching, mut apart) = (0, 0);
+    for (name, model, height) in [
+        ("sphere", &sphere, 2),
+        ("box", &boxed, 2),
+        ("cheetah", &cheetah, 1),
+    ] {
+        // Start each from a pose whose lowest point touches the floor.
+        let model = &model
+            .edited(|s| {
+                let b = s
+                    .bodies
+                    .iter()
+                    .position(|b| b.name == "thing" || b.name == "torso");
+                s.bodies[b.unwrap()].pos.z = if name == "cheetah" { 0.55 } else { 0.1 };
+            })
+            .unwrap();
+        for (seed, depth) in [(0, 0.005), (1, 0.0005), (2, -0.02)] {
+            let state = at_depth(model, seed, height, depth);
+            let contacts = model
+                .contacts(&mut model.data(), &state.0, &state.1)
+                .unwrap();
+            let deepest = contacts.iter().map(|c| c.depth).fold(f64::MIN, f64::max);
+            assert!(
+                (deepest - depth).abs() < 1e-9,
+                "{name} seed {seed}: {deepest}"
+            );
+            if depth > 0.0 {
+                touching += 1
+            } else {
+                apart += 1
+            }
+            check_state_against_fd(model, state, &format!("{name} seed {seed} depth {depth}"));
+        }
+    }
+    assert_eq!((touching, apart), (6, 3));
 }

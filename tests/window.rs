@@ -115,6 +115,64 @@ fn every_parameter(model: &Model, seed: u64) -> ParamMap {
     ParamMap::new(model, 2, &entries).unwrap()
 }
 
+/// Evaluates the window and asserts that its residuals equal the model's
+/// steps and its Jacobian rows the step Jacobians of the map's parameters
+/// times its gains (to 1e-12 relative); returns the fit.
+fn assert_rows_match(
+    model: &mut Model,
+    ws: &mut Workspace,
+    (map, mu): (&ParamMap, &[f64]),
+    (window, scale): (&[Transition], &[f64]),
+) -> WindowFit {
+    let n = model.nv();
+    let fit = window_residuals(model, ws, map, mu, window, scale).unwrap();
+    // The evaluation edited the model in place: its tree is the one a
+    // rebuild from the edited description gives, bit for bit.
+    let rebuilt = Model::from_spec((**model).clone()).unwrap();
+    assert_eq!(model.tree(), rebuilt.tree(), "tree rebuilt");
+    // The same rows from the model's step and the step Jacobians of
+    // every parameter, times the map's gains.
+    let params = map.params();
+    let wrt = Wrt {
+        params: &params,
+        ..Wrt::default()
+    };
+    let gains = map.jacobian();
+    let mut worst = (0.0f64, 0.0f64);
+    for (t, tr) in window.iter().enumerate() {
+        let j = step_jacobians(
+            model,
+            &mut Workspace::new(model),
+            (&tr.q, &tr.v, &tr.tau),
+            &wrt,
+        )
+        .unwrap();
+        let (q_next, v_next) = model
+            .step(&mut model.data(), &tr.q, &tr.v, &tr.tau)
+            .unwrap();
+        let predicted = q_next.iter().chain(&v_next);
+        let observed = tr.q_next.iter().chain(&tr.v_next);
+        let expected = DMatrix::from_fn(2 * n, map.nmu, |i, c| {
+            let block = if i < n { &j.dq_dp } else { &j.dv_dp };
+            (block.row(i % n) * gains.column(c))[0] / scale[i]
+        });
+        let rows = fit.jacobian.rows(2 * n * t, 2 * n);
+        let size = expected.amax().max(1e-300);
+        worst.1 = worst.1.max((rows - &expected).amax() / size);
+        for (i, (p, o)) in predicted.zip(observed).enumerate() {
+            let r = fit.residuals[2 * n * t + i];
+            worst.0 = worst.0.max((r - (p - o) / scale[i]).abs());
+        }
+    }
+    println!(
+        "residuals {:.1e}, Jacobian {:.1e} (relative)",
+        worst.0, worst.1
+    );
+    // The residuals come from the same articulated-body pass as the step.
+    assert!(worst.0 == 0.0 && worst.1 < 1e-12, "{worst:?}");
+    fit
+}
+
 #[test]
 fn rows_match_the_step_and_its_parameter_jacobians() {
     let settings = [
@@ -147,51 +205,8 @@ fn rows_match_the_step_and_its_parameter_jacobians() {
             })
             .collect();
         let mut ws = Workspace::new(&model);
-        let fit = window_residuals(&mut model, &mut ws, &map, &mu, &window, &scale).unwrap();
-        // The evaluation edited the model in place: its tree is the one a
-        // rebuild from the edited description gives, bit for bit.
-        let rebuilt = Model::from_spec((*model).clone()).unwrap();
-        assert_eq!(model.tree(), rebuilt.tree(), "seed {seed}");
-        // The same rows from the model's step and the step Jacobians of
-        // every parameter, times the map's gains.
-        let params = map.params();
-        let wrt = Wrt {
-            params: &params,
-            ..Wrt::default()
-        };
-        let gains = map.jacobian();
-        let mut worst = (0.0f64, 0.0f64);
-        for (t, tr) in window.iter().enumerate() {
-            let j = step_jacobians(
-                &model,
-                &mut Workspace::new(&model),
-                (&tr.q, &tr.v, &tr.tau),
-                &wrt,
-            )
-            .unwrap();
-            let (q_next, v_next) = model
-                .step(&mut model.data(), &tr.q, &tr.v, &tr.tau)
-                .unwrap();
-            let predicted = q_next.iter().chain(&v_next);
-            let observed = tr.q_next.iter().chain(&tr.v_next);
-            let expected = DMatrix::from_fn(2 * n, 2, |i, c| {
-                let block = if i < n { &j.dq_dp } else { &j.dv_dp };
-                (block.row(i % n) * gains.column(c))[0] / scale[i]
-            });
-            let rows = fit.jacobian.rows(2 * n * t, 2 * n);
-            let size = expected.amax().max(1e-300);
-            worst.1 = worst.1.max((rows - &expected).amax() / size);
-            for (i, (p, o)) in predicted.zip(observed).enumerate() {
-                let r = fit.residuals[2 * n * t + i];
-                worst.0 = worst.0.max((r - (p - o) / scale[i]).abs());
-            }
-        }
-        println!(
-            "seed {seed} {integrator:?} {passive:?}: residuals {:.1e}, Jacobian {:.1e} (relative)",
-            worst.0, worst.1
-        );
-        // The residuals come from the same articulated-body pass as the step.
-        assert!(worst.0 == 0.0 && worst.1 < 1e-12, "seed {seed}: {worst:?}");
+        let fit = assert_rows_match(&mut model, &mut ws, (&map, &mu), (&window, &scale));
+        println!("seed {seed} {integrator:?} {passive:?}");
         // Residuals only: the same residuals and loss, no Jacobian columns.
         let mut only = WindowFit::empty();
         window_residuals_into(
@@ -260,4 +275,67 @@ fn bad_windows_are_clear_errors() {
     )
     .unwrap_err();
     assert_eq!(err.to_string(), "mu value inf is not finite");
+}
+
+/// With contact (the half cheetah's feet in its floor): a map onto the torso
+/// mass takes the articulated-body path, one that also moves contact
+/// parameters goes through step_jacobians; both give the step's rows.
+#[test]
+fn rows_match_through_contact() {
+    let mut model = Model::load(common::model_path("reference_models/half_cheetah.xml")).unwrap();
+    let n = model.nv();
+    let scale: Vec<f64> = (0..2 * n).map(|i| 1e-3 * (1.0 + i as f64)).collect();
+    let one = [1.0];
+    let torso = MapEntry {
+        name: "body/torso/mass",
+        offset: &[6.25],
+        gain: &[&one],
+    };
+    let stiffness = MapEntry {
+        name: "contact/stiffness",
+        offset: &[1e4],
+        gain: &[&[1e3, 0.0]],
+    };
+    let friction = MapEntry {
+        name: "contact/friction",
+        offset: &[0.8],
+        gain: &[&[0.0, 0.1]],
+    };
+    let mass_only = ParamMap::new(&model, 1, &[torso]).unwrap();
+    let two = [1.0, 0.0];
+    let torso2 = MapEntry {
+        gain: &[&two],
+        ..torso
+    };
+    let with_contact = ParamMap::new(&model, 2, &[torso2, stiffness, friction]).unwrap();
+    for (map, mu) in [(mass_only, vec![0.5]), (with_contact, vec![0.5, 1.0])] {
+        let mut truth = model.clone();
+        map.apply(&mut truth, &mu).unwrap();
+        let window: Vec<Transition> = (0..3)
+            .map(|k| {
+                let (mut q, v, tau) = common::random_state(&model, 40 + k);
+                q[1] = -0.15; // the feet in the floor
+                let (q_next, v_next) = truth.step(&mut truth.data(), &q, &v, &tau).unwrap();
+                Transition {
+                    q,
+                    v,
+                    tau,
+                    q_next,
+                    v_next,
+                }
+            })
+            .collect();
+        let contacts = model
+            .contacts(&mut model.data(), &window[0].q, &window[0].v)
+            .unwrap();
+        assert!(contacts.iter().any(|c| c.depth > 0.0));
+        let mut ws = Workspace::new(&model);
+        let fit = assert_rows_match(&mut model, &mut ws, (&map, &mu), (&window, &scale));
+        assert!(
+            fit.loss == 0.0 || fit.loss < 1e-20,
+            "true mu: loss {}",
+            fit.loss
+        );
+        assert!(fit.jacobian.amax() > 0.0);
+    }
 }

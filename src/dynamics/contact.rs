@@ -35,9 +35,9 @@
 use nalgebra::Vector3;
 
 use super::{update_transforms, Data, Tree};
-use crate::model::{Shape, SoftOptions, Spec};
 #[cfg(doc)]
 use crate::model::Options;
+use crate::model::{Shape, SoftOptions, Spec};
 use crate::spatial::{lift, Force, Motion, Real, Transform};
 
 /// Contacts are skipped beyond this many widths of separation.
@@ -145,11 +145,15 @@ pub fn contact_pairs(spec: &Spec) -> Vec<[usize; 2]> {
                 continue;
             }
             match (gi.shape, gj.shape) {
-                (Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. }, Shape::Plane)
+                (
+                    Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. },
+                    Shape::Plane,
+                )
                 | (Shape::Sphere { .. }, Shape::Sphere { .. }) => pairs.push([i, j]),
-                (Shape::Plane, Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. }) => {
-                    pairs.push([j, i])
-                }
+                (
+                    Shape::Plane,
+                    Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. },
+                ) => pairs.push([j, i]),
                 _ => {}
             }
         }

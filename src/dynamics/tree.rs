@@ -158,8 +158,7 @@ impl<T: Real> Tree<T> {
                 tree.springref.push(lift(j.springref));
                 tree.armature
                     .push(lift_param(Param::Armature(k), 0, j.armature));
-                tree.limits
-                    .push(j.range.filter(|_| model.opt.limits));
+                tree.limits.push(j.range.filter(|_| model.opt.limits));
                 tree.inertia.push(Inertia::zero());
                 node = Some(tree.parent.len() - 1);
                 x_tree = Transform::identity();

@@ -471,7 +471,13 @@ impl Spec {
 /// Checks that the soft contact and limit constants are finite and
 /// non-negative, the widths and the slip speed positive.
 pub fn check_soft(s: &SoftOptions) -> Result<(), ModelError> {
-    let non_negative = [s.stiffness, s.damping, s.friction, s.limit_stiffness, s.limit_damping];
+    let non_negative = [
+        s.stiffness,
+        s.damping,
+        s.friction,
+        s.limit_stiffness,
+        s.limit_damping,
+    ];
     let positive = [s.width, s.slip, s.limit_width];
     if non_negative.iter().any(|x| !(x.is_finite() && *x >= 0.0))
         || positive.iter().any(|x| !(x.is_finite() && *x > 0.0))

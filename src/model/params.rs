@@ -390,7 +390,8 @@ struct Edit<'a> {
 
 impl Edit<'_> {
     fn contact(&mut self) -> &mut SoftOptions {
-        self.contact.get_or_insert_with(|| self.spec.opt.soft.clone())
+        self.contact
+            .get_or_insert_with(|| self.spec.opt.soft.clone())
     }
 
     fn body(&mut self, b: usize) -> &mut BodyEdit {

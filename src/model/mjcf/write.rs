@@ -91,7 +91,10 @@ fn write_options(doc: &mut Document, opt: &Options) -> Result<(), ModelError> {
     let mut flag = Tag::new("flag");
     let mut any = false;
     let disabled = [
-        ("eulerdamp", (opt.integrator, opt.passive) == (Integrator::Euler, PassiveMode::Explicit)),
+        (
+            "eulerdamp",
+            (opt.integrator, opt.passive) == (Integrator::Euler, PassiveMode::Explicit),
+        ),
         ("contact", !opt.contact),
         ("limit", !opt.limits),
     ];
