@@ -112,14 +112,18 @@ impl PyModel {
 
     /// A copy run with other options, e.g. the conventions of the engine it is
     /// compared with: `m.with_options(passive="implicit_damping_stiffness",
-    /// timestep=0.005)`. Options not given keep their value.
-    #[pyo3(signature = (*, timestep = None, gravity = None, integrator = None, passive = None))]
+    /// timestep=0.005)`; `contact=False` / `limits=False` switch off the soft
+    /// contacts and joint limits. Options not given keep their value.
+    #[pyo3(signature = (*, timestep = None, gravity = None, integrator = None, passive = None, contact = None, limits = None))]
+    #[allow(clippy::too_many_arguments)]
     fn with_options(
         &self,
         timestep: Option<f64>,
         gravity: Option<&Bound<'_, PyAny>>,
         integrator: Option<&str>,
         passive: Option<&str>,
+        contact: Option<bool>,
+        limits: Option<bool>,
     ) -> PyResult<Self> {
         let gravity = gravity.map(|g| vector(g, "gravity", 3, "3")).transpose()?;
         let integrator = integrator
@@ -137,6 +141,8 @@ impl PyModel {
                 }
                 s.opt.integrator = integrator.unwrap_or(s.opt.integrator);
                 s.opt.passive = passive.unwrap_or(s.opt.passive);
+                s.opt.contact = contact.unwrap_or(s.opt.contact);
+                s.opt.limits = limits.unwrap_or(s.opt.limits);
             })
             .map_err(model_error)?;
         Ok(PyModel::new(model))

@@ -190,13 +190,14 @@ class Engine:
 
     def ours(self):
         """Our engine (diffosi.Model) configured as this engine runs the model: the same
-        file, its timestep, gravity, integrator and passive mode, the ignored parameters
-        zeroed and every set_param change applied."""
+        file, its timestep, gravity, integrator and passive mode, contacts and limits off
+        (as the engines run), the ignored parameters zeroed and every set_param change
+        applied."""
         import diffosi
 
         m = diffosi.Model.load(str(self.model_path)).with_options(
             timestep=self.timestep, gravity=list(self.gravity), integrator=self.integrator,
-            passive=self.passive)
+            passive=self.passive, contact=False, limits=False)
         for param, joints in self.ignored.items():
             for joint in joints:
                 m.set_param(f"joint/{joint}/{param}", 0.0)

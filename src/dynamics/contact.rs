@@ -19,9 +19,10 @@
 //! - Force N n + F_t acts on a at the point, its opposite on b; each maps to
 //!   generalized forces through the bodies' point Jacobians (J^T f).
 //! - Contacts deeper out than 30 widths (s < 1e-13 w) are skipped.
-//! - Joint limits (lo, hi): with d = lo - q below the range, tau += k_l s_l(d)
-//!   - c_l s_l'(d) v; with d = q - hi above it, tau -= k_l s_l(d) + c_l s_l'(d) v
-//!   (width w_l), skipped likewise beyond 30 widths inside the range.
+//! - Joint limits (lo, hi), width w_l: below the range, with d = lo - q,
+//!   tau += k_l s_l(d) - c_l s_l'(d) v; above it, with d = q - hi,
+//!   tau -= k_l s_l(d) + c_l s_l'(d) v; skipped likewise beyond 30 widths
+//!   inside the range.
 //! - k, c, mu are the named parameters `contact/stiffness`, `contact/damping`,
 //!   `contact/friction`; the rest are fixed settings ([`SoftOptions`]).
 //!

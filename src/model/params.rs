@@ -390,8 +390,7 @@ struct Edit<'a> {
 
 impl Edit<'_> {
     fn contact(&mut self) -> &mut SoftOptions {
-        self.contact
-            .get_or_insert_with(|| self.spec.opt.soft.clone())
+        self.contact.get_or_insert(self.spec.opt.soft)
     }
 
     fn body(&mut self, b: usize) -> &mut BodyEdit {
