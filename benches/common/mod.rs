@@ -2,11 +2,18 @@
 
 use diffosi::Model;
 
+/// A reference model, contacts and joint limits off: the articulated dynamics
+/// that the reference timings (MuJoCo with contacts off, Pinocchio) measure.
 pub fn load(name: &str) -> Model {
     Model::load(format!(
         "{}/reference_models/{name}.xml",
         env!("CARGO_MANIFEST_DIR")
     ))
+    .unwrap()
+    .edited(|s| {
+        s.opt.contact = false;
+        s.opt.limits = false;
+    })
     .unwrap()
 }
 

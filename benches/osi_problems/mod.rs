@@ -10,6 +10,10 @@
 //! random states and generalized forces.
 #![allow(dead_code)]
 
+#[path = "../common/mod.rs"]
+mod common;
+
+pub use common::load;
 use diffosi::derivatives::Transition;
 use diffosi::model::{MapEntry, Model, ParamMap};
 use diffosi::osi::Problem;
@@ -26,14 +30,6 @@ pub struct Task {
     pub prior: f64,
     /// Half-widths of the uniform draws of q, v and tau (one value each).
     pub ranges: [f64; 3],
-}
-
-pub fn load(name: &str) -> Model {
-    Model::load(format!(
-        "{}/reference_models/{name}.xml",
-        env!("CARGO_MANIFEST_DIR")
-    ))
-    .unwrap()
 }
 
 pub fn cartpole() -> Task {
