@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 # The Python module `diffosi` (bindings/), built into the venv by maturin.
 MODULE := $(VENV)/.module
 
-.PHONY: setup run test bench golden
+.PHONY: setup run test bench golden fuzz
 
 setup: $(STAMP) $(MODULE)
 	cargo build --release --locked
@@ -43,3 +43,8 @@ bench: setup
 # Regenerates the reference engines' golden data (committed; see reference_models/golden/README.md).
 golden: setup
 	$(VENV)/bin/python -m harness golden --all --seed 0
+
+# The long fuzz run (nightly + cargo-fuzz, installed on first use): 10^6
+# executions per target. Its stable smoke run is part of `cargo test`.
+fuzz:
+	scripts/fuzz.sh

@@ -116,6 +116,12 @@ pub fn step_jacobians(
     if !q_next.iter().chain(&v_next).all(|x| x.is_finite()) {
         return Err(StepError::Diverged);
     }
+    const NAMES: [&str; 8] = [
+        "dq_dq", "dq_dv", "dq_dtau", "dq_dp", "dv_dq", "dv_dv", "dv_dtau", "dv_dp",
+    ];
+    if let Some(k) = blocks.iter().position(|m| !m.iter().all(|x| x.is_finite())) {
+        return Err(StepError::JacobianNotFinite { block: NAMES[k] });
+    }
     let [dq_dq, dq_dv, dq_dtau, dq_dp, dv_dq, dv_dv, dv_dtau, dv_dp] = blocks;
     Ok(StepJacobians {
         q_next,

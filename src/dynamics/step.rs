@@ -17,6 +17,9 @@ pub enum StepError {
     NotFinite { name: &'static str, index: usize },
     #[error("the step diverged: the next state is not finite (timestep too large?)")]
     Diverged,
+    /// The next state is finite but a Jacobian block overflowed.
+    #[error("the step Jacobian {block} is not finite (state, forces or parameters too large)")]
+    JacobianNotFinite { block: &'static str },
 }
 
 /// Advances (q, v) by one timestep under generalized forces tau, writing the

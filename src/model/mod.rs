@@ -341,6 +341,7 @@ impl Model {
     pub fn from_spec(spec: Spec) -> Result<Model, ModelError> {
         spec.validate()?;
         let tree = Tree::build(&spec);
+        check_tree_inertia(&spec, &tree, 1..spec.bodies.len())?;
         Ok(Model { spec, tree })
     }
 
@@ -534,6 +535,35 @@ pub fn check_inertial(
         return bad(format!(
             "principal moments {eig:?} violate the triangle inequality"
         ));
+    }
+    Ok(())
+}
+
+/// Checks that the joint nodes carrying `bodies` have finite inertia: mass,
+/// COM and tensor can each be finite while the inertia about the joint frame
+/// (m |c|^2 and sums of bodies) overflows.
+fn check_tree_inertia(
+    spec: &Spec,
+    tree: &Tree<f64>,
+    bodies: impl IntoIterator<Item = usize>,
+) -> Result<(), ModelError> {
+    for b in bodies {
+        let Some(node) = tree.body[b].node else {
+            continue;
+        };
+        let i = &tree.inertia[node];
+        let finite = i.mass.is_finite()
+            && i.h.iter().all(|x| x.is_finite())
+            && i.rot.iter().all(|x| x.is_finite());
+        if !finite {
+            let body = &spec.bodies[b];
+            return Err(ModelError::NotPhysical(format!(
+                "body '{}': mass {} at COM {:?} gives an inertia about its joint frame that overflows",
+                body.name,
+                body.mass,
+                body.com.as_slice()
+            )));
+        }
     }
     Ok(())
 }

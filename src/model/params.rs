@@ -14,7 +14,10 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
-use super::{check_inertial, check_passive, check_soft, Model, ModelError, SoftOptions, Spec};
+use super::{
+    check_inertial, check_passive, check_soft, check_tree_inertia, Model, ModelError, SoftOptions,
+    Spec,
+};
 use crate::dynamics::body_inertia;
 use crate::dynamics::contact::contact_pairs;
 #[cfg(doc)]
@@ -280,34 +283,54 @@ impl Model {
             None => Ok(()),
         };
         if let Err(source) = checked.and_then(|_| self.check_edit(&bodies, &joints)) {
-            return Err(ParamError::NotPhysical {
-                name: values
-                    .iter()
-                    .map(|(p, _)| p.name(self))
-                    .collect::<Vec<_>>()
-                    .join(", "),
-                value: values.iter().flat_map(|(_, v)| v.iter().copied()).collect(),
-                source: Box::new(source),
-            });
+            return Err(not_physical(self, values, source));
         }
-        for b in &bodies {
-            let body = &mut self.spec.bodies[b.index];
-            (body.mass, body.com, body.inertia) = (b.mass, b.com, b.inertia);
-        }
-        for j in &joints {
-            let joint = &mut self.spec.joints[j.index];
-            [joint.damping, joint.stiffness, joint.armature] = j.passive;
+        let old = self.write_edit(&bodies, &joints);
+        if let Err(source) = check_tree_inertia(self, &self.tree, bodies.iter().map(|b| b.index)) {
+            // Writing the old values back restores the tree bit for bit.
+            self.write_edit(&old.0, &old.1);
+            return Err(not_physical(self, values, source));
         }
         if let Some(soft) = contact {
             self.spec.opt.soft = soft;
             let s = &mut self.tree.soft;
             (s.stiffness, s.damping, s.friction) = (soft.stiffness, soft.damping, soft.friction);
         }
+        Ok(())
+    }
+
+    /// Writes the edited values into the description, patches the tree, and
+    /// returns the values they replaced.
+    fn write_edit(
+        &mut self,
+        bodies: &[BodyEdit],
+        joints: &[JointEdit],
+    ) -> (Vec<BodyEdit>, Vec<JointEdit>) {
+        let mut old = (vec![], vec![]);
+        for b in bodies {
+            let body = &mut self.spec.bodies[b.index];
+            old.0.push(BodyEdit {
+                index: b.index,
+                mass: body.mass,
+                com: body.com,
+                inertia: body.inertia,
+                tensor: b.tensor,
+            });
+            (body.mass, body.com, body.inertia) = (b.mass, b.com, b.inertia);
+        }
+        for j in joints {
+            let joint = &mut self.spec.joints[j.index];
+            old.1.push(JointEdit {
+                index: j.index,
+                passive: [joint.damping, joint.stiffness, joint.armature],
+            });
+            [joint.damping, joint.stiffness, joint.armature] = j.passive;
+        }
         self.patch_tree(
             bodies.iter().map(|b| b.index),
             joints.iter().map(|j| j.index),
         );
-        Ok(())
+        old
     }
 
     /// The checks of a valid model on the edited values (already finite).
@@ -360,6 +383,19 @@ impl Model {
             tree.stiffness[k] = j.stiffness;
             tree.armature[k] = j.armature;
         }
+    }
+}
+
+/// The error of an edit of `values` that `source` refused.
+fn not_physical(spec: &Spec, values: &[(Param, &[f64])], source: ModelError) -> ParamError {
+    ParamError::NotPhysical {
+        name: values
+            .iter()
+            .map(|(p, _)| p.name(spec))
+            .collect::<Vec<_>>()
+            .join(", "),
+        value: values.iter().flat_map(|(_, v)| v.iter().copied()).collect(),
+        source: Box::new(source),
     }
 }
 
