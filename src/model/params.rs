@@ -493,6 +493,11 @@ impl ParamMap {
                     p.size()
                 )));
             }
+            if let Some(bad) = gain.iter().flat_map(|r| r.iter()).find(|x| !x.is_finite()) {
+                return Err(ParamError::Map(format!(
+                    "gain of '{name}' holds {bad}: gains must be finite"
+                )));
+            }
             let rows: Vec<f64> = gain.iter().flat_map(|r| r.iter().copied()).collect();
             targets.push((
                 p,
