@@ -2,10 +2,10 @@
 
 mod common;
 
-use common::{random_model, random_state};
-use diffosi::dynamics::{aba, bias_forces, body_poses, crba, rnea, step, Data};
+use common::{bias, energy, mass_matrix, random_model, random_state};
+use diffosi::dynamics::{aba, rnea, step, Data};
 use diffosi::model::{Integrator, Model, PassiveMode};
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DVector;
 
 /// Random trees, and every model in reference_models/ (MJCF and URDF).
 fn models() -> Vec<Model> {
@@ -34,19 +34,6 @@ fn models() -> Vec<Model> {
         .into_iter()
         .map(|p| Model::load(&p).unwrap_or_else(|e| panic!("{e}")));
     random.chain(files).collect()
-}
-
-fn mass_matrix(model: &Model, q: &[f64]) -> DMatrix<f64> {
-    let mut data = Data::new(model.tree());
-    crba(model.tree(), &mut data, q);
-    data.mass_matrix.clone()
-}
-
-fn bias(model: &Model, q: &[f64], v: &[f64]) -> DVector<f64> {
-    let mut data = Data::new(model.tree());
-    let mut c = DVector::zeros(model.nv());
-    bias_forces(model.tree(), &mut data, q, v, c.as_mut_slice());
-    c
 }
 
 #[test]
@@ -102,27 +89,6 @@ fn mass_matrix_is_symmetric_positive_definite() {
         let eig = m.symmetric_eigenvalues();
         assert!(eig.min() > 0.0, "{}: eigenvalues {eig}", model.name);
     }
-}
-
-/// Kinetic energy 1/2 v^T M v (armature included) plus gravitational potential.
-fn energy(model: &Model, q: &[f64], v: &[f64]) -> f64 {
-    let m = mass_matrix(model, q);
-    let v = DVector::from_column_slice(v);
-    let kinetic = 0.5 * v.dot(&(&m * &v));
-    let poses = body_poses(model.tree(), q);
-    let potential: f64 = model
-        .bodies
-        .iter()
-        .zip(&poses)
-        .map(|(b, (axes, origin))| -b.mass * model.opt.gravity.dot(&(axes * b.com + origin)))
-        .sum();
-    let spring: f64 = model
-        .joints
-        .iter()
-        .zip(q)
-        .map(|(j, q)| 0.5 * j.stiffness * (q - j.springref).powi(2))
-        .sum();
-    kinetic + potential + spring
 }
 
 fn rollout_energy(model: &Model, steps: usize, damped: bool) -> Vec<f64> {

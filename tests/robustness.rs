@@ -263,3 +263,24 @@ fn simulate_explains_bad_models_and_steps() {
     ]);
     assert!(!ok && err.contains("step 0: the step diverged"), "{err}");
 }
+
+/// Fuzz finding (step target, built by cargo-fuzz with overflow checks): the
+/// Euler Jacobians' column count subtracted past zero (`0 - 3 n`) in a
+/// debug build, for any input.
+#[test]
+fn euler_jacobians_count_their_columns_without_underflow() {
+    let model = load("cartpole.xml");
+    let wrt = Wrt {
+        state: true,
+        control: true,
+        params: &[],
+    };
+    let j = step_jacobians(
+        &model,
+        &mut Workspace::new(&model),
+        (&[0.0; 2], &[0.0; 2], &[0.0; 2]),
+        &wrt,
+    )
+    .unwrap();
+    assert_eq!((j.dq_dq.shape(), j.dv_dp.shape()), ((2, 2), (2, 0)));
+}

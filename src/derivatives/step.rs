@@ -137,10 +137,17 @@ pub fn step_jacobians(
     })
 }
 
+/// Columns of each state block (q or v) and of the tau block.
+fn state_and_tau_columns(n: usize, wrt: &Wrt) -> (usize, usize) {
+    (
+        if wrt.state { n } else { 0 },
+        if wrt.control { n } else { 0 },
+    )
+}
+
 /// Column ranges of the q, v, tau and parameter blocks.
 fn block_columns(n: usize, total: usize, wrt: &Wrt) -> [(usize, usize); 4] {
-    let n_state = if wrt.state { n } else { 0 };
-    let n_tau = if wrt.control { n } else { 0 };
+    let (n_state, n_tau) = state_and_tau_columns(n, wrt);
     let params = 2 * n_state + n_tau;
     [
         (0, n_state),
@@ -268,7 +275,7 @@ fn accel_derivatives(
     // Velocities, accelerations and forces at the solution, for both blocks.
     rnea(tree, &mut ws.data, q, v, &ws.qdd, &mut ws.tau);
 
-    let [_, (_, n_state), (_, n_tau), _] = block_columns(n, 0, wrt);
+    let (n_state, n_tau) = state_and_tau_columns(n, wrt);
     let n_p: usize = wrt.params.iter().map(|p| p.size()).sum();
     let columns = 2 * n_state + n_tau + n_p;
     reset(&mut ws.r, n, columns);

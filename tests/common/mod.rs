@@ -1,7 +1,9 @@
 //! Shared helpers of the integration tests: random trees and states.
 #![allow(dead_code)]
 
+use diffosi::dynamics::{bias_forces, body_poses, crba, Data};
 use diffosi::model::{Body, Integrator, Joint, JointKind, Model, Options, ParamMap, PassiveMode};
+use nalgebra::{DMatrix, DVector};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
@@ -139,4 +141,41 @@ pub fn cartpole_with_mu() -> (Model, ParamMap) {
     let model = Model::load(model_path("reference_models/cartpole.xml")).unwrap();
     let map = diffosi::tasks::Cartpole::mu_map_of(&model).unwrap();
     (model, map)
+}
+
+/// The mass matrix M(q), armature included (CRBA).
+pub fn mass_matrix(model: &Model, q: &[f64]) -> DMatrix<f64> {
+    let mut data = Data::new(model.tree());
+    crba(model.tree(), &mut data, q);
+    data.mass_matrix.clone()
+}
+
+/// The bias forces c(q, v): Coriolis, centrifugal and gravity.
+pub fn bias(model: &Model, q: &[f64], v: &[f64]) -> DVector<f64> {
+    let mut data = Data::new(model.tree());
+    let mut c = DVector::zeros(model.nv());
+    bias_forces(model.tree(), &mut data, q, v, c.as_mut_slice());
+    c
+}
+
+/// Kinetic energy 1/2 v^T M v (armature included) plus gravitational and
+/// spring potential energy.
+pub fn energy(model: &Model, q: &[f64], v: &[f64]) -> f64 {
+    let m = mass_matrix(model, q);
+    let v = DVector::from_column_slice(v);
+    let kinetic = 0.5 * v.dot(&(&m * &v));
+    let poses = body_poses(model.tree(), q);
+    let potential: f64 = model
+        .bodies
+        .iter()
+        .zip(&poses)
+        .map(|(b, (axes, origin))| -b.mass * model.opt.gravity.dot(&(axes * b.com + origin)))
+        .sum();
+    let spring: f64 = model
+        .joints
+        .iter()
+        .zip(q)
+        .map(|(j, q)| 0.5 * j.stiffness * (q - j.springref).powi(2))
+        .sum();
+    kinetic + potential + spring
 }
