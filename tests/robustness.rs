@@ -284,3 +284,28 @@ fn euler_jacobians_count_their_columns_without_underflow() {
     .unwrap();
     assert_eq!((j.dq_dq.shape(), j.dv_dp.shape()), ((2, 2), (2, 0)));
 }
+
+/// Fuzz finding (MJCF target): a model without joints (nv = 0) loads, but
+/// its step Jacobians panicked on a zero chunk size in the column solve.
+#[test]
+fn a_model_without_joints_steps_and_differentiates() {
+    let text = "<mujoco><worldbody><body name='a' pos='0 0 1'>\
+                <geom type='sphere' size='0.05'/></body></worldbody></mujoco>";
+    let model = diffosi::model::mjcf::parse(text, "static.xml").unwrap();
+    assert_eq!(model.nv(), 0);
+    let all = all_params(&model);
+    for params in [&all[..], &[]] {
+        let wrt = Wrt {
+            state: true,
+            control: true,
+            params,
+        };
+        let x = (&[][..], &[][..], &[][..]);
+        let j = step_jacobians(&model, &mut Workspace::new(&model), x, &wrt).unwrap();
+        assert_eq!(j.dv_dp.shape(), (0, params.iter().map(|p| p.size()).sum()));
+    }
+    assert_eq!(
+        model.step(&mut model.data(), &[], &[], &[]).unwrap(),
+        (vec![], vec![])
+    );
+}

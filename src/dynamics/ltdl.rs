@@ -54,6 +54,9 @@ pub fn ltdl_solve<T: Real>(tree: &Tree<T>, m: &DMatrix<T>, b: &mut [T]) {
 /// Solves M X = B in place, column by column.
 pub fn ltdl_solve_columns(tree: &Tree<f64>, m: &DMatrix<f64>, b: &mut DMatrix<f64>) {
     let n = tree.nv();
+    if n == 0 {
+        return;
+    }
     for column in b.as_mut_slice().chunks_exact_mut(n) {
         ltdl_solve(tree, m, column);
     }
