@@ -309,3 +309,22 @@ fn a_model_without_joints_steps_and_differentiates() {
         (vec![], vec![])
     );
 }
+
+/// Fuzz finding (MJCF target): a body whose name holds '/' listed parameter
+/// names (`body/a/b/mass`) that did not resolve.
+#[test]
+fn names_with_slashes_resolve() {
+    let text = "<mujoco><worldbody><body name='leg/upper'><joint name='hip/y'/>\
+                <geom type='sphere' size='0.05'/></body></worldbody></mujoco>";
+    let mut model = diffosi::model::mjcf::parse(text, "slashes.xml").unwrap();
+    for name in model.param_names() {
+        assert_eq!(model.param(&name).unwrap().name(&model), name);
+    }
+    model.set_param("body/leg/upper/mass", &[2.0]).unwrap();
+    model.set_param("joint/hip/y/damping", &[0.5]).unwrap();
+    let err = model.get_param("body/leg/mass").unwrap_err().to_string();
+    assert_eq!(
+        err,
+        "unknown parameter 'body/leg/mass': no body named 'leg'"
+    );
+}

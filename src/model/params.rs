@@ -68,9 +68,8 @@ impl Param {
             name: name.to_string(),
             hint,
         };
-        let parts: Vec<&str> = name.split('/').collect();
         let expected = " (expected body/<name>/<field>, joint/<name>/<field> or contact/<field>)";
-        if let ["contact", field] = parts[..] {
+        if let Some(field) = name.strip_prefix("contact/") {
             return match field {
                 "stiffness" => Ok(Param::ContactStiffness),
                 "damping" => Ok(Param::ContactDamping),
@@ -80,7 +79,13 @@ impl Param {
                 )),
             };
         }
-        let [kind, object, field] = parts[..] else {
+        // Body and joint names may hold '/' themselves (MuJoCo's attach
+        // prefixes do): the kind ends at the first '/', the field starts
+        // after the last.
+        let parts = name
+            .split_once('/')
+            .and_then(|(kind, rest)| rest.rsplit_once('/').map(|(o, f)| (kind, o, f)));
+        let Some((kind, object, field)) = parts else {
             return Err(unknown(expected.into()));
         };
         match kind {
