@@ -252,13 +252,7 @@ def make_case(name: str, truth, w: int, rng) -> Case:
             e.set_param(pname, value)
         ours = e.ours()
         q0, v0, taus = sample_rollout(e, rng, tau_scale(e), w)
-        e.reset()
-        e.set_state(q0, v0)
-        states = [e.get_state()]
-        for tau in taus:
-            e.step(tau)
-            states.append(e.get_state())
-    Q, V = (np.array(x) for x in zip(*states))
+        Q, V = e.rollout(q0, v0, taus)
     spec = sysid_spec(MODELS / f"{name}.xml")
     case = Case(name, truth, osi.prior, Q, V, taus, osi, spec, spec.compile())
 

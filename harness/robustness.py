@@ -148,13 +148,7 @@ def simulate(name: str, problem: Problem, truth, case: str, w: int, rng) -> tupl
             q0 = equilibrium(ours, [0.0, np.pi] if name == "cartpole" else np.zeros(len(q0)))
             v0, taus = np.zeros_like(v0), np.zeros_like(taus)
         applied = np.vstack([np.zeros_like(taus[:1]), taus[:-1]]) if case == "delay" else taus
-        e.reset()
-        e.set_state(q0, v0)
-        states = [e.get_state()]
-        for tau in applied:
-            e.step(tau)
-            states.append(e.get_state())
-    Q, V = (np.array(x) for x in zip(*states))
+        Q, V = e.rollout(q0, v0, applied)
     gap = max(step_error(*ours.step(Q[t], V[t], applied[t]), Q[t + 1], V[t + 1]) for t in range(len(taus)))
     return Q, V, taus, gap
 

@@ -8,29 +8,6 @@ use diffosi::derivatives::{step_jacobians, Workspace, Wrt};
 use diffosi::dynamics::body_contact_forces;
 use diffosi::model::{mjcf, Model, Param};
 
-/// A body on slides x, y, z and hinges about x, y, z (in that order) above
-/// the floor plane z = 0, carrying one geom `shape` of mass `mass`.
-pub fn dropped(shape: &str, mass: f64, height: f64) -> Model {
-    let text = format!(
-        r#"<mujoco model="dropped">
-  <option timestep="0.002"/>
-  <worldbody>
-    <geom name="floor" type="plane" size="5 5 0.1"/>
-    <body name="thing" pos="0 0 {height}">
-      <joint name="x" type="slide" axis="1 0 0"/>
-      <joint name="y" type="slide" axis="0 1 0"/>
-      <joint name="z" type="slide" axis="0 0 1"/>
-      <joint name="rx" type="hinge" axis="1 0 0"/>
-      <joint name="ry" type="hinge" axis="0 1 0"/>
-      <joint name="rz" type="hinge" axis="0 0 1"/>
-      <geom name="thing" {shape} mass="{mass}"/>
-    </body>
-  </worldbody>
-</mujoco>"#
-    );
-    mjcf::parse(&text, "dropped.xml").unwrap()
-}
-
 fn cheetah() -> Model {
     Model::load(common::model_path("reference_models/half_cheetah.xml")).unwrap()
 }
@@ -108,7 +85,7 @@ fn geoms_touch_where_their_shapes_say() {
         (r#"type="box" size="0.2 0.15 0.1""#, 4),
     ];
     for (shape, count) in cases {
-        let model = dropped(shape, 1.0, 0.095);
+        let model = common::dropped(shape, 1.0, 0.095);
         let n = model.nv();
         let contacts = model
             .contacts(&mut model.data(), &vec![0.0; n], &vec![0.0; n])
@@ -127,7 +104,7 @@ fn geoms_touch_where_their_shapes_say() {
 #[test]
 fn a_resting_box_carries_its_weight() {
     let mass = 2.0;
-    let model = dropped(r#"type="box" size="0.2 0.15 0.05""#, mass, 0.06);
+    let model = common::dropped(r#"type="box" size="0.2 0.15 0.05""#, mass, 0.06);
     let n = model.nv();
     let (mut q, mut v) = (vec![0.0; n], vec![0.0; n]);
     // A slight tilt and push, then 4 s to settle.

@@ -309,29 +309,6 @@ fn a_workspace_follows_the_model_it_is_used_with() {
     assert_eq!(shared, own);
 }
 
-/// A body on six one-dof joints (slides x y z, hinges x y z) carrying one
-/// geom above the floor plane; the same as tests/contact.rs builds.
-fn dropped(shape: &str) -> Model {
-    let text = format!(
-        r#"<mujoco model="dropped">
-  <option timestep="0.002"/>
-  <worldbody>
-    <geom name="floor" type="plane" size="5 5 0.1"/>
-    <body name="thing">
-      <joint name="x" type="slide" axis="1 0 0"/>
-      <joint name="y" type="slide" axis="0 1 0"/>
-      <joint name="z" type="slide" axis="0 0 1"/>
-      <joint name="rx" type="hinge" axis="1 0 0"/>
-      <joint name="ry" type="hinge" axis="0 1 0"/>
-      <joint name="rz" type="hinge" axis="0 0 1"/>
-      <geom name="thing" {shape} mass="1.5"/>
-    </body>
-  </worldbody>
-</mujoco>"#
-    );
-    diffosi::model::mjcf::parse(&text, "dropped.xml").unwrap()
-}
-
 /// A random state of `model` (velocities in [-1, 1]) with its root joint
 /// `height` moved so that the deepest contact is `depth` deep (negative: that
 /// far above the floor).
@@ -353,8 +330,8 @@ fn at_depth(model: &Model, seed: u64, height: usize, depth: f64) -> (Vec<f64>, V
 /// but at the 30-width cutoff, which these states stay away from.
 #[test]
 fn jacobians_through_contact_match_finite_differences() {
-    let sphere = dropped(r#"type="sphere" size="0.1""#);
-    let boxed = dropped(r#"type="box" size="0.2 0.15 0.1""#);
+    let sphere = common::dropped(r#"type="sphere" size="0.1""#, 1.5, 0.0);
+    let boxed = common::dropped(r#"type="box" size="0.2 0.15 0.1""#, 1.5, 0.0);
     let cheetah = load("half_cheetah.xml");
     let (mut touching, mut apart) = (0, 0);
     for (name, model, height) in [

@@ -156,6 +156,18 @@ class Engine:
 
     # ---- shared
 
+    def rollout(self, q0, v0, taus) -> tuple:
+        """(Q, V), shapes (T+1, nq) and (T+1, nv): the states visited from (q0, v0) under
+        each row of taus, after a reset."""
+        self.reset()
+        self.set_state(q0, v0)
+        states = [self.get_state()]
+        for tau in taus:
+            self.step(tau)
+            states.append(self.get_state())
+        Q, V = zip(*states)
+        return np.array(Q), np.array(V)
+
     def mass_matrix(self, q) -> np.ndarray:
         return self.dynamics(q, np.zeros(len(self.joint_names)))[0]
 

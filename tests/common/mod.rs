@@ -179,3 +179,26 @@ pub fn energy(model: &Model, q: &[f64], v: &[f64]) -> f64 {
         .sum();
     kinetic + potential + spring
 }
+
+/// A body on slides x, y, z and hinges about x, y, z (in that order) above
+/// the floor plane z = 0, carrying one geom `shape` of mass `mass`.
+pub fn dropped(shape: &str, mass: f64, height: f64) -> Model {
+    let text = format!(
+        r#"<mujoco model="dropped">
+  <option timestep="0.002"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1"/>
+    <body name="thing" pos="0 0 {height}">
+      <joint name="x" type="slide" axis="1 0 0"/>
+      <joint name="y" type="slide" axis="0 1 0"/>
+      <joint name="z" type="slide" axis="0 0 1"/>
+      <joint name="rx" type="hinge" axis="1 0 0"/>
+      <joint name="ry" type="hinge" axis="0 1 0"/>
+      <joint name="rz" type="hinge" axis="0 0 1"/>
+      <geom name="thing" {shape} mass="{mass}"/>
+    </body>
+  </worldbody>
+</mujoco>"#
+    );
+    diffosi::model::mjcf::parse(&text, "dropped.xml").unwrap()
+}
