@@ -12,8 +12,8 @@
 use engine::derivatives::Transition;
 use engine::model::State;
 use engine::osi::{
-    Adam, ChangeDetection, Estimate, Identifier, Lm, LmOptions, Loss, Online, OsiError, Problem,
-    Sampling, HUBER_THRESHOLD,
+    Adam, ChangeDetection, Identifier, Lm, LmOptions, Loss, Online, Problem, Sampling,
+    HUBER_THRESHOLD,
 };
 use engine::rl::{Policy, PolicyKind};
 use engine::tasks::{self, Task};
@@ -324,19 +324,8 @@ impl PyPolicy {
     }
 }
 
-/// The solver behind an `OnlineOsi`.
-struct Solver(Box<dyn Identifier + Send + Sync>);
-
-impl Identifier for Solver {
-    fn identify(
-        &mut self,
-        problem: &mut Problem,
-        window: &[Transition],
-        start: &[f64],
-    ) -> Result<Estimate, OsiError> {
-        self.0.identify(problem, window, start)
-    }
-}
+/// The solver behind an `OnlineOsi`, chosen at run time.
+type Solver = Box<dyn Identifier + Send + Sync>;
 
 /// Online DiffOSI of a task's mu (src/osi/online.rs):
 /// `OnlineOsi(task, window=1, method="lm", change_detection=False, seed=0,
@@ -384,9 +373,9 @@ impl PyOnlineOsi {
                     loss,
                     ..LmOptions::default()
                 };
-                (Solver(Box::new(Lm { options })), "lm")
+                (Box::new(Lm { options }), "lm")
             }
-            "adam" => (Solver(Box::new(Adam::default())), "adam"),
+            "adam" => (Box::new(Adam::default()), "adam"),
             other => {
                 return Err(PyValueError::new_err(format!(
                     "method must be 'lm' or 'adam', got '{other}'"

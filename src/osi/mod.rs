@@ -356,6 +356,19 @@ pub trait Identifier {
     ) -> Result<Estimate, OsiError>;
 }
 
+/// A boxed identifier is one, so a solver chosen at run time
+/// (`Box<dyn Identifier + Send>`) drives [`Online`] like a concrete one.
+impl<I: Identifier + ?Sized> Identifier for Box<I> {
+    fn identify(
+        &mut self,
+        problem: &mut Problem,
+        window: &[Transition],
+        start: &[f64],
+    ) -> Result<Estimate, OsiError> {
+        (**self).identify(problem, window, start)
+    }
+}
+
 /// Thresholds on the eigenvalues of J^T J that decide which directions of mu
 /// a window excites.
 #[derive(Clone, Copy, Debug, PartialEq)]
