@@ -27,11 +27,18 @@ const TOL: f64 = 1e-15;
 const REBUILT_TOL: f64 = 1e-14;
 
 /// Models MJCF cannot express, and why.
-const UNWRITABLE: [(&str, &str); 1] = [(
-    // Two massless helper links carry the planar root joints.
-    "reference_half_cheetah_urdf",
-    "a body with joints needs mass and inertia",
-)];
+const UNWRITABLE: [(&str, &str); 2] = [
+    (
+        // Two massless helper links carry the planar root joints.
+        "reference_half_cheetah_urdf",
+        "a body with joints needs mass and inertia",
+    ),
+    (
+        // Five massless helper links carry the box's six joints.
+        "reference_box_urdf",
+        "a body with joints needs mass and inertia",
+    ),
+];
 
 fn written_dir() -> PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("roundtrip");

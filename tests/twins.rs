@@ -313,8 +313,13 @@ fn half_cheetah_twins_are_the_same_model() {
     assert_same_model("half_cheetah");
 }
 
-/// The helper rule must not hide anything: the half cheetah has exactly the two
-/// documented helper links, and the other twins none.
+#[test]
+fn box_twins_are_the_same_model() {
+    assert_same_model("box");
+}
+
+/// The helper rule must not hide anything: the half cheetah and the box have
+/// exactly their documented helper links, and the other twins none.
 #[test]
 fn only_the_half_cheetah_root_uses_helper_links() {
     for (name, expected) in [
@@ -322,6 +327,10 @@ fn only_the_half_cheetah_root_uses_helper_links() {
         ("pendulum", vec![]),
         ("double_pendulum", vec![]),
         ("half_cheetah", vec!["rootx_link", "rootz_link"]),
+        (
+            "box",
+            vec!["x_link", "y_link", "z_link", "rx_link", "ry_link"],
+        ),
     ] {
         let (mjcf, urdf) = load_twins(name);
         let helpers: Vec<_> = (0..urdf.bodies.len())
@@ -336,7 +345,13 @@ fn only_the_half_cheetah_root_uses_helper_links() {
 /// mode) agree at random states.
 #[test]
 fn twins_have_the_same_dynamics() {
-    for name in ["cartpole", "pendulum", "double_pendulum", "half_cheetah"] {
+    for name in [
+        "cartpole",
+        "pendulum",
+        "double_pendulum",
+        "half_cheetah",
+        "box",
+    ] {
         let (mjcf, urdf) = load_twins(name);
         // The URDF twins have no floor: compare without contacts (limits on).
         let mjcf = mjcf.edited(|s| s.opt.contact = false).unwrap();

@@ -13,7 +13,7 @@
 mod task;
 
 use engine::derivatives::{step_jacobians, Transition, Workspace, Wrt};
-use engine::dynamics::Data;
+use engine::dynamics::{body_contact_forces, Contact, Data};
 use engine::model::{Integrator, MapEntry, Param, ParamError, ParamMap, PassiveMode};
 use engine::osi::{
     Adam, CmaEs, CmaEsOptions, Estimate, Identifier, Lm, LmOptions, Loss, OsiError, Problem,
@@ -287,6 +287,58 @@ impl PyModel {
         Ok(out)
     }
 
+    /// The soft contacts at (q, v), with the forces a step from (q, v)
+    /// applies: a list of dicts, one per geom pair within reach (depth > -30
+    /// activation widths; `depth` < 0 is a separation, whose force is tiny but
+    /// not zero). World frame, SI units. Keys: `geoms` and `bodies` (names of
+    /// a and b; b is the plane when there is one), `point` (halfway between
+    /// the surfaces), `normal` (unit, from b into a: the direction of the
+    /// normal force on a), `depth` (m, > 0 overlapping), `normal_force` (N
+    /// along `normal` on a; negative only while separating fast), `friction`
+    /// (3-vector, N, tangential force on a) and `force` (the total force on a,
+    /// normal_force * normal + friction); b feels the opposite. Empty when
+    /// contacts are off. NaN or infinite input raises ValueError.
+    fn contacts<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        v: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyList>> {
+        let contacts = self.contact_list(q, v)?;
+        let out = PyList::empty(py);
+        for c in contacts {
+            let d = PyDict::new(py);
+            let geoms = c.geoms.map(|g| self.model.geoms[g].name.clone());
+            let bodies = c.bodies.map(|b| self.model.bodies[b].name.clone());
+            d.set_item("geoms", PyTuple::new(py, geoms)?)?;
+            d.set_item("bodies", PyTuple::new(py, bodies)?)?;
+            d.set_item("point", PyArray1::from_slice(py, c.point.as_slice()))?;
+            d.set_item("normal", PyArray1::from_slice(py, c.normal.as_slice()))?;
+            d.set_item("depth", c.depth)?;
+            d.set_item("normal_force", c.normal_force)?;
+            d.set_item("friction", PyArray1::from_slice(py, c.friction.as_slice()))?;
+            d.set_item("force", PyArray1::from_slice(py, c.force().as_slice()))?;
+            out.append(d)?;
+        }
+        Ok(out)
+    }
+
+    /// The net contact force on each body at (q, v): an array of shape
+    /// (number of bodies, 3), rows in `body_names` order (the world first),
+    /// world frame, N: the sum of the forces of `contacts(q, v)` on the body
+    /// (no moments). The rows sum to zero.
+    fn body_contact_forces<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        v: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let contacts = self.contact_list(q, v)?;
+        let forces = body_contact_forces(&contacts, self.model.bodies.len());
+        let a = Array2::from_shape_fn((forces.len(), 3), |(b, k)| forces[b][k]);
+        Ok(PyArray2::from_owned_array(py, a))
+    }
+
     fn __repr__(&self) -> String {
         format!(
             "<diffosi.Model '{}' nq={} nv={} nu={}>",
@@ -299,6 +351,29 @@ impl PyModel {
 }
 
 impl PyModel {
+    /// The contacts at (q, v), checked: ValueError if a force overflows.
+    fn contact_list(
+        &mut self,
+        q: &Bound<'_, PyAny>,
+        v: &Bound<'_, PyAny>,
+    ) -> PyResult<Vec<Contact<f64>>> {
+        let q = vector(q, "q", self.model.nq(), "nq")?;
+        let v = vector(v, "v", self.model.nv(), "nv")?;
+        let contacts = self
+            .model
+            .contacts(&mut self.data, &q, &v)
+            .map_err(|e| PyValueError::new_err(format!("contacts: {e}")))?;
+        let finite = |c: &Contact<f64>| {
+            c.point.iter().chain(&c.force()).all(|x| x.is_finite()) && c.depth.is_finite()
+        };
+        if !contacts.iter().all(finite) {
+            return Err(PyValueError::new_err(
+                "contacts: a contact force is not finite (state too large)",
+            ));
+        }
+        Ok(contacts)
+    }
+
     /// Converts and checks (q, v, tau).
     fn state(
         &self,
