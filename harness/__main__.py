@@ -17,6 +17,7 @@ COMMANDS = {
     "figures": "harness.figures",
     "transfer": "harness.transfer",
     "robustness": "harness.robustness",
+    "contact": "harness.contact",
 }
 
 

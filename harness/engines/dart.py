@@ -147,3 +147,10 @@ class DartEngine(Engine):
             return np.array([node.getMass()]) if field == "mass" else np.array(node.getLocalCOM())
         dof = self.skel.getDof(self.joint_names.index(owner))
         return np.array([dof.getDampingCoefficient() if field == "damping" else dof.getSpringStiffness()])
+
+
+def contact_normal_forces(world) -> np.ndarray:
+    """The normal force (N) of each contact of the world's last step: the contact's force
+    (world frame, set by the constraint solver) along its unit normal, > 0 pushing apart."""
+    contacts = world.getLastCollisionResult().getContacts()
+    return np.array([float(np.dot(c.force, c.normal)) for c in contacts])

@@ -169,3 +169,15 @@ class MujocoEngine(Engine):
     def _get(self, kind, owner, field):
         array, i = self._field(kind, owner, field)
         return np.atleast_1d(array[i]).astype(float)
+
+
+def contact_normal_forces(m, d) -> np.ndarray:
+    """The normal force (N, >= 0) of each of d's contacts, by mj_contactForce: the force in
+    the contact frame, whose first axis is the normal. After mj_step these are the forces of
+    that step (computed at the state it started from)."""
+    f = np.zeros(6)
+    out = np.zeros(d.ncon)
+    for i in range(d.ncon):
+        mujoco.mj_contactForce(m, d, i, f)
+        out[i] = f[0]
+    return out

@@ -198,3 +198,9 @@ class PybulletEngine(Engine):
             return np.zeros(1)
         info = p.getDynamicsInfo(body, self._link[owner])  # (mass, ..., local inertial position, ...)
         return np.array([info[0]]) if field == "mass" else np.array(info[3])
+
+
+def contact_normal_forces(p, body: int) -> np.ndarray:
+    """The normal force (N, >= 0) of each contact point of `body` after the last
+    stepSimulation: getContactPoints()[9], the impulse of that (sub)step over its length."""
+    return np.array([c[9] for c in p.getContactPoints(bodyA=body)], dtype=float)
