@@ -30,9 +30,10 @@ against MuJoCo's own next state, split by whether MuJoCo had a contact in that s
 "free" states are those where neither MuJoCo (no constraint row) nor ours (contact
 and limit forces exactly zero) constrains anything: there ours must equal MuJoCo.
 
-Writes <out>/contact-half_cheetah.md, .json and .png; exit status 1 if ours differs from
-MuJoCo by more than 1e-9 at one step from a free state. The resting box
-(reference_models/box.*) is `resting_box(engine)`, tested in harness/tests/test_contact.py.
+The report also holds the resting box (reference_models/box.*, `resting_box(engine)`):
+the total normal force each engine reports against m g. Writes
+<out>/contact-half_cheetah.md, .json and .png; exit status 1 if ours differs from MuJoCo
+by more than 1e-9 at one step from a free state.
 
     python -m harness contact --steps 500 --samples 200 --seed 0
 """
@@ -126,7 +127,11 @@ class MujocoContact:
                          "solver": mujoco.mjtSolver(o.solver).name, "iterations": int(o.iterations),
                          "tolerance": float(o.tolerance), "cone": mujoco.mjtCone(o.cone).name,
                          "integrator": mujoco.mjtIntegrator(o.integrator).name,
-                         "tau_applied_via": "qfrc_applied (ctrl = 0)"}
+                         "tau_applied_via": "qfrc_applied (ctrl = 0)",
+                         "total_mass": float(mujoco.mj_getTotalmass(self.m))}
+        if self.m.ngeom:  # the first geom's contact softness and friction (the floor's)
+            self.settings.update(solref=self.m.geom_solref[0].tolist(), solimp=self.m.geom_solimp[0, :3].tolist(),
+                                 friction=self.m.geom_friction[0].tolist())
 
     def set_state(self, q, v):
         self.mujoco.mj_resetData(self.m, self.d)
@@ -159,7 +164,7 @@ class PybulletContact:
         import pybullet
         from pybullet_utils.bullet_client import BulletClient
 
-        from harness.engines.pybullet import stable_explicit_timestep
+        from harness.engines.pybullet import PybulletEngine, stable_explicit_timestep
         from harness.engines.urdf import read_urdf
 
         facts = read_urdf(urdf)
@@ -183,7 +188,7 @@ class PybulletContact:
         self.stiffness = np.array([j.extensions.get("stiffness", 0.0) for j in facts["joints"]])
         self.springref = np.array([j.extensions.get("springref", 0.0) for j in facts["joints"]])
         damping = np.array([j.damping for j in facts["joints"]])
-        self.settings = {"model": label_of(urdf), "version": pybullet.getAPIVersion(),
+        self.settings = {"model": label_of(urdf), "version": PybulletEngine.version,
                          "ground": "GEOM_PLANE z = 0, lateral friction 1 (Bullet multiplies the two bodies')",
                          "rolling_spinning_friction": 0.0,
                          "link_damping": "0 (default 0.04)", "joint_limits": "the URDF's, PyBullet's constraints"}
@@ -228,6 +233,7 @@ class PybulletContact:
 # ---------------------------------------------------------------- the resting box
 
 BOX_MASS = 2.0
+BOX_ENGINES = ("ours", "mujoco", "pybullet", "dart")
 BOX_TILT, BOX_PUSH = 0.05, 0.3  # rad about x, m/s along x: the box must settle from them
 
 
@@ -381,12 +387,13 @@ def cheetah_report(steps: int, samples: int, seed: int) -> dict:
     finally:
         for e in engines:
             e.close()
+    box = [resting_box(name) for name in BOX_ENGINES]
     free = [r["one_step"]["free"].get("ours", {"max_error": 0.0})["max_error"] for r in sequences.values()]
     return {"model": "half_cheetah", "steps": steps, "samples": samples, "seed": seed,
             "timestep": engines[0].timestep, "free_tol": FREE_TOL, "pass": max(free) <= FREE_TOL,
             "error": "max(|dq| / max(1, |q|), |dv| / max(1, |v|)) against MuJoCo, max norms",
             "normal_force": "total normal contact force during a step, N", "settings": settings,
-            "sequences": sequences}
+            "sequences": sequences, "resting_box": box}
 
 
 def plot(path: Path, doc: dict) -> Path:
@@ -419,8 +426,9 @@ def plot(path: Path, doc: dict) -> Path:
 
 
 def force_stats(f: list, h: float) -> tuple:
+    """Mean, min, max and impulse (sum f h) of a force series."""
     f = np.asarray(f)
-    return float(f.mean()), float(f.max()), float(np.abs(f).sum() * h)
+    return float(f.mean()), float(f.min()), float(f.max()), float(f.sum() * h)
 
 
 def markdown(doc: dict, png: str) -> list[str]:
@@ -451,13 +459,16 @@ def markdown(doc: dict, png: str) -> list[str]:
                          else "-", r["first_above_1e-3"], f"{r['max_error']:.2f}"])
     lines += markdown_table(["torques", "engine vs mujoco", "error after 1 step", "after 10 steps",
                              "first step with error > 1e-3", "max error"], rows)
-    lines += ["", "Total normal contact force (N) over the replay: mean, peak, and impulse (N s).", ""]
+    mj = doc["settings"]["mujoco"]
+    lines += ["", "Total normal contact force (N) over the replay: mean, min, max, and impulse (N s; "
+              "the weight alone over the replay would give "
+              f"{mj['total_mass'] * 9.81 * h * doc['steps']:.0f}).", ""]
     rows = []
     for name, run in seqs.items():
         for engine in ("mujoco", "ours", "pybullet"):
-            mean, peak, impulse = force_stats(run[engine]["force"], h)
-            rows.append([name, engine, f"{mean:.1f}", f"{peak:.1f}", f"{impulse:.1f}"])
-    lines += markdown_table(["torques", "engine", "mean", "peak", "impulse"], rows)
+            mean, low, peak, impulse = force_stats(run[engine]["force"], h)
+            rows.append([name, engine, f"{mean:.1f}", f"{low:.1f}", f"{peak:.1f}", f"{impulse:.1f}"])
+    lines += markdown_table(["torques", "engine", "mean", "min", "max", "impulse"], rows)
     lines += ["", f"![state error and normal force vs time]({png})", "", "## One step from MuJoCo's states", "",
               "From states along MuJoCo's trajectories, one step of each engine under the same torque, "
               "against MuJoCo's own next state. contact: MuJoCo had a contact in that step; no_contact: it "
@@ -471,20 +482,32 @@ def markdown(doc: dict, png: str) -> list[str]:
     lines += markdown_table(["torques", "states", "engine", "count", "median error", "max error"], rows)
     lines += ["", "## Where the gap comes from", "",
               "- Contact model. MuJoCo's contacts are soft constraints solved jointly each step: the force "
-              "makes the penetration follow a damped spring set by solref (0.02 s time constant, damping "
-              "ratio 1) within the impedance band solimp (0, 0.8, 0.01 here), under pyramidal friction cones "
-              "(friction 0.4). Ours is an explicit smooth penalty: softplus spring-damper in depth (contact/"
-              "stiffness, contact/damping) and regularised Coulomb friction with a 0.5 m/s slip speed, so "
-              "feet creep where MuJoCo's stick, and each penetrates to its own depth. PyBullet solves a hard "
-              "LCP with ERP position correction (rigid, no set penetration).",
+              "makes the penetration follow a damped spring set by solref (time constant, damping ratio: "
+              f"{mj['solref']}) within the impedance band solimp ({mj['solimp']}), under pyramidal friction "
+              f"cones (friction {mj['friction'][0]:g}). Ours is an explicit smooth penalty: a softplus "
+              "spring-damper in depth (contact/stiffness, contact/damping) and regularised Coulomb friction "
+              "with a 0.5 m/s slip speed, so feet creep where MuJoCo's stick, each foot sinks to its own "
+              "depth, and the damping term pulls while a foot leaves the floor fast (the negative minima "
+              "above). PyBullet solves hard contacts (an LCP, ERP position correction).",
               "- Limits. MuJoCo's joint limits are the same kind of soft constraints (solreflimit, "
               "solimplimit); ours are softplus springs (1000 N m/rad); PyBullet's are hard constraints.",
               "- Model. PyBullet has no armature (0.1 on each leg joint, a large share of the feet's "
-              "inertia) and steps 5 substeps of 0.002 s; ours and MuJoCo share the model exactly "
-              "(free states agree to machine precision).",
+              "inertia), so its error is of order 1 from the first step, in free fall (the 'free' rows), and "
+              "it steps 5 substeps of 0.002 s. It runs the URDF twin because its loadMJCF of the gym file "
+              "puts each link's COM at the body frame (bthigh's 0.16 m off) and skips settotalmass (21.2 "
+              "instead of 14 kg). Ours and MuJoCo share the model exactly (free states agree to machine "
+              "precision).",
               "- Chaos. Once the trajectories separate, contact timing differs and the error saturates at "
               "the size of the state itself: compare the early steps and the forces' statistics, not the "
-              "late states.", "", "## Settings", ""]
+              "late states.", "", "## Resting box", "",
+              "reference_models/box.xml (ours, MuJoCo) and box.urdf (PyBullet, DART, each on a ground of "
+              f"its own): a {BOX_MASS:g} kg box dropped with a {BOX_TILT} rad tilt and a {BOX_PUSH} m/s push, "
+              "after the steps below of 0.002 s. Each engine's own contact-force reading against m g:", ""]
+    rows = [[r["engine"], r["read_with"], r["steps"], repr(r["normal_force"]), f"{r['relative_error']:.1e}",
+             f"{r['max_speed']:.1e}"] for r in doc["resting_box"]]
+    lines += markdown_table(["engine", "read with", "steps", "normal force (N)", "relative error vs m g",
+                             "max abs v"], rows)
+    lines += ["", "## Settings", ""]
     for name, s in doc["settings"].items():
         lines.append(f"- {name}: " + "; ".join(f"{k} {v}" for k, v in s.items()))
     return lines

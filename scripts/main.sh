@@ -26,6 +26,8 @@ done
 for model in cartpole double_pendulum half_cheetah; do
     $py -m harness gradcheck --model $model
 done
+# Contact: the half cheetah on its floor vs MuJoCo and PyBullet; the resting box in all engines.
+$py -m harness contact --steps 500 --samples 200 --seed 0
 
 # Example trajectories and a Jacobian from the command line.
 $bin simulate reference_models/cartpole.xml --steps 500 --q0 0,0.3 -o reports/simulate-cartpole.csv
