@@ -165,14 +165,15 @@ class PybulletContact:
         from pybullet_utils.bullet_client import BulletClient
 
         from harness.engines.pybullet import PybulletEngine, stable_explicit_timestep
-        from harness.engines.urdf import read_urdf
+        from harness.engines.urdf import read_urdf, timestep_gravity
 
         facts = read_urdf(urdf)
+        _, gravity, _ = timestep_gravity(urdf, facts)
         self.pybullet, self.timestep = pybullet, timestep
         with quiet_stdio():
             p = self.p = BulletClient(connection_mode=pybullet.DIRECT)
             body = self.body = p.loadURDF(str(urdf), useFixedBase=True, flags=pybullet.URDF_USE_INERTIA_FROM_FILE)
-        p.setGravity(0.0, 0.0, -9.81)
+        p.setGravity(*gravity)
         links = list(range(p.getNumJoints(body)))
         self.movable = [i for i in links if p.getJointInfo(body, i)[2] != pybullet.JOINT_FIXED]
         self.joint_names = [p.getJointInfo(body, i)[1].decode() for i in self.movable]
