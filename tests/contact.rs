@@ -19,7 +19,10 @@ fn pairs_follow_masks_and_the_parent_child_rule() {
     let names: Vec<[&str; 2]> = tree
         .pairs
         .iter()
-        .map(|p| p.map(|g| model.geoms[tree.geoms[g].geom].name.as_str()))
+        .map(|p| {
+            p.geoms
+                .map(|g| model.geoms[tree.geoms[g].geom].name.as_str())
+        })
         .collect();
     // Body geoms have conaffinity 0: each pairs with the floor only.
     let expected = [
@@ -58,7 +61,10 @@ fn pairs_follow_masks_and_the_parent_child_rule() {
         .tree()
         .pairs
         .iter()
-        .map(|p| p.map(|g| model.geoms[model.tree().geoms[g].geom].name.as_str()))
+        .map(|p| {
+            p.geoms
+                .map(|g| model.geoms[model.tree().geoms[g].geom].name.as_str())
+        })
         .collect();
     let expected = [
         ["ground", "a"],
@@ -98,6 +104,39 @@ fn geoms_touch_where_their_shapes_say() {
             assert!((c.point.z + 0.0025).abs() < 1e-12, "{shape}: midpoint");
             assert_eq!(model.bodies[c.bodies[0]].name, "thing");
         }
+    }
+}
+
+#[test]
+fn a_pair_rubs_with_its_larger_friction_times_the_scale() {
+    // A sphere 5 mm into the floor sliding along x at 0.3 m/s: |F_t| / N =
+    // f max(mu_floor, mu_sphere) |v_t| / sqrt(|v_t|^2 + slip^2).
+    for (floor, sphere, scale) in [(0.4, 0.4, 1.0), (0.3, 0.8, 1.0), (0.9, 0.2, 0.5)] {
+        let text = format!(
+            r#"<mujoco>
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1" friction="{floor} 0.1 0.1"/>
+    <body name="thing" pos="0 0 0.095">
+      <joint name="x" type="slide" axis="1 0 0"/>
+      <joint name="z" type="slide" axis="0 0 1"/>
+      <geom name="thing" type="sphere" size="0.1" mass="1" friction="{sphere}"/>
+    </body>
+  </worldbody>
+</mujoco>"#
+        );
+        let mut model = mjcf::parse(&text, "rub.xml").unwrap();
+        model.set_param("contact/friction", &[scale]).unwrap();
+        let contacts = model
+            .contacts(&mut model.data(), &[0.0, 0.0], &[0.3, 0.0])
+            .unwrap();
+        let [c] = &contacts[..] else {
+            panic!("one contact, got {}", contacts.len())
+        };
+        let slip = model.opt.soft.slip;
+        let expected =
+            scale * f64::max(floor, sphere) * c.normal_force * 0.3 / (0.09 + slip * slip).sqrt();
+        assert!(c.normal_force > 1.0);
+        assert!((c.friction + nalgebra::Vector3::x() * expected).norm() < 1e-12 * expected);
     }
 }
 

@@ -15,7 +15,11 @@
 //!   price of smoothness.
 //! - Friction on a, regularised Coulomb with slip speed e: with v_t the
 //!   tangential part of v_a - v_b, F_t = -mu k s(d) v_t / sqrt(|v_t|^2 + e^2);
-//!   its bound uses the elastic part of N, which is never negative.
+//!   its bound uses the elastic part of N, which is never negative. The
+//!   pair's coefficient is MuJoCo's rule scaled by a parameter:
+//!   mu = f max(mu_a, mu_b), with mu_a, mu_b the geoms' sliding friction
+//!   (MJCF `friction`, first value; URDF PyBullet `lateral_friction`) and f
+//!   the dimensionless scale `contact/friction` (default 1).
 //! - Force N n + F_t acts on a at the point, its opposite on b; each maps to
 //!   generalized forces through the bodies' point Jacobians (J^T f).
 //! - Contacts deeper out than 30 widths (s < 1e-13 w) are skipped.
@@ -23,7 +27,7 @@
 //!   tau += k_l s_l(d) - c_l s_l'(d) v; above it, with d = q - hi,
 //!   tau -= k_l s_l(d) + c_l s_l'(d) v; skipped likewise beyond 30 widths
 //!   inside the range.
-//! - k, c, mu are the named parameters `contact/stiffness`, `contact/damping`,
+//! - k, c, f are the named parameters `contact/stiffness`, `contact/damping`,
 //!   `contact/friction`; the rest are fixed settings ([`SoftOptions`]).
 //!
 //! Pairs ([`contact_pairs`]): geoms of different bodies whose MJCF bitmasks
@@ -49,6 +53,7 @@ const CUTOFF_WIDTHS: f64 = 30.0;
 pub struct Soft<T: Real> {
     pub stiffness: T,
     pub damping: T,
+    /// The dimensionless scale f of every pair's friction coefficient.
     pub friction: T,
     pub width: f64,
     pub slip: f64,
@@ -58,7 +63,7 @@ pub struct Soft<T: Real> {
 }
 
 impl<T: Real> Soft<T> {
-    /// The settings of `soft` with k, c and mu given in T.
+    /// The settings of `soft` with k, c and f given in T.
     pub fn new(soft: &SoftOptions, [stiffness, damping, friction]: [T; 3]) -> Self {
         Soft {
             stiffness,
@@ -83,6 +88,15 @@ pub struct GeomFrame<T: Real> {
     /// From the node's frame (or the world's) to the geom's frame.
     pub offset: Transform<T>,
     pub shape: Shape,
+}
+
+/// A pair of geoms that may touch: indices into the tree's geoms (b the
+/// plane when there is one), and max(mu_a, mu_b), the larger of their
+/// sliding friction coefficients (before the scale `contact/friction`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pair {
+    pub geoms: [usize; 2],
+    pub friction: f64,
 }
 
 /// One contact at a state; see the module documentation for the frame.
@@ -208,9 +222,9 @@ pub fn add_soft_forces<T: Real>(
         };
     }
     let cutoff = -CUTOFF_WIDTHS * tree.soft.width;
-    for &[a, b] in &tree.pairs {
-        let (ga, gb) = (&tree.geoms[a], &tree.geoms[b]);
-        let (xa, xb) = (data.geom_pose[a], data.geom_pose[b]);
+    for pair in &tree.pairs {
+        let [ga, gb] = pair.geoms.map(|g| &tree.geoms[g]);
+        let start = data.contacts.len();
         let mut emit = |point, normal, depth: T| {
             if depth > lift(cutoff) {
                 data.contacts.push(Contact {
@@ -224,44 +238,38 @@ pub fn add_soft_forces<T: Real>(
                 });
             }
         };
+        let [xa, xb] = pair.geoms.map(|g| data.geom_pose[g]);
         collide((&ga.shape, &xa), (&gb.shape, &xb), &mut emit);
-    }
-    let mut contacts = std::mem::take(&mut data.contacts);
-    for c in &mut contacts {
-        let [a, b] = c.geoms.map(|g| geom_node(tree, g));
-        let velocity = |node: Option<usize>| match node {
-            Some(n) => {
-                let m: Motion<T> = data.world[n].inverse_apply_motion(&data.vel[n]);
-                m.lin + m.ang.cross(&c.point)
-            }
-            None => Vector3::zeros(),
-        };
-        let rel = velocity(a) - velocity(b);
-        let normal_speed = c.normal.dot(&rel);
-        let soft = &tree.soft;
-        let (s, ds) = softplus(c.depth, soft.width);
-        let elastic = soft.stiffness * s;
-        c.normal_force = elastic - soft.damping * ds * normal_speed;
-        let tangent = rel - c.normal * normal_speed;
-        let slip: T = lift(soft.slip);
-        let norm = (tangent.norm_squared() + slip * slip).sqrt();
-        c.friction = tangent * (-soft.friction * elastic / norm);
-        let f = c.force();
-        let world = Force::new(c.point.cross(&f), f);
-        for (node, sign) in [(a, T::one()), (b, -T::one())] {
-            if let Some(n) = node {
-                let local = data.world[n].apply_force(&world) * sign;
-                body_force_to_joints(tree, &data.x_up, n, local, out);
+        let nodes = [ga.node, gb.node];
+        for c in &mut data.contacts[start..] {
+            let velocity = |node: Option<usize>| match node {
+                Some(n) => {
+                    let m: Motion<T> = data.world[n].inverse_apply_motion(&data.vel[n]);
+                    m.lin + m.ang.cross(&c.point)
+                }
+                None => Vector3::zeros(),
+            };
+            let rel = velocity(nodes[0]) - velocity(nodes[1]);
+            let normal_speed = c.normal.dot(&rel);
+            let soft = &tree.soft;
+            let (s, ds) = softplus(c.depth, soft.width);
+            let elastic = soft.stiffness * s;
+            c.normal_force = elastic - soft.damping * ds * normal_speed;
+            let tangent = rel - c.normal * normal_speed;
+            let slip: T = lift(soft.slip);
+            let norm = (tangent.norm_squared() + slip * slip).sqrt();
+            let mu = soft.friction * lift::<T>(pair.friction);
+            c.friction = tangent * (-mu * elastic / norm);
+            let f = c.force();
+            let world = Force::new(c.point.cross(&f), f);
+            for (node, sign) in [(nodes[0], T::one()), (nodes[1], -T::one())] {
+                if let Some(n) = node {
+                    let local = data.world[n].apply_force(&world) * sign;
+                    body_force_to_joints(tree, &data.x_up, n, local, out);
+                }
             }
         }
     }
-    data.contacts = contacts;
-}
-
-/// The node a model geom moves with (it is in a pair, so in `tree.geoms`).
-fn geom_node<T: Real>(tree: &Tree<T>, geom: usize) -> Option<usize> {
-    let g = tree.geoms.iter().find(|g| g.geom == geom);
-    g.expect("a contact's geoms are in the tree").node
 }
 
 /// The soft joint-limit forces (see the module documentation).

@@ -9,7 +9,7 @@
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
-use super::contact::{contact_pairs, GeomFrame, Soft};
+use super::contact::{contact_pairs, GeomFrame, Pair, Soft};
 use crate::model::params::inertia_to_six;
 use crate::model::{Body, JointKind, Param, SoftOptions, Spec};
 use crate::spatial::{lift, lift_vector, Inertia, Motion, Real, Transform};
@@ -81,10 +81,10 @@ pub struct Tree<T: Real> {
     pub armature: Vec<T>,
     pub gravity: Vector3<T>,
     pub body: Vec<BodyFrame<T>>,
-    /// The geoms in contact pairs, and the pairs as indices into `geoms`
-    /// (see [`super::contact`]); both empty when contacts are off.
+    /// The geoms in contact pairs, and the pairs (indices into `geoms`, see
+    /// [`super::contact`]); both empty when contacts are off.
     pub geoms: Vec<GeomFrame<T>>,
-    pub pairs: Vec<[usize; 2]>,
+    pub pairs: Vec<Pair>,
     /// Per node: the joint's range if it is limited and limits are on.
     pub limits: Vec<Option<(f64, f64)>>,
     pub soft: Soft<T>,
@@ -188,7 +188,7 @@ impl<T: Real> Tree<T> {
     /// Places the geoms of the model's contact pairs and indexes the pairs.
     fn add_pairs(&mut self, model: &Spec) {
         for [a, b] in contact_pairs(model) {
-            let pair = [a, b].map(|g| {
+            let geoms = [a, b].map(|g| {
                 if let Some(k) = self.geoms.iter().position(|f| f.geom == g) {
                     return k;
                 }
@@ -203,7 +203,8 @@ impl<T: Real> Tree<T> {
                 });
                 self.geoms.len() - 1
             });
-            self.pairs.push(pair);
+            let friction = model.geoms[a].friction[0].max(model.geoms[b].friction[0]);
+            self.pairs.push(Pair { geoms, friction });
         }
     }
 }

@@ -167,7 +167,8 @@ pub struct Geom {
     /// MJCF contype/conaffinity bitmasks (URDF collision geoms get 1/1).
     pub contype: u32,
     pub conaffinity: u32,
-    /// Sliding, torsional, rolling friction (MJCF order).
+    /// Sliding, torsional, rolling friction (MJCF order); only the sliding
+    /// coefficient enters the contact forces (see [`SoftOptions::friction`]).
     pub friction: [f64; 3],
 }
 
@@ -250,7 +251,9 @@ pub struct SoftOptions {
     pub stiffness: f64,
     /// Normal damping c (N s/m).
     pub damping: f64,
-    /// Coulomb friction coefficient mu (sliding), one for every pair.
+    /// Dimensionless scale f of the Coulomb friction coefficients: a pair's
+    /// coefficient is f times the larger sliding friction of its two geoms
+    /// ([`Geom::friction`], MuJoCo's rule); 1 keeps the geoms' own.
     pub friction: f64,
     /// Width w (m) of the softplus activation of penetration depth.
     pub width: f64,
@@ -268,8 +271,8 @@ impl Default for SoftOptions {
     /// cheetah's 0.01 s step: a 1 kg point on a 1e4 N/m spring has period
     /// 0.063 s (h sqrt(k/m) = 1 < 2); damping 100 N s/m is half of critical
     /// for 1 kg and keeps h c / m <= 1 down to 1 kg; a 1 mm width sits well
-    /// below a typical 5-10 mm resting depth. Friction 1 is MuJoCo's default
-    /// geom friction. Explicit friction is stable while h mu N / (slip m) < 2
+    /// below a typical 5-10 mm resting depth. Friction scale 1 keeps the
+    /// geoms' coefficients (MuJoCo's default geom friction is 1). Explicit friction is stable while h mu N / (slip m) < 2
     /// for the normal load N on a contact and the effective mass m there:
     /// the cheetah's feet (N ~ 100 N on ~1 kg) chatter at slip 0.1 m/s and
     /// stand still at 0.5 m/s, so keep mu / slip <= 2 s/m at that step.
@@ -459,6 +462,14 @@ impl Spec {
                 return bad(format!("joint '{}' axis is not a unit vector", j.name));
             }
             check_passive(j)?;
+        }
+        for g in &self.geoms {
+            if !g.friction.iter().all(|f| f.is_finite() && *f >= 0.0) {
+                return bad(format!(
+                    "geom '{}' friction must be finite and >= 0",
+                    g.name
+                ));
+            }
         }
         for a in &self.actuators {
             if a.joint >= self.joints.len() || !a.gear.is_finite() {

@@ -8,9 +8,11 @@
 //! - `body/<name>/inertia` (6 values, kg m^2): xx yy zz xy xz yz about the COM in
 //!   body axes.
 //! - `joint/<name>/damping`, `joint/<name>/stiffness`, `joint/<name>/armature`.
-//! - `contact/stiffness` (N/m), `contact/damping` (N s/m), `contact/friction`:
-//!   the model's global soft-contact constants ([`super::SoftOptions`]); listed
-//!   by [`Param::all`] only when the model has contact pairs.
+//! - `contact/stiffness` (N/m), `contact/damping` (N s/m), `contact/friction`
+//!   (dimensionless: a scale on every pair's coefficient, the larger sliding
+//!   friction of its two geoms): the model's global soft-contact constants
+//!   ([`super::SoftOptions`]); listed by [`Param::all`] only when the model
+//!   has contact pairs.
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
