@@ -41,7 +41,7 @@ pub fn train(request: Request) -> Result<(), String> {
     let task = tasks::by_name(request.task)?;
     let mut config = PpoConfig {
         seed: request.seed,
-        ..PpoConfig::default()
+        ..PpoConfig::for_task(request.task)
     };
     if let Some(steps) = request.steps {
         config.total_steps = steps;
@@ -103,12 +103,12 @@ fn train_mlp(request: Request) -> Result<(), String> {
         Target::MlpNarrow => {
             MlpConfig::new(&vec![-NARROW; lower.len()], &vec![NARROW; upper.len()])
         }
-        _ => MlpConfig::new(lower, upper),
+        _ => MlpConfig::for_task(request.task, lower, upper),
     };
     config.seed = request.seed;
     if let Some(steps) = request.steps {
-        // A smaller budget: episodes per controller of at most 500 steps.
-        config.episodes = steps.div_ceil(500 * controllers.len()).max(10);
+        // A smaller budget: episodes per controller of the task's horizon.
+        config.episodes = steps.div_ceil(task.horizon() * controllers.len()).max(10);
     }
     let bar = ProgressBar::new(config.epochs as u64).with_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} epochs {elapsed}<{eta} {msg}")

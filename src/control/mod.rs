@@ -5,8 +5,10 @@
 //!
 //! Conventions:
 //! - A [`MuEstimator`] sees transitions (q_t, v_t, tau_t, q_t+1, v_t+1) of
-//!   the task's model (SI units, tau the generalized forces on every dof)
-//!   and answers mu inside the task's range. Before its first transition it
+//!   the task's model (SI units, tau the generalized forces on every dof),
+//!   one per control step: its last physics step ([`Env::last_transition`];
+//!   the whole control step when a task takes one physics step per control
+//!   step), and answers mu inside the task's range. Before its first transition it
 //!   answers the prior, the middle of the range (the oracle excepted).
 //! - The true mu is passed alongside, for the oracle only: at the start of an
 //!   episode, and with each transition the true mu of the step to come (so a
@@ -422,7 +424,6 @@ pub fn run_episode(
     loop {
         let fed = estimator.as_deref().map_or(&[][..], |e| e.mu()).to_vec();
         let action = policy.act(&policy.observation(task, env.state(), &fed));
-        let (q, v) = env.state().clone();
         trace.mu_true.push(env.mu().to_vec());
         let out = env.step(&action)?;
         trace.metric.push(out.metric);
@@ -438,15 +439,7 @@ pub fn run_episode(
             }
         }
         if let Some(e) = estimator.as_deref_mut() {
-            let (q_next, v_next) = env.state().clone();
-            let tau = task.forces(&action);
-            let transition = Transition {
-                q,
-                v,
-                tau,
-                q_next,
-                v_next,
-            };
+            let transition = env.last_transition().expect("a step was taken");
             e.observe(transition, env.mu())?;
         }
     }

@@ -1,5 +1,6 @@
 //! UC-MLP, the learned identifier of Yu et al. (2017) that the paper compares
-//! against: an MLP (hidden 256, 128, 64, tanh; linear output) that predicts mu
+//! against: an MLP (tanh hidden layers, the paper's 256, 128, 64 on the
+//! cartpole and 512, 128 on the half cheetah; linear output) that predicts mu
 //! from the observations DiffOSI sees.
 //!
 //! Conventions:
@@ -79,6 +80,23 @@ impl MlpConfig {
             epochs: 30,
             batch: 256,
             lr: 1e-3,
+        }
+    }
+}
+
+impl MlpConfig {
+    /// The settings for a task by name on a mu range: [`MlpConfig::new`] for
+    /// the cartpole; for the half cheetah the paper's hidden layers (512,
+    /// 128) and 30 episodes (30 000 examples) per controller.
+    pub fn for_task(task: &str, mu_lower: &[f64], mu_upper: &[f64]) -> MlpConfig {
+        let config = MlpConfig::new(mu_lower, mu_upper);
+        match task {
+            "half_cheetah" => MlpConfig {
+                hidden: vec![512, 128],
+                episodes: 30,
+                ..config
+            },
+            _ => config,
         }
     }
 }
@@ -246,7 +264,6 @@ fn collect(
             env.reset(&mu, &mut rng)?;
             let mut history: Vec<Transition> = vec![];
             loop {
-                let (q, v) = env.state().clone();
                 let mean = policy.act(&policy.observation(task, env.state(), &mu));
                 let action: Vec<f64> = mean
                     .iter()
@@ -257,15 +274,7 @@ fn collect(
                     })
                     .collect();
                 let out = env.step(&action)?;
-                let (q_next, v_next) = env.state().clone();
-                let tau = task.forces(&action);
-                history.push(Transition {
-                    q,
-                    v,
-                    tau,
-                    q_next,
-                    v_next,
-                });
+                history.push(env.last_transition().expect("a step was taken"));
                 if out.terminated || out.truncated {
                     break;
                 }

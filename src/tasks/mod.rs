@@ -16,12 +16,15 @@
 //!   per-step [`Task::metric`] values.
 
 mod cartpole;
+mod half_cheetah;
 
 pub use cartpole::Cartpole;
+pub use half_cheetah::HalfCheetah;
 
 use rand::rngs::StdRng;
 use rand::RngExt;
 
+use crate::derivatives::Transition;
 use crate::dynamics::{Data, StepError};
 use crate::model::{Model, ParamError, ParamMap, State};
 
@@ -59,7 +62,10 @@ pub trait Task: Send + Sync {
 pub fn by_name(name: &str) -> Result<Box<dyn Task>, String> {
     match name {
         "cartpole" => Ok(Box::new(Cartpole::new())),
-        _ => Err(format!("unknown task '{name}' (known: cartpole)")),
+        "half_cheetah" => Ok(Box::new(HalfCheetah::new())),
+        _ => Err(format!(
+            "unknown task '{name}' (known: cartpole, half_cheetah)"
+        )),
     }
 }
 
@@ -107,6 +113,8 @@ pub struct Env<'a> {
     mu: Vec<f64>,
     state: State,
     t: usize,
+    /// The last physics step: its start state and the forces held.
+    last: Option<(State, Vec<f64>)>,
 }
 
 impl<'a> Env<'a> {
@@ -121,6 +129,7 @@ impl<'a> Env<'a> {
             state: (vec![0.0; model.nq()], vec![0.0; model.nv()]),
             model,
             t: 0,
+            last: None,
         }
     }
 
@@ -135,6 +144,7 @@ impl<'a> Env<'a> {
         self.set_mu(mu)?;
         self.state = state;
         self.t = 0;
+        self.last = None;
         Ok(())
     }
 
@@ -164,13 +174,32 @@ impl<'a> Env<'a> {
         self.t
     }
 
+    /// The last physics step of the last control step, as the identifiers see
+    /// it: (q, v) before it, the forces held, (q, v) after it (the current
+    /// state). With one substep it is the whole control step. None before the
+    /// first step of an episode.
+    pub fn last_transition(&self) -> Option<Transition> {
+        let ((q, v), tau) = self.last.clone()?;
+        let (q_next, v_next) = self.state.clone();
+        Some(Transition {
+            q,
+            v,
+            tau,
+            q_next,
+            v_next,
+        })
+    }
+
     /// Applies an action for one control step.
     pub fn step(&mut self, action: &[f64]) -> Result<Outcome, EnvError> {
         let tau = self.task.forces(action);
-        let mut next = self.state.clone();
-        for _ in 0..self.task.substeps() {
-            next = self.model.step(&mut self.data, &next.0, &next.1, &tau)?;
+        let mut start = self.state.clone();
+        let mut next = self.model.step(&mut self.data, &start.0, &start.1, &tau)?;
+        for _ in 1..self.task.substeps() {
+            start = next;
+            next = self.model.step(&mut self.data, &start.0, &start.1, &tau)?;
         }
+        self.last = Some((start, tau));
         let reward = self.task.reward(&self.mu, &self.state, action, &next);
         let metric = self.task.metric(&self.state, action, &next);
         let terminated = self.task.terminated(&next);

@@ -1,0 +1,163 @@
+//! The paper's half cheetah (Section 4.3) on `reference_models/half_cheetah.xml`,
+//! with gymnasium HalfCheetah-v5's conventions.
+//!
+//! - State q = (rootx, rootz, rooty, bthigh, bshin, bfoot, fthigh, fshin,
+//!   ffoot): torso position along world x and z (m, relative to its modelled
+//!   pose at height 0.7 m), torso pitch about +y and the six leg hinges (rad);
+//!   v their rates. Contact with the floor and the soft joint limits are on,
+//!   with the engine's default [`crate::model::SoftOptions`]: at dt 0.01
+//!   random torques stay bounded over the whole mu range and the cheetah
+//!   comes to rest under zero torques, except that a heavy torso (25-50 kg)
+//!   standing on its legs may keep rocking slightly (legs about 1 rad/s,
+//!   creeping 0.1 m/s) on the soft, explicitly integrated floor
+//!   (`tests/half_cheetah.rs`). One control step costs about 35 us.
+//! - mu (kg), uniform in [1, 50], is the torso's mass (`body/torso/mass`); its
+//!   COM and its inertia about the COM stay as modelled. The model's own torso
+//!   mass is 6.25 kg (gymnasium's file after MuJoCo's settotalmass 14; the
+//!   paper's 4.9 kg is the file before that scaling).
+//! - Observation (17): q[1..] (gymnasium drops rootx) then v.
+//! - Action: six components in [-1, 1] (clamped), the motors' controls; the
+//!   joint torques are gear * a with gears 120, 90, 60, 120, 60, 30 N m
+//!   (bthigh .. ffoot); the root dofs get no force.
+//! - Timing: the model's timestep is 0.01 s and a control step holds its
+//!   torques for 5 physics steps (gymnasium's frame_skip), 0.05 s.
+//! - Reward per control step: (x' - x) / 0.05 - 0.1 |a|^2, forward speed of
+//!   the torso minus the control cost (a clamped). No termination; an
+//!   episode is 1000 control steps (50 s). The task metric is the reward, so
+//!   an episode's score is its return (the paper's "task performance").
+//! - Reset: gymnasium's noise, q uniform in +-0.1 around the modelled pose and
+//!   v = 0.1 N(0, 1) per component.
+
+use rand::rngs::StdRng;
+use rand::RngExt;
+use rand_distr::{Distribution, StandardNormal};
+
+use super::Task;
+use crate::model::{mjcf, MapEntry, Model, ParamError, ParamMap, State};
+
+/// The model file, compiled in so the task needs no path at run time.
+const MJCF: &str = include_str!("../../reference_models/half_cheetah.xml");
+
+pub struct HalfCheetah {
+    model: Model,
+    map: ParamMap,
+}
+
+impl HalfCheetah {
+    pub const MU_LOWER: [f64; 1] = [1.0];
+    pub const MU_UPPER: [f64; 1] = [50.0];
+    pub const HORIZON: usize = 1000;
+    pub const SUBSTEPS: usize = 5;
+    pub const CTRL_COST: f64 = 0.1;
+    /// Half-width of the uniform noise on q at reset (rad or m).
+    pub const RESET_Q_NOISE: f64 = 0.1;
+    /// Standard deviation of the Gaussian noise on v at reset.
+    pub const RESET_V_NOISE: f64 = 0.1;
+
+    /// The task on the shipped `reference_models/half_cheetah.xml`.
+    pub fn new() -> HalfCheetah {
+        let model = mjcf::parse(MJCF, "reference_models/half_cheetah.xml")
+            .expect("the shipped half cheetah model loads");
+        HalfCheetah::with_model(model).expect("the shipped half cheetah has a torso")
+    }
+
+    /// The task on another half cheetah model (e.g. other options).
+    pub fn with_model(model: Model) -> Result<HalfCheetah, ParamError> {
+        let map = ParamMap::new(
+            &model,
+            1,
+            &[MapEntry {
+                name: "body/torso/mass",
+                offset: &[0.0],
+                gain: &[&[1.0]],
+            }],
+        )?;
+        Ok(HalfCheetah { model, map })
+    }
+
+    /// The duration of one control step (s).
+    pub fn control_dt(&self) -> f64 {
+        self.model.opt.timestep * Self::SUBSTEPS as f64
+    }
+}
+
+impl Default for HalfCheetah {
+    fn default() -> Self {
+        HalfCheetah::new()
+    }
+}
+
+impl Task for HalfCheetah {
+    fn name(&self) -> &'static str {
+        "half_cheetah"
+    }
+
+    fn model(&self) -> &Model {
+        &self.model
+    }
+
+    fn mu_map(&self) -> &ParamMap {
+        &self.map
+    }
+
+    fn mu_range(&self) -> (&[f64], &[f64]) {
+        (&Self::MU_LOWER, &Self::MU_UPPER)
+    }
+
+    fn horizon(&self) -> usize {
+        Self::HORIZON
+    }
+
+    fn substeps(&self) -> usize {
+        Self::SUBSTEPS
+    }
+
+    fn obs_dim(&self) -> usize {
+        self.model.nq() - 1 + self.model.nv()
+    }
+
+    fn act_dim(&self) -> usize {
+        self.model.nu()
+    }
+
+    fn reset(&self, rng: &mut StdRng) -> State {
+        let w = Self::RESET_Q_NOISE;
+        let q = self
+            .model
+            .reference_q()
+            .iter()
+            .map(|r| r + rng.random_range(-w..=w))
+            .collect();
+        let v = (0..self.model.nv())
+            .map(|_| {
+                let z: f64 = StandardNormal.sample(rng);
+                Self::RESET_V_NOISE * z
+            })
+            .collect();
+        (q, v)
+    }
+
+    fn observe(&self, (q, v): &State, out: &mut Vec<f64>) {
+        out.extend_from_slice(&q[1..]);
+        out.extend_from_slice(v);
+    }
+
+    fn forces(&self, action: &[f64]) -> Vec<f64> {
+        let a: Vec<f64> = action.iter().map(|a| a.clamp(-1.0, 1.0)).collect();
+        self.model.actuator_forces(&a)
+    }
+
+    fn reward(&self, _mu: &[f64], state: &State, action: &[f64], next: &State) -> f64 {
+        self.metric(state, action, next)
+    }
+
+    fn terminated(&self, _state: &State) -> bool {
+        false
+    }
+
+    fn metric(&self, state: &State, action: &[f64], next: &State) -> f64 {
+        let speed = (next.0[0] - state.0[0]) / self.control_dt();
+        let effort: f64 = action.iter().map(|a| a.clamp(-1.0, 1.0).powi(2)).sum();
+        speed - Self::CTRL_COST * effort
+    }
+}
