@@ -85,7 +85,8 @@ class OursContact:
         self.settings = {"model": label_of(path)}
         for k in ("stiffness", "damping", "friction"):
             self.settings[f"contact/{k}"] = float(self.m.get_param(f"contact/{k}")[0])
-        self.settings["friction_rule"] = "see src/dynamics/contact.rs (regularised Coulomb, slip 0.5 m/s)"
+        self.settings["friction_rule"] = ("regularised Coulomb, slip 0.5 m/s, coefficient contact/friction times "
+                                          "the larger sliding friction of the two geoms (src/dynamics/contact.rs)")
 
     def set_state(self, q, v):
         self.q, self.v = np.array(q, float), np.array(v, float)
@@ -487,7 +488,7 @@ def markdown(doc: dict, png: str) -> list[str]:
               f"{mj['solref']}) within the impedance band solimp ({mj['solimp']}), under pyramidal friction "
               f"cones (friction {mj['friction'][0]:g}). Ours is an explicit smooth penalty: a softplus "
               "spring-damper in depth (contact/stiffness, contact/damping) and regularised Coulomb friction "
-              "with a 0.5 m/s slip speed, so feet creep where MuJoCo's stick, each foot sinks to its own "
+              "(the same coefficient, MuJoCo's max rule) with a 0.5 m/s slip speed, so feet creep where MuJoCo's stick, each foot sinks to its own "
               "depth, and the damping term pulls while a foot leaves the floor fast (the negative minima "
               "above). PyBullet solves hard contacts (an LCP, ERP position correction).",
               "- Limits. MuJoCo's joint limits are the same kind of soft constraints (solreflimit, "
