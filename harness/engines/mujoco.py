@@ -181,3 +181,37 @@ def contact_normal_forces(m, d) -> np.ndarray:
         mujoco.mj_contactForce(m, d, i, f)
         out[i] = f[0]
     return out
+
+
+class GymMujocoEngine(MujocoEngine):
+    """An MJCF file run as gymnasium's MuJoCo environments (MujocoEnv) run it: nothing
+    switched off (contacts, joint limits and MuJoCo's passive forces on, the file's
+    solver), the action written to d.ctrl of the file's motors. set_state is gymnasium's
+    reset (mj_resetData, then qpos, qvel and mj_forward); one `step` is one mj_step (a gym
+    env step is frame_skip of them under the same ctrl). `step(tau)` takes generalized
+    forces like every adapter and writes ctrl = tau / gear on each motor's dof (the other
+    dofs' tau must be zero); set_param as MujocoEngine (body_mass keeps body_inertia)."""
+
+    def __init__(self, path: Path):
+        super().__init__(path, native=True)
+        m = self.m
+        m.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_LIMIT)
+        assert all(m.actuator_trntype == mujoco.mjtTrn.mjTRN_JOINT) and m.na == 0, f"{self.label}: joint motors"
+        self.gear, self.actuated = m.actuator_gear[:, 0].copy(), m.jnt_dofadr[m.actuator_trnid[:, 0]]
+        self.free = np.setdiff1d(np.arange(m.nv), self.actuated)
+        self.settings.update(disableflags=[], tau_applied_via="d.ctrl = tau / gear (the file's motors)",
+                             native="as gymnasium's MujocoEnv: contacts, limits and the file's options on",
+                             cone=mujoco.mjtCone(m.opt.cone).name, solver=mujoco.mjtSolver(m.opt.solver).name,
+                             solref=m.geom_solref[0].tolist(), solimp=m.geom_solimp[0, :3].tolist(),
+                             friction=m.geom_friction[0].tolist(), gear=self.gear.tolist())
+
+    def set_state(self, q, v):
+        mujoco.mj_resetData(self.m, self.d)
+        self.d.qpos[:], self.d.qvel[:] = q, v
+        mujoco.mj_forward(self.m, self.d)
+
+    def step(self, tau):
+        tau = np.asarray(tau, float)
+        assert not np.any(tau[self.free]), f"{self.label}: force on a dof without a motor"
+        self.d.ctrl[:] = tau[self.actuated] / self.gear
+        mujoco.mj_step(self.m, self.d)

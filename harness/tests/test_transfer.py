@@ -1,11 +1,14 @@
 """`python -m harness transfer` on every target with 2 short episodes, and the adapters'
-native and friction options it relies on.
+native and friction options it relies on; the half cheetah in MuJoCo as gymnasium's
+HalfCheetah-v5 runs it.
 
 The episodes (seed 0) have mu = 0.28 and 0.33: the shipped UC keeps those poles up, while
-with zero force the offset COM tips them over in well under the 100-step horizon.
+with zero force the offset COM tips them over in well under the 100-step horizon. The half
+cheetah's tests check the loop, not the gait: they train tiny policies with the binary.
 """
 
 import json
+import subprocess
 
 import numpy as np
 import pytest
@@ -13,8 +16,11 @@ import pytest
 import diffosi
 from harness import engines
 from harness.__main__ import main
+from harness.engines.base import REPO
+from harness.transfer import METHODS
 
 HORIZON = 100
+BINARY = REPO / "target" / "release" / "diffosi"
 
 
 def run_transfer(out, target, *extra):
@@ -113,3 +119,103 @@ def test_native_pybullet_keeps_its_link_damping():
             env.step([0.0, 0.0])
             speeds[native] = env.get_state()[1][0]
     assert speeds[False] == 1.0 and 0.99 < speeds[True] < 0.9999
+
+
+# ---------------------------------------------------------------- the half cheetah in MuJoCo
+
+
+@pytest.fixture(scope="module")
+def cheetah_policies(tmp_path_factory):
+    """UC and DR half-cheetah policies of policy seed 0 after a tiny PPO budget (8192 steps: with
+    fewer no training episode ends, and the file's final metric is a null that Policy.load refuses)."""
+    assert BINARY.exists(), f"{BINARY} missing: run `make setup`"
+    folder = tmp_path_factory.mktemp("half_cheetah")
+    for kind in ("uc", "dr"):
+        subprocess.run([str(BINARY), "train", "--task", "half_cheetah", "--policy", kind, "--seed", "0",
+                        "--steps", "8192", "-o", str(folder / f"{kind}-seed0.json")], check=True, capture_output=True)
+    return folder
+
+
+def run_cheetah(out, policies, *extra):
+    return main(["transfer", "--task", "half_cheetah", "--target", "mujoco", "--seeds", "0",
+                 "--policies", str(policies), "--out", str(out), *extra])
+
+
+def test_gym_mujoco_engine_steps_as_halfcheetah_v5():
+    """Five GymMujocoEngine steps under task.forces(a) are HalfCheetah-v5's env.step(a), bit for
+    bit (observation and reward), with the torso mass changed in both."""
+    import gymnasium
+    import mujoco
+
+    from harness.contact import GYM_CHEETAH
+    from harness.engines.mujoco import GymMujocoEngine
+
+    task = diffosi.Task("half_cheetah")
+    gym = gymnasium.make("HalfCheetah-v5").unwrapped
+    gym.reset(seed=0)
+    gym.model.body_mass[gym.model.body("torso").id] = 20.0
+    mujoco.mj_setConst(gym.model, gym.data)
+    ours = GymMujocoEngine(GYM_CHEETAH)
+    ours.set_param("body/torso/mass", 20.0)
+    _, q0, v0 = task.episodes(1, 3)
+    gym.set_state(q0[0], v0[0])
+    ours.set_state(q0[0], v0[0])
+    rng = np.random.default_rng(0)
+    contacts = 0
+    for _ in range(60):
+        action = rng.uniform(-1.0, 1.0, task.act_dim)
+        obs, reward, *_ = gym.step(action)
+        q, v = ours.get_state()
+        tau = task.forces(action)
+        for _ in range(task.substeps):
+            ours.step(tau)
+        q1, v1 = ours.get_state()
+        assert task.observe(q1, v1).tobytes() == obs.tobytes()
+        assert task.metric(q, v, action, q1, v1) == reward
+        assert np.allclose(ours.d.qfrc_actuator, tau, rtol=1e-14, atol=0)
+        contacts += ours.d.ncon > 0
+    assert contacts > 30  # the floor was in play
+    with pytest.raises(AssertionError):
+        ours.step(np.ones(task.act_dim + 3))  # a force on a root dof has no motor
+
+
+def test_cheetah_transfer_is_finite_and_seeded(tmp_path, cheetah_policies):
+    for out in ("a", "b"):
+        assert run_cheetah(tmp_path / out, cheetah_policies, "--episodes", "2", "--horizon", "40") == 0
+    name = "transfer-half_cheetah-mujoco"
+    first = (tmp_path / "a" / f"{name}.json").read_text()
+    assert first == (tmp_path / "b" / f"{name}.json").read_text()
+    doc = json.loads(first)
+    assert doc["engine"]["model"] == "gymnasium:half_cheetah.xml" and doc["engine"]["settings"]["disableflags"] == []
+    assert list(doc["methods"]) == list(METHODS) and doc["meta"]["horizon"] == 40
+    mu = diffosi.Task("half_cheetah").episodes(2, 0)[0][:, 0]
+    for method, r in doc["methods"].items():
+        for k, e in enumerate(r["episodes"]):
+            assert e["mu"] == mu[k] and np.isfinite(e["score"]) and np.isfinite(e["peak_abs_q"]).all(), method
+            assert method == "DR" or np.isfinite([e["mae"], e["mare"], e["bias"]]).all()
+    for e in doc["methods"]["UC-DiffOSI"]["episodes"]:
+        assert len(e["mu_fed"]) == 40 and all(1.0 <= x <= 50.0 for x in e["mu_fed"])
+        assert e["mu_fed"][0] == 25.5 and e["mae"] == pytest.approx(np.mean(np.abs(np.array(e["mu_fed"]) - e["mu"])))
+    for e in doc["source_diffosi"]:  # in our engine DiffOSI finds the mass
+        assert abs(e["mu_hat_final"] - e["mu"]) < 0.1, e
+    md = (tmp_path / "a" / f"{name}.md").read_text()
+    assert "| UC-DiffOSI |" in md and "## DiffOSI's torso mass under MuJoCo's contact" in md
+    assert (tmp_path / "a" / f"{name}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_cheetah_source_row_is_the_rust_eval(tmp_path, cheetah_policies):
+    """A full episode in our engine: UC-Oracle's and UC-DiffOSI's returns are `diffosi eval`'s."""
+    assert run_cheetah(tmp_path, cheetah_policies, "--episodes", "1") == 0
+    doc = json.loads((tmp_path / "transfer-half_cheetah-mujoco.json").read_text())
+    for source, ours in (("oracle", doc["source"]["UC-Oracle"]["score"][0]),
+                         ("diffosi-no-cd", doc["source_diffosi"][0]["score"])):
+        out = subprocess.run([str(BINARY), "eval", "--task", "half_cheetah", "--policy",
+                              str(cheetah_policies / "uc-seed0.json"), "--mu-source", source, "--window", "4",
+                              "--episodes", "1", "--seed", "0", "--json"], check=True, capture_output=True, text=True)
+        assert json.loads(out.stdout)["policies"][0]["metrics"] == [ours], source
+
+
+def test_cheetah_goes_to_mujoco_only_without_unmodelled_effects(tmp_path, cheetah_policies):
+    assert main(["transfer", "--task", "half_cheetah", "--target", "pybullet", "--out", str(tmp_path)]) == 2
+    assert run_cheetah(tmp_path, cheetah_policies, "--unmodelled", "delay") == 2
+    assert not any(tmp_path.iterdir())
