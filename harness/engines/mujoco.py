@@ -215,3 +215,8 @@ class GymMujocoEngine(MujocoEngine):
         assert not np.any(tau[self.free]), f"{self.label}: force on a dof without a motor"
         self.d.ctrl[:] = tau[self.actuated] / self.gear
         mujoco.mj_step(self.m, self.d)
+
+    @property
+    def constrained(self) -> bool:
+        """Whether the last step had constraint rows (contacts or joint limits)."""
+        return int(self.d.nefc) > 0

@@ -198,6 +198,10 @@ def test_cheetah_transfer_is_finite_and_seeded(tmp_path, cheetah_policies):
         assert e["mu_fed"][0] == 25.5 and e["mae"] == pytest.approx(np.mean(np.abs(np.array(e["mu_fed"]) - e["mu"])))
     for e in doc["source_diffosi"]:  # in our engine DiffOSI finds the mass
         assert abs(e["mu_hat_final"] - e["mu"]) < 0.1, e
+    single = doc["single_transition"]  # one transition at a time: exact in ours, split by kind in MuJoCo
+    assert list(single["ours"]) == ["all"] and single["ours"]["all"]["count"] == 80
+    assert max(map(abs, single["ours"]["all"]["relative_error_quartiles"])) < 1e-9
+    assert set(single["mujoco"]) <= {"constrained", "free"} and sum(r["count"] for r in single["mujoco"].values()) == 80
     md = (tmp_path / "a" / f"{name}.md").read_text()
     assert "| UC-DiffOSI |" in md and "## DiffOSI's torso mass under MuJoCo's contact" in md
     assert (tmp_path / "a" / f"{name}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
