@@ -47,7 +47,10 @@ with its soft penalty contact, so MuJoCo's contact is a real gap and DiffOSI's e
 may be biased: per episode the signed `bias` (mean of mu_fed - mu) is kept besides MAE
 and MARE. The metric is the task's reward summed (the return): forward speed of the
 torso minus 0.1 |a|^2 per control step, HalfCheetah-v5's reward, computed by the same
-function in both engines. Defaults: 5 episodes per policy seed, the full 1000 steps.
+function in both engines. Defaults: 5 episodes per policy seed, the full 1000 steps. To
+show where the bias comes from, the report adds DiffOSI on one transition at a time along
+the UC-Oracle episodes, split by whether MuJoCo's physics step had constraint rows
+(contacts or joint limits) or none (single_transition_estimates).
 
 Writes <out>/transfer-<task>-<target>[-<unmodelled>].{md,json,png} per target and, for
 --target all, transfer-<task>-summary[-<unmodelled>].{md,json,png}.
