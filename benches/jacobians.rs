@@ -1,9 +1,10 @@
 //! Step Jacobians next to the plain step and to finite differences of our own
-//! step, on the contact-free cartpole and half cheetah.
+//! step, on the contact-free cartpole and half cheetah; and the half cheetah's
+//! step Jacobians standing on its floor (contacts and limits on).
 
 mod common;
 
-use common::{load, state};
+use common::{load, load_with_contact, settled, state};
 use criterion::{criterion_group, criterion_main, Criterion};
 use diffosi::derivatives::{step_jacobians, Workspace, Wrt};
 use diffosi::Model;
@@ -65,9 +66,40 @@ fn bench_model(c: &mut Criterion, name: &str, param: &str) {
     });
 }
 
+/// The half cheetah standing on its floor (both feet in contact): the full
+/// step Jacobian, and the one of the torso mass and the contact parameters.
+fn bench_contact(c: &mut Criterion) {
+    let model = load_with_contact("half_cheetah");
+    let (q, v, tau) = settled(&model, 300);
+    let mut ws = Workspace::new(&model);
+    let params = [
+        "body/torso/mass",
+        "contact/stiffness",
+        "contact/damping",
+        "contact/friction",
+    ]
+    .map(|p| model.param(p).unwrap());
+    let full = Wrt {
+        state: true,
+        control: true,
+        params: &[],
+    };
+    let with_params = Wrt {
+        params: &params,
+        ..Wrt::default()
+    };
+    c.bench_function("jacobian_full_contact/half_cheetah", |b| {
+        b.iter(|| step_jacobians(&model, &mut ws, (black_box(&q), &v, &tau), &full).unwrap())
+    });
+    c.bench_function("jacobian_params_contact/half_cheetah", |b| {
+        b.iter(|| step_jacobians(&model, &mut ws, (black_box(&q), &v, &tau), &with_params).unwrap())
+    });
+}
+
 fn benches(c: &mut Criterion) {
     bench_model(c, "cartpole", "body/pole/mass");
     bench_model(c, "half_cheetah", "body/torso/mass");
+    bench_contact(c);
 }
 
 criterion_group!(jacobian_benches, benches);

@@ -1,9 +1,10 @@
-//! Step and rigid-body algorithm timings on the reference models (contact-free).
+//! Step and rigid-body algorithm timings on the reference models (contact-free),
+//! and the half cheetah's step standing on its floor (contacts and limits on).
 //! `make bench` runs this and then times MuJoCo on the same files for the ratio.
 
 mod common;
 
-use common::{load, state};
+use common::{load, load_with_contact, settled, state};
 use criterion::{criterion_group, criterion_main, Criterion};
 use diffosi::dynamics::{aba, crba, rnea, step};
 use std::hint::black_box;
@@ -38,10 +39,32 @@ fn bench_model(c: &mut Criterion, name: &str) {
     });
 }
 
+/// One step of the half cheetah standing on its floor: both feet in contact.
+fn bench_contact(c: &mut Criterion) {
+    let model = load_with_contact("half_cheetah");
+    let mut data = model.data();
+    let (q, v, tau) = settled(&model, 300);
+    let n = model.nv();
+    let (mut q1, mut v1) = (vec![0.0; n], vec![0.0; n]);
+    c.bench_function("step_contact/half_cheetah", |b| {
+        b.iter(|| {
+            step(
+                model.tree(),
+                &model.opt,
+                &mut data,
+                (black_box(&q), &v, &tau),
+                (&mut q1, &mut v1),
+            )
+            .unwrap()
+        })
+    });
+}
+
 fn benches(c: &mut Criterion) {
     for name in ["cartpole", "half_cheetah"] {
         bench_model(c, name);
     }
+    bench_contact(c);
 }
 
 criterion_group!(step_benches, benches);

@@ -32,6 +32,12 @@ Our calls restart from that state; MuJoCo's state advances with its steps
   engine, NimblePhysics, needed 52 µs (cartpole) and 395 µs (half cheetah) per
   Gauss-Newton update (shared/notes/reference-engines.md).
 
+With floor contact (issue 8's target: at least as fast as MuJoCo): the half cheetah
+standing on its floor, contacts and joint limits on, ours on reference_models/half_cheetah.xml
+and MuJoCo on gymnasium's half_cheetah.xml (same dt 0.01), each first settled by
+SETTLE_STEPS steps without forces from its reference pose; both then step on from there
+(zero forces, so they keep standing and the contact count stays put).
+
 Ratio = their time / ours: > 1 means we are faster. An OSI table from
 benches/osi.rs follows (criterion only): one DiffOSI identification (LM from
 the prior until a tolerance stops it), the warm-started online update, and one
@@ -49,6 +55,7 @@ import numpy as np
 import pinocchio
 
 import diffosi
+from harness.engines.base import gym_assets_dir, quiet_stdio
 
 ROOT = Path(__file__).resolve().parent.parent
 MODELS = {"cartpole": "body/pole/mass", "half_cheetah": "body/torso/mass"}  # name -> the one parameter
@@ -56,6 +63,8 @@ NATIVE_STEPS = 1000  # steps per call of the native loops (mj_step nstep, our ro
 REPEATS = 15
 TARGET_SECONDS = 0.01  # a repeat calls the function until about this long
 FD_EPS = 1e-6
+CONTACT = "half_cheetah, floor contact"  # the row of the contact step
+SETTLE_STEPS = 300  # from rest at the reference pose to standing on the floor
 
 # NimblePhysics Gauss-Newton DiffOSI step, thread-CPU seconds per update
 # (shared/notes/reference-engines.md): (model, W) -> seconds.
@@ -148,18 +157,38 @@ def pinocchio_jobs(name):
     }
 
 
+def contact_jobs():
+    """{(library, what): job}: ours and MuJoCo's half cheetah stepping while standing on the floor."""
+    m = diffosi.Model.load(str(ROOT / "reference_models" / "half_cheetah.xml"))
+    rest = np.zeros((SETTLE_STEPS, m.nv))
+    Q, V = m.rollout(np.zeros(m.nq), np.zeros(m.nv), rest)
+    q, v = Q[-1], V[-1]
+    with quiet_stdio():  # MuJoCo warns that gym's settotalmass is deprecated
+        model = mujoco.MjModel.from_xml_path(str(gym_assets_dir() / "half_cheetah.xml"))
+    data = mujoco.MjData(model)
+    mujoco.mj_step(model, data, SETTLE_STEPS)
+    return {
+        ("diffosi", "step"): (m.step, (q, v, rest[0]), 1),
+        ("diffosi", "loop"): (m.rollout, (q, v, np.zeros((NATIVE_STEPS, m.nv))), NATIVE_STEPS),
+        ("MuJoCo", "step"): (mujoco.mj_step, (model, data), 1),
+        ("MuJoCo", "loop"): (mujoco.mj_step, (model, data, NATIVE_STEPS), NATIVE_STEPS),
+    }
+
+
 LIBRARIES = {"diffosi": ours_jobs, "MuJoCo": mujoco_jobs, "Pinocchio": pinocchio_jobs}
 
 
 def measure():
-    """{model: {library: {what: seconds}}} for every job of every library on every model."""
+    """{model: {library: {what: seconds}}} for every job of every library on every model,
+    and the contact jobs under CONTACT."""
     jobs = {}
     for name in MODELS:
         for library, make_jobs in LIBRARIES.items():
             jobs.update({(name, library, what): job for what, job in make_jobs(name).items()})
-    result = {name: {library: {} for library in LIBRARIES} for name in MODELS}
+    jobs.update({(CONTACT, library, what): job for (library, what), job in contact_jobs().items()})
+    result = {}
     for (name, library, what), seconds in medians(jobs).items():
-        result[name][library][what] = seconds
+        result.setdefault(name, {}).setdefault(library, {})[what] = seconds
     return result
 
 
@@ -206,7 +235,17 @@ def speed_table():
         for library, t in times[name].items():
             beyond = t["step"] - t["loop"] if "loop" in t else None
             overheads.append(f"| {name} | {library} | {us(t['overhead'])} | {us(beyond)} |")
-    return "\n".join(lines), "\n".join(overheads)
+    ours, mj = times[CONTACT]["diffosi"], times[CONTACT]["MuJoCo"]
+    native = criterion("step_contact_half_cheetah")
+    for what, mine, theirs in [("step, one Python call", ours["step"], mj["step"]),
+                               (f"step, loop of {NATIVE_STEPS} in native code (rollout; mj_step nstep)",
+                                ours["loop"], mj["loop"])]:
+        cells = [what, CONTACT, us(mine), us(native), versus(theirs, mine), "—"]
+        lines.append("| " + " | ".join(cells) + " |")
+    target = (f"ours {us(ours['loop'])} µs per step (rollout) vs MuJoCo's {us(mj['loop'])} µs (mj_step "
+              f"nstep), interleaved in one run: MuJoCo / ours = {mj['loop'] / ours['loop']:.1f}x "
+              f"(criterion, native: {us(native)} µs)")
+    return "\n".join(lines), "\n".join(overheads), target
 
 
 def osi_table():
@@ -238,7 +277,7 @@ def osi_table():
 
 
 def run(args):
-    table, overhead = speed_table()
+    table, overhead, target = speed_table()
     osi = osi_table()
     report = f"""# Speed, measured in one run
 
@@ -247,7 +286,10 @@ def run(args):
 Medians of {REPEATS} repeats of a Python loop of many calls (~{TARGET_SECONDS * 1e3:g} ms each, wall
 clock), the libraries' loops interleaved so that the shared machine's slow spells hit all alike;
 native loops divided by their {NATIVE_STEPS} steps. Ratio = their time / ours from Python (> 1: we are
-faster); in the native-loop row, MuJoCo's nstep loop / our rollout. Contacts off in MuJoCo.
+faster); in the native-loop row, MuJoCo's nstep loop / our rollout. Contacts off in MuJoCo but in
+the floor-contact rows (gymnasium's half_cheetah.xml, both engines standing on the floor).
+
+Half cheetah step with floor contact (target: at least as fast as MuJoCo): {target}.
 Pinocchio's rows are its ABA and ABA derivatives, without the integration step. MuJoCo's Jacobian is
 forward finite differences (mjd_transitionFD, eps {FD_EPS:g}); ours and Pinocchio's are exact.
 

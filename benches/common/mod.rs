@@ -17,6 +17,28 @@ pub fn load(name: &str) -> Model {
     .unwrap()
 }
 
+/// A reference model as its file says: contacts and joint limits on.
+pub fn load_with_contact(name: &str) -> Model {
+    Model::load(format!(
+        "{}/reference_models/{name}.xml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap()
+}
+
+/// The state a model with contact settles into, and zero forces: `steps`
+/// steps from its reference configuration at rest without forces (the half
+/// cheetah stands on its feet after 300 steps, as MuJoCo's does).
+pub fn settled(model: &Model, steps: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let n = model.nv();
+    let (mut q, mut v, tau) = (model.reference_q(), vec![0.0; n], vec![0.0; n]);
+    let mut data = model.data();
+    for _ in 0..steps {
+        (q, v) = model.step(&mut data, &q, &v, &tau).unwrap();
+    }
+    (q, v, tau)
+}
+
 /// A fixed, non-trivial state: q a little off the reference, v and tau nonzero.
 pub fn state(model: &Model) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let n = model.nv();

@@ -18,6 +18,18 @@ pub fn aba<T: Real>(
     qdd: &mut [T],
 ) {
     update_transforms(tree, data, q);
+    aba_with_transforms(tree, data, v, tau, extra, qdd);
+}
+
+/// [`aba`] with `data.x_up` already at q ([`update_transforms`]).
+pub fn aba_with_transforms<T: Real>(
+    tree: &Tree<T>,
+    data: &mut Data<T>,
+    v: &[T],
+    tau: &[T],
+    extra: Option<&[T]>,
+    qdd: &mut [T],
+) {
     let n = tree.nv();
     for i in 0..n {
         let s = tree.joint[i].s;

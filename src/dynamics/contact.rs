@@ -199,34 +199,45 @@ pub fn add_soft_forces<T: Real>(
     (q, v): (&[T], &[T]),
     out: &mut [T],
 ) {
+    update_transforms(tree, data, q);
+    add_soft_forces_with_transforms(tree, data, (q, v), out);
+}
+
+/// [`add_soft_forces`] with `data.x_up` already at q ([`update_transforms`]).
+///
+/// Works in world coordinates: each node's motion axis S_i and spatial
+/// velocity, each contact's spatial force about the world origin summed per
+/// node, then one sweep to the root sums subtrees and projects
+/// (tau_i += S_i . F_subtree(i)). A pair is skipped before any contact
+/// geometry when its geoms' bounding spheres are farther apart than the cutoff.
+pub fn add_soft_forces_with_transforms<T: Real>(
+    tree: &Tree<T>,
+    data: &mut Data<T>,
+    (q, v): (&[T], &[T]),
+    out: &mut [T],
+) {
     add_limit_forces(tree, (q, v), out);
     data.contacts.clear();
     if tree.pairs.is_empty() {
         return;
     }
-    update_transforms(tree, data, q);
     for i in 0..tree.nv() {
-        let joint_vel = tree.joint[i].s * v[i];
-        (data.world[i], data.vel[i]) = match tree.parent[i] {
-            Some(p) => (
-                data.x_up[i].compose(&data.world[p]),
-                data.x_up[i].apply_motion(&data.vel[p]) + joint_vel,
-            ),
-            None => (data.x_up[i], joint_vel),
-        };
+        let parent = tree.parent[i].map(|p| (data.world[p], data.world_vel[p]));
+        let (world, vel) = parent.unwrap_or((Transform::identity(), Motion::zero()));
+        data.world[i] = data.x_up[i].compose(&world);
+        data.world_axis[i] = data.world[i].inverse_apply_motion(&tree.joint[i].s);
+        data.world_vel[i] = vel + data.world_axis[i] * v[i];
+        data.world_force[i] = Force::zero();
     }
-    for (k, g) in tree.geoms.iter().enumerate() {
-        data.geom_pose[k] = match g.node {
-            Some(n) => g.offset.compose(&data.world[n]),
-            None => g.offset,
-        };
-    }
-    let cutoff = -CUTOFF_WIDTHS * tree.soft.width;
+    let cutoff = CUTOFF_WIDTHS * tree.soft.width;
     for pair in &tree.pairs {
         let [ga, gb] = pair.geoms.map(|g| &tree.geoms[g]);
+        if apart(ga, gb, &data.world, cutoff) {
+            continue;
+        }
         let start = data.contacts.len();
         let mut emit = |point, normal, depth: T| {
-            if depth > lift(cutoff) {
+            if depth > lift(-cutoff) {
                 data.contacts.push(Contact {
                     geoms: [ga.geom, gb.geom],
                     bodies: [ga.body, gb.body],
@@ -238,13 +249,13 @@ pub fn add_soft_forces<T: Real>(
                 });
             }
         };
-        let [xa, xb] = pair.geoms.map(|g| data.geom_pose[g]);
+        let [xa, xb] = [ga, gb].map(|g| g.pose(&data.world));
         collide((&ga.shape, &xa), (&gb.shape, &xb), &mut emit);
         let nodes = [ga.node, gb.node];
         for c in &mut data.contacts[start..] {
             let velocity = |node: Option<usize>| match node {
                 Some(n) => {
-                    let m: Motion<T> = data.world[n].inverse_apply_motion(&data.vel[n]);
+                    let m = &data.world_vel[n];
                     m.lin + m.ang.cross(&c.point)
                 }
                 None => Vector3::zeros(),
@@ -262,13 +273,74 @@ pub fn add_soft_forces<T: Real>(
             c.friction = tangent * (-mu * elastic / norm);
             let f = c.force();
             let world = Force::new(c.point.cross(&f), f);
-            for (node, sign) in [(nodes[0], T::one()), (nodes[1], -T::one())] {
-                if let Some(n) = node {
-                    let local = data.world[n].apply_force(&world) * sign;
-                    body_force_to_joints(tree, &data.x_up, n, local, out);
-                }
+            if let Some(n) = nodes[0] {
+                data.world_force[n] += world;
+            }
+            if let Some(n) = nodes[1] {
+                data.world_force[n] += world * -T::one();
             }
         }
+    }
+    if data.contacts.is_empty() {
+        return;
+    }
+    for i in (0..tree.nv()).rev() {
+        let f = data.world_force[i];
+        out[i] += data.world_axis[i].dot(&f);
+        if let Some(p) = tree.parent[i] {
+            data.world_force[p] += f;
+        }
+    }
+}
+
+impl<T: Real> GeomFrame<T> {
+    /// From the world to the geom's frame, given each node's `world` transform.
+    fn pose(&self, world: &[Transform<T>]) -> Transform<T> {
+        match self.node {
+            Some(n) => self.offset.compose(&world[n]),
+            None => self.offset,
+        }
+    }
+
+    /// The geom's centre in world coordinates.
+    fn centre(&self, world: &[Transform<T>]) -> Vector3<T> {
+        match self.node {
+            Some(n) => world[n].trans + world[n].rot.tr_mul(&self.offset.trans),
+            None => self.offset.trans,
+        }
+    }
+}
+
+/// The radius of a sphere about a shape's centre that holds it (infinite for
+/// a plane).
+fn reach(shape: &Shape) -> f64 {
+    match *shape {
+        Shape::Plane => f64::INFINITY,
+        Shape::Sphere { radius } => radius,
+        Shape::Capsule {
+            radius,
+            half_length,
+        }
+        | Shape::Cylinder {
+            radius,
+            half_length,
+        } => radius + half_length,
+        Shape::Box { half } => half.norm(),
+        Shape::Ellipsoid { radii } => radii.max(),
+    }
+}
+
+/// Whether geom a (never a plane) is farther than `cutoff` from geom b by
+/// their bounding spheres (b's: its plane when it is one).
+fn apart<T: Real>(a: &GeomFrame<T>, b: &GeomFrame<T>, world: &[Transform<T>], cutoff: f64) -> bool {
+    let gap = a.centre(world) - b.centre(world);
+    let limit: T = lift(reach(&a.shape) + cutoff);
+    match b.shape {
+        Shape::Plane => {
+            let x = b.pose(world);
+            x.rot.row(2).transpose().dot(&gap) > limit
+        }
+        _ => gap.norm() > limit + lift::<T>(reach(&b.shape)),
     }
 }
 

@@ -23,8 +23,8 @@ mod rnea;
 mod step;
 mod tree;
 
-pub use aba::aba;
-pub use contact::{add_soft_forces, body_contact_forces, Contact};
+pub use aba::{aba, aba_with_transforms};
+pub use contact::{add_soft_forces, add_soft_forces_with_transforms, body_contact_forces, Contact};
 pub use crba::crba;
 pub use kinematics::{body_poses, update_transforms};
 pub use ltdl::{ltdl_factor, ltdl_solve, ltdl_solve_columns};
@@ -54,10 +54,14 @@ pub struct Data<T: Real> {
     pub u: Vec<T>,
     pub composite: Vec<Inertia<T>>,
     pub mass_matrix: DMatrix<T>,
-    /// From the world to node i's frame, and from the world to each of the
-    /// tree's contact geoms' frames (filled by [`add_soft_forces`]).
+    /// Filled by [`add_soft_forces`] for a tree with contact pairs: from the
+    /// world to node i's frame; node i's motion axis S_i and spatial velocity
+    /// in world coordinates; the contact forces on node i's subtree (world
+    /// coordinates, about the world origin).
     pub world: Vec<Transform<T>>,
-    pub geom_pose: Vec<Transform<T>>,
+    pub world_axis: Vec<Motion<T>>,
+    pub world_vel: Vec<Motion<T>>,
+    pub world_force: Vec<Force<T>>,
     /// The contacts of the last force evaluation.
     pub contacts: Vec<Contact<T>>,
     /// Scratch vectors of length nv: the acceleration's, and RK4's stages.
@@ -82,7 +86,9 @@ impl<T: Real> Data<T> {
             composite: vec![Inertia::zero(); n],
             mass_matrix: DMatrix::zeros(n, n),
             world: vec![Transform::identity(); n],
-            geom_pose: vec![Transform::identity(); tree.geoms.len()],
+            world_axis: vec![Motion::zero(); n],
+            world_vel: vec![Motion::zero(); n],
+            world_force: vec![Force::zero(); n],
             contacts: vec![],
             scratch: std::array::from_fn(|_| vec![T::zero(); n]),
             stage: std::array::from_fn(|_| vec![T::zero(); n]),

@@ -1,6 +1,9 @@
 //! One timestep of the equations of motion.
 
-use super::{aba, add_soft_forces, passive_forces, Data, Tree};
+use super::{
+    aba_with_transforms, add_soft_forces_with_transforms, passive_forces, update_transforms, Data,
+    Tree,
+};
 use crate::model::{Integrator, Options, PassiveMode};
 use crate::spatial::{lift, Real};
 
@@ -107,9 +110,10 @@ pub fn acceleration<T: Real>(
     for i in 0..tree.nv() {
         force[i] += tau[i];
     }
-    add_soft_forces(tree, data, (q, v), force);
+    update_transforms(tree, data, q);
+    add_soft_forces_with_transforms(tree, data, (q, v), force);
     let implicit = mode != PassiveMode::Explicit;
-    aba(tree, data, q, v, force, implicit.then_some(&extra[..]), qdd);
+    aba_with_transforms(tree, data, v, force, implicit.then_some(&extra[..]), qdd);
     data.scratch = scratch;
 }
 
