@@ -321,7 +321,7 @@ fn accel_derivatives(
         v_start: n,
         params: &contact_columns,
     };
-    subtract_soft_derivatives(model, (q, v), &soft, &mut ws.r);
+    subtract_soft_derivatives(model, &ws.data, (q, v), &soft, &mut ws.r);
     // dqdd = -M^-1 R: column by column when R is narrow, else through M^-1.
     reset(&mut ws.dqdd, n, columns);
     if columns <= n {

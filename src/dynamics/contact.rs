@@ -46,7 +46,7 @@ use crate::model::{Shape, SoftOptions, Spec};
 use crate::spatial::{lift, Force, Motion, Real, Transform};
 
 /// Contacts are skipped beyond this many widths of separation.
-const CUTOFF_WIDTHS: f64 = 30.0;
+pub(crate) const CUTOFF_WIDTHS: f64 = 30.0;
 
 /// The contact constants in the scalar of a tree (the named parameters lifted).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -178,7 +178,7 @@ pub fn contact_pairs(spec: &Spec) -> Vec<[usize; 2]> {
 
 /// softplus of width w and its derivative: (w ln(1 + e^(d/w)), sigmoid(d/w)),
 /// in forms that never overflow (both branches are the same function).
-fn softplus<T: Real>(d: T, w: f64) -> (T, T) {
+pub(crate) fn softplus<T: Real>(d: T, w: f64) -> (T, T) {
     let z = d / lift::<T>(w);
     let one = T::one();
     if z > T::zero() {
@@ -231,53 +231,22 @@ pub fn add_soft_forces_with_transforms<T: Real>(
     }
     let cutoff = CUTOFF_WIDTHS * tree.soft.width;
     for pair in &tree.pairs {
-        let [ga, gb] = pair.geoms.map(|g| &tree.geoms[g]);
-        if apart(ga, gb, &data.world, cutoff) {
+        let geoms = pair.geoms.map(|g| &tree.geoms[g]);
+        if apart(geoms[0], geoms[1], &data.world, cutoff) {
             continue;
         }
         let start = data.contacts.len();
-        let mut emit = |point, normal, depth: T| {
-            if depth > lift(-cutoff) {
-                data.contacts.push(Contact {
-                    geoms: [ga.geom, gb.geom],
-                    bodies: [ga.body, gb.body],
-                    point,
-                    normal,
-                    depth,
-                    normal_force: T::zero(),
-                    friction: Vector3::zeros(),
-                });
-            }
-        };
-        let [xa, xb] = [ga, gb].map(|g| g.pose(&data.world));
-        collide((&ga.shape, &xa), (&gb.shape, &xb), &mut emit);
-        let nodes = [ga.node, gb.node];
-        for c in &mut data.contacts[start..] {
-            let velocity = |node: Option<usize>| match node {
-                Some(n) => {
-                    let m = &data.world_vel[n];
-                    m.lin + m.ang.cross(&c.point)
-                }
-                None => Vector3::zeros(),
-            };
-            let rel = velocity(nodes[0]) - velocity(nodes[1]);
-            let normal_speed = c.normal.dot(&rel);
-            let soft = &tree.soft;
-            let (s, ds) = softplus(c.depth, soft.width);
-            let elastic = soft.stiffness * s;
-            c.normal_force = elastic - soft.damping * ds * normal_speed;
-            let tangent = rel - c.normal * normal_speed;
-            let slip: T = lift(soft.slip);
-            let norm = (tangent.norm_squared() + slip * slip).sqrt();
-            let mu = soft.friction * lift::<T>(pair.friction);
-            c.friction = tangent * (-mu * elastic / norm);
+        let poses = geoms.map(|g| g.pose(&data.world));
+        let vels = geoms.map(|g| g.node.map_or(Motion::zero(), |n| data.world_vel[n]));
+        pair_contacts(&tree.soft, pair, geoms, (poses, vels), &mut data.contacts);
+        for c in &data.contacts[start..] {
             let f = c.force();
             let world = Force::new(c.point.cross(&f), f);
-            if let Some(n) = nodes[0] {
+            if let Some(n) = geoms[0].node {
                 data.world_force[n] += world;
             }
-            if let Some(n) = nodes[1] {
-                data.world_force[n] += world * -T::one();
+            if let Some(n) = geoms[1].node {
+                data.world_force[n] += -world;
             }
         }
     }
@@ -293,9 +262,52 @@ pub fn add_soft_forces_with_transforms<T: Real>(
     }
 }
 
+/// The contacts of one pair, with their forces, appended to `contacts`: the
+/// pair's geoms at their world poses, their nodes moving with the world-frame
+/// spatial velocities `vels` (zero for the world). Generic over the scalar of
+/// the state (T) and of the tree the geoms come from (U).
+pub fn pair_contacts<T: Real, U: Real>(
+    soft: &Soft<T>,
+    pair: &Pair,
+    geoms: [&GeomFrame<U>; 2],
+    (poses, vels): ([Transform<T>; 2], [Motion<T>; 2]),
+    contacts: &mut Vec<Contact<T>>,
+) {
+    let [ga, gb] = geoms;
+    let start = contacts.len();
+    let cutoff: T = lift(-CUTOFF_WIDTHS * soft.width);
+    let mut emit = |point, normal, depth: T| {
+        if depth > cutoff {
+            contacts.push(Contact {
+                geoms: [ga.geom, gb.geom],
+                bodies: [ga.body, gb.body],
+                point,
+                normal,
+                depth,
+                normal_force: T::zero(),
+                friction: Vector3::zeros(),
+            });
+        }
+    };
+    collide((&ga.shape, &poses[0]), (&gb.shape, &poses[1]), &mut emit);
+    let mu = soft.friction * lift::<T>(pair.friction);
+    let slip: T = lift(soft.slip);
+    for c in &mut contacts[start..] {
+        let at = |m: &Motion<T>| m.lin + m.ang.cross(&c.point);
+        let rel = at(&vels[0]) - at(&vels[1]);
+        let normal_speed = c.normal.dot(&rel);
+        let (s, ds) = softplus(c.depth, soft.width);
+        let elastic = soft.stiffness * s;
+        c.normal_force = elastic - soft.damping * ds * normal_speed;
+        let tangent = rel - c.normal * normal_speed;
+        let norm = (tangent.norm_squared() + slip * slip).sqrt();
+        c.friction = tangent * (-mu * elastic / norm);
+    }
+}
+
 impl<T: Real> GeomFrame<T> {
     /// From the world to the geom's frame, given each node's `world` transform.
-    fn pose(&self, world: &[Transform<T>]) -> Transform<T> {
+    pub fn pose(&self, world: &[Transform<T>]) -> Transform<T> {
         match self.node {
             Some(n) => self.offset.compose(&world[n]),
             None => self.offset,
