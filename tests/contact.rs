@@ -141,6 +141,65 @@ fn a_pair_rubs_with_its_larger_friction_times_the_scale() {
 }
 
 #[test]
+fn spheres_and_capsules_touch_at_their_closest_points() {
+    // (shape, centre) -> the expected contact point, depth. The bar is geom
+    // a: the normal points from the thing into it.
+    let cases = [
+        // A capsule along x below the bar, crossing it: the axes are 0.095
+        // apart, the point halfway into the overlap under the bar's axis.
+        (
+            r#"type="capsule" size="0.05 0.2" axisangle="0 1 0 90""#,
+            [0.0, 0.0, 0.205],
+            [0.0, 0.0, 0.2525],
+            0.005,
+        ),
+        // A sphere beyond the bar's end: its closest point is that end.
+        (
+            r#"type="sphere" size="0.1""#,
+            [0.0, 0.3, 0.3],
+            [0.0, 0.225, 0.3],
+            0.05,
+        ),
+        // A sphere off the bar's side, 2 cm apart.
+        (
+            r#"type="sphere" size="0.1""#,
+            [0.17, 0.0, 0.3],
+            [0.06, 0.0, 0.3],
+            -0.02,
+        ),
+    ];
+    for (shape, at, point, depth) in cases {
+        let model = common::crossing(shape, at);
+        let zero = vec![0.0; model.nv()];
+        let contacts = model.contacts(&mut model.data(), &zero, &zero).unwrap();
+        let [c] = &contacts[..] else {
+            panic!("{shape}: one contact, got {}", contacts.len())
+        };
+        assert_eq!(
+            c.bodies.map(|b| model.bodies[b].name.as_str()),
+            ["bar", "thing"]
+        );
+        assert!(
+            (c.depth - depth).abs() < 1e-12,
+            "{shape}: depth {}",
+            c.depth
+        );
+        let expected = nalgebra::Vector3::from(point);
+        assert!(
+            (c.point - expected).norm() < 1e-12,
+            "{shape}: {:?}",
+            c.point
+        );
+        let into_bar = (expected - nalgebra::Vector3::from(at)).normalize();
+        assert!(
+            (c.normal - into_bar).norm() < 1e-12,
+            "{shape}: normal {:?}",
+            c.normal
+        );
+    }
+}
+
+#[test]
 fn a_resting_box_carries_its_weight() {
     let mass = 2.0;
     let model = common::dropped(r#"type="box" size="0.2 0.15 0.05""#, mass, 0.06);

@@ -35,7 +35,15 @@
 //! bodies are the same rigid body (welded together) or parent and child
 //! (MuJoCo's rule; the world counts as nobody's parent). Supported shapes:
 //! plane against sphere, capsule (its two end spheres) and box (its eight
-//! corners), and sphere against sphere; other pairs make no contact.
+//! corners); spheres and capsules against each other, as spheres at the
+//! closest points of their segments (a sphere's is a point); other pairs
+//! make no contact.
+//!
+//! Non-smooth set: contact forces are smooth in (q, v) except where a contact
+//! crosses the cutoff (30 widths out), where two capsules' closest points are
+//! not unique or change which end clamps them (parallel axes; an end's
+//! closest point on the other segment exactly at its end), and where two
+//! segments touch (distance 0: no normal).
 
 use nalgebra::Vector3;
 
@@ -164,7 +172,10 @@ pub fn contact_pairs(spec: &Spec) -> Vec<[usize; 2]> {
                     Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. },
                     Shape::Plane,
                 )
-                | (Shape::Sphere { .. }, Shape::Sphere { .. }) => pairs.push([i, j]),
+                | (
+                    Shape::Sphere { .. } | Shape::Capsule { .. },
+                    Shape::Sphere { .. } | Shape::Capsule { .. },
+                ) => pairs.push([i, j]),
                 (
                     Shape::Plane,
                     Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. },
@@ -417,16 +428,74 @@ fn collide<T: Real>(
                 _ => {}
             }
         }
-        (Shape::Sphere { radius: ra }, Shape::Sphere { radius: rb }) => {
-            let gap = xa.trans - xb.trans;
-            let distance = gap.norm();
-            let n = gap / distance;
-            let depth = lift::<T>(ra + rb) - distance;
-            let two = T::one() + T::one();
-            emit(xb.trans + n * (lift::<T>(*rb) - depth / two), n, depth);
+        _ => {
+            if let (Some(a), Some(b)) = (Segment::of(sa, xa), Segment::of(sb, xb)) {
+                let (pa, pb) = closest_points(&a, &b);
+                let gap = pa - pb;
+                let distance = gap.norm();
+                let n = gap / distance;
+                let depth = a.radius + b.radius - distance;
+                let two = T::one() + T::one();
+                emit(pb + n * (b.radius - depth / two), n, depth);
+            }
         }
-        _ => {}
     }
+}
+
+/// A sphere swept along a segment: a capsule, or a sphere (half length 0).
+struct Segment<T: Real> {
+    centre: Vector3<T>,
+    /// Unit direction of the segment (the geom's z axis).
+    axis: Vector3<T>,
+    half_length: T,
+    radius: T,
+}
+
+impl<T: Real> Segment<T> {
+    /// The segment of a sphere or capsule at its world pose; None for other shapes.
+    fn of(shape: &Shape, x: &Transform<T>) -> Option<Self> {
+        let (radius, half_length) = match *shape {
+            Shape::Sphere { radius } => (radius, 0.0),
+            Shape::Capsule {
+                radius,
+                half_length,
+            } => (radius, half_length),
+            _ => return None,
+        };
+        Some(Segment {
+            centre: x.trans,
+            axis: x.rot.row(2).transpose(),
+            half_length: lift(half_length),
+            radius: lift(radius),
+        })
+    }
+}
+
+/// The closest points of two segments (a's first): the unconstrained
+/// minimiser of |p_a + s u - p_b - t w|^2 for s, then t for that s clamped to
+/// b, then s for that t clamped to a. Exact when the closest points are
+/// unique; (nearly) parallel segments start from s = 0.
+fn closest_points<T: Real>(a: &Segment<T>, b: &Segment<T>) -> (Vector3<T>, Vector3<T>) {
+    let clamp = |x: T, half: T| {
+        if x > half {
+            half
+        } else if x < -half {
+            -half
+        } else {
+            x
+        }
+    };
+    let r = a.centre - b.centre;
+    let (cos, ur, wr) = (a.axis.dot(&b.axis), a.axis.dot(&r), b.axis.dot(&r));
+    let sin2 = T::one() - cos * cos;
+    let s = if sin2 > lift(1e-12) {
+        clamp((cos * wr - ur) / sin2, a.half_length)
+    } else {
+        T::zero()
+    };
+    let t = clamp(cos * s + wr, b.half_length);
+    let s = clamp(cos * t - ur, a.half_length);
+    (a.centre + a.axis * s, b.centre + b.axis * t)
 }
 
 /// Adds the joint forces S_k . F_k that a force `f` on node `node` (in its

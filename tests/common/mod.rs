@@ -202,3 +202,30 @@ pub fn dropped(shape: &str, mass: f64, height: f64) -> Model {
     );
     diffosi::model::mjcf::parse(&text, "dropped.xml").unwrap()
 }
+
+/// A capsule "bar" (radius 0.05, half length 0.2) along y at height 0.3, on
+/// a hinge about x through its centre (joint 0), and a geom `shape` on a
+/// free body "thing" at `at` (slides x y z, hinges x y z: joints 1-6).
+pub fn crossing(shape: &str, [x, y, z]: [f64; 3]) -> Model {
+    let text = format!(
+        r#"<mujoco model="crossing">
+  <option timestep="0.002"/>
+  <worldbody>
+    <body name="bar" pos="0 0 0.3">
+      <joint name="tilt" type="hinge" axis="1 0 0"/>
+      <geom name="bar" type="capsule" size="0.05 0.2" axisangle="1 0 0 90" mass="2"/>
+    </body>
+    <body name="thing" pos="{x} {y} {z}">
+      <joint name="x" type="slide" axis="1 0 0"/>
+      <joint name="y" type="slide" axis="0 1 0"/>
+      <joint name="z" type="slide" axis="0 0 1"/>
+      <joint name="rx" type="hinge" axis="1 0 0"/>
+      <joint name="ry" type="hinge" axis="0 1 0"/>
+      <joint name="rz" type="hinge" axis="0 0 1"/>
+      <geom name="thing" {shape} mass="1"/>
+    </body>
+  </worldbody>
+</mujoco>"#
+    );
+    diffosi::model::mjcf::parse(&text, "crossing.xml").unwrap()
+}
