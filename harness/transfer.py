@@ -47,7 +47,7 @@ with its soft penalty contact, so MuJoCo's contact is a real gap and DiffOSI's e
 may be biased: per episode the signed `bias` (mean of mu_fed - mu) is kept besides MAE
 and MARE. The metric is the task's reward summed (the return): forward speed of the
 torso minus 0.1 |a|^2 per control step, HalfCheetah-v5's reward, computed by the same
-function in both engines. Defaults: 5 episodes per policy seed, the full 1000 steps. To
+function in both engines. Defaults: 10 episodes per policy seed, the full 1000 steps. To
 show where the bias comes from, the report adds DiffOSI on one transition at a time along
 the UC-Oracle episodes, split by whether MuJoCo's physics step had constraint rows
 (contacts or joint limits) or none (single_transition_estimates).
@@ -101,7 +101,7 @@ class TaskSpec:
 
 TASKS = {
     "cartpole": TaskSpec(engines.ENGINES, 20, "steps in bounds", "mu (m)", (-0.65, 0.65), True),
-    "half_cheetah": TaskSpec(("mujoco",), 5, "return", "torso mass (kg)", (0.0, 52.0), False),
+    "half_cheetah": TaskSpec(("mujoco",), 10, "return", "torso mass (kg)", (0.0, 52.0), False),
 }
 
 
@@ -110,7 +110,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--target", required=True, choices=[*engines.ENGINES, "all"],
                     help="target engine (the half cheetah: mujoco)")
     ap.add_argument("--episodes", type=int, default=None,
-                    help="episodes per policy seed (default: cartpole 20, half_cheetah 5)")
+                    help="episodes per policy seed (default: cartpole 20, half_cheetah 10)")
     ap.add_argument("--seeds", default="0,1,2", help="shipped policy seeds (default %(default)s)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the episodes (default %(default)s)")
     ap.add_argument("--horizon", type=int, default=None, help="control steps per episode (default: the task's)")
