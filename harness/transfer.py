@@ -39,7 +39,7 @@ no unmodelled effects), so each table shows the transfer gap next to the target'
 The half cheetah (--task half_cheetah, target mujoco only; no --unmodelled): MuJoCo runs
 gymnasium's half_cheetah.xml as HalfCheetah-v5 does (harness/engines/mujoco.py
 GymMujocoEngine: frame_skip 5 at dt 0.01, ctrl = the action on the file's motors, its own
-hard-ish contact and joint limits), with the episode's torso mass (mu, kg) in body_mass:
+constraint-based contact and joint limits), with the torso mass (mu, kg) in body_mass:
 like our body/torso/mass, the COM and the inertia about the COM stay. A control step is
 the task's `substeps` physics steps under one force; DiffOSI is pushed the last of them
 (as the task's estimators see it in `diffosi eval`: Env::last_transition), on our model
