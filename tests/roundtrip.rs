@@ -19,7 +19,8 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use diffosi::model::{
-    mjcf, Actuator, Body, Geom, Integrator, Joint, Model, ModelError, Options, PassiveMode, Spec,
+    mjcf, Actuator, Body, Geom, Integrator, Joint, Model, ModelError, Options, PassiveMode,
+    SoftOptions, Spec,
 };
 use nalgebra::{Matrix3, Rotation3};
 
@@ -403,4 +404,24 @@ fn save_writes_mjcf_to_xml_paths_only() {
     assert_eq!((worst.error, rebuilt.error), (0.0, 0.0));
     let urdf = written_dir().join("saved_cartpole.urdf");
     assert!(matches!(model.save(urdf), Err(ModelError::Unwritable(_))));
+}
+
+#[test]
+fn soft_settings_round_trip_as_custom_numerics() {
+    let model = Model::load(common::model_path("reference_models/half_cheetah.xml")).unwrap();
+    let soft = SoftOptions {
+        stiffness: 2.5e4,
+        damping: 75.0,
+        friction: 0.8,
+        width: 2e-3,
+        slip: 0.3,
+        limit_stiffness: 500.0,
+        limit_damping: 5.5,
+        limit_width: 1.5e-3,
+    };
+    let model = model.edited(|s| s.opt.soft = soft).unwrap();
+    let text = mjcf::write(&model).unwrap();
+    assert!(text.contains(r#"<numeric name="diffosi:contact_slip" data="0.3"/>"#));
+    assert_eq!(mjcf::parse(&text, "soft").unwrap().opt.soft, soft);
+    assert_round_trips("half_cheetah, soft settings", &model);
 }

@@ -266,6 +266,24 @@ pub struct SoftOptions {
     pub limit_width: f64,
 }
 
+/// A way to one setting of [`SoftOptions`].
+pub type SoftField = fn(&mut SoftOptions) -> &mut f64;
+
+impl SoftOptions {
+    /// Each setting's name in files (MJCF `<custom><numeric name="diffosi:..">`)
+    /// with a way to it.
+    pub const NAMES: [(&'static str, SoftField); 8] = [
+        ("contact_stiffness", |s| &mut s.stiffness),
+        ("contact_damping", |s| &mut s.damping),
+        ("contact_friction", |s| &mut s.friction),
+        ("contact_width", |s| &mut s.width),
+        ("contact_slip", |s| &mut s.slip),
+        ("limit_stiffness", |s| &mut s.limit_stiffness),
+        ("limit_damping", |s| &mut s.limit_damping),
+        ("limit_width", |s| &mut s.limit_width),
+    ];
+}
+
 impl Default for SoftOptions {
     /// Chosen for explicit (semi-implicit Euler) stability at the half
     /// cheetah's 0.01 s step: a 1 kg point on a 1e4 N/m spring has period

@@ -11,13 +11,18 @@
 //! `<flag gravity="disable">` loads as zero gravity; `<flag contact="disable">`
 //! and `<flag limit="disable">` switch off [`Options::contact`] and
 //! [`Options::limits`].
+//!
+//! The soft-contact constants ([`SoftOptions`]) are read from `<custom>`
+//! numerics named `diffosi:<setting>` ([`SoftOptions::NAMES`]), one number
+//! each; other numerics (and other custom elements) are ignored, as MuJoCo's
+//! dynamics ignore them, and an unknown `diffosi:` name is an error.
 
 use nalgebra::Vector3;
 
 use super::attributes::Attrs;
 use super::schema::{check_attributes, OPTION_ATTRS};
 use super::{children, elements, tag, unrecognized, xml, Node, Result};
-use crate::model::{Integrator, Options, PassiveMode};
+use crate::model::{Integrator, Options, PassiveMode, SoftOptions};
 
 /// Flags that only concern contacts, constraints, sensors or the solver.
 #[rustfmt::skip]
@@ -83,7 +88,30 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
         "Euler" if !flags.eulerdamp => PassiveMode::Explicit,
         _ => PassiveMode::ImplicitDamping,
     };
+    read_soft(file, root, &mut opt.soft)?;
     Ok(opt)
+}
+
+/// The `diffosi:` numerics of every `<custom>` section into `soft`.
+fn read_soft(file: &str, root: Node, soft: &mut SoftOptions) -> Result<()> {
+    for custom in children(root, "custom") {
+        for numeric in children(custom, "numeric") {
+            let a = Attrs::of(file, numeric);
+            let Some(name) = a.text("name").and_then(|n| n.strip_prefix("diffosi:")) else {
+                continue;
+            };
+            let Some((_, field)) = SoftOptions::NAMES.iter().find(|(n, _)| *n == name) else {
+                let known = SoftOptions::NAMES.map(|(n, _)| n).join(", ");
+                let msg = format!("unknown setting 'diffosi:{name}' (known: {known})");
+                return Err(a.error(numeric, msg));
+            };
+            let Some(value) = a.number("data")? else {
+                return Err(a.error(numeric, format!("diffosi:{name} needs its data")));
+            };
+            *field(soft) = value;
+        }
+    }
+    Ok(())
 }
 
 fn read_integrator(a: &Attrs) -> Result<Option<&'static str>> {
@@ -152,7 +180,7 @@ mod tests {
     use nalgebra::Vector3;
 
     use super::super::test_util::*;
-    use crate::model::{Integrator, PassiveMode};
+    use crate::model::{Integrator, PassiveMode, SoftOptions};
 
     #[test]
     fn options_map_to_integrator_and_passive_mode() {
@@ -184,5 +212,29 @@ mod tests {
             "",
         ));
         assert_eq!(m.opt.gravity, Vector3::zeros());
+    }
+
+    #[test]
+    fn soft_settings_come_from_diffosi_numerics() {
+        let custom = r#"<custom><numeric name="other" data="1 2"/>
+            <numeric name="diffosi:contact_stiffness" data="2500"/>
+            <numeric name="diffosi:limit_width" data="0.002"/></custom>"#;
+        let m = load(&model("", &body(""), custom));
+        let expected = SoftOptions {
+            stiffness: 2500.0,
+            limit_width: 0.002,
+            ..SoftOptions::default()
+        };
+        assert_eq!(m.opt.soft, expected);
+        let typo = r#"<custom><numeric name="diffosi:contact_stifness" data="1"/></custom>"#;
+        let (line, element, message) = error(&model("", "", typo));
+        assert_eq!((line, element.as_str()), (1, "numeric"));
+        assert!(
+            message.contains("unknown setting 'diffosi:contact_stifness'"),
+            "{message}"
+        );
+        let two = r#"<custom><numeric name="diffosi:contact_slip" data="1 2"/></custom>"#;
+        let (_, _, message) = error(&model("", "", two));
+        assert!(message.contains("needs 1 numbers"), "{message}");
     }
 }

@@ -17,8 +17,9 @@
 //!   passive forces are always explicit, so the passive mode, which RK4 does
 //!   not use, reads back as [`PassiveMode::Explicit`]. Contacts or limits
 //!   switched off are `<flag contact="disable"/>`, `<flag limit="disable"/>`;
-//!   the soft-contact constants ([`crate::model::SoftOptions`]) are not
-//!   written and read back as their defaults.
+//!   the soft-contact constants ([`crate::model::SoftOptions`]) are custom
+//!   numerics, `<custom><numeric name="diffosi:contact_stiffness" data=".."/>`
+//!   and so on ([`SoftOptions::NAMES`]), which MuJoCo keeps and ignores.
 //!
 //! What MJCF cannot express is an error ([`ModelError::Unwritable`]): implicit
 //! stiffness under Euler ([`PassiveMode::ImplicitDampingStiffness`], DART's
@@ -32,7 +33,7 @@ use nalgebra::{Rotation3, UnitQuaternion};
 use crate::model::params::inertia_to_six;
 use crate::model::{
     Actuator, Body, Geom, Integrator, Joint, JointKind, ModelError, Options, PassiveMode, Shape,
-    Spec,
+    SoftOptions, Spec,
 };
 
 /// Writes `spec` as an MJCF document, checked by loading it.
@@ -65,6 +66,15 @@ fn document(spec: &Spec) -> Result<String, ModelError> {
         doc.empty(2, motor(a, &spec.joints[a.joint].name));
     }
     doc.close(1, "actuator");
+    doc.open(1, Tag::new("custom"));
+    let mut soft = spec.opt.soft;
+    for (name, field) in SoftOptions::NAMES {
+        let numeric = Tag::new("numeric")
+            .text("name", &format!("diffosi:{name}"))
+            .number("data", *field(&mut soft));
+        doc.empty(2, numeric);
+    }
+    doc.close(1, "custom");
     doc.close(0, "mujoco");
     Ok(doc.0)
 }
