@@ -107,7 +107,7 @@ enum Command {
     /// Train a task's policy with PPO (writes the policy JSON and its learning
     /// curve, CSV and SVG), or a UC-MLP identifier (writes its weights JSON).
     Train {
-        /// Task name (cartpole).
+        /// Task name (cartpole, half_cheetah).
         #[arg(long, default_value = "cartpole")]
         task: String,
         /// uc: Universal Controller (observes the state and mu); dr:
@@ -136,7 +136,7 @@ enum Command {
     /// episodes with the true mu drawn uniformly (the same episodes for every
     /// policy and source). With several --policy files the summary pools them.
     Eval {
-        /// Task name (cartpole).
+        /// Task name (cartpole, half_cheetah).
         #[arg(long, default_value = "cartpole")]
         task: String,
         /// Policy file(s) written by `diffosi train`; repeat for several.
@@ -169,11 +169,12 @@ enum Command {
         json: bool,
     },
     /// Reproduce the paper's experiments on the shipped controllers and UC-MLP
-    /// weights: for cartpole, Tables 1 and 4 and the context-window study;
-    /// prints the tables and writes reports/{table1,table4}-cartpole.{md,json}
-    /// and reports/window-cartpole.{json,svg}. `all` runs every task's.
+    /// weights: for cartpole, Tables 1 and 4 and the context-window study
+    /// (reports/{table1,table4}-cartpole.{md,json}, reports/window-cartpole.{json,svg});
+    /// for cheetah, Table 2 and its window study (reports/table2-half_cheetah.{md,json},
+    /// reports/window-half_cheetah.{json,svg}). Prints the tables. `all` runs both.
     Reproduce {
-        /// cartpole or all.
+        /// cartpole, cheetah or all.
         #[arg(default_value = "all")]
         what: String,
         /// Directory of the shipped weights (one subdirectory per task).

@@ -1,5 +1,6 @@
-//! `diffosi reproduce`: the paper's cartpole results (Tables 1 and 4, the
-//! context-window study) on the shipped controllers and UC-MLP weights.
+//! `diffosi reproduce`: the paper's cartpole results (Tables 1 and 4) and half
+//! cheetah results (Table 2), each with its context-window study, on the
+//! shipped controllers and UC-MLP weights.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -13,7 +14,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use super::eval::sources_for;
 
 pub struct Request<'a> {
-    /// "cartpole" or "all".
+    /// "cartpole", "cheetah" (or "half_cheetah") or "all".
     pub what: &'a str,
     pub policies: &'a Path,
     pub reports: &'a Path,
@@ -28,11 +29,33 @@ const WINDOWS: [usize; 3] = [2, 3, 5];
 
 pub fn reproduce(request: Request) -> Result<(), String> {
     match request.what {
-        "cartpole" | "all" => cartpole(&request),
+        "cartpole" => cartpole(&request),
+        "cheetah" | "half_cheetah" => cheetah(&request),
+        "all" => cartpole(&request).and_then(|()| cheetah(&request)),
         other => Err(format!(
-            "unknown experiment '{other}' (known: cartpole, all)"
+            "unknown experiment '{other}' (known: cartpole, cheetah, all)"
         )),
     }
+}
+
+/// Tables 1 and 4 and the window study on the cartpole.
+fn cartpole(request: &Request) -> Result<(), String> {
+    let tables = [
+        (Study::table1(request.seed), "Table 1"),
+        (Study::table4(request.seed), "Table 4"),
+    ];
+    paper_task(
+        request,
+        "cartpole",
+        &tables,
+        &[Source::Mlp, Source::MlpNarrow],
+    )
+}
+
+/// Table 2 and the window study on the half cheetah.
+fn cheetah(request: &Request) -> Result<(), String> {
+    let tables = [(Study::table2(request.seed), "Table 2")];
+    paper_task(request, "half_cheetah", &tables, &[Source::Mlp])
 }
 
 fn write(path: PathBuf, text: &str) -> Result<(), String> {
@@ -47,9 +70,17 @@ fn bar(len: usize, what: &str) -> ProgressBar {
         .with_style(ProgressStyle::with_template(&template).expect("valid template"))
 }
 
-fn cartpole(request: &Request) -> Result<(), String> {
+/// Runs `tables` and the window study on the shipped weights of a task
+/// (policies/<task>/{uc,dr}-seed<k>.json, uc-mlp.json, uc-mlp-narrow.json as
+/// the `mlp` sources need).
+fn paper_task(
+    request: &Request,
+    name: &str,
+    tables: &[(Study, &str)],
+    mlp: &[Source],
+) -> Result<(), String> {
     let started = Instant::now();
-    let task = tasks::by_name("cartpole")?;
+    let task = tasks::by_name(name)?;
     let dir = request.policies.join(task.name());
     let load = |kind: &str| -> Result<Vec<Policy>, String> {
         (0..request.models)
@@ -63,19 +94,18 @@ fn cartpole(request: &Request) -> Result<(), String> {
         dr: &dr,
     };
     let sources = sources_for(
-        &[Source::Mlp, Source::MlpNarrow],
+        mlp,
         &dir.join("uc-mlp.json"),
         &dir.join("uc-mlp-narrow.json"),
         4,
     )?;
     std::fs::create_dir_all(request.reports)
         .map_err(|e| format!("cannot create {}: {e}", request.reports.display()))?;
-    let tables = [
-        (Study::table1(request.seed), "Table 1"),
-        (Study::table4(request.seed), "Table 4"),
-    ];
-    for (mut study, title) in tables {
-        study.episodes = request.episodes;
+    for (study, title) in tables {
+        let study = Study {
+            episodes: request.episodes,
+            ..study.clone()
+        };
         let progress = bar(
             study.methods.len() * request.models * study.episodes,
             &study.name,
@@ -119,13 +149,13 @@ fn cartpole(request: &Request) -> Result<(), String> {
         );
     }
     let json = serde_json::to_string(&experiments::window_json(&study)).expect("serialises");
-    write(request.reports.join("window-cartpole.json"), &json)?;
+    write(request.reports.join(format!("window-{name}.json")), &json)?;
     write(
-        request.reports.join("window-cartpole.svg"),
+        request.reports.join(format!("window-{name}.svg")),
         &experiments::window_svg(&study),
     )?;
     println!(
-        "reproduce cartpole: {:.1} s wall time on {} threads",
+        "reproduce {name}: {:.1} s wall time on {} threads",
         started.elapsed().as_secs_f64(),
         request.threads
     );

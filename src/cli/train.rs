@@ -67,14 +67,14 @@ pub fn train(request: Request) -> Result<(), String> {
         .map_err(|e| format!("cannot write {}: {e}", plot_path.display()))?;
     let info = trained.policy.training.as_ref().expect("set by training");
     println!(
-        "{} {:?} seed {}: {} env steps in {:.1} s, mean task metric of the last {} training episodes {:.1}",
+        "{} {:?} seed {}: {} env steps in {:.1} s, mean task metric of the last {} training episodes {}",
         request.task,
         kind,
         request.seed,
         info.env_steps,
         info.wall_seconds,
         config.curve_window,
-        info.final_metric
+        info.final_metric.map_or("-".into(), |m| format!("{m:.1}"))
     );
     println!(
         "wrote {}, {} and {}",
@@ -148,7 +148,8 @@ fn write_curve(path: &Path, curve: &[CurveRow]) -> Result<(), String> {
 }
 
 /// The learning curve (mean task metric against environment steps) as a
-/// small self-contained SVG line plot.
+/// small self-contained SVG line plot; the y axis spans min(0, lowest) to
+/// max(1, highest).
 fn curve_svg(curve: &[CurveRow]) -> String {
     let (w, h, pad) = (640.0, 360.0, 50.0);
     let points: Vec<(f64, f64)> = curve
@@ -158,8 +159,9 @@ fn curve_svg(curve: &[CurveRow]) -> String {
         .collect();
     let x_max = points.iter().map(|p| p.0).fold(1.0, f64::max);
     let y_max = points.iter().map(|p| p.1).fold(1.0, f64::max);
+    let y_min = points.iter().map(|p| p.1).fold(0.0, f64::min);
     let sx = |x: f64| pad + x / x_max * (w - 2.0 * pad);
-    let sy = |y: f64| h - pad - y / y_max * (h - 2.0 * pad);
+    let sy = |y: f64| h - pad - (y - y_min) / (y_max - y_min) * (h - 2.0 * pad);
     let line: Vec<String> = points
         .iter()
         .map(|&(x, y)| format!("{:.1},{:.1}", sx(x), sy(y)))
@@ -170,13 +172,13 @@ fn curve_svg(curve: &[CurveRow]) -> String {
 <path d="M{pad},{top} V{bottom} H{right}" stroke="black" fill="none"/>
 <polyline points="{points}" stroke="#1f77b4" stroke-width="1.5" fill="none"/>
 <text x="{pad}" y="{label_y}">0</text><text x="{right}" y="{label_y}" text-anchor="end">{x_max} env steps</text>
-<text x="{left}" y="{top}" text-anchor="end">{y_max:.0}</text><text x="{left}" y="{bottom}" text-anchor="end">0</text>
+<text x="{left}" y="{top}" text-anchor="end">{y_max:.0}</text><text x="{left}" y="{bottom}" text-anchor="end">{y_min:.0}</text>
 <text x="{mid}" y="20" text-anchor="middle">mean task metric of recent training episodes</text>
 </svg>
 "##,
         points = line.join(" "),
         top = sy(y_max),
-        bottom = sy(0.0),
+        bottom = sy(y_min),
         right = sx(x_max),
         label_y = h - pad + 18.0,
         left = pad - 6.0,

@@ -1,4 +1,4 @@
-//! The paper's cartpole experiments as runnable studies: "methods x trained
+//! The paper's cartpole and half cheetah experiments as runnable studies: "methods x trained
 //! models x episodes" ([`run`]), summarised like the paper's tables
 //! ([`markdown`]), and the context-window study ([`window_study`]).
 //!
@@ -15,8 +15,8 @@
 //! - `mu_mae`: mean over t (and over mu's components) of |mu_hat_t - mu_t|,
 //!   where mu_hat_t is the mu fed to the controller at step t;
 //! - `mu_mare`: mean over t of |mu_hat_t - mu_t| / max(|mu_t|, floor), floor
-//!   a tenth of the half-width of the range (0.06 m on the cartpole), so a
-//!   true mu near zero does not divide by zero;
+//!   a tenth of the half-width of the range (0.06 m on the cartpole, 2.45 kg
+//!   on the half cheetah), so a true mu near zero does not divide by zero;
 //! - `score`: the task metric summed over the episode.
 //!
 //! The table reports mean +- population standard deviation of each over all
@@ -133,6 +133,51 @@ impl Study {
                 ),
             ],
             episodes: 10,
+            seed,
+            change_at: None,
+        }
+    }
+
+    /// The paper's Table 2 (half cheetah): 6 methods, 3 episodes per model
+    /// (the paper's "each model evaluated on 3 random seeds").
+    pub fn table2(seed: u64) -> Study {
+        let dr = Method {
+            label: "DR".into(),
+            policy: PolicyKind::Dr,
+            source: None,
+            paper: Some(["N/A", "N/A", "2546.51 ± 1593.81"]),
+        };
+        Study {
+            name: "table2".into(),
+            methods: vec![
+                dr,
+                Method::uc(
+                    "UC-Random",
+                    Source::Random,
+                    Some(["19.11 ± 12.97", "2.27 ± 3.42", "3567.45 ± 588.88"]),
+                ),
+                Method::uc(
+                    "UC-Average",
+                    Source::Average,
+                    Some(["17.97 ± 2.85", "2.24 ± 2.63", "3596.58 ± 802.73"]),
+                ),
+                Method::uc(
+                    "UC-MLP",
+                    Source::Mlp,
+                    Some(["9.25 ± 10.20", "1.27 ± 2.25", "3102.02 ± 2202.76"]),
+                ),
+                Method::uc(
+                    "UC-DiffOSI",
+                    Source::Diffosi,
+                    Some(["0.06 ± 0.14", "0.01 ± 0.02", "3930.97 ± 801.29"]),
+                ),
+                Method::uc(
+                    "UC-Oracle",
+                    Source::Oracle,
+                    Some(["0.0 ± 0.0", "0.0 ± 0.0", "3936.30 ± 609.14"]),
+                ),
+            ],
+            episodes: 3,
             seed,
             change_at: None,
         }
@@ -384,7 +429,8 @@ fn summarise(episodes: &[EpisodeResult]) -> Summary {
 }
 
 /// The context-window study: per-step mean |mu_hat - mu| of UC-DiffOSI for
-/// each context window N (N - 1 transitions), on Table 1's episodes.
+/// each context window N (N - 1 transitions), on the episodes of a table
+/// run with the same seed.
 #[derive(Clone, Debug, PartialEq)]
 pub struct WindowStudy {
     pub task: String,

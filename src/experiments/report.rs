@@ -24,7 +24,7 @@ pub fn markdown(results: &Results, title: &str) -> String {
     let mut out = format!(
         "# {title}\n\n{} models ({}) x {} episodes, seed {}{}. Mean ± std over the {} pooled episodes; \
          errors of mu averaged over each episode's steps; relative error with |mu| floored at a \
-         tenth of the range's half-width; task performance = steps within the bounds (of {}).\n\n",
+         tenth of the range's half-width; task performance = {}.\n\n",
         results.models.len(),
         results.models.join(", "),
         results.study.episodes,
@@ -33,7 +33,7 @@ pub fn markdown(results: &Results, title: &str) -> String {
             ", mu changes at t = {t} to a new uniform mu'"
         )),
         results.models.len() * results.study.episodes,
-        crate::tasks::by_name(&results.task).map_or(0, |t| t.horizon()),
+        crate::tasks::by_name(&results.task).map_or(String::new(), |t| t.metric_description()),
     );
     out += "| Approach | Mean Abs. Error (mu) | Mean Abs. Rel. Error (mu) | Task Performance | of UC-Oracle | Paper: MAE / rel. / task |\n";
     out += "|---|---|---|---|---|---|\n";

@@ -51,8 +51,9 @@ pub struct TrainingInfo {
     pub env_steps: usize,
     pub iterations: usize,
     pub wall_seconds: f64,
-    /// Mean task metric of the last episodes of training.
-    pub final_metric: f64,
+    /// Mean task metric of the last episodes of training (None if no
+    /// episode finished).
+    pub final_metric: Option<f64>,
 }
 
 #[derive(Clone, Debug, PartialEq)]

@@ -159,6 +159,10 @@ impl Task for Cartpole {
             0.0
         }
     }
+
+    fn metric_description(&self) -> String {
+        format!("steps within the bounds (of {})", Self::HORIZON)
+    }
 }
 
 #[cfg(test)]

@@ -160,4 +160,11 @@ impl Task for HalfCheetah {
         let effort: f64 = action.iter().map(|a| a.clamp(-1.0, 1.0).powi(2)).sum();
         speed - Self::CTRL_COST * effort
     }
+
+    fn metric_description(&self) -> String {
+        format!(
+            "episode return (forward speed minus control cost per control step, {} steps)",
+            Self::HORIZON
+        )
+    }
 }

@@ -56,6 +56,10 @@ pub trait Task: Send + Sync {
     fn terminated(&self, state: &State) -> bool;
     /// One control step's contribution to the task metric.
     fn metric(&self, state: &State, action: &[f64], next: &State) -> f64;
+    /// What an episode's score means, for reports.
+    fn metric_description(&self) -> String {
+        "the task metric summed over the episode".into()
+    }
 }
 
 /// The tasks the command line knows, by name.
