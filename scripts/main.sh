@@ -19,6 +19,8 @@ $py -m harness figures --task cartpole
 $py -m harness transfer --task cartpole --target all
 $py -m harness transfer --task cartpole --target all --unmodelled friction
 $py -m harness transfer --task cartpole --target all --unmodelled friction,delay
+# The half cheetah's shipped controllers in MuJoCo running gymnasium's HalfCheetah-v5.
+$py -m harness transfer --task half_cheetah --target mujoco
 
 # Our dynamics and gradients against the reference engines.
 for model in cartpole half_cheetah; do
