@@ -17,6 +17,8 @@
 //!   that step, the mu fed to the controller at it and the task metric of
 //!   the step.
 
+pub mod ilqr;
+
 use std::collections::VecDeque;
 
 use rand::rngs::StdRng;

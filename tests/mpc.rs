@@ -1,0 +1,75 @@
+//! iLQR MPC on the cartpole: the cost falls at every accepted iteration, MPC
+//! balances a perturbed cartpole, and the same inputs give the same actions.
+
+use diffosi::control::ilqr::{run_mpc_episode, Ilqr, IlqrOptions, MpcEpisode, MpcOptions};
+use diffosi::tasks::{Cartpole, Task};
+
+fn options(horizon: usize, iterations: usize, replan: usize) -> MpcOptions {
+    MpcOptions {
+        ilqr: IlqrOptions {
+            horizon,
+            iterations,
+            ..IlqrOptions::default()
+        },
+        replan,
+    }
+}
+
+#[test]
+fn ilqr_lowers_the_cost_at_every_accepted_iteration() {
+    let task = Cartpole::new();
+    let mut planner = Ilqr::new(&task, &[0.3], options(100, 15, 1).ilqr).unwrap();
+    let x0 = (vec![0.1, 0.2], vec![0.0, -0.3]);
+    let (plan, log) = planner.plan(&x0, vec![vec![0.0]; 100]).unwrap();
+    assert!(log.costs.len() >= 5, "{log:?}");
+    for pair in log.costs.windows(2) {
+        assert!(pair[1] < pair[0], "{:?}", log.costs);
+    }
+    // From a pole that falls within a second to one balanced nearly all along
+    // (the best cost is -1 per step).
+    assert!(log.costs[0] > -25.0 && plan.cost < -80.0, "{:?}", log.costs);
+    assert_eq!(plan.cost, *log.costs.last().unwrap());
+    assert!(plan.actions.iter().flatten().all(|u| u.abs() <= 1.0));
+    // The plan's states are the rollout of its actions in the true model.
+    let mut model = task.model().clone();
+    task.mu_map().apply(&mut model, &[0.3]).unwrap();
+    let mut data = model.data();
+    let mut x = x0.clone();
+    for (t, u) in plan.actions.iter().enumerate() {
+        assert_eq!(plan.action(t, &x), *u);
+        x = model.step(&mut data, &x.0, &x.1, &task.forces(u)).unwrap();
+    }
+    assert_eq!(&x, plan.states.last().unwrap());
+}
+
+fn balance(mu: f64, initial: (Vec<f64>, Vec<f64>)) -> MpcEpisode {
+    let task = Cartpole::new();
+    run_mpc_episode(&task, &[mu], &initial, &options(100, 20, 20)).unwrap()
+}
+
+#[test]
+fn mpc_balances_a_perturbed_cartpole() {
+    let task = Cartpole::new();
+    // Tilted 0.4 rad and falling, with the COM offset the other way (its
+    // balance angle is +0.76 rad), and the cart half a metre off centre.
+    let episode = balance(-0.4, (vec![0.5, 0.4], vec![0.0, 0.5]));
+    assert_eq!(episode.score(), task.horizon() as f64);
+    assert_eq!(episode.replans.len(), task.horizon() / 20);
+    // Balanced: the last reward is near the best (1 with the cart centred).
+    let last = *episode.rewards.last().unwrap();
+    assert!(last > 0.99, "{last}");
+    // Replans after the first start from a balanced plan: few iterations.
+    let first = episode.replans[0].log.iterations;
+    let later = episode.replans[1..].iter().map(|r| r.log.iterations).max();
+    assert!(later.unwrap() < first, "{:?}", episode.replans);
+}
+
+#[test]
+fn mpc_is_deterministic() {
+    let initial = (vec![-0.2, -0.1], vec![0.3, 0.2]);
+    let (a, b) = (balance(0.25, initial.clone()), balance(0.25, initial));
+    assert_eq!(a.actions, b.actions);
+    assert_eq!(a.rewards, b.rewards);
+    let logs = |e: &MpcEpisode| e.replans.iter().map(|r| r.log.clone()).collect::<Vec<_>>();
+    assert_eq!(logs(&a), logs(&b));
+}
