@@ -168,6 +168,40 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// The paper's runtime comparison: iLQR MPC (exact step Jacobians, the
+    /// true mu) against the Universal Controller with online DiffOSI on the
+    /// same episodes; wall time per replan next to the UC's compute over the
+    /// same control steps, and both task performances. Writes
+    /// reports/mpc-<task>.{md,json}.
+    Mpc {
+        /// Task name (cartpole).
+        #[arg(long, default_value = "cartpole")]
+        task: String,
+        /// Universal Controller weights (default policies/<task>/uc-seed0.json);
+        /// without them only the MPC side is reported.
+        #[arg(long)]
+        policy: Option<PathBuf>,
+        /// Control steps planned.
+        #[arg(long, default_value_t = 200)]
+        horizon: usize,
+        /// Control steps executed between replans.
+        #[arg(long, default_value_t = 40)]
+        replan: usize,
+        /// Most iLQR iterations per plan.
+        #[arg(long, default_value_t = 10)]
+        iterations: usize,
+        #[arg(long, default_value_t = 3)]
+        episodes: usize,
+        /// Seed of the episodes (true mu, initial states).
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Transitions per DiffOSI window.
+        #[arg(long, default_value_t = 4)]
+        window: usize,
+        /// Output directory.
+        #[arg(long, default_value = "reports")]
+        reports: PathBuf,
+    },
     /// Reproduce the paper's experiments on the shipped controllers and UC-MLP
     /// weights: for cartpole, Tables 1 and 4 and the context-window study
     /// (reports/{table1,table4}-cartpole.{md,json}, reports/window-cartpole.{json,svg});
@@ -272,6 +306,27 @@ fn main() -> ExitCode {
             episodes,
             seed,
             json,
+        }),
+        Command::Mpc {
+            task,
+            policy,
+            horizon,
+            replan,
+            iterations,
+            episodes,
+            seed,
+            window,
+            reports,
+        } => cli::mpc::mpc(cli::mpc::Request {
+            task: &task,
+            policy,
+            horizon,
+            replan,
+            iterations,
+            episodes,
+            seed,
+            window,
+            reports: &reports,
         }),
         Command::Reproduce {
             what,

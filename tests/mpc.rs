@@ -7,10 +7,10 @@ use diffosi::tasks::{Cartpole, Task};
 fn options(horizon: usize, iterations: usize, replan: usize) -> MpcOptions {
     MpcOptions {
         ilqr: IlqrOptions {
-            horizon,
             iterations,
             ..IlqrOptions::default()
         },
+        horizon,
         replan,
     }
 }
@@ -44,7 +44,7 @@ fn ilqr_lowers_the_cost_at_every_accepted_iteration() {
 
 fn balance(mu: f64, initial: (Vec<f64>, Vec<f64>)) -> MpcEpisode {
     let task = Cartpole::new();
-    run_mpc_episode(&task, &[mu], &initial, &options(100, 20, 20)).unwrap()
+    run_mpc_episode(&task, &[mu], &initial, &options(200, 10, 40)).unwrap()
 }
 
 #[test]
@@ -54,11 +54,12 @@ fn mpc_balances_a_perturbed_cartpole() {
     // balance angle is +0.76 rad), and the cart half a metre off centre.
     let episode = balance(-0.4, (vec![0.5, 0.4], vec![0.0, 0.5]));
     assert_eq!(episode.score(), task.horizon() as f64);
-    assert_eq!(episode.replans.len(), task.horizon() / 20);
+    assert_eq!(episode.replans.len(), task.horizon().div_ceil(40));
     // Balanced: the last reward is near the best (1 with the cart centred).
     let last = *episode.rewards.last().unwrap();
     assert!(last > 0.99, "{last}");
-    // Replans after the first start from a balanced plan: few iterations.
+    // Replans after the first (a cold start over growing horizons) start
+    // from a balanced plan: few iterations.
     let first = episode.replans[0].log.iterations;
     let later = episode.replans[1..].iter().map(|r| r.log.iterations).max();
     assert!(later.unwrap() < first, "{:?}", episode.replans);
@@ -72,4 +73,45 @@ fn mpc_is_deterministic() {
     assert_eq!(a.rewards, b.rewards);
     let logs = |e: &MpcEpisode| e.replans.iter().map(|r| r.log.clone()).collect::<Vec<_>>();
     assert_eq!(logs(&a), logs(&b));
+}
+
+#[test]
+fn the_mpc_command_writes_the_runtime_comparison() {
+    let dir = std::env::temp_dir().join(format!("diffosi-mpc-{}", std::process::id()));
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_diffosi"))
+        .args([
+            "mpc",
+            "--task",
+            "cartpole",
+            "--episodes",
+            "1",
+            "--horizon",
+            "80",
+        ])
+        .args(["--replan", "40", "--reports", dir.to_str().unwrap()])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(dir.join("mpc-cartpole.json")).unwrap();
+    let report: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let (mpc, uc) = (&report["mpc"], &report["uc"]);
+    // One episode of 500 control steps: 13 replans of 40 steps, 12 full UC periods.
+    assert_eq!(mpc["replan"]["count"], 13);
+    assert_eq!(uc["period"]["count"], 12);
+    assert_eq!(mpc["score"][0], 500.0);
+    assert_eq!(uc["oracle_score"][0], 500.0);
+    let ms = |t: &serde_json::Value, k: &str| t[k].as_f64().unwrap();
+    for t in [&mpc["replan"], &uc["period"]] {
+        assert!(
+            ms(t, "p50_ms") > 0.0 && ms(t, "p50_ms") <= ms(t, "p95_ms"),
+            "{t}"
+        );
+    }
+    let md = std::fs::read_to_string(dir.join("mpc-cartpole.md")).unwrap();
+    assert!(md.contains("| MPC: one iLQR replan |") && md.contains("Ratio MPC / UC"));
 }

@@ -3,6 +3,7 @@
 pub mod eval;
 pub mod identify;
 pub mod jacobian;
+pub mod mpc;
 pub mod reproduce;
 pub mod simulate;
 pub mod train;

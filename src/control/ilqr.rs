@@ -35,8 +35,11 @@
 //!   decreases the cost, divided by 10 after an accepted step. The line search
 //!   tries alpha = 1, 1/2, ..., 1/2^9 and accepts the first strictly lower cost,
 //!   so the cost decreases monotonically over accepted iterations.
-//! - MPC ([`run_mpc_episode`]): plan H control steps from the current state,
-//!   execute the first R with the plan's feedback law
+//! - MPC ([`run_mpc_episode`]): plan H control steps from the current state
+//!   (the episode's first plan, from zero actions, grows its horizon R, 2R,
+//!   4R, ..., H, each stage warm-started by the last: a reward that vanishes
+//!   once the task fails, as the cartpole's, gives a zero-action rollout that
+//!   fails early no gradient past the failure), execute the first R with the plan's feedback law
 //!   u = clamp(u_bar + K (x - x_bar)) (equal to the open-loop actions when the
 //!   planner's model is the environment's, as here), then replan from the
 //!   reached state, warm-started with the previous plan shifted by R steps
@@ -58,8 +61,6 @@ use crate::tasks::{Env, Task};
 /// Settings of the trajectory optimiser.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct IlqrOptions {
-    /// Control steps planned (the paper's MPC: 200).
-    pub horizon: usize,
     /// Most iLQR iterations (backward + forward pass) per plan.
     pub iterations: usize,
     /// Stop when an accepted step lowers the cost by less than this fraction.
@@ -71,10 +72,9 @@ pub struct IlqrOptions {
 }
 
 impl Default for IlqrOptions {
-    /// Horizon 200, at most 10 iterations, tolerance 1e-6, lambda 1e-6 up to 1e10.
+    /// At most 10 iterations, tolerance 1e-6, lambda 1e-6 up to 1e10.
     fn default() -> Self {
         IlqrOptions {
-            horizon: 200,
             iterations: 10,
             tolerance: 1e-6,
             lambda: 1e-6,
@@ -199,7 +199,6 @@ impl<'a> Ilqr<'a> {
             .apply(&mut model, mu)
             .map_err(|e| ControlError::Env(e.into()))?;
         assert_eq!(model.nq(), model.nv(), "iLQR needs nq = nv");
-        assert!(options.horizon > 0, "an empty horizon");
         let m = task.act_dim();
         let tau0 = task.forces(&vec![0.0; m]);
         let mut dtau_du = DMatrix::zeros(model.nv(), m);
@@ -393,18 +392,15 @@ impl<'a> Ilqr<'a> {
         (-(z.transpose() * g), z.transpose() * curvature * &z)
     }
 
-    /// Optimises the actions from x0, starting from `warm` (H actions).
+    /// Optimises the actions of the next `warm.len()` control steps from x0,
+    /// starting from `warm`.
     pub fn plan(
         &mut self,
         x0: &State,
         warm: Vec<Vec<f64>>,
     ) -> Result<(Plan, PlanLog), ControlError> {
-        let h_len = self.options.horizon;
-        assert_eq!(
-            warm.len(),
-            h_len,
-            "the warm start needs one action per step"
-        );
+        let h_len = warm.len();
+        assert!(h_len > 0, "an empty horizon");
         let (n2, m) = (2 * self.model.nv(), self.task.act_dim());
         let warm: Vec<Vec<f64>> = warm
             .into_iter()
@@ -428,7 +424,11 @@ impl<'a> Ilqr<'a> {
         let mut local = self.linearise_plan(&plan)?;
         while log.iterations < self.options.iterations && lambda <= self.options.lambda_max {
             log.iterations += 1;
-            let Some((feedforward, gains, expected)) = backward(&local, &plan.actions, lambda)
+            let Some(Update {
+                feedforward,
+                gains,
+                expected,
+            }) = backward(&local, &plan.actions, lambda)
             else {
                 lambda *= 10.0;
                 continue;
@@ -492,15 +492,17 @@ struct Local {
     l2: DMatrix<f64>,
 }
 
-/// The backward pass along the local models: feed-forward changes k_t, gains
-/// K_t and the expected cost change at alpha = 1; None when Quu + lambda I is
-/// not positive definite somewhere.
-#[allow(clippy::type_complexity)]
-fn backward(
-    local: &[Local],
-    actions: &[Vec<f64>],
-    lambda: f64,
-) -> Option<(Vec<DVector<f64>>, Vec<DMatrix<f64>>, f64)> {
+/// What a backward pass proposes: feed-forward changes k_t, gains K_t and
+/// the expected cost change at alpha = 1.
+struct Update {
+    feedforward: Vec<DVector<f64>>,
+    gains: Vec<DMatrix<f64>>,
+    expected: f64,
+}
+
+/// The backward pass along the local models; None when Quu + lambda I is not
+/// positive definite somewhere.
+fn backward(local: &[Local], actions: &[Vec<f64>], lambda: f64) -> Option<Update> {
     let (n2, m) = (local[0].a.nrows(), local[0].b.ncols());
     let mut v_x = DVector::zeros(n2);
     let mut v_xx = DMatrix::zeros(n2, n2);
@@ -530,7 +532,11 @@ fn backward(
         feedforward[t] = k;
         gains[t] = gain;
     }
-    Some((feedforward, gains, expected))
+    Some(Update {
+        feedforward,
+        gains,
+        expected,
+    })
 }
 
 /// The positive semi-definite part of a symmetric matrix (negative
@@ -623,6 +629,8 @@ fn box_qp(
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct MpcOptions {
     pub ilqr: IlqrOptions,
+    /// Control steps planned (the paper's MPC: 200).
+    pub horizon: usize,
     /// Control steps executed between replans (the paper's MPC: 40).
     pub replan: usize,
 }
@@ -632,6 +640,7 @@ impl Default for MpcOptions {
     fn default() -> Self {
         MpcOptions {
             ilqr: IlqrOptions::default(),
+            horizon: 200,
             replan: 40,
         }
     }
@@ -671,23 +680,26 @@ pub fn run_mpc_episode(
     initial: &State,
     options: &MpcOptions,
 ) -> Result<MpcEpisode, ControlError> {
-    assert!(options.replan > 0, "replanning every 0 steps");
+    let (h_len, replan) = (options.horizon, options.replan.min(options.horizon));
+    assert!(replan > 0, "replanning every 0 steps");
     let mut planner = Ilqr::new(task, mu, options.ilqr.clone())?;
     let mut env = Env::new(task);
     env.reset_to(mu, initial.clone())?;
-    let h_len = options.ilqr.horizon;
     let zero = vec![0.0; task.act_dim()];
-    let mut warm = vec![zero.clone(); h_len];
+    let mut warm = None;
     let mut episode = MpcEpisode::default();
     loop {
         let start = Instant::now();
-        let (plan, log) = planner.plan(env.state(), warm)?;
+        let (plan, log) = match warm {
+            Some(actions) => planner.plan(env.state(), actions)?,
+            None => cold_plan(&mut planner, env.state(), replan, h_len)?,
+        };
         episode.replans.push(Replan {
             t: env.t(),
             seconds: start.elapsed().as_secs_f64(),
             log,
         });
-        for t in 0..options.replan.min(h_len) {
+        for t in 0..replan {
             let action = plan.action(t, env.state());
             let out = env.step(&action)?;
             episode.rewards.push(out.reward);
@@ -697,9 +709,32 @@ pub fn run_mpc_episode(
                 return Ok(episode);
             }
         }
-        let executed = options.replan.min(h_len);
-        warm = plan.actions[executed..].to_vec();
-        warm.resize(h_len, zero.clone());
+        let mut shifted = plan.actions[replan..].to_vec();
+        shifted.resize(h_len, zero.clone());
+        warm = Some(shifted);
+    }
+}
+
+/// The first plan of an episode, from zero actions over horizons R, 2R, 4R,
+/// ..., H, each stage warm-started by the last (padded with zeros); the log
+/// is the last stage's, with the iterations of all stages.
+fn cold_plan(
+    planner: &mut Ilqr,
+    x0: &State,
+    replan: usize,
+    horizon: usize,
+) -> Result<(Plan, PlanLog), ControlError> {
+    let zero = vec![0.0; planner.task.act_dim()];
+    let (mut actions, mut len, mut iterations) = (vec![], replan, 0);
+    loop {
+        actions.resize(len, zero.clone());
+        let (plan, log) = planner.plan(x0, actions)?;
+        iterations += log.iterations;
+        if len == horizon {
+            return Ok((plan, PlanLog { iterations, ..log }));
+        }
+        actions = plan.actions;
+        len = (2 * len).min(horizon);
     }
 }
 
