@@ -88,7 +88,14 @@ fn the_mpc_command_writes_the_runtime_comparison() {
             "--horizon",
             "80",
         ])
-        .args(["--replan", "40", "--reports", dir.to_str().unwrap()])
+        .args([
+            "--replan",
+            "40",
+            "--iterations",
+            "10",
+            "--reports",
+            dir.to_str().unwrap(),
+        ])
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .output()
         .unwrap();

@@ -37,9 +37,10 @@
 //!   so the cost decreases monotonically over accepted iterations.
 //! - MPC ([`run_mpc_episode`]): plan H control steps from the current state
 //!   (the episode's first plan, from zero actions, grows its horizon R, 2R,
-//!   4R, ..., H, each stage warm-started by the last: a reward that vanishes
-//!   once the task fails, as the cartpole's, gives a zero-action rollout that
-//!   fails early no gradient past the failure), execute the first R with the plan's feedback law
+//!   4R, ..., H, each stage warm-started by the last: where the reward
+//!   vanishes once the task fails, as the cartpole's, a zero-action rollout
+//!   fails early and gives no gradient past the failure), execute the first
+//!   R with the plan's feedback law
 //!   u = clamp(u_bar + K (x - x_bar)) (equal to the open-loop actions when the
 //!   planner's model is the environment's, as here), then replan from the
 //!   reached state, warm-started with the previous plan shifted by R steps
@@ -232,10 +233,6 @@ impl<'a> Ilqr<'a> {
         Ok(planner)
     }
 
-    pub fn options(&self) -> &IlqrOptions {
-        &self.options
-    }
-
     /// The coordinates of z whose change moves the reward at any of a few
     /// reset states under random actions (seeded, so always the same).
     fn probe_reward_coords(&mut self) -> Result<Vec<usize>, ControlError> {
@@ -421,14 +418,19 @@ impl<'a> Ilqr<'a> {
             lambda: self.options.lambda,
         };
         let mut lambda = self.options.lambda;
-        let mut local = self.linearise_plan(&plan)?;
+        // The local models along the current plan, rebuilt after each accepted step.
+        let mut local = None;
         while log.iterations < self.options.iterations && lambda <= self.options.lambda_max {
             log.iterations += 1;
+            if local.is_none() {
+                local = Some(self.linearise_plan(&plan)?);
+            }
+            let models = local.as_ref().expect("just built");
             let Some(Update {
                 feedforward,
                 gains,
                 expected,
-            }) = backward(&local, &plan.actions, lambda)
+            }) = backward(models, &plan.actions, lambda)
             else {
                 lambda *= 10.0;
                 continue;
@@ -454,7 +456,7 @@ impl<'a> Ilqr<'a> {
             };
             log.costs.push(cost);
             lambda = (lambda / 10.0).max(1e-12);
-            local = self.linearise_plan(&plan)?;
+            local = None;
             if decrease <= self.options.tolerance * plan.cost.abs().max(1.0)
                 || expected.abs() < 1e-12
             {
