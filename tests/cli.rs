@@ -1,32 +1,18 @@
 //! The `diffosi` binary, run as a user runs it.
 
-use std::process::Command;
+mod common;
 
-fn diffosi(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_diffosi"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .unwrap();
-    let text = |b: Vec<u8>| String::from_utf8(b).unwrap();
-    (out.status.success(), text(out.stdout), text(out.stderr))
-}
-
-fn temp(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("diffosi-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
+use common::{run_cli, temp_path};
 
 #[test]
 fn simulate_writes_the_rollout_with_given_torques() {
-    let torques = temp("taus.csv");
+    let torques = temp_path("cli", "taus.csv");
     let rows: Vec<String> = (0..50)
         .map(|t| format!("{},{}", (t as f64 * 0.1).sin(), 0.0))
         .collect();
     std::fs::write(&torques, format!("slider,hinge\n{}\n", rows.join("\n"))).unwrap();
-    let out = temp("cartpole.csv");
-    let (ok, _, err) = diffosi(&[
+    let out = temp_path("cli", "cartpole.csv");
+    let (ok, _, err) = run_cli(&[
         "simulate",
         "reference_models/cartpole.xml",
         "--steps",
@@ -64,9 +50,9 @@ fn simulate_writes_the_rollout_with_given_torques() {
 
 #[test]
 fn simulate_explains_bad_input() {
-    let out = temp("bad.csv");
+    let out = temp_path("cli", "bad.csv");
     let out = out.to_str().unwrap();
-    let (ok, _, err) = diffosi(&[
+    let (ok, _, err) = run_cli(&[
         "simulate",
         "reference_models/nonexistent.xml",
         "--steps",
@@ -79,7 +65,7 @@ fn simulate_explains_bad_input() {
         "{err}"
     );
 
-    let torques = temp("short.csv");
+    let torques = temp_path("cli", "short.csv");
     std::fs::write(&torques, "1,2,3\n").unwrap();
     let args = [
         "simulate",
@@ -91,13 +77,13 @@ fn simulate_explains_bad_input() {
         "-o",
         out,
     ];
-    let (ok, _, err) = diffosi(&args);
+    let (ok, _, err) = run_cli(&args);
     assert!(
         !ok && err.contains("short.csv:1: 3 values, expected nv = 2"),
         "{err}"
     );
 
-    let (ok, _, err) = diffosi(&[
+    let (ok, _, err) = run_cli(&[
         "simulate",
         "reference_models/cartpole.xml",
         "--steps",
@@ -109,7 +95,7 @@ fn simulate_explains_bad_input() {
     ]);
     assert!(!ok && err.contains("q has length 1, expected 2"), "{err}");
 
-    let (ok, _, err) = diffosi(&[
+    let (ok, _, err) = run_cli(&[
         "simulate",
         "reference_models/cartpole.xml",
         "--steps",
@@ -124,7 +110,7 @@ fn simulate_explains_bad_input() {
 
 #[test]
 fn jacobian_prints_the_library_result_as_json() {
-    let (ok, out, err) = diffosi(&[
+    let (ok, out, err) = run_cli(&[
         "jacobian",
         "reference_models/cartpole.xml",
         "--q",
@@ -173,7 +159,7 @@ fn jacobian_prints_the_library_result_as_json() {
 
 #[test]
 fn jacobian_explains_bad_input() {
-    let (ok, _, err) = diffosi(&[
+    let (ok, _, err) = run_cli(&[
         "jacobian",
         "reference_models/cartpole.xml",
         "--params",
@@ -184,6 +170,6 @@ fn jacobian_explains_bad_input() {
             .contains("unknown parameter 'body/pole/colour': body fields are mass, com, inertia"),
         "{err}"
     );
-    let (ok, _, err) = diffosi(&["jacobian", "reference_models/cartpole.xml", "--q", "0,inf"]);
+    let (ok, _, err) = run_cli(&["jacobian", "reference_models/cartpole.xml", "--q", "0,inf"]);
     assert!(!ok && err.contains("q[1] is not finite"), "{err}");
 }

@@ -4,26 +4,8 @@
 
 mod common;
 
-use std::path::PathBuf;
-use std::process::Command;
-
+use common::{run_cli, temp_path};
 use diffosi::Model;
-
-fn diffosi(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_diffosi"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .unwrap();
-    let text = |b: Vec<u8>| String::from_utf8(b).unwrap();
-    (out.status.success(), text(out.stdout), text(out.stderr))
-}
-
-fn temp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("diffosi-cli-identify-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
 
 const CARTPOLE: &str = "reference_models/cartpole.xml";
 
@@ -62,7 +44,7 @@ fn cartpole_rows(mass: f64, len: usize, seed: u64) -> Vec<String> {
 const HEADER: &str = "q0,q1,v0,v1,tau0,tau1,q0',q1',v0',v1'";
 
 fn write(name: &str, lines: &[String]) -> String {
-    let path = temp(name);
+    let path = temp_path("cli-identify", name);
     std::fs::write(&path, lines.join("\n") + "\n").unwrap();
     path.to_str().unwrap().to_string()
 }
@@ -73,7 +55,7 @@ fn pole_mass_is_recovered_as_json() {
     lines.extend(cartpole_rows(0.3, 5, 1));
     let csv = write("good.csv", &lines);
     for method in ["lm", "adam", "cmaes"] {
-        let (ok, out, err) = diffosi(&[
+        let (ok, out, err) = run_cli(&[
             "identify",
             CARTPOLE,
             "--params",
@@ -109,7 +91,7 @@ fn pole_mass_is_recovered_as_json() {
 fn several_parameters_and_text_output() {
     // The COM and the mass of the pole together: mu has 4 components.
     let csv = write("four_params.csv", &cartpole_rows(0.3, 10, 2));
-    let (ok, out, err) = diffosi(&[
+    let (ok, out, err) = run_cli(&[
         "identify",
         CARTPOLE,
         "--params",
@@ -146,7 +128,7 @@ fn failure(csv: &str, extra: &[&str]) -> String {
         args.extend(["--params", "body/pole/mass"]);
     }
     args.extend(extra);
-    let (ok, out, err) = diffosi(&args);
+    let (ok, out, err) = run_cli(&args);
     assert!(!ok, "{out}");
     assert!(out.is_empty(), "{out}");
     err

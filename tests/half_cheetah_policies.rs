@@ -1,9 +1,11 @@
 //! The shipped half cheetah policies and UC-MLP, Table 2 on a small sample,
 //! the deterministic training command and a `diffosi reproduce cheetah` smoke run.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
 
+use std::path::{Path, PathBuf};
+
+use common::{run_cli, temp_path};
 use diffosi::control::{Source, Sources};
 use diffosi::experiments::{self, Method, Models, Study};
 use diffosi::osi::mlp::MuMlp;
@@ -20,12 +22,6 @@ fn policies(kind: &str) -> Vec<Policy> {
     (0..3)
         .map(|k| Policy::load(&shipped(&format!("{kind}-seed{k}.json"))).unwrap())
         .collect()
-}
-
-fn temp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("diffosi-cheetah-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
 }
 
 /// `diffosi train --task half_cheetah --policy uc|dr --seed k` made them (the
@@ -117,26 +113,18 @@ const RETURN_FLOOR: f64 = 3500.0;
 
 #[test]
 fn reproduce_cheetah_writes_table2_and_the_window_study() {
-    let reports = temp("reports");
-    let out = Command::new(env!("CARGO_BIN_EXE_diffosi"))
-        .args([
-            "reproduce",
-            "cheetah",
-            "--models",
-            "1",
-            "--episodes",
-            "1",
-            "--reports",
-        ])
-        .arg(&reports)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let reports = temp_path("cheetah", "reports");
+    let (ok, _, err) = run_cli(&[
+        "reproduce",
+        "cheetah",
+        "--models",
+        "1",
+        "--episodes",
+        "1",
+        "--reports",
+        reports.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
     let table = std::fs::read_to_string(reports.join("table2-half_cheetah.md")).unwrap();
     for label in [
         "| DR |",

@@ -1,6 +1,8 @@
 //! iLQR MPC on the cartpole: the cost falls at every accepted iteration, MPC
 //! balances a perturbed cartpole, and the same inputs give the same actions.
 
+mod common;
+
 use diffosi::control::ilqr::{run_mpc_episode, Ilqr, IlqrOptions, MpcEpisode, MpcOptions};
 use diffosi::tasks::{Cartpole, Task};
 
@@ -77,33 +79,23 @@ fn mpc_is_deterministic() {
 
 #[test]
 fn the_mpc_command_writes_the_runtime_comparison() {
-    let dir = std::env::temp_dir().join(format!("diffosi-mpc-{}", std::process::id()));
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_diffosi"))
-        .args([
-            "mpc",
-            "--task",
-            "cartpole",
-            "--episodes",
-            "1",
-            "--horizon",
-            "80",
-        ])
-        .args([
-            "--replan",
-            "40",
-            "--iterations",
-            "10",
-            "--reports",
-            dir.to_str().unwrap(),
-        ])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let dir = common::temp_path("mpc", "reports");
+    let (ok, _, err) = common::run_cli(&[
+        "mpc",
+        "--task",
+        "cartpole",
+        "--episodes",
+        "1",
+        "--horizon",
+        "80",
+        "--replan",
+        "40",
+        "--iterations",
+        "10",
+        "--reports",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
     let text = std::fs::read_to_string(dir.join("mpc-cartpole.json")).unwrap();
     let report: serde_json::Value = serde_json::from_str(&text).unwrap();
     let (mpc, uc) = (&report["mpc"], &report["uc"]);

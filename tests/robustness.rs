@@ -4,8 +4,7 @@
 
 mod common;
 
-use std::process::Command;
-
+use common::run_cli;
 use diffosi::derivatives::{step_jacobians, Workspace, Wrt};
 use diffosi::dynamics::StepError;
 use diffosi::model::{MapEntry, Model, ParamMap};
@@ -185,15 +184,6 @@ fn param_maps_name_bad_entries_and_mu() {
     assert_eq!(model.get_param("body/cart/mass").unwrap(), vec![1.0]);
 }
 
-fn diffosi(args: &[&str]) -> (bool, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_diffosi"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .unwrap();
-    (out.status.success(), String::from_utf8(out.stderr).unwrap())
-}
-
 #[test]
 fn eval_explains_bad_input() {
     let policy = "policies/cartpole/uc-seed0.json";
@@ -221,7 +211,7 @@ fn eval_explains_bad_input() {
         (&["--policy", policy, "--mu-source", "psychic"], "psychic"),
     ];
     for (args, want) in cases {
-        let (ok, err) = diffosi(&[&["eval"], args].concat());
+        let (ok, _, err) = run_cli(&[&["eval"], args].concat());
         assert!(!ok && err.contains(want), "{args:?}: {err}");
     }
 }
@@ -238,7 +228,7 @@ fn simulate_explains_bad_models_and_steps() {
     )
     .unwrap();
     let out = dir.join("out.csv");
-    let (ok, err) = diffosi(&[
+    let (ok, _, err) = run_cli(&[
         "simulate",
         bad.to_str().unwrap(),
         "--steps",
@@ -251,7 +241,7 @@ fn simulate_explains_bad_models_and_steps() {
         "{err}"
     );
     // A state that blows up names the step.
-    let (ok, err) = diffosi(&[
+    let (ok, _, err) = run_cli(&[
         "simulate",
         "reference_models/cartpole.xml",
         "--steps",

@@ -111,6 +111,26 @@ pub fn random_state(model: &Model, seed: u64) -> (Vec<f64>, Vec<f64>, Vec<f64>) 
 /// Resolves a model path of the golden data: relative to the repository, or
 /// `gymnasium:NAME` for gymnasium's MuJoCo assets in the project's venv
 /// (or in `$DIFFOSI_GYM_ASSETS`). A missing venv is a failure, not a skip.
+/// Runs the `diffosi` binary from the repository root, as a user runs it:
+/// (success, stdout, stderr).
+pub fn run_cli(args: &[&str]) -> (bool, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_diffosi"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    let text = |b: Vec<u8>| String::from_utf8(b).unwrap();
+    (out.status.success(), text(out.stdout), text(out.stderr))
+}
+
+/// `name` in a temporary directory of this test process's own, `tag` naming
+/// the test file.
+pub fn temp_path(tag: &str, name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("diffosi-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
 pub fn model_path(name: &str) -> std::path::PathBuf {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     match name.strip_prefix("gymnasium:") {
@@ -180,15 +200,11 @@ pub fn energy(model: &Model, q: &[f64], v: &[f64]) -> f64 {
     kinetic + potential + spring
 }
 
-/// A body on slides x, y, z and hinges about x, y, z (in that order) above
-/// the floor plane z = 0, carrying one geom `shape` of mass `mass`.
-pub fn dropped(shape: &str, mass: f64, height: f64) -> Model {
-    let text = format!(
-        r#"<mujoco model="dropped">
-  <option timestep="0.002"/>
-  <worldbody>
-    <geom name="floor" type="plane" size="5 5 0.1"/>
-    <body name="thing" pos="0 0 {height}">
+/// MJCF of a body "thing" at `pos` with one geom (`shape` attributes, `mass`)
+/// that moves freely: slides x, y, z then hinges rx, ry, rz.
+fn free_thing(shape: &str, mass: f64, [x, y, z]: [f64; 3]) -> String {
+    format!(
+        r#"<body name="thing" pos="{x} {y} {z}">
       <joint name="x" type="slide" axis="1 0 0"/>
       <joint name="y" type="slide" axis="0 1 0"/>
       <joint name="z" type="slide" axis="0 0 1"/>
@@ -196,7 +212,19 @@ pub fn dropped(shape: &str, mass: f64, height: f64) -> Model {
       <joint name="ry" type="hinge" axis="0 1 0"/>
       <joint name="rz" type="hinge" axis="0 0 1"/>
       <geom name="thing" {shape} mass="{mass}"/>
-    </body>
+    </body>"#
+    )
+}
+
+/// The free "thing" at `height` above the floor plane z = 0.
+pub fn dropped(shape: &str, mass: f64, height: f64) -> Model {
+    let thing = free_thing(shape, mass, [0.0, 0.0, height]);
+    let text = format!(
+        r#"<mujoco model="dropped">
+  <option timestep="0.002"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1"/>
+    {thing}
   </worldbody>
 </mujoco>"#
     );
@@ -206,7 +234,8 @@ pub fn dropped(shape: &str, mass: f64, height: f64) -> Model {
 /// A capsule "bar" (radius 0.05, half length 0.2) along y at height 0.3, on
 /// a hinge about x through its centre (joint 0), and a geom `shape` on a
 /// free body "thing" at `at` (slides x y z, hinges x y z: joints 1-6).
-pub fn crossing(shape: &str, [x, y, z]: [f64; 3]) -> Model {
+pub fn crossing(shape: &str, at: [f64; 3]) -> Model {
+    let thing = free_thing(shape, 1.0, at);
     let text = format!(
         r#"<mujoco model="crossing">
   <option timestep="0.002"/>
@@ -215,15 +244,7 @@ pub fn crossing(shape: &str, [x, y, z]: [f64; 3]) -> Model {
       <joint name="tilt" type="hinge" axis="1 0 0"/>
       <geom name="bar" type="capsule" size="0.05 0.2" axisangle="1 0 0 90" mass="2"/>
     </body>
-    <body name="thing" pos="{x} {y} {z}">
-      <joint name="x" type="slide" axis="1 0 0"/>
-      <joint name="y" type="slide" axis="0 1 0"/>
-      <joint name="z" type="slide" axis="0 0 1"/>
-      <joint name="rx" type="hinge" axis="1 0 0"/>
-      <joint name="ry" type="hinge" axis="0 1 0"/>
-      <joint name="rz" type="hinge" axis="0 0 1"/>
-      <geom name="thing" {shape} mass="1"/>
-    </body>
+    {thing}
   </worldbody>
 </mujoco>"#
     );
