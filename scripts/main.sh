@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The main job (`make run`): the paper's cartpole results on the shipped
-# controllers, the transfer-gap reports against MuJoCo, PyBullet and DART, and
+# The main job (`make run`): the paper's cartpole and half-cheetah results on
+# the shipped controllers, the MPC runtime comparison, the transfer-gap reports against MuJoCo, PyBullet and DART, and
 # the proof of our dynamics against them; everything goes to reports/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -13,6 +13,10 @@ start=$SECONDS
 # the cartpole and the half cheetah.
 $bin reproduce all
 $py -m harness figures --task cartpole
+$py -m harness figures --task half_cheetah
+# The paper's runtime comparison: iLQR MPC (horizon 200, replanning every 40
+# control steps) against UC-DiffOSI over the same 40 steps, half cheetah.
+$bin mpc --task half_cheetah
 
 # Transfer gaps (paper Section 4.6, Table 5): the targets as a user leaves them,
 # then with effects our model lacks.
