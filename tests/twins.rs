@@ -318,6 +318,11 @@ fn box_twins_are_the_same_model() {
     assert_same_model("box");
 }
 
+#[test]
+fn wiping_arm_twins_are_the_same_model() {
+    assert_same_model("wiping_arm");
+}
+
 /// The helper rule must not hide anything: the half cheetah and the box have
 /// exactly their documented helper links, and the other twins none.
 #[test]
@@ -331,6 +336,7 @@ fn only_the_half_cheetah_root_uses_helper_links() {
             "box",
             vec!["x_link", "y_link", "z_link", "rx_link", "ry_link"],
         ),
+        ("wiping_arm", vec![]),
     ] {
         let (mjcf, urdf) = load_twins(name);
         let helpers: Vec<_> = (0..urdf.bodies.len())
@@ -351,6 +357,7 @@ fn twins_have_the_same_dynamics() {
         "double_pendulum",
         "half_cheetah",
         "box",
+        "wiping_arm",
     ] {
         let (mjcf, urdf) = load_twins(name);
         // The URDF twins have no floor: compare without contacts (limits on).
