@@ -16,7 +16,7 @@ from harness.engines.numpy_step import step_error
 from harness.engines.sampling import sample_rollout, sample_transitions, tau_scale
 from harness.golden import ROLLOUT_TAU_FRACTION, case_seed
 
-MODELS = ["cartpole", "pendulum", "double_pendulum", "half_cheetah"]
+MODELS = ["cartpole", "pendulum", "double_pendulum", "half_cheetah", "wiping_arm"]
 CASES = [(e, m) for e in engines.ENGINES for m in MODELS]
 ONE_STEP_TOL, ROLLOUT_TOL, MASS_TOL = 1e-12, 1e-9, 1e-12
 SAMPLES, STEPS = 100, 500
