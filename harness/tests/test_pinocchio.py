@@ -23,7 +23,7 @@ import pytest
 import diffosi
 
 MODELS = Path(__file__).resolve().parents[2] / "reference_models"
-NAMES = ["cartpole", "pendulum", "double_pendulum", "half_cheetah"]
+NAMES = ["cartpole", "pendulum", "double_pendulum", "half_cheetah", "wiping_arm"]
 STATES = 20
 # Both sides compute in float64 with different algorithms (our tree recursions
 # vs Pinocchio's CRBA / ABA), so they differ by rounding amplified by the mass
