@@ -20,7 +20,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Simulate a model and write t, q..., v... per step as CSV.
+    /// Simulate a model and write t, q..., v... per step as CSV, and for a
+    /// model with contacts each geom pair's normal force (N) at that state.
     Simulate {
         /// Model file: .xml (MJCF) or .urdf.
         model: PathBuf,

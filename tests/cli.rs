@@ -48,6 +48,41 @@ fn simulate_writes_the_rollout_with_given_torques() {
     }
 }
 
+/// Force sensing: a 2 kg box dropped from 5 cm with a tilt settles on the
+/// floor and its `fn_box_floor` column reads m g (the exact balance, once at
+/// rest, to far below the 1e-9 N asked); while it falls the column is ~0.
+#[test]
+fn simulate_reports_each_pairs_normal_force() {
+    let out = temp_path("cli", "box.csv");
+    let (ok, _, err) = run_cli(&[
+        "simulate",
+        "reference_models/box.xml",
+        "--steps",
+        "5000",
+        "--q0",
+        "0,0,0.05,0.05,0,0",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    let csv = std::fs::read_to_string(&out).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    let header: Vec<&str> = lines[0].split(',').collect();
+    assert_eq!(header.last(), Some(&"fn_box_floor"));
+    let sensed = |line: &str| -> f64 { line.rsplit(',').next().unwrap().parse().unwrap() };
+    assert!(
+        sensed(lines[1]).abs() < 1e-9,
+        "falling: {}",
+        sensed(lines[1])
+    );
+    let weight = 2.0 * 9.81;
+    let last = sensed(lines.last().unwrap());
+    assert!(
+        (last - weight).abs() < 1e-9,
+        "at rest: {last} N vs m g {weight} N"
+    );
+}
+
 #[test]
 fn simulate_explains_bad_input() {
     let out = temp_path("cli", "bad.csv");

@@ -1,7 +1,15 @@
 //! `diffosi simulate`: a rollout written as CSV.
+//!
+//! Columns: `t` (s), `q_<joint>`, `v_<joint>`, then for a model with contact
+//! pairs one `fn_<geom a>_<geom b>` per pair (force sensing): the normal
+//! force (N) on a along the contact normal at the row's state, summed over
+//! the pair's contact points (a box's corners, a capsule's two ends), which
+//! is the force the step from that row applies (0 out of reach; see
+//! `diffosi::dynamics::contact` for the conventions).
 
 use std::io::Write;
 
+use diffosi::dynamics::contact::contact_pairs;
 use diffosi::Model;
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -31,9 +39,16 @@ pub fn simulate(
     let mut out = std::io::BufWriter::new(file);
     let io = |e: std::io::Error| format!("cannot write {}: {e}", output.display());
     let names = model.joints.iter().map(|j| j.name.as_str());
+    let pairs = contact_pairs(&model);
+    let geom = |g: usize| model.geoms[g].name.as_str();
     let header: Vec<String> = std::iter::once("t".to_string())
         .chain(names.clone().map(|n| format!("q_{n}")))
         .chain(names.map(|n| format!("v_{n}")))
+        .chain(
+            pairs
+                .iter()
+                .map(|&[a, b]| format!("fn_{}_{}", geom(a), geom(b))),
+        )
         .collect();
     writeln!(out, "{}", header.join(",")).map_err(io)?;
     let started = std::time::Instant::now();
@@ -48,9 +63,12 @@ pub fn simulate(
             bar.inc(1);
         }
         let time = t as f64 * model.opt.timestep;
+        let sensed = normal_forces(&model, &mut data, &pairs, &q, &v)
+            .map_err(|e| format!("contacts at step {t}: {e}"))?;
         let row: Vec<String> = std::iter::once(time)
             .chain(q.iter().copied())
             .chain(v.iter().copied())
+            .chain(sensed)
             .map(|x| format!("{x:e}"))
             .collect();
         writeln!(out, "{}", row.join(",")).map_err(io)?;
@@ -65,6 +83,26 @@ pub fn simulate(
         output.display()
     );
     Ok(())
+}
+
+/// The normal force of each pair's contact at (q, v), in the order of `pairs`.
+fn normal_forces(
+    model: &Model,
+    data: &mut diffosi::dynamics::Data<f64>,
+    pairs: &[[usize; 2]],
+    q: &[f64],
+    v: &[f64],
+) -> Result<Vec<f64>, diffosi::dynamics::StepError> {
+    let mut out = vec![0.0; pairs.len()];
+    if pairs.is_empty() {
+        return Ok(out);
+    }
+    for c in model.contacts(data, q, v)? {
+        if let Some(k) = pairs.iter().position(|&p| p == c.geoms) {
+            out[k] += c.normal_force;
+        }
+    }
+    Ok(out)
 }
 
 /// Reads `steps` rows of `nv` numbers; a first row that is not numeric is a header.
