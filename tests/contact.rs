@@ -57,15 +57,7 @@ fn pairs_follow_masks_and_the_parent_child_rule() {
   </worldbody>
 </mujoco>"#;
     let model = mjcf::parse(text, "chain.xml").unwrap();
-    let pairs: Vec<[&str; 2]> = model
-        .tree()
-        .pairs
-        .iter()
-        .map(|p| {
-            p.geoms
-                .map(|g| model.geoms[model.tree().geoms[g].geom].name.as_str())
-        })
-        .collect();
+    let pairs: Vec<[&str; 2]> = common::contact_pair_names(&model);
     let expected = [
         ["ground", "a"],
         ["ground", "b"],

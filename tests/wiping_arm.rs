@@ -64,15 +64,7 @@ fn loads_with_eight_dofs_named_compliance_and_tool_table_contact_only() {
     let tau = model.actuator_forces(&[1.0; 7]);
     assert_eq!(tau, [1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.0]);
     // The only contact pair: the tool's tip against the table.
-    let pairs: Vec<_> = model
-        .tree()
-        .pairs
-        .iter()
-        .map(|p| {
-            p.geoms
-                .map(|g| model.geoms[model.tree().geoms[g].geom].name.as_str())
-        })
-        .collect();
+    let pairs: Vec<_> = common::contact_pair_names(&model);
     assert_eq!(pairs, [["tip", "table"]]);
     // The inverse kinematics above: the tip where it was asked to be.
     let mut q = tool_down_at(0.55, 0.03).to_vec();

@@ -131,6 +131,15 @@ pub fn temp_path(tag: &str, name: &str) -> std::path::PathBuf {
     dir.join(name)
 }
 
+/// The names of the geom pairs that may touch, [a, b] as the contact code
+/// orders them (b the plane when there is one).
+pub fn contact_pair_names(model: &Model) -> Vec<[&str; 2]> {
+    diffosi::dynamics::contact::contact_pairs(model)
+        .into_iter()
+        .map(|p| p.map(|g| model.geoms[g].name.as_str()))
+        .collect()
+}
+
 pub fn model_path(name: &str) -> std::path::PathBuf {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     match name.strip_prefix("gymnasium:") {
