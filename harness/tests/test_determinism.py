@@ -50,10 +50,22 @@ def test_a_python_rollout_is_bitwise_the_binary_rollout(tmp_path):
          "--q0", join(q0), "--v0", join(v0), "-o", str(out)],
         check=True, capture_output=True,
     )
+    header = out.read_text().splitlines()[0].split(",")
     rows = np.loadtxt(out, delimiter=",", skiprows=1)
-    nq = q.shape[1]
+    nq, nv = q.shape[1], v.shape[1]
     assert rows[:, 1:1 + nq].tobytes() == q.tobytes()
-    assert rows[:, 1 + nq:].tobytes() == v.tobytes()
+    assert rows[:, 1 + nq:1 + nq + nv].tobytes() == v.tobytes()
+    # The force-sensing columns, one per geom pair: the normal forces Model.contacts reports.
+    model = diffosi.Model.load(path)
+    pairs = [name[len("fn_"):] for name in header[1 + nq + nv:]]
+    assert pairs and all(p.endswith("_floor") for p in pairs)
+    forces = rows[:, 1 + nq + nv:]
+    assert forces.max() > 1.0  # the cheetah does touch its floor
+    for t in (0, int(forces.sum(axis=1).argmax()), 200):
+        sensed = dict.fromkeys(pairs, 0.0)
+        for c in model.contacts(q[t], v[t]):
+            sensed["_".join(c["geoms"])] += c["normal_force"]
+        assert forces[t].tolist() == list(sensed.values())
 
 
 def test_episodes_policies_and_online_estimates_repeat_bit_for_bit():
