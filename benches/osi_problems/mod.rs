@@ -15,9 +15,9 @@ mod common;
 
 pub use common::load;
 use diffosi::derivatives::Transition;
-use diffosi::model::{MapEntry, Model, ParamMap};
+use diffosi::model::{Model, ParamMap};
 use diffosi::osi::Problem;
-use diffosi::tasks::Cartpole;
+use diffosi::tasks::{Cartpole, HalfCheetah, Task as _};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 
@@ -48,16 +48,10 @@ pub fn cartpole() -> Task {
 
 pub fn half_cheetah() -> Task {
     let model = load("half_cheetah");
-    let map = ParamMap::new(
-        &model,
-        1,
-        &[MapEntry {
-            name: "body/torso/mass",
-            offset: &[0.0],
-            gain: &[&[1.0]],
-        }],
-    )
-    .unwrap();
+    let map = HalfCheetah::with_model(model.clone())
+        .unwrap()
+        .mu_map()
+        .clone();
     Task {
         name: "half_cheetah",
         model,
