@@ -63,7 +63,7 @@ fn bench_osi(c: &mut Criterion) {
                 })
             });
             c.bench_function(&format!("osi_fit/{}/W{w}", task.name), |b| {
-                b.iter(|| problem.fit(&[task.prior], black_box(&window)).unwrap())
+                b.iter(|| problem.fit(&[task.prior], black_box(&window[..])).unwrap())
             });
         }
     }

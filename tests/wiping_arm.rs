@@ -13,41 +13,12 @@
 mod common;
 
 use diffosi::dynamics::body_poses;
+use diffosi::tasks::tool_down_at;
 use diffosi::Model;
 use nalgebra::{DVector, Vector3};
 
 fn arm() -> Model {
     Model::load(common::model_path("reference_models/wiping_arm.xml")).unwrap()
-}
-
-/// Link lengths of the arm in its vertical plane (m): shoulder height (a2's
-/// axis above the base), a2 to a4, a4 to a6, a6 to the tip sphere's centre
-/// at q_tool = 0.
-const SHOULDER: f64 = 0.1575 + 0.2025;
-const UPPER: f64 = 0.2045 + 0.2155;
-const FORE: f64 = 0.1845 + 0.2155;
-const HAND: f64 = 0.081 + 0.045 + 0.12;
-
-/// Arm joints (a1 .. a7) that put the tool straight down with the tip
-/// sphere's centre at (x, 0, z) when q_tool = 0: a1 = a3 = a5 = a7 = 0, so the
-/// arm moves in the x-z plane, where a2, -a4 and a6 add up to the hand's
-/// angle from +z (towards +x), which is pi for "down". Elbow above the line
-/// from shoulder to wrist.
-fn tool_down_at(x: f64, z: f64) -> [f64; 7] {
-    let (px, pz) = (x, z + HAND - SHOULDER); // wrist (a6) from the shoulder
-    let reach = px.hypot(pz);
-    let bend = ((UPPER * UPPER + reach * reach - FORE * FORE) / (2.0 * UPPER * reach)).acos();
-    let upper = px.atan2(pz) - bend;
-    let fore = (px - UPPER * upper.sin()).atan2(pz - UPPER * upper.cos());
-    [
-        0.0,
-        upper,
-        0.0,
-        upper - fore,
-        0.0,
-        std::f64::consts::PI - fore,
-        0.0,
-    ]
 }
 
 #[test]

@@ -17,6 +17,7 @@
 //!   that step, the mu fed to the controller at it and the task metric of
 //!   the step.
 
+pub mod admittance;
 pub mod ilqr;
 
 use std::collections::VecDeque;

@@ -29,7 +29,7 @@ use rand::rngs::StdRng;
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 
-use super::{Estimate, Excitation, Identifier, OsiError, Problem, Subspace};
+use super::{Estimate, Excitation, Identifier, Observations, OsiError, Problem, Subspace};
 use crate::derivatives::{Transition, WindowError};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -77,7 +77,19 @@ impl Identifier for CmaEs {
         window: &[Transition],
         start: &[f64],
     ) -> Result<Estimate, OsiError> {
-        problem.check_window(window)?;
+        self.identify_on(problem, window, start)
+    }
+}
+
+impl CmaEs {
+    /// [`Identifier::identify`] on any [`Observations`].
+    pub fn identify_on<O: Observations + ?Sized>(
+        &mut self,
+        problem: &mut Problem,
+        window: &O,
+        start: &[f64],
+    ) -> Result<Estimate, OsiError> {
+        window.check(problem)?;
         problem.check_mu("start", start)?;
         let opt = self.options;
         let mut rng = StdRng::seed_from_u64(opt.seed);

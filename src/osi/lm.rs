@@ -32,7 +32,7 @@ use rand::rngs::StdRng;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 
-use super::{Estimate, Excitation, Identifier, OsiError, Problem, Subspace};
+use super::{Estimate, Excitation, Identifier, Observations, OsiError, Problem, Subspace};
 use crate::derivatives::{Transition, WindowError, WindowFit};
 
 /// The loss over the scaled residuals r (residual / `scale`, see the module
@@ -146,11 +146,23 @@ impl Identifier for Lm {
         window: &[Transition],
         start: &[f64],
     ) -> Result<Estimate, OsiError> {
-        problem.check_window(window)?;
+        self.identify_on(problem, window, start)
+    }
+}
+
+impl Lm {
+    /// [`Identifier::identify`] on any [`Observations`].
+    pub fn identify_on<O: Observations + ?Sized>(
+        &mut self,
+        problem: &mut Problem,
+        window: &O,
+        start: &[f64],
+    ) -> Result<Estimate, OsiError> {
+        window.check(problem)?;
         problem.check_mu("start", start)?;
         let opt = self.options;
         opt.loss.check()?;
-        let dof = (window.len() * 2 * problem.nv()).saturating_sub(problem.nmu());
+        let dof = window.residual_count(problem).saturating_sub(problem.nmu());
         let misfit = |run: &Run| run.fit.loss / dof.max(1) as f64;
         let mut best = self.solve(problem, window, start)?;
         let (mut iterations, mut evaluations) = (best.iterations, best.evaluations);
@@ -186,11 +198,11 @@ struct Run {
 
 impl Lm {
     /// The residuals, Jacobian, loss and gradient of the chosen loss at mu.
-    fn fit_into(
+    fn fit_into<O: Observations + ?Sized>(
         &self,
         problem: &mut Problem,
         mu: &[f64],
-        window: &[Transition],
+        window: &O,
         fit: &mut WindowFit,
     ) -> Result<(), OsiError> {
         problem.fit_into(mu, window, fit)?;
@@ -198,10 +210,10 @@ impl Lm {
         Ok(())
     }
 
-    fn solve(
+    fn solve<O: Observations + ?Sized>(
         &self,
         problem: &mut Problem,
-        window: &[Transition],
+        window: &O,
         start: &[f64],
     ) -> Result<Run, OsiError> {
         let opt = self.options;
@@ -355,10 +367,12 @@ mod tests {
         };
         let mut fit = WindowFit::empty();
         let (mu, h) = (0.1, 1e-7);
-        lm.fit_into(&mut problem, &[mu], &window, &mut fit).unwrap();
+        lm.fit_into(&mut problem, &[mu], &window[..], &mut fit)
+            .unwrap();
         let mut at = |m: f64| {
             let mut f = WindowFit::empty();
-            lm.fit_into(&mut problem, &[m], &window, &mut f).unwrap();
+            lm.fit_into(&mut problem, &[m], &window[..], &mut f)
+                .unwrap();
             f.loss
         };
         let fd = (at(mu + h) - at(mu - h)) / (2.0 * h);
@@ -430,8 +444,8 @@ mod tests {
         let window = window(task.as_ref(), 5, 20);
         let mut fit = WindowFit::empty();
         Lm::default()
-            .fit_into(&mut problem, &[0.1], &window, &mut fit)
+            .fit_into(&mut problem, &[0.1], &window[..], &mut fit)
             .unwrap();
-        assert_eq!(fit, problem.fit(&[0.1], &window).unwrap());
+        assert_eq!(fit, problem.fit(&[0.1], &window[..]).unwrap());
     }
 }

@@ -78,6 +78,9 @@ pub enum OsiError {
         "Huber threshold {threshold} must be finite and positive (in units of the residual scale)"
     )]
     Huber { threshold: f64 },
+    /// Closed-loop segments that cannot be simulated or differentiated.
+    #[error("{0}")]
+    Segment(String),
     #[error(transparent)]
     Param(#[from] ParamError),
     #[error(transparent)]
@@ -191,40 +194,56 @@ impl Problem {
     }
 
     /// The scaled residuals, their Jacobian, the loss and its gradient at mu.
-    pub fn fit(&mut self, mu: &[f64], window: &[Transition]) -> Result<WindowFit, OsiError> {
+    pub fn fit<O: Observations + ?Sized>(
+        &mut self,
+        mu: &[f64],
+        observed: &O,
+    ) -> Result<WindowFit, OsiError> {
         let mut fit = WindowFit::empty();
-        self.fit_into(mu, window, &mut fit)?;
+        self.fit_into(mu, observed, &mut fit)?;
         Ok(fit)
     }
 
-    /// [`Problem::fit`] into the buffers of `fit` (reused while the window's
-    /// size stays the same).
-    pub fn fit_into(
+    /// [`Problem::fit`] into the buffers of `fit` (reused while the number
+    /// of residuals stays the same).
+    pub fn fit_into<O: Observations + ?Sized>(
         &mut self,
         mu: &[f64],
-        window: &[Transition],
+        observed: &O,
         fit: &mut WindowFit,
     ) -> Result<(), OsiError> {
-        let (model, ws) = (&mut self.model, &mut self.ws);
-        let at = (&self.map, mu);
-        window_residuals_into(model, ws, at, (window, &self.scale), true, fit)?;
-        Ok(())
+        observed.residuals_into(self, mu, true, fit)
     }
 
     /// The loss at mu alone: residuals without their Jacobian, what a
     /// derivative-free search or a one-step prediction needs.
-    pub fn loss(&mut self, mu: &[f64], window: &[Transition]) -> Result<f64, OsiError> {
-        let (model, ws) = (&mut self.model, &mut self.ws);
-        let at = (&self.map, mu);
-        window_residuals_into(
-            model,
-            ws,
-            at,
-            (window, &self.scale),
-            false,
-            &mut self.scratch,
-        )?;
-        Ok(self.scratch.loss)
+    pub fn loss<O: Observations + ?Sized>(
+        &mut self,
+        mu: &[f64],
+        observed: &O,
+    ) -> Result<f64, OsiError> {
+        let mut scratch = std::mem::replace(&mut self.scratch, WindowFit::empty());
+        let result = observed.residuals_into(self, mu, false, &mut scratch);
+        let loss = scratch.loss;
+        self.scratch = scratch;
+        result.map(|()| loss)
+    }
+
+    /// The map from mu onto the model's parameters.
+    pub fn map(&self) -> &ParamMap {
+        &self.map
+    }
+
+    /// The residual scale (2 nv values: q then v).
+    pub fn scale(&self) -> &[f64] {
+        &self.scale
+    }
+
+    /// The working model with mu's parameters set.
+    pub fn model_at(&mut self, mu: &[f64]) -> Result<&Model, OsiError> {
+        self.check_mu("mu", mu)?;
+        self.map.apply(&mut self.model, mu)?;
+        Ok(&self.model)
     }
 
     /// Rejects an empty window and names any wrong length or non-finite value.
@@ -279,6 +298,48 @@ impl Problem {
         mu.iter()
             .enumerate()
             .any(|(i, m)| *m <= self.lower[i] || *m >= self.upper[i])
+    }
+}
+
+/// What a [`Problem`] fits: observations our model predicts from mu (a
+/// window of transitions, or closed-loop segments of a task).
+pub trait Observations {
+    /// Rejects empty or malformed observations, naming what is wrong.
+    fn check(&self, problem: &Problem) -> Result<(), OsiError>;
+    /// How many residuals [`Observations::residuals_into`] writes.
+    fn residual_count(&self, problem: &Problem) -> usize;
+    /// The scaled residuals at mu, the loss, and with `jacobian` their
+    /// Jacobian d r / d mu and the gradient, into `fit` (sized here).
+    fn residuals_into(
+        &self,
+        problem: &mut Problem,
+        mu: &[f64],
+        jacobian: bool,
+        fit: &mut WindowFit,
+    ) -> Result<(), OsiError>;
+}
+
+/// The paper's observations: a window of transitions under recorded forces.
+impl Observations for [Transition] {
+    fn check(&self, problem: &Problem) -> Result<(), OsiError> {
+        problem.check_window(self)
+    }
+
+    fn residual_count(&self, problem: &Problem) -> usize {
+        self.len() * 2 * problem.nv()
+    }
+
+    fn residuals_into(
+        &self,
+        problem: &mut Problem,
+        mu: &[f64],
+        jacobian: bool,
+        fit: &mut WindowFit,
+    ) -> Result<(), OsiError> {
+        let (model, ws) = (&mut problem.model, &mut problem.ws);
+        let at = (&problem.map, mu);
+        window_residuals_into(model, ws, at, (self, &problem.scale), jacobian, fit)?;
+        Ok(())
     }
 }
 

@@ -17,9 +17,11 @@
 
 mod cartpole;
 mod half_cheetah;
+pub mod wiping;
 
 pub use cartpole::Cartpole;
 pub use half_cheetah::HalfCheetah;
+pub use wiping::{tool_down_at, Wiping};
 
 use rand::rngs::StdRng;
 use rand::RngExt;
