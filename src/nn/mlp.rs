@@ -1,4 +1,4 @@
-//! A multilayer perceptron: tanh hidden layers, a linear output layer.
+//! A multilayer perceptron: tanh (or ReLU) hidden layers, a linear output layer.
 
 use rand::rngs::StdRng;
 use rand_distr::{Distribution, StandardNormal};
@@ -11,6 +11,35 @@ use super::Float;
 pub struct Mlp<T> {
     sizes: Vec<usize>,
     params: Vec<T>,
+    activation: Activation,
+}
+
+/// The hidden layers' nonlinearity.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Activation {
+    #[default]
+    Tanh,
+    Relu,
+}
+
+impl Activation {
+    fn apply<T: Float>(self, y: T) -> T {
+        match self {
+            Activation::Tanh => y.tanh(),
+            Activation::Relu if y > T::default() => y,
+            Activation::Relu => T::default(),
+        }
+    }
+
+    /// The derivative at the pre-activation whose output is `h`.
+    fn slope<T: Float>(self, h: T) -> T {
+        match self {
+            Activation::Tanh => T::of(1.0) - h * h,
+            Activation::Relu if h > T::default() => T::of(1.0),
+            Activation::Relu => T::default(),
+        }
+    }
 }
 
 /// One forward pass's activations, kept for the backward pass, and the
@@ -45,7 +74,17 @@ impl<T: Float> Mlp<T> {
         Mlp {
             sizes: sizes.to_vec(),
             params,
+            activation: Activation::Tanh,
         }
+    }
+
+    /// The same network with another hidden-layer nonlinearity.
+    pub fn with_activation(self, activation: Activation) -> Mlp<T> {
+        Mlp { activation, ..self }
+    }
+
+    pub fn activation(&self) -> Activation {
+        self.activation
     }
 
     /// A network from its sizes and flat parameters.
@@ -63,6 +102,7 @@ impl<T: Float> Mlp<T> {
         Ok(Mlp {
             sizes: sizes.to_vec(),
             params,
+            activation: Activation::Tanh,
         })
     }
 
@@ -132,7 +172,8 @@ impl<T: Float> Mlp<T> {
                 (out, n_out_s, 1),
             );
             if l + 1 < layers {
-                out.iter_mut().for_each(|y| *y = y.tanh());
+                let f = self.activation;
+                out.iter_mut().for_each(|y| *y = f.apply(*y));
             }
         }
         &tape.acts[layers]
@@ -168,7 +209,7 @@ impl<T: Float> Mlp<T> {
             if l == 0 {
                 break;
             }
-            // Back through W, then through the tanh that produced `input`.
+            // Back through W, then through the nonlinearity that produced `input`.
             let w = &self.params[at..at + n_in * n_out];
             tape.next.clear();
             tape.next.resize(batch * n_in, T::default());
@@ -180,9 +221,8 @@ impl<T: Float> Mlp<T> {
                 T::of(0.0),
                 (&mut tape.next, n_in_s, 1),
             );
-            let one = T::of(1.0);
             for (d, &h) in tape.next.iter_mut().zip(input) {
-                *d *= one - h * h;
+                *d *= self.activation.slope(h);
             }
             std::mem::swap(&mut tape.delta, &mut tape.next);
         }
@@ -249,32 +289,34 @@ mod tests {
 
     #[test]
     fn backward_matches_finite_differences() {
-        let mut rng = StdRng::seed_from_u64(7);
-        let mut net = Mlp::<f64>::new(&[3, 5, 4, 2], 0.7, &mut rng);
-        // Non-zero biases, so their gradients are exercised away from zero.
-        for p in net.params_mut() {
-            *p += 0.1;
-        }
-        let batch = 6;
-        let x: Vec<f64> = (0..batch * 3).map(|i| (i as f64 * 0.37).sin()).collect();
-        let c: Vec<f64> = (0..batch * 2).map(|i| 1.0 + 0.1 * i as f64).collect();
-        let mut tape = Tape::default();
-        let y = net.forward(&x, &mut tape).to_vec();
-        let dout: Vec<f64> = y.iter().zip(&c).map(|(y, c)| c * y).collect();
-        let mut grad = vec![0.0; net.params().len()];
-        net.backward(&mut tape, &dout, &mut grad);
-        let h = 1e-6;
-        for (i, &g) in grad.iter().enumerate() {
-            let mut plus = net.clone();
-            plus.params_mut()[i] += h;
-            let mut minus = net.clone();
-            minus.params_mut()[i] -= h;
-            let fd = (loss(&plus, &x, &c) - loss(&minus, &x, &c)) / (2.0 * h);
-            let err = (fd - g).abs();
-            assert!(
-                err < 1e-8 * (1.0 + fd.abs()),
-                "param {i}: fd {fd}, backward {g}"
-            );
+        for activation in [Activation::Tanh, Activation::Relu] {
+            let mut rng = StdRng::seed_from_u64(7);
+            let mut net = Mlp::<f64>::new(&[3, 5, 4, 2], 0.7, &mut rng).with_activation(activation);
+            // Non-zero biases, so their gradients are exercised away from zero.
+            for p in net.params_mut() {
+                *p += 0.1;
+            }
+            let batch = 6;
+            let x: Vec<f64> = (0..batch * 3).map(|i| (i as f64 * 0.37).sin()).collect();
+            let c: Vec<f64> = (0..batch * 2).map(|i| 1.0 + 0.1 * i as f64).collect();
+            let mut tape = Tape::default();
+            let y = net.forward(&x, &mut tape).to_vec();
+            let dout: Vec<f64> = y.iter().zip(&c).map(|(y, c)| c * y).collect();
+            let mut grad = vec![0.0; net.params().len()];
+            net.backward(&mut tape, &dout, &mut grad);
+            let h = 1e-6;
+            for (i, &g) in grad.iter().enumerate() {
+                let mut plus = net.clone();
+                plus.params_mut()[i] += h;
+                let mut minus = net.clone();
+                minus.params_mut()[i] -= h;
+                let fd = (loss(&plus, &x, &c) - loss(&minus, &x, &c)) / (2.0 * h);
+                let err = (fd - g).abs();
+                assert!(
+                    err < 1e-8 * (1.0 + fd.abs()),
+                    "{activation:?} param {i}: fd {fd}, backward {g}"
+                );
+            }
         }
     }
 

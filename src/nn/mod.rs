@@ -1,5 +1,5 @@
-//! Small dense networks for the controllers: an [`Mlp`] with tanh hidden
-//! layers and a linear output, trained by [`Adam`].
+//! Small dense networks for the controllers: an [`Mlp`] with tanh (or ReLU)
+//! hidden layers and a linear output, trained by [`Adam`].
 //!
 //! Conventions: a batch is a row-major `batch x width` slice (one sample per
 //! row). A layer's weight matrix is `out x in`, row-major, so a layer computes
@@ -15,7 +15,7 @@ mod adam;
 mod mlp;
 
 pub use adam::Adam;
-pub use mlp::{LayerFile, Mlp, Tape};
+pub use mlp::{Activation, LayerFile, Mlp, Tape};
 
 use std::fmt::Debug;
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub};

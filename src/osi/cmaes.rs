@@ -92,10 +92,66 @@ impl CmaEs {
         window.check(problem)?;
         problem.check_mu("start", start)?;
         let opt = self.options;
+        let bounds = (problem.lower().to_vec(), problem.upper().to_vec());
+        let search = self.minimize((&bounds.0, &bounds.1), start, |mu| {
+            match problem.loss(mu, window) {
+                Ok(loss) => Ok(Some(loss)),
+                Err(OsiError::Window(WindowError::Param(_))) => Ok(None),
+                Err(e) => Err(e),
+            }
+        })?;
+        let Search {
+            best,
+            generations,
+            mut evaluations,
+            converged,
+        } = search;
+
+        // The best sample with its Jacobian; nothing physical sampled (or no
+        // budget): the start.
+        let mut mu = match best {
+            Some((mu, _)) => mu,
+            None => {
+                let mut mu = DVector::from_column_slice(start);
+                problem.project(&mut mu);
+                mu
+            }
+        };
+        evaluations += 1;
+        let mut fit = problem.fit(mu.as_slice(), window)?;
+        // Where the loss is flat the search stopped anywhere: those directions
+        // keep the start, as in Levenberg-Marquardt.
+        let sub = Subspace::new(&fit.jacobian.tr_mul(&fit.jacobian), opt.excitation);
+        if !sub.all_excited() {
+            mu = sub.keep_unexcited(&mu, &DVector::from_column_slice(start));
+            problem.project(&mut mu);
+            evaluations += 1;
+            fit = problem.fit(mu.as_slice(), window)?;
+        }
+        let work = (generations, evaluations);
+        Ok(Estimate::at(
+            problem,
+            (&mu, &fit),
+            opt.excitation,
+            converged,
+            work,
+        ))
+    }
+
+    /// Minimises `loss` over the box [lower, upper] from `start` with the
+    /// strategy of the module docs (any function, not only a window loss).
+    /// `loss` answers None for a point it rejects (scored +infinity).
+    pub fn minimize<E>(
+        &self,
+        (lower, upper): (&[f64], &[f64]),
+        start: &[f64],
+        mut loss: impl FnMut(&[f64]) -> Result<Option<f64>, E>,
+    ) -> Result<Search, E> {
+        let opt = self.options;
         let mut rng = StdRng::seed_from_u64(opt.seed);
-        let n = problem.nmu();
-        let lower = DVector::from_column_slice(problem.lower());
-        let width = DVector::from_column_slice(problem.upper()) - &lower;
+        let n = lower.len();
+        let lower = DVector::from_column_slice(lower);
+        let width = DVector::from_column_slice(upper) - &lower;
         let to_mu = |y: &DVector<f64>| lower.clone() + y.component_mul(&width);
 
         // Strategy parameters (Hansen's tutorial, table 1).
@@ -145,8 +201,8 @@ impl CmaEs {
                 let d2 = (&x - &clamped).norm_squared();
                 let mu = to_mu(&clamped);
                 evaluations += 1;
-                let score = match problem.loss(mu.as_slice(), window) {
-                    Ok(loss) => {
+                let score = match loss(mu.as_slice())? {
+                    Some(loss) => {
                         let score = loss * (1.0 + d2) + d2;
                         if best.as_ref().is_none_or(|(_, b)| loss < *b) {
                             best = Some((mu, loss));
@@ -157,8 +213,7 @@ impl CmaEs {
                             score
                         }
                     }
-                    Err(OsiError::Window(WindowError::Param(_))) => f64::INFINITY,
-                    Err(e) => return Err(e),
+                    None => f64::INFINITY,
                 };
                 steps.push(y);
                 scores.push(score);
@@ -210,34 +265,22 @@ impl CmaEs {
             }
         }
 
-        // The best sample with its Jacobian; nothing physical sampled (or no
-        // budget): the start.
-        let mut mu = match best {
-            Some((mu, _)) => mu,
-            None => {
-                let mut mu = DVector::from_column_slice(start);
-                problem.project(&mut mu);
-                mu
-            }
-        };
-        evaluations += 1;
-        let mut fit = problem.fit(mu.as_slice(), window)?;
-        // Where the loss is flat the search stopped anywhere: those directions
-        // keep the start, as in Levenberg-Marquardt.
-        let sub = Subspace::new(&fit.jacobian.tr_mul(&fit.jacobian), opt.excitation);
-        if !sub.all_excited() {
-            mu = sub.keep_unexcited(&mu, &DVector::from_column_slice(start));
-            problem.project(&mut mu);
-            evaluations += 1;
-            fit = problem.fit(mu.as_slice(), window)?;
-        }
-        let work = (generations, evaluations);
-        Ok(Estimate::at(
-            problem,
-            (&mu, &fit),
-            opt.excitation,
+        Ok(Search {
+            best,
+            generations,
+            evaluations,
             converged,
-            work,
-        ))
+        })
     }
+}
+
+/// Where a [`CmaEs::minimize`] ended.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Search {
+    /// The best point evaluated and its loss; None if no point was accepted.
+    pub best: Option<(DVector<f64>, f64)>,
+    pub generations: usize,
+    pub evaluations: usize,
+    /// A tolerance stopped it (not the evaluation budget).
+    pub converged: bool,
 }

@@ -29,7 +29,7 @@ use nalgebra::{DMatrix, DVector};
 
 pub use adam::{Adam, AdamOptions};
 pub use change::ChangeDetection;
-pub use cmaes::{CmaEs, CmaEsOptions};
+pub use cmaes::{CmaEs, CmaEsOptions, Search};
 pub use lm::{Lm, LmOptions, Loss, HUBER_THRESHOLD};
 pub use online::{Online, Sampling};
 pub use trivial::{Average, Oracle, Random};
