@@ -42,7 +42,7 @@ use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
 use crate::derivatives::Transition;
-use crate::nn::{Adam, LayerFile, Mlp, Tape};
+use crate::nn::{Activation, Adam, LayerFile, Mlp, Tape};
 use crate::rl::Policy;
 use crate::tasks::{Env, EnvError, Task};
 
@@ -58,6 +58,9 @@ pub struct MlpConfig {
     /// Transitions per input.
     pub transitions: usize,
     pub hidden: Vec<usize>,
+    /// The hidden layers' nonlinearity (tanh unless a file says otherwise).
+    #[serde(default)]
+    pub activation: Activation,
     /// Episodes collected per controller.
     pub episodes: usize,
     pub epochs: usize,
@@ -76,6 +79,7 @@ impl MlpConfig {
             mu_upper: mu_upper.to_vec(),
             transitions: 4,
             hidden: vec![256, 128, 64],
+            activation: Activation::Tanh,
             episodes: 150,
             epochs: 30,
             batch: 256,
@@ -137,6 +141,8 @@ struct File {
     mu_lower: Vec<f64>,
     mu_upper: Vec<f64>,
     layers: Vec<LayerFile>,
+    #[serde(default)]
+    activation: Activation,
     training: Option<MlpTraining>,
 }
 
@@ -186,6 +192,7 @@ impl MuMlp {
             mu_lower: self.mu_lower.clone(),
             mu_upper: self.mu_upper.clone(),
             layers: self.net.to_files(),
+            activation: self.net.activation(),
             training: self.training.clone(),
         };
         let text = serde_json::to_string(&file).expect("a UC-MLP serialises");
@@ -205,7 +212,9 @@ impl MuMlp {
             ));
         }
         let bad = |why: String| format!("{shown}: {why}");
-        let net = Mlp::from_files(&file.layers).map_err(bad)?;
+        let net = Mlp::from_files(&file.layers)
+            .map_err(bad)?
+            .with_activation(file.activation);
         let nmu = net.outputs();
         if file.input_mean.len() != net.inputs() || file.input_std.len() != net.inputs() {
             return Err(bad(format!(
@@ -232,7 +241,8 @@ impl MuMlp {
 }
 
 /// Training examples: raw inputs (rows) and normalised targets y.
-struct Dataset {
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Dataset {
     inputs: Vec<f64>,
     targets: Vec<f64>,
 }
@@ -240,6 +250,17 @@ struct Dataset {
 impl Dataset {
     fn len(&self, nmu: usize) -> usize {
         self.targets.len() / nmu
+    }
+
+    /// One example: a run of transitions (oldest first) made at mu, with
+    /// mu's training range.
+    pub fn push(&mut self, run: &[Transition], mu: &[f64], (lower, upper): (&[f64], &[f64])) {
+        features(run, &mut self.inputs);
+        let y = mu
+            .iter()
+            .zip(lower.iter().zip(upper))
+            .map(|(m, (l, h))| (m - 0.5 * (l + h)) / (0.5 * (h - l)));
+        self.targets.extend(y);
     }
 }
 
@@ -251,7 +272,7 @@ fn collect(
     config: &MlpConfig,
 ) -> Result<(Dataset, Dataset), EnvError> {
     let mut rng = StdRng::seed_from_u64(config.seed);
-    let (mut train, mut held_out) = (Dataset::new(), Dataset::new());
+    let (mut train, mut held_out) = (Dataset::default(), Dataset::default());
     let mut env = Env::new(task);
     let k = config.transitions;
     for policy in controllers {
@@ -286,27 +307,12 @@ fn collect(
             } else {
                 &mut train
             };
-            let y: Vec<f64> = mu
-                .iter()
-                .zip(config.mu_lower.iter().zip(&config.mu_upper))
-                .map(|(m, (l, h))| (m - 0.5 * (l + h)) / (0.5 * (h - l)))
-                .collect();
             for run in history.windows(k) {
-                features(run, &mut set.inputs);
-                set.targets.extend_from_slice(&y);
+                set.push(run, &mu, (&config.mu_lower, &config.mu_upper));
             }
         }
     }
     Ok((train, held_out))
-}
-
-impl Dataset {
-    fn new() -> Dataset {
-        Dataset {
-            inputs: vec![],
-            targets: vec![],
-        }
-    }
 }
 
 /// Mean and standard deviation of each input component (std 1 where constant).
@@ -360,20 +366,34 @@ pub fn train_mlp(
     task: &dyn Task,
     controllers: &[Policy],
     config: &MlpConfig,
-    mut progress: impl FnMut(usize, f64),
+    progress: impl FnMut(usize, f64),
 ) -> Result<MuMlp, EnvError> {
     let started = Instant::now();
     let nmu = task.mu_map().nmu;
     assert_eq!(config.mu_lower.len(), nmu, "mu_lower has nmu values");
     assert_eq!(config.mu_upper.len(), nmu, "mu_upper has nmu values");
-    let (train, held_out) = collect(task, controllers, config)?;
+    let data = collect(task, controllers, config)?;
+    Ok(fit_mlp(task.name(), data, config, started, progress))
+}
+
+/// Trains a UC-MLP on collected examples (training, held out) of mu's
+/// range in `config`; `progress` as for [`train_mlp`], `started` when the
+/// collection began (for the wall time kept in the file).
+pub fn fit_mlp(
+    task: &str,
+    (train, held_out): (Dataset, Dataset),
+    config: &MlpConfig,
+    started: Instant,
+    mut progress: impl FnMut(usize, f64),
+) -> MuMlp {
+    let nmu = config.mu_lower.len();
     let dim = train.inputs.len() / train.len(nmu).max(1);
     let (input_mean, input_std) = input_stats(&train.inputs, dim);
     let z_train = standardise(&train.inputs, &input_mean, &input_std);
     let z_held = standardise(&held_out.inputs, &input_mean, &input_std);
     let mut rng = StdRng::seed_from_u64(config.seed ^ 0x5bd1_e995);
     let sizes = [&[dim][..], &config.hidden, &[nmu]].concat();
-    let mut net = Mlp::<f32>::new(&sizes, 1.0, &mut rng);
+    let mut net = Mlp::<f32>::new(&sizes, 1.0, &mut rng).with_activation(config.activation);
     let mut adam = Adam::new(net.params().len(), config.lr);
     let mut order: Vec<usize> = (0..train.len(nmu)).collect();
     let steps_per_epoch = order.len().div_ceil(config.batch);
@@ -408,8 +428,8 @@ pub fn train_mlp(
         progress(epoch + 1, loss);
         validation_loss.push(loss);
     }
-    Ok(MuMlp {
-        task: task.name().into(),
+    MuMlp {
+        task: task.into(),
         transitions: config.transitions,
         input_mean,
         input_std,
@@ -422,5 +442,5 @@ pub fn train_mlp(
             validation_loss,
             wall_seconds: started.elapsed().as_secs_f64(),
         }),
-    })
+    }
 }
