@@ -1,9 +1,14 @@
 """Draw the PNG figures of the Rust experiments from their JSON (`diffosi reproduce` writes the JSON).
 
-Today: the context-window study (paper Fig. 4), reports/window-<task>.json ->
-reports/window-<task>.png: UC-DiffOSI's mean |mu_hat - mu| against the control step, one
-line per context window N (N - 1 transitions), log scale; the JSON layout is documented
-in src/experiments/mod.rs.
+- The context-window study (paper Fig. 4), reports/window-<task>.json ->
+  reports/window-<task>.png: UC-DiffOSI's mean |mu_hat - mu| against the control step, one
+  line per context window N (N - 1 transitions), log scale; the JSON layout is documented
+  in src/experiments/mod.rs.
+- The wiping task's higher-dimension study (paper Fig. 6), `--task wiping-dims`:
+  reports/wiping-dims.json -> reports/wiping-dims.png: per dimension, the parameter error
+  (mean over mu's components of |mu_hat - mu|) of DiffOSI and CMA-ES against evaluations
+  (top row) and wall time (bottom row), log-log, mean over runs bold and each run faint
+  (src/experiments/wiping_dims.rs).
 """
 
 from __future__ import annotations
@@ -34,7 +39,52 @@ def window_figure(doc: dict, out: Path) -> Path:
     return plot_lines(out, series, title, "control step", "mean |mu_hat - mu|")
 
 
+def dims_figure(doc: dict, out: Path) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    dims = doc["dimensions"]
+    timing = {t["dimension"]: t for t in doc["timing"]}
+    fig, axes = plt.subplots(2, len(dims), figsize=(3.2 * len(dims), 5.6), dpi=110, squeeze=False)
+    floor = 1e-14
+    for col, d in enumerate(dims):
+        for solver, colour in (("diffosi", "C0"), ("cmaes", "C3")):
+            label = "DiffOSI" if solver == "diffosi" else "CMA-ES"
+            evals = np.array([[p["evaluations"] for p in r[solver]] for r in d["runs"]], float)
+            errors = np.maximum(np.array([[p["abs_error"] for p in r[solver]] for r in d["runs"]], float), floor)
+            secs = np.array(timing[d["dimension"]][f"{solver}_seconds"], float)
+            for row, x in ((0, evals), (1, secs)):
+                ax = axes[row][col]
+                for k in range(len(errors)):
+                    ax.plot(x[k], errors[k], color=colour, alpha=0.25, lw=0.8)
+                ax.plot(x.mean(axis=0), np.exp(np.log(errors).mean(axis=0)), color=colour, lw=1.8, label=label)
+                ax.set_xscale("log")
+                ax.set_yscale("log")
+                ax.grid(True, which="major", alpha=0.3)
+        axes[0][col].set_title(f"{d['dimension']}-D")
+        axes[0][col].set_xlabel("evaluations (passes over the segments)")
+        axes[1][col].set_xlabel("wall time (s)")
+    axes[0][0].set_ylabel("mean |mu_hat - mu|")
+    axes[1][0].set_ylabel("mean |mu_hat - mu|")
+    axes[0][0].legend(fontsize=8)
+    fig.suptitle("Wiping: identifying joint stiffness and damping, DiffOSI vs CMA-ES")
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, metadata={"Software": None})
+    plt.close(fig)
+    return out
+
+
 def run(args) -> int:
+    if args.task == "wiping-dims":
+        source = args.reports / "wiping-dims.json"
+        if not source.exists():
+            raise SystemExit(f"{source} missing: run `diffosi reproduce wiping-dims` first")
+        out = dims_figure(json.loads(source.read_text()), args.reports / "wiping-dims.png")
+        print(f"wrote {out}")
+        return 0
     source = args.reports / f"window-{args.task}.json"
     if not source.exists():
         raise SystemExit(f"{source} missing: run `diffosi reproduce {args.task}` first")

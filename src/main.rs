@@ -209,8 +209,47 @@ enum Command {
     /// (reports/{table1,table4}-cartpole.{md,json}, reports/window-cartpole.{json,svg});
     /// for cheetah, Table 2 and its window study (reports/table2-half_cheetah.{md,json},
     /// reports/window-half_cheetah.{json,svg}). Prints the tables. `all` runs both.
+    /// One episode of the wiping task (a KUKA iiwa pressing a compliant
+    /// tool on a table with 3 N while it strokes back and forth) as CSV:
+    /// t, q, v, tau per dof, the sensed normal force and the admittance
+    /// offset xi; optionally identify the tool's compliance from it.
+    Wipe {
+        /// The tool's mu = (k_p in N/cm, k_d in N s/m), each in [1, 100].
+        #[arg(long, value_delimiter = ',', required = true)]
+        mu: Vec<f64>,
+        /// Admittance gains k_tau (1/s^2), k_xi (m/(N s)); the canonical ones
+        /// if omitted.
+        #[arg(long, value_delimiter = ',')]
+        gains: Option<Vec<f64>>,
+        /// Physics steps (1 ms each).
+        #[arg(long, default_value_t = 3000)]
+        steps: usize,
+        /// Identify mu by DiffOSI from 50 closed-loop segments of the episode.
+        #[arg(long)]
+        identify: bool,
+        /// Seed of the segments' sampling.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Output CSV.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Train the wiping task's controllers into a directory: the UC's
+    /// (mu, theta*) dataset and network, DR's gains, UC-MLP.
+    TrainWiping {
+        #[arg(short, long, default_value = "policies/wiping")]
+        output: PathBuf,
+        /// (mu, theta*) pairs (the paper's 85).
+        #[arg(long, default_value_t = 85)]
+        pairs: usize,
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Worker threads (default: all cores); results do not depend on it.
+        #[arg(long)]
+        threads: Option<usize>,
+    },
     Reproduce {
-        /// cartpole, cheetah or all.
+        /// cartpole, cheetah, wiping (Table 3), wiping-dims (the higher-dimension study) or all.
         #[arg(default_value = "all")]
         what: String,
         /// Directory of the shipped weights (one subdirectory per task).
@@ -232,6 +271,11 @@ enum Command {
         #[arg(long)]
         threads: Option<usize>,
     },
+}
+
+/// All cores.
+fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 
 fn main() -> ExitCode {
@@ -330,6 +374,25 @@ fn main() -> ExitCode {
             window,
             reports: &reports,
         }),
+        Command::Wipe {
+            mu,
+            gains,
+            steps,
+            identify,
+            seed,
+            output,
+        } => match gains.as_deref() {
+            None => Ok(None),
+            Some(&[k_tau, k_xi]) => Ok(Some(diffosi::control::admittance::Gains { k_tau, k_xi })),
+            Some(g) => Err(format!("--gains takes k_tau,k_xi: got {} values", g.len())),
+        }
+        .and_then(|gains| cli::wiping::wipe(&mu, gains, (steps, seed), &output, identify)),
+        Command::TrainWiping {
+            output,
+            pairs,
+            seed,
+            threads,
+        } => cli::wiping::train(&output, (pairs, seed), threads.unwrap_or_else(cores)),
         Command::Reproduce {
             what,
             policies,
@@ -345,8 +408,7 @@ fn main() -> ExitCode {
             episodes,
             models,
             seed,
-            threads: threads
-                .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())),
+            threads: threads.unwrap_or_else(cores),
         }),
     };
     match result {

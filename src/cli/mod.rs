@@ -7,3 +7,4 @@ pub mod mpc;
 pub mod reproduce;
 pub mod simulate;
 pub mod train;
+pub mod wiping;

@@ -14,7 +14,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use super::eval::sources_for;
 
 pub struct Request<'a> {
-    /// "cartpole", "cheetah" (or "half_cheetah") or "all".
+    /// "cartpole", "cheetah" (or "half_cheetah"), "wiping", "wiping-dims" or "all".
     pub what: &'a str,
     pub policies: &'a Path,
     pub reports: &'a Path,
@@ -31,9 +31,14 @@ pub fn reproduce(request: Request) -> Result<(), String> {
     match request.what {
         "cartpole" => cartpole(&request),
         "cheetah" | "half_cheetah" => cheetah(&request),
-        "all" => cartpole(&request).and_then(|()| cheetah(&request)),
+        "wiping" => wiping(&request),
+        "wiping-dims" => super::wiping::dims_study(request.reports, request.seed),
+        "all" => cartpole(&request)
+            .and_then(|()| cheetah(&request))
+            .and_then(|()| wiping(&request))
+            .and_then(|()| super::wiping::dims_study(request.reports, request.seed)),
         other => Err(format!(
-            "unknown experiment '{other}' (known: cartpole, cheetah, all)"
+            "unknown experiment '{other}' (known: cartpole, cheetah, wiping, wiping-dims, all)"
         )),
     }
 }
@@ -50,6 +55,12 @@ fn cartpole(request: &Request) -> Result<(), String> {
         &tables,
         &[Source::Mlp, Source::MlpNarrow],
     )
+}
+
+/// Table 3 on the wiping task: --episodes runs (the paper's 10).
+fn wiping(request: &Request) -> Result<(), String> {
+    let paths = (request.policies, request.reports);
+    super::wiping::table3(paths, (request.episodes, request.seed), request.threads)
 }
 
 /// Table 2 and the window study on the half cheetah.

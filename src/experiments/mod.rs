@@ -40,6 +40,8 @@
 //! episodes reached step t).
 
 mod report;
+pub mod wiping;
+pub mod wiping_dims;
 
 pub use report::{markdown, results_json, window_json, window_svg};
 

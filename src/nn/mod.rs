@@ -13,9 +13,11 @@
 
 mod adam;
 mod mlp;
+mod regression;
 
 pub use adam::Adam;
 pub use mlp::{Activation, LayerFile, Mlp, Tape};
+pub use regression::{fit_least_squares, mse, Schedule};
 
 use std::fmt::Debug;
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub};

@@ -36,13 +36,12 @@ use std::path::Path;
 use std::time::Instant;
 
 use rand::rngs::StdRng;
-use rand::seq::SliceRandom;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
 use crate::derivatives::Transition;
-use crate::nn::{Activation, Adam, LayerFile, Mlp, Tape};
+use crate::nn::{fit_least_squares, Activation, LayerFile, Mlp, Schedule, Tape};
 use crate::rl::Policy;
 use crate::tasks::{Env, EnvError, Task};
 
@@ -344,22 +343,6 @@ fn standardise(rows: &[f64], mean: &[f64], std: &[f64]) -> Vec<f32> {
         .collect()
 }
 
-/// Mean squared error of the network on standardised inputs.
-fn mse(net: &Mlp<f32>, z: &[f32], targets: &[f64]) -> f64 {
-    let mut tape = Tape::default();
-    let chunk = 4096 * net.inputs();
-    let mut total = 0.0;
-    for (zc, tc) in z.chunks(chunk).zip(targets.chunks(4096 * net.outputs())) {
-        let y = net.forward(zc, &mut tape);
-        total += y
-            .iter()
-            .zip(tc)
-            .map(|(y, t)| (*y as f64 - t).powi(2))
-            .sum::<f64>();
-    }
-    total / targets.len().max(1) as f64
-}
-
 /// Collects data with the Universal Controllers `controllers` and trains a
 /// UC-MLP; `progress` sees (epoch, held-out loss) after every epoch.
 pub fn train_mlp(
@@ -384,7 +367,7 @@ pub fn fit_mlp(
     (train, held_out): (Dataset, Dataset),
     config: &MlpConfig,
     started: Instant,
-    mut progress: impl FnMut(usize, f64),
+    progress: impl FnMut(usize, f64),
 ) -> MuMlp {
     let nmu = config.mu_lower.len();
     let dim = train.inputs.len() / train.len(nmu).max(1);
@@ -394,40 +377,16 @@ pub fn fit_mlp(
     let mut rng = StdRng::seed_from_u64(config.seed ^ 0x5bd1_e995);
     let sizes = [&[dim][..], &config.hidden, &[nmu]].concat();
     let mut net = Mlp::<f32>::new(&sizes, 1.0, &mut rng).with_activation(config.activation);
-    let mut adam = Adam::new(net.params().len(), config.lr);
-    let mut order: Vec<usize> = (0..train.len(nmu)).collect();
-    let steps_per_epoch = order.len().div_ceil(config.batch);
-    let total_steps = (steps_per_epoch * config.epochs).max(1);
-    let (mut tape, mut grad) = (Tape::default(), vec![0.0f32; net.params().len()]);
-    let (mut zb, mut tb, mut dout) = (vec![], vec![], vec![]);
-    let mut validation_loss = vec![mse(&net, &z_held, &held_out.targets)];
-    let mut step = 0;
-    for epoch in 0..config.epochs {
-        order.shuffle(&mut rng);
-        for batch in order.chunks(config.batch) {
-            adam.lr = config.lr * (1.0 - step as f64 / total_steps as f64);
-            step += 1;
-            zb.clear();
-            tb.clear();
-            for &i in batch {
-                zb.extend_from_slice(&z_train[i * dim..(i + 1) * dim]);
-                tb.extend_from_slice(&train.targets[i * nmu..(i + 1) * nmu]);
-            }
-            let y = net.forward(&zb, &mut tape);
-            let scale = 2.0 / tb.len() as f64;
-            dout.clear();
-            dout.extend(
-                y.iter()
-                    .zip(&tb)
-                    .map(|(y, t)| (scale * (*y as f64 - t)) as f32),
-            );
-            net.backward(&mut tape, &dout, &mut grad);
-            adam.step(net.params_mut(), &grad);
-        }
-        let loss = mse(&net, &z_held, &held_out.targets);
-        progress(epoch + 1, loss);
-        validation_loss.push(loss);
-    }
+    let schedule = Schedule {
+        epochs: config.epochs,
+        batch: config.batch,
+        lr: config.lr,
+    };
+    let train = (z_train.as_slice(), train.targets.as_slice());
+    let held_out = (z_held.as_slice(), held_out.targets.as_slice());
+    let validation_loss =
+        fit_least_squares(&mut net, (train, held_out), schedule, &mut rng, progress);
+    let examples = train.1.len() / nmu;
     MuMlp {
         task: task.into(),
         transitions: config.transitions,
@@ -438,7 +397,7 @@ pub fn fit_mlp(
         net,
         training: Some(MlpTraining {
             config: config.clone(),
-            examples: train.len(nmu),
+            examples,
             validation_loss,
             wall_seconds: started.elapsed().as_secs_f64(),
         }),
