@@ -230,6 +230,10 @@ enum Command {
         /// Seed of the segments' sampling.
         #[arg(long, default_value_t = 0)]
         seed: u64,
+        /// Also write the arm with this mu's compliance as MJCF (to replay
+        /// the torques elsewhere).
+        #[arg(long)]
+        model_out: Option<PathBuf>,
         /// Output CSV.
         #[arg(short, long)]
         output: PathBuf,
@@ -380,13 +384,17 @@ fn main() -> ExitCode {
             steps,
             identify,
             seed,
+            model_out,
             output,
         } => match gains.as_deref() {
             None => Ok(None),
             Some(&[k_tau, k_xi]) => Ok(Some(diffosi::control::admittance::Gains { k_tau, k_xi })),
             Some(g) => Err(format!("--gains takes k_tau,k_xi: got {} values", g.len())),
         }
-        .and_then(|gains| cli::wiping::wipe(&mu, gains, (steps, seed), &output, identify)),
+        .and_then(|gains| {
+            let outputs = (output.as_path(), model_out.as_deref());
+            cli::wiping::wipe(&mu, gains, (steps, seed), outputs, identify)
+        }),
         Command::TrainWiping {
             output,
             pairs,

@@ -203,3 +203,93 @@ fn bad_input_is_an_error_naming_it() {
     assert!(Segments::sample(&task, (&episode, CANONICAL), (5, 601), &mut rng).is_err());
     assert!(Segments::sample(&task, (&episode, CANONICAL), (5, 0), &mut rng).is_err());
 }
+
+/// Parses a CSV into its header and rows of numbers.
+fn read_csv(path: &std::path::Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap().split(',').map(String::from).collect();
+    let rows = lines
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    (header, rows)
+}
+
+#[test]
+fn wipe_writes_the_episode_and_its_torques_replay_it_open_loop() {
+    let episode = common::temp_path("wipe", "episode.csv");
+    let model = common::temp_path("wipe", "arm.xml");
+    let (ok, out, err) = common::run_cli(&[
+        "wipe",
+        "--mu",
+        "30,70",
+        "--steps",
+        "800",
+        "--identify",
+        "--model-out",
+        model.to_str().unwrap(),
+        "-o",
+        episode.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    assert!(
+        out.contains("DiffOSI") && out.contains("task metric"),
+        "{out}"
+    );
+    let (header, rows) = read_csv(&episode);
+    assert_eq!(rows.len(), 801);
+    assert_eq!(header.len(), 1 + 3 * 8 + 2);
+    assert_eq!(
+        (header[1].as_str(), header[17].as_str()),
+        ("q_a1", "tau_a1")
+    );
+    assert_eq!(&header[25..], ["fn_tip_table", "xi"]);
+    // The recorded torques, replayed open loop by `diffosi simulate`.
+    let torques = common::temp_path("wipe", "torques.csv");
+    let lines: Vec<String> = rows[..800]
+        .iter()
+        .map(|r| {
+            r[17..25]
+                .iter()
+                .map(|x| format!("{x:e}"))
+                .collect::<Vec<_>>()
+                .join(",")
+        })
+        .collect();
+    std::fs::write(&torques, lines.join("\n")).unwrap();
+    let replay = common::temp_path("wipe", "replay.csv");
+    let join = |x: &[f64]| {
+        x.iter()
+            .map(|v| format!("{v:e}"))
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    let (ok, _, err) = common::run_cli(&[
+        "simulate",
+        model.to_str().unwrap(),
+        "--steps",
+        "800",
+        "--torques",
+        torques.to_str().unwrap(),
+        &format!("--q0={}", join(&rows[0][1..9])),
+        "-o",
+        replay.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    let (_, replayed) = read_csv(&replay);
+    let mut gap = 0.0_f64;
+    for (a, b) in rows.iter().zip(&replayed) {
+        for i in 1..17 {
+            gap = gap.max((a[i] - b[i]).abs());
+        }
+        assert!(
+            (a[25] - b[17]).abs() <= 1e-9 * (1.0 + a[25].abs()),
+            "force {} vs {}",
+            a[25],
+            b[17]
+        );
+    }
+    assert!(gap < 1e-12, "open-loop replay drifts by {gap}");
+    let (ok, _, err) = common::run_cli(&["wipe", "--mu", "0,50", "-o", episode.to_str().unwrap()]);
+    assert!(!ok && err.contains("outside"), "{err}");
+}

@@ -33,18 +33,24 @@ fn write(path: &Path, text: &str) -> Result<(), String> {
 /// default) written as CSV: `t, q_<joint>..., v_<joint>..., tau_<joint>...`
 /// (the generalized forces the step from the row applies; on the last row
 /// the controller's output there), `fn_<tip>_<table>` (the sensed normal
-/// force, N) and `xi` (the admittance offset, m). With `identify`, DiffOSI
-/// then identifies mu from 50 segments of the episode.
+/// force, N) and `xi` (the admittance offset, m); with `model_out`, the arm
+/// at mu as MJCF. With `identify`, DiffOSI then identifies mu from 50
+/// segments of the episode.
 pub fn wipe(
     mu: &[f64],
     gains: Option<Gains>,
     (steps, seed): (usize, u64),
-    output: &Path,
+    (output, model_out): (&Path, Option<&Path>),
     identify: bool,
 ) -> Result<(), String> {
     let task = Wiping::new();
     let gains = gains.unwrap_or(CANONICAL);
     let episode = task.episode(mu, gains, steps).map_err(|e| e.to_string())?;
+    if let Some(path) = model_out {
+        let at_mu = task.model_at(mu).map_err(|e| e.to_string())?;
+        at_mu.save(path).map_err(|e| e.to_string())?;
+        println!("wrote {} (the arm at mu)", path.display());
+    }
     let model = task.model();
     let h = model.opt.timestep;
     let names: Vec<&str> = model.joints.iter().map(|j| j.name.as_str()).collect();
