@@ -18,6 +18,7 @@ COMMANDS = {
     "transfer": "harness.transfer",
     "robustness": "harness.robustness",
     "contact": "harness.contact",
+    "wiping-replay": "harness.wiping_replay",
 }
 
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The main job (`make run`): the paper's cartpole and half-cheetah results on
+# The main job (`make run`): the paper's cartpole, half-cheetah and wiping results on
 # the shipped controllers, the MPC runtime comparison, the transfer-gap reports against MuJoCo, PyBullet and DART, and
 # the proof of our dynamics against them; everything goes to reports/.
 set -euo pipefail
@@ -10,10 +10,12 @@ py=.venv/bin/python
 start=$SECONDS
 
 # Tables 1, 2 and 4 and the window studies (paper Sections 4.2-4.3, Fig. 4):
-# the cartpole and the half cheetah.
+# the cartpole and the half cheetah; Table 3 and the higher-dimension study
+# (Section 4.4, Fig. 6): the wiping task.
 $bin reproduce all
 $py -m harness figures --task cartpole
 $py -m harness figures --task half_cheetah
+$py -m harness figures --task wiping-dims
 # The paper's runtime comparison: iLQR MPC (horizon 200, replanning every 40
 # control steps) against UC-DiffOSI over the same 40 steps, half cheetah.
 $bin mpc --task half_cheetah
@@ -35,6 +37,8 @@ for model in cartpole double_pendulum half_cheetah; do
 done
 # Contact: the half cheetah on its floor vs MuJoCo and PyBullet; the resting box in all engines.
 $py -m harness contact --steps 500 --samples 200 --seed 0
+# The wiping episode's torques replayed in MuJoCo and PyBullet.
+$py -m harness wiping-replay --mu 50,50 --steps 3000
 
 # Example trajectories and a Jacobian from the command line.
 $bin simulate reference_models/cartpole.xml --steps 500 --q0 0,0.3 -o reports/simulate-cartpole.csv
