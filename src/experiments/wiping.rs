@@ -482,7 +482,11 @@ fn one_run(task: &Wiping, c: &Controllers, truth: &[f64], seed: u64) -> Result<R
     )
     .map_err(|e| err(&e))?;
     let mut outcomes = vec![];
-    let mut score = |mu_hat: Option<Vec<f64>>, gains: Gains, evaluations, seconds| {
+    // The UC's gains at mu_hat (DR's without one) run at the true mu; the
+    // wall time since `started` is the identification's.
+    let mut score = |mu_hat: Option<Vec<f64>>, evaluations, started: Option<Instant>| {
+        let gains = mu_hat.as_deref().map_or(c.dr, |m| c.uc.gains(m));
+        let seconds = started.map_or(0.0, |t| t.elapsed().as_secs_f64());
         let metric = task
             .episode(truth, gains, STEPS)
             .map_or(f64::INFINITY, |e| e.metric);
@@ -493,10 +497,9 @@ fn one_run(task: &Wiping, c: &Controllers, truth: &[f64], seed: u64) -> Result<R
             seconds,
         });
     };
-    score(None, c.dr, 0, 0.0);
-    let random = draw_mu(task, &mut rng);
-    score(Some(random.clone()), c.uc.gains(&random), 0, 0.0);
-    score(Some(prior.clone()), c.uc.gains(&prior), 0, 0.0);
+    score(None, 0, None);
+    score(Some(draw_mu(task, &mut rng)), 0, None);
+    score(Some(prior.clone()), 0, None);
     let t = Instant::now();
     let inputs = first_transitions(&episode, &segments);
     let predictions: Vec<Vec<f64>> = inputs
@@ -509,12 +512,7 @@ fn one_run(task: &Wiping, c: &Controllers, truth: &[f64], seed: u64) -> Result<R
             mean.clamp(lo[i], hi[i])
         })
         .collect();
-    score(
-        Some(mlp.clone()),
-        c.uc.gains(&mlp),
-        0,
-        t.elapsed().as_secs_f64(),
-    );
+    score(Some(mlp), 0, Some(t));
     let t = Instant::now();
     let mut cma = CmaEs {
         options: CmaEsOptions {
@@ -526,23 +524,13 @@ fn one_run(task: &Wiping, c: &Controllers, truth: &[f64], seed: u64) -> Result<R
     let e = cma
         .identify_on(&mut problem, &segments, &prior)
         .map_err(|e| err(&e))?;
-    score(
-        Some(e.mu.clone()),
-        c.uc.gains(&e.mu),
-        e.evaluations,
-        t.elapsed().as_secs_f64(),
-    );
+    score(Some(e.mu), e.evaluations, Some(t));
     let t = Instant::now();
     let e = Lm::default()
         .identify_on(&mut problem, &segments, &prior)
         .map_err(|e| err(&e))?;
-    score(
-        Some(e.mu.clone()),
-        c.uc.gains(&e.mu),
-        e.evaluations,
-        t.elapsed().as_secs_f64(),
-    );
-    score(Some(truth.to_vec()), c.uc.gains(truth), 0, 0.0);
+    score(Some(e.mu), e.evaluations, Some(t));
+    score(Some(truth.to_vec()), 0, None);
     Ok(Run {
         mu: truth.to_vec(),
         outcomes,
