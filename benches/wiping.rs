@@ -10,8 +10,8 @@
 //! - `wiping/episode`: one 3 s episode (3000 closed-loop steps).
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use diffosi::experiments::wiping::{residual_scale, SEGMENTS, SEGMENT_STEPS};
-use diffosi::osi::{CmaEs, CmaEsOptions, Lm, Problem};
+use diffosi::experiments::wiping::{SEGMENTS, SEGMENT_STEPS};
+use diffosi::osi::{CmaEs, CmaEsOptions, Lm};
 use diffosi::tasks::wiping::{Segments, Wiping, CANONICAL, STEPS};
 use rand::rngs::StdRng;
 use rand::SeedableRng;
@@ -25,11 +25,8 @@ fn bench_wiping(c: &mut Criterion) {
     let mut rng = StdRng::seed_from_u64(0);
     let counts = (SEGMENTS, SEGMENT_STEPS);
     let segments = Segments::sample(&task, (&episode, CANONICAL), counts, &mut rng).unwrap();
-    let (lo, hi) = task.mu_range();
-    let prior = [50.5, 50.5];
-    let scale = residual_scale(task.model().nv());
-    let mut problem =
-        Problem::new(task.model(), task.map().clone(), &lo, &hi, &prior, &scale).unwrap();
+    let prior = task.prior();
+    let mut problem = task.problem();
     let mut group = c.benchmark_group("wiping");
     group
         .measurement_time(Duration::from_secs(10))

@@ -6,34 +6,12 @@ mod common;
 
 use diffosi::control::admittance::Gains;
 use diffosi::dynamics::body_poses;
-use diffosi::osi::{CmaEs, CmaEsOptions, Lm, OsiError, Problem};
+use diffosi::osi::{CmaEs, CmaEsOptions, Lm, OsiError};
 use diffosi::tasks::tool_down_at;
 use diffosi::tasks::wiping::{tip_target, Segments, Unknown, Wiping, CANONICAL, STEPS};
 use nalgebra::Vector3;
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
-
-/// Residual scale: 1 um on positions, 1 mm/s (or mrad/s) on velocities.
-fn scale(nv: usize) -> Vec<f64> {
-    (0..2 * nv)
-        .map(|i| if i < nv { 1e-6 } else { 1e-3 })
-        .collect()
-}
-
-fn problem(task: &Wiping) -> Problem {
-    let (lo, hi) = task.mu_range();
-    let prior: Vec<f64> = lo.iter().zip(&hi).map(|(l, h)| 0.5 * (l + h)).collect();
-    let nv = task.model().nv();
-    Problem::new(
-        task.model(),
-        task.map().clone(),
-        &lo,
-        &hi,
-        &prior,
-        &scale(nv),
-    )
-    .unwrap()
-}
 
 fn segments(task: &Wiping, mu: &[f64], seed: u64) -> Segments {
     let episode = task.episode(mu, CANONICAL, STEPS).unwrap();
@@ -103,7 +81,7 @@ fn the_closed_loop_jacobian_matches_finite_differences() {
     let task = Wiping::with_unknowns(&Unknown::first(4).unwrap()).unwrap();
     let truth = [30.0, 70.0, 40.0, 60.0];
     let segs = segments(&task, &truth, 1);
-    let mut problem = problem(&task);
+    let mut problem = task.problem();
     let at = [35.0, 65.0, 45.0, 55.0];
     let fit = problem.fit(&at, &segs).unwrap();
     for j in 0..4 {
@@ -135,7 +113,7 @@ fn diffosi_recovers_the_compliance_from_50_segments() {
             1.0 + 99.0 * rng.random::<f64>(),
         ];
         let segs = segments(&task, &truth, run);
-        let mut problem = problem(&task);
+        let mut problem = task.problem();
         let est = Lm::default()
             .identify_on(&mut problem, &segs, &[50.5, 50.5])
             .unwrap();
@@ -156,7 +134,7 @@ fn cma_es_on_segments_improves_on_the_prior() {
     let task = Wiping::new();
     let truth = [20.0, 80.0];
     let segs = segments(&task, &truth, 3);
-    let mut problem = problem(&task);
+    let mut problem = task.problem();
     let mut cma = CmaEs {
         options: CmaEsOptions {
             max_evaluations: 60,
@@ -185,7 +163,7 @@ fn bad_input_is_an_error_naming_it() {
     assert!(Unknown::first(7).is_err() && Unknown::first(1).is_err());
 
     let mut segs = segments(&task, &[50.0, 50.0], 0);
-    let mut problem = problem(&task);
+    let mut problem = task.problem();
     segs.segments[3].observed[1].1[2] = f64::NAN;
     let err = Lm::default()
         .identify_on(&mut problem, &segs, &[50.5, 50.5])

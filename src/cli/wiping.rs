@@ -11,7 +11,7 @@ use diffosi::dynamics::contact::contact_pairs;
 use diffosi::experiments::wiping::{self as exp, Controllers, Uc};
 use diffosi::experiments::wiping_dims as dims;
 use diffosi::osi::mlp::MuMlp;
-use diffosi::osi::{Lm, Problem};
+use diffosi::osi::Lm;
 use diffosi::tasks::wiping::{Segments, Wiping, CANONICAL};
 use indicatif::{ProgressBar, ProgressStyle};
 use rand::rngs::StdRng;
@@ -91,12 +91,8 @@ pub fn wipe(
         let mut rng = StdRng::seed_from_u64(seed);
         let counts = (exp::SEGMENTS, exp::SEGMENT_STEPS);
         let segments = Segments::sample(&task, (&episode, gains), counts, &mut rng)?;
-        let (lo, hi) = task.mu_range();
-        let prior: Vec<f64> = lo.iter().zip(&hi).map(|(l, h)| 0.5 * (l + h)).collect();
-        let scale = exp::residual_scale(model.nv());
-        let map = task.map().clone();
-        let mut problem =
-            Problem::new(model, map, &lo, &hi, &prior, &scale).map_err(|e| e.to_string())?;
+        let prior = task.prior();
+        let mut problem = task.problem();
         let started = Instant::now();
         let e = Lm::default()
             .identify_on(&mut problem, &segments, &prior)
@@ -149,7 +145,7 @@ pub fn train(dir: &Path, (pairs, seed): (usize, u64), threads: usize) -> Result<
     println!("wrote {}", dir.join("uc.json").display());
     let mut rng = StdRng::seed_from_u64(seed ^ 0xd5);
     let mus: Vec<Vec<f64>> = (0..exp::DR_ENVIRONMENTS)
-        .map(|_| exp::draw_mu(&task, &mut rng))
+        .map(|_| task.sample_mu(&mut rng))
         .collect();
     let (dr, metric, evaluations) = exp::optimise_gains(&task, &mus, DR_BUDGET, seed);
     let text = serde_json::to_string_pretty(&serde_json::json!({

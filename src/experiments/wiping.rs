@@ -32,14 +32,14 @@
 use std::time::Instant;
 
 use rand::rngs::StdRng;
-use rand::{RngExt, SeedableRng};
+use rand::SeedableRng;
 use serde::{Deserialize, Serialize};
 
 use crate::control::admittance::Gains;
 use crate::derivatives::Transition;
 use crate::nn::{fit_least_squares, Activation, LayerFile, Mlp, Schedule, Tape};
 use crate::osi::mlp::{fit_mlp, Dataset, MlpConfig, MuMlp};
-use crate::osi::{CmaEs, CmaEsOptions, Lm, Problem};
+use crate::osi::{CmaEs, CmaEsOptions, Lm};
 use crate::tasks::wiping::{Episode, Segments, Wiping, CANONICAL, GAINS_LOWER, GAINS_UPPER, STEPS};
 
 /// (mu, theta*) pairs of the UC's dataset (the paper's count).
@@ -50,23 +50,6 @@ pub const DR_ENVIRONMENTS: usize = 16;
 pub const SEGMENTS: usize = 50;
 pub const SEGMENT_STEPS: usize = 5;
 const UC_FORMAT: &str = "diffosi-wiping-uc/1";
-
-/// Residual scale of the identification: 1 um on positions, 1 mm/s (mrad/s)
-/// on velocities.
-pub fn residual_scale(nv: usize) -> Vec<f64> {
-    (0..2 * nv)
-        .map(|i| if i < nv { 1e-6 } else { 1e-3 })
-        .collect()
-}
-
-/// mu drawn uniformly in the task's box.
-pub fn draw_mu(task: &Wiping, rng: &mut StdRng) -> Vec<f64> {
-    let (lo, hi) = task.mu_range();
-    lo.iter()
-        .zip(&hi)
-        .map(|(l, h)| l + (h - l) * rng.random::<f64>())
-        .collect()
-}
 
 fn log_box() -> (Vec<f64>, Vec<f64>) {
     let ln = |g: Gains| vec![g.k_tau.ln(), g.k_xi.ln()];
@@ -181,7 +164,7 @@ pub fn dataset(
     done: &(dyn Fn(usize) + Sync),
 ) -> Vec<Pair> {
     let mut rng = StdRng::seed_from_u64(seed);
-    let mus: Vec<Vec<f64>> = (0..count).map(|_| draw_mu(task, &mut rng)).collect();
+    let mus: Vec<Vec<f64>> = (0..count).map(|_| task.sample_mu(&mut rng)).collect();
     parallel(count, threads, |i| {
         let (g, metric, evaluations) =
             optimise_gains(task, std::slice::from_ref(&mus[i]), budget, seed + i as u64);
@@ -350,7 +333,7 @@ pub fn train_uc_mlp(
     let started = Instant::now();
     let (lo, hi) = task.mu_range();
     let mut rng = StdRng::seed_from_u64(seed);
-    let mus: Vec<Vec<f64>> = (0..episodes).map(|_| draw_mu(task, &mut rng)).collect();
+    let mus: Vec<Vec<f64>> = (0..episodes).map(|_| task.sample_mu(&mut rng)).collect();
     let runs = parallel(episodes, threads, |i| {
         task.episode(&mus[i], CANONICAL, STEPS)
     });
@@ -450,7 +433,7 @@ pub fn table3(
     done: &(dyn Fn(usize) + Sync),
 ) -> Result<Vec<Run>, String> {
     let mut rng = StdRng::seed_from_u64(seed);
-    let mus: Vec<Vec<f64>> = (0..runs).map(|_| draw_mu(task, &mut rng)).collect();
+    let mus: Vec<Vec<f64>> = (0..runs).map(|_| task.sample_mu(&mut rng)).collect();
     let out = parallel(runs, threads, |r| {
         let run = one_run(task, c, &mus[r], seed.wrapping_add(r as u64 + 1));
         done(r);
@@ -470,17 +453,8 @@ fn one_run(task: &Wiping, c: &Controllers, truth: &[f64], seed: u64) -> Result<R
         &mut rng,
     )?;
     let (lo, hi) = task.mu_range();
-    let prior: Vec<f64> = lo.iter().zip(&hi).map(|(l, h)| 0.5 * (l + h)).collect();
-    let nv = task.model().nv();
-    let mut problem = Problem::new(
-        task.model(),
-        task.map().clone(),
-        &lo,
-        &hi,
-        &prior,
-        &residual_scale(nv),
-    )
-    .map_err(|e| err(&e))?;
+    let prior = task.prior();
+    let mut problem = task.problem();
     let mut outcomes = vec![];
     // The UC's gains at mu_hat (DR's without one) run at the true mu; the
     // wall time since `started` is the identification's.
@@ -498,7 +472,7 @@ fn one_run(task: &Wiping, c: &Controllers, truth: &[f64], seed: u64) -> Result<R
         });
     };
     score(None, 0, None);
-    score(Some(draw_mu(task, &mut rng)), 0, None);
+    score(Some(task.sample_mu(&mut rng)), 0, None);
     score(Some(prior.clone()), 0, None);
     let t = Instant::now();
     let inputs = first_transitions(&episode, &segments);

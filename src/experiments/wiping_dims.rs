@@ -18,8 +18,8 @@ use rand::rngs::StdRng;
 use rand::SeedableRng;
 use serde::Serialize;
 
-use super::wiping::{draw_mu, residual_scale, SEGMENTS, SEGMENT_STEPS};
-use crate::osi::{CmaEs, CmaEsOptions, Estimate, Lm, LmOptions, Problem};
+use super::wiping::{SEGMENTS, SEGMENT_STEPS};
+use crate::osi::{CmaEs, CmaEsOptions, Estimate, Lm, LmOptions};
 use crate::tasks::wiping::{Segments, Unknown, Wiping, CANONICAL, STEPS};
 
 /// Dimensions of the study.
@@ -85,7 +85,7 @@ pub fn study(
             let mut cost = vec![];
             let runs = (0..runs)
                 .map(|r| {
-                    let truth = draw_mu(&task, &mut rng);
+                    let truth = task.sample_mu(&mut rng);
                     let run = one_run(&task, &truth, seed + r as u64, (lm_budgets, cmaes_budgets));
                     done();
                     run.map(|(run, c)| {
@@ -115,12 +115,8 @@ fn one_run(
     let mut rng = StdRng::seed_from_u64(seed);
     let counts = (SEGMENTS, SEGMENT_STEPS);
     let segments = Segments::sample(task, (&episode, CANONICAL), counts, &mut rng)?;
-    let (lo, hi) = task.mu_range();
-    let prior: Vec<f64> = lo.iter().zip(&hi).map(|(l, h)| 0.5 * (l + h)).collect();
-    let scale = residual_scale(task.model().nv());
-    let map = task.map().clone();
-    let mut problem =
-        Problem::new(task.model(), map, &lo, &hi, &prior, &scale).map_err(|e| err(&e))?;
+    let prior = task.prior();
+    let mut problem = task.problem();
     let timed = |f: &mut dyn FnMut() -> Result<Estimate, String>| {
         let t = Instant::now();
         f().map(|e| (e, t.elapsed().as_secs_f64()))

@@ -26,10 +26,13 @@ mod segments;
 pub use segments::{Segment, Segments, MAX_NMU};
 
 use nalgebra::Vector3;
+use rand::rngs::StdRng;
+use rand::RngExt;
 
 use crate::control::admittance::{Action, Admittance, ArmJoint, Gains};
 use crate::dynamics::{crba, step, Data, StepError, Tree};
 use crate::model::{MapEntry, Model, ParamError, ParamMap, State};
+use crate::osi::Problem;
 use crate::spatial::{lift, Real};
 
 /// The canonical gains theta_hat that collect identification data: good for
@@ -265,6 +268,41 @@ impl Wiping {
     pub fn mu_range(&self) -> (Vec<f64>, Vec<f64>) {
         let n = self.unknowns.len();
         (vec![1.0; n], vec![100.0; n])
+    }
+
+    /// The middle of mu's box: the identifiers' prior, UC-Average's mu.
+    pub fn prior(&self) -> Vec<f64> {
+        let (lo, hi) = self.mu_range();
+        lo.iter().zip(&hi).map(|(l, h)| 0.5 * (l + h)).collect()
+    }
+
+    /// mu drawn uniformly in its box.
+    pub fn sample_mu(&self, rng: &mut StdRng) -> Vec<f64> {
+        let (lo, hi) = self.mu_range();
+        lo.iter()
+            .zip(&hi)
+            .map(|(l, h)| l + (h - l) * rng.random::<f64>())
+            .collect()
+    }
+
+    /// Identifying mu from this task's [`Segments`]: mu's box, the prior in
+    /// its middle, residuals scaled by 1 um on positions and 1 mm/s (mrad/s)
+    /// on velocities.
+    pub fn problem(&self) -> Problem {
+        let (lo, hi) = self.mu_range();
+        let nv = self.model.nv();
+        let scale: Vec<f64> = (0..2 * nv)
+            .map(|i| if i < nv { 1e-6 } else { 1e-3 })
+            .collect();
+        Problem::new(
+            &self.model,
+            self.map.clone(),
+            &lo,
+            &hi,
+            &self.prior(),
+            &scale,
+        )
+        .expect("the task's box, prior and scale are valid")
     }
 
     /// The model with mu applied, after checking mu against its box.
