@@ -23,7 +23,7 @@
 
 mod segments;
 
-pub use segments::{Segment, Segments, MAX_NMU};
+pub use segments::{Segment, Segments};
 
 use nalgebra::Vector3;
 use rand::rngs::StdRng;
