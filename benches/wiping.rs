@@ -24,7 +24,13 @@ fn bench_wiping(c: &mut Criterion) {
     let episode = task.episode(&truth, CANONICAL, STEPS).unwrap();
     let mut rng = StdRng::seed_from_u64(0);
     let counts = (SEGMENTS, SEGMENT_STEPS);
-    let segments = Segments::sample(&task, (&episode, CANONICAL), counts, &mut rng).unwrap();
+    let segments = Segments::sample(
+        &task,
+        (&episode.states, &episode.xi, CANONICAL),
+        counts,
+        &mut rng,
+    )
+    .unwrap();
     let prior = task.prior();
     let mut problem = task.problem();
     let mut group = c.benchmark_group("wiping");

@@ -16,7 +16,13 @@ use rand::{RngExt, SeedableRng};
 fn segments(task: &Wiping, mu: &[f64], seed: u64) -> Segments {
     let episode = task.episode(mu, CANONICAL, STEPS).unwrap();
     let mut rng = StdRng::seed_from_u64(seed);
-    Segments::sample(task, (&episode, CANONICAL), (50, 5), &mut rng).unwrap()
+    Segments::sample(
+        task,
+        (&episode.states, &episode.xi, CANONICAL),
+        (50, 5),
+        &mut rng,
+    )
+    .unwrap()
 }
 
 #[test]
@@ -178,8 +184,20 @@ fn bad_input_is_an_error_naming_it() {
     assert!(err.to_string().contains("never touched"), "{err}");
     let episode = task.episode(&[50.0, 50.0], CANONICAL, 600).unwrap();
     let mut rng = StdRng::seed_from_u64(0);
-    assert!(Segments::sample(&task, (&episode, CANONICAL), (5, 601), &mut rng).is_err());
-    assert!(Segments::sample(&task, (&episode, CANONICAL), (5, 0), &mut rng).is_err());
+    assert!(Segments::sample(
+        &task,
+        (&episode.states, &episode.xi, CANONICAL),
+        (5, 601),
+        &mut rng
+    )
+    .is_err());
+    assert!(Segments::sample(
+        &task,
+        (&episode.states, &episode.xi, CANONICAL),
+        (5, 0),
+        &mut rng
+    )
+    .is_err());
 }
 
 /// Parses a CSV into its header and rows of numbers.

@@ -11,6 +11,7 @@
 //! `OnlineOsi`) live in `task.rs`.
 
 mod task;
+mod wiping;
 
 use engine::derivatives::{step_jacobians, Transition, Workspace, Wrt};
 use engine::dynamics::{body_contact_forces, Contact, Data};
@@ -1032,6 +1033,7 @@ fn diffosi(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyCmaEs>()?;
     m.add_class::<task::PyTask>()?;
     m.add_class::<task::PyPolicy>()?;
+    m.add_class::<wiping::PyWiping>()?;
     m.add_class::<task::PyOnlineOsi>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

@@ -90,7 +90,12 @@ pub fn wipe(
     if identify {
         let mut rng = StdRng::seed_from_u64(seed);
         let counts = (exp::SEGMENTS, exp::SEGMENT_STEPS);
-        let segments = Segments::sample(&task, (&episode, gains), counts, &mut rng)?;
+        let segments = Segments::sample(
+            &task,
+            (&episode.states, &episode.xi, gains),
+            counts,
+            &mut rng,
+        )?;
         let prior = task.prior();
         let mut problem = task.problem();
         let started = Instant::now();

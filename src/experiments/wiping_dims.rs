@@ -114,7 +114,12 @@ fn one_run(
     let episode = task.episode(truth, CANONICAL, STEPS).map_err(|e| err(&e))?;
     let mut rng = StdRng::seed_from_u64(seed);
     let counts = (SEGMENTS, SEGMENT_STEPS);
-    let segments = Segments::sample(task, (&episode, CANONICAL), counts, &mut rng)?;
+    let segments = Segments::sample(
+        task,
+        (&episode.states, &episode.xi, CANONICAL),
+        counts,
+        &mut rng,
+    )?;
     let prior = task.prior();
     let mut problem = task.problem();
     let timed = |f: &mut dyn FnMut() -> Result<Estimate, String>| {

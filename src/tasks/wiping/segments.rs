@@ -26,7 +26,9 @@ use num_dual::Dual64;
 use rand::rngs::StdRng;
 use rand::RngExt;
 
-use super::{closed_loop_step, Episode, Wiping};
+#[cfg(doc)]
+use super::Episode;
+use super::{closed_loop_step, Wiping};
 use crate::control::admittance::Gains;
 use crate::derivatives::WindowFit;
 use crate::dynamics::{Data, Tree};
@@ -55,15 +57,24 @@ pub struct Segments {
 }
 
 impl Segments {
-    /// `count` segments of `length` steps with starts drawn uniformly from
-    /// the episode's steps (with replacement, in draw order).
+    /// `count` segments of `length` steps with starts drawn uniformly from a
+    /// record of an episode run with `gains` (its states and the
+    /// controller's offset xi at each, as [`Episode`] holds them), with
+    /// replacement, in draw order.
     pub fn sample(
         task: &Wiping,
-        (episode, gains): (&Episode, Gains),
+        (states, xi, gains): (&[State], &[f64], Gains),
         (count, length): (usize, usize),
         rng: &mut StdRng,
     ) -> Result<Segments, String> {
-        let steps = episode.states.len().saturating_sub(1);
+        if xi.len() != states.len() {
+            return Err(format!(
+                "the record holds {} states but {} offsets xi",
+                states.len(),
+                xi.len()
+            ));
+        }
+        let steps = states.len().saturating_sub(1);
         if length == 0 || length > steps {
             return Err(format!(
                 "segment length {length} must be between 1 and the episode's {steps} steps"
@@ -72,13 +83,13 @@ impl Segments {
         let segments = (0..count)
             .map(|_| {
                 let k = rng.random_range(0..=steps - length);
-                let (q, v) = episode.states[k].clone();
+                let (q, v) = states[k].clone();
                 Segment {
                     start: k,
                     q,
                     v,
-                    xi: episode.xi[k],
-                    observed: episode.states[k + 1..=k + length].to_vec(),
+                    xi: xi[k],
+                    observed: states[k + 1..=k + length].to_vec(),
                 }
             })
             .collect();

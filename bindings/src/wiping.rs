@@ -1,0 +1,174 @@
+//! The wiping task for Python: episodes of the admittance-controlled arm
+//! and identification of the tool's compliance from closed-loop segments,
+//! as `diffosi wipe` and Table 3 run them (src/tasks/wiping/).
+//!
+//! Conventions are the engine's: q = (a1 .. a7, tool), SI units, 1 ms
+//! steps; mu = (tool k_p in N/cm, k_d in N s/m, then the study's extra
+//! unknowns), each in [1, 100]; gains = (k_tau in 1/s^2, k_xi in m/(N s)).
+
+use engine::control::admittance::Gains;
+use engine::model::State;
+use engine::osi::{CmaEs, CmaEsOptions, Lm};
+use engine::tasks::wiping::{Segments, Unknown, Wiping, CANONICAL};
+use numpy::ndarray::Array2;
+use numpy::{PyArray1, PyArray2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use rand::rngs::StdRng;
+use rand::SeedableRng;
+
+use crate::{estimate_dict, matrix, osi_error, vector};
+
+/// The wiping task: `Wiping(unknowns=2)` (2 to 6 unknowns: the tool's k_p and
+/// k_d, then a6's damping and stiffness, then a4's).
+///
+/// `episode(mu, gains=None, steps=3000)` runs the controller (canonical gains
+/// by default) and returns a dict of arrays `q`, `v`, `tau` (T+1 rows: the
+/// torques the step from each row applies), `force` (sensed normal force,
+/// N), `xi` (admittance offset, m) and the float `metric` (N^2).
+/// `identify(q, v, xi, gains=None, segments=50, length=5, seed=0,
+/// method="lm", max_evaluations=300)` identifies mu from segments of a
+/// record made with `gains` (from our engine or any other): a dict with `mu`,
+/// `std`, `loss`, `iterations`, `evaluations`, `flags`.
+#[pyclass(name = "Wiping", module = "diffosi", frozen)]
+pub(crate) struct PyWiping {
+    task: Wiping,
+}
+
+fn gains_of(gains: Option<&Bound<'_, PyAny>>) -> PyResult<Gains> {
+    let Some(g) = gains else {
+        return Ok(CANONICAL);
+    };
+    let g = vector(g, "gains", 2, "2")?;
+    Gains {
+        k_tau: g[0],
+        k_xi: g[1],
+    }
+    .check()
+    .map_err(PyValueError::new_err)
+}
+
+fn rows(a: &Array2<f64>) -> Vec<Vec<f64>> {
+    a.outer_iter().map(|r| r.to_vec()).collect()
+}
+
+#[pymethods]
+impl PyWiping {
+    #[new]
+    #[pyo3(signature = (unknowns = 2))]
+    fn new(unknowns: usize) -> PyResult<Self> {
+        let list = Unknown::first(unknowns).map_err(PyValueError::new_err)?;
+        let task = Wiping::with_unknowns(&list).map_err(|e| PyValueError::new_err(e.to_string()))?;
+        Ok(PyWiping { task })
+    }
+
+    #[getter]
+    fn nmu(&self) -> usize {
+        self.task.unknowns().len()
+    }
+
+    /// The unknowns' labels, with the unit of their mu.
+    #[getter]
+    fn unknowns(&self) -> Vec<String> {
+        self.task.unknowns().iter().map(|u| u.label()).collect()
+    }
+
+    #[getter]
+    fn mu_range<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>) {
+        let (lo, hi) = self.task.mu_range();
+        (PyArray1::from_vec(py, lo), PyArray1::from_vec(py, hi))
+    }
+
+    /// The canonical gains (k_tau, k_xi) that collect identification data.
+    #[getter]
+    fn canonical_gains(&self) -> (f64, f64) {
+        (CANONICAL.k_tau, CANONICAL.k_xi)
+    }
+
+    #[pyo3(signature = (mu, gains = None, steps = 3000))]
+    fn episode<'py>(
+        &self,
+        py: Python<'py>,
+        mu: &Bound<'py, PyAny>,
+        gains: Option<&Bound<'py, PyAny>>,
+        steps: usize,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let mu = vector(mu, "mu", self.nmu(), "nmu")?;
+        let gains = gains_of(gains)?;
+        let e = self
+            .task
+            .episode(&mu, gains, steps)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let out = PyDict::new(py);
+        let table = |x: Vec<Vec<f64>>| PyArray2::from_vec2(py, &x);
+        out.set_item("q", table(e.states.iter().map(|s| s.0.clone()).collect())?)?;
+        out.set_item("v", table(e.states.iter().map(|s| s.1.clone()).collect())?)?;
+        out.set_item("tau", table(e.taus)?)?;
+        out.set_item("force", PyArray1::from_vec(py, e.forces))?;
+        out.set_item("xi", PyArray1::from_vec(py, e.xi))?;
+        out.set_item("metric", e.metric)?;
+        Ok(out)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (q, v, xi, gains = None, segments = 50, length = 5, seed = 0, method = "lm", max_evaluations = 300))]
+    fn identify<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        v: &Bound<'py, PyAny>,
+        xi: &Bound<'py, PyAny>,
+        gains: Option<&Bound<'py, PyAny>>,
+        segments: usize,
+        length: usize,
+        seed: u64,
+        method: &str,
+        max_evaluations: usize,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let model = self.task.model();
+        let q = matrix(q, "q", model.nq(), "nq")?;
+        let v = matrix(v, "v", model.nv(), "nv")?;
+        if q.nrows() != v.nrows() {
+            return Err(PyValueError::new_err(format!(
+                "q and v must have as many rows: {} and {}",
+                q.nrows(),
+                v.nrows()
+            )));
+        }
+        let xi = vector(xi, "xi", q.nrows(), "rows of q")?;
+        let states: Vec<State> = rows(&q).into_iter().zip(rows(&v)).collect();
+        let gains = gains_of(gains)?;
+        let mut rng = StdRng::seed_from_u64(seed);
+        let record = (states.as_slice(), xi.as_slice(), gains);
+        let segments = Segments::sample(&self.task, record, (segments, length), &mut rng)
+            .map_err(PyValueError::new_err)?;
+        let mut problem = self.task.problem();
+        let prior = self.task.prior();
+        let estimate = match method {
+            "lm" => Lm::default().identify_on(&mut problem, &segments, &prior),
+            "cmaes" => CmaEs {
+                options: CmaEsOptions {
+                    max_evaluations,
+                    seed,
+                    ..CmaEsOptions::default()
+                },
+            }
+            .identify_on(&mut problem, &segments, &prior),
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "method '{other}': expected 'lm' or 'cmaes'"
+                )))
+            }
+        }
+        .map_err(|e| osi_error("identify", e))?;
+        estimate_dict(py, estimate, "mu")
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Wiping(unknowns={}: {:?})", self.nmu(), self.unknowns())
+    }
+}
