@@ -59,7 +59,8 @@ impl PyWiping {
     #[pyo3(signature = (unknowns = 2))]
     fn new(unknowns: usize) -> PyResult<Self> {
         let list = Unknown::first(unknowns).map_err(PyValueError::new_err)?;
-        let task = Wiping::with_unknowns(&list).map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let task =
+            Wiping::with_unknowns(&list).map_err(|e| PyValueError::new_err(e.to_string()))?;
         Ok(PyWiping { task })
     }
 
