@@ -19,6 +19,7 @@ COMMANDS = {
     "robustness": "harness.robustness",
     "contact": "harness.contact",
     "wiping-replay": "harness.wiping_replay",
+    "wiping-transfer": "harness.wiping_transfer",
 }
 
 

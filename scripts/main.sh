@@ -39,6 +39,8 @@ done
 $py -m harness contact --steps 500 --samples 200 --seed 0
 # The wiping episode's torques replayed in MuJoCo and PyBullet.
 $py -m harness wiping-replay --mu 50,50 --steps 3000
+# The wiping controllers and DiffOSI on the arm as MuJoCo runs it (transfer gap).
+$py -m harness wiping-transfer --runs 5 --seed 0
 
 # Example trajectories and a Jacobian from the command line.
 $bin simulate reference_models/cartpole.xml --steps 500 --q0 0,0.3 -o reports/simulate-cartpole.csv

@@ -7,12 +7,13 @@
 //! unknowns), each in [1, 100]; gains = (k_tau in 1/s^2, k_xi in m/(N s)).
 
 use engine::control::admittance::Gains;
+use engine::experiments::wiping::Uc;
 use engine::model::State;
 use engine::osi::{CmaEs, CmaEsOptions, Lm};
-use engine::tasks::wiping::{Segments, Unknown, Wiping, CANONICAL};
+use engine::tasks::wiping::{tip_target, Segments, Unknown, Wiping, CANONICAL};
 use numpy::ndarray::Array2;
 use numpy::{PyArray1, PyArray2};
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use rand::rngs::StdRng;
@@ -30,7 +31,10 @@ use crate::{estimate_dict, matrix, osi_error, vector};
 /// `identify(q, v, xi, gains=None, segments=50, length=5, seed=0,
 /// method="lm", max_evaluations=300)` identifies mu from segments of a
 /// record made with `gains` (from our engine or any other): a dict with `mu`,
-/// `std`, `loss`, `iterations`, `evaluations`, `flags`.
+/// `std`, `loss`, `iterations`, `evaluations`, `flags`. `act(k, q, v, xi,
+/// force, gains=None)` is one step of the controller on a force sensed
+/// elsewhere (to run it on another engine), `uc_gains(path, mu)` the
+/// Universal Controller's gains.
 #[pyclass(name = "Wiping", module = "diffosi", frozen)]
 pub(crate) struct PyWiping {
     task: Wiping,
@@ -167,6 +171,63 @@ impl PyWiping {
         }
         .map_err(|e| osi_error("identify", e))?;
         estimate_dict(py, estimate, "mu")
+    }
+
+    /// One control step of the admittance controller at step index `k`
+    /// (time k h), state (q, v), offset xi and the normal force sensed by
+    /// whatever runs the arm (N): the generalized forces (length nv) and the
+    /// next offset. What `episode` does each step, with our own sensing.
+    #[pyo3(signature = (k, q, v, xi, force, gains = None))]
+    #[allow(clippy::too_many_arguments)]
+    fn act<'py>(
+        &self,
+        py: Python<'py>,
+        k: usize,
+        q: &Bound<'py, PyAny>,
+        v: &Bound<'py, PyAny>,
+        xi: f64,
+        force: f64,
+        gains: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<(Bound<'py, PyArray1<f64>>, f64)> {
+        let model = self.task.model();
+        let q = vector(q, "q", model.nq(), "nq")?;
+        let v = vector(v, "v", model.nv(), "nv")?;
+        if !(xi.is_finite() && force.is_finite()) {
+            return Err(PyValueError::new_err(format!(
+                "xi = {xi} and force = {force} must be finite"
+            )));
+        }
+        let mut ctrl = self.task.controller::<f64>(gains_of(gains)?);
+        let mut data = model.data();
+        let mut tau = vec![0.0; model.nv()];
+        let h = model.opt.timestep;
+        let target = (tip_target(k as f64 * h), h);
+        let action = ctrl.act_sensed(
+            model.tree(),
+            &mut data,
+            (&q, &v, force),
+            xi,
+            target,
+            &mut tau,
+        );
+        Ok((PyArray1::from_vec(py, tau), action.xi_next))
+    }
+
+    /// The Universal Controller's gains (k_tau, k_xi) for mu, from a weights
+    /// file written by `diffosi train-wiping` (policies/wiping/uc.json).
+    fn uc_gains(&self, path: std::path::PathBuf, mu: &Bound<'_, PyAny>) -> PyResult<(f64, f64)> {
+        let mu = vector(mu, "mu", self.nmu(), "nmu")?;
+        let uc = Uc::load(&path).map_err(PyOSError::new_err)?;
+        if uc.mu_lower.len() != mu.len() {
+            return Err(PyValueError::new_err(format!(
+                "{} maps {} unknowns, the task has {}",
+                path.display(),
+                uc.mu_lower.len(),
+                mu.len()
+            )));
+        }
+        let g = uc.gains(&mu);
+        Ok((g.k_tau, g.k_xi))
     }
 
     fn __repr__(&self) -> String {

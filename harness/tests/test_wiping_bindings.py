@@ -62,3 +62,26 @@ def test_bad_input_is_a_value_error(record):
     bad[10, 2] = np.nan
     with pytest.raises(ValueError, match="finite"):
         w.identify(bad, ep["v"], ep["xi"])
+
+
+def test_act_on_the_recorded_force_reproduces_the_episode(record):
+    w, ep = record
+    for k in (0, 450, 1700, 2999):
+        tau, xi_next = w.act(k, ep["q"][k], ep["v"][k], ep["xi"][k], ep["force"][k])
+        assert np.array_equal(tau, ep["tau"][k])
+        assert xi_next == ep["xi"][k + 1]
+    with pytest.raises(ValueError, match="finite"):
+        w.act(0, ep["q"][0], ep["v"][0], 0.0, np.nan)
+
+
+def test_uc_gains_from_the_shipped_weights(record):
+    w, _ = record
+    from pathlib import Path
+
+    uc = Path(__file__).resolve().parents[2] / "policies" / "wiping" / "uc.json"
+    k_tau, k_xi = w.uc_gains(uc, [50.0, 50.0])
+    assert 100.0 <= k_tau <= 1e5 and 1e-4 <= k_xi <= 0.1
+    with pytest.raises(ValueError, match="unknowns"):
+        diffosi.Wiping(unknowns=3).uc_gains(uc, [50.0, 50.0, 50.0])
+    with pytest.raises(OSError):
+        w.uc_gains(uc.parent / "missing.json", [50.0, 50.0])

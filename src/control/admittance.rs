@@ -118,17 +118,32 @@ impl<T: Real> Admittance<T> {
     }
 
     /// The torques (length nv) at (q, v) with offset `xi` toward the tip
-    /// target `target` (m, world), and what was sensed.
+    /// target `target` (m, world), and what was sensed (by our contact
+    /// model).
     pub fn act(
         &mut self,
         tree: &Tree<T>,
         data: &mut Data<T>,
         (q, v): (&[T], &[T]),
         xi: T,
-        (target, h): (Vector3<f64>, f64),
+        target: (Vector3<f64>, f64),
         tau: &mut [T],
     ) -> Action<T> {
         let force = self.sense(tree, data, (q, v));
+        self.act_sensed(tree, data, (q, v, force), xi, target, tau)
+    }
+
+    /// [`Admittance::act`] with the normal force sensed elsewhere (another
+    /// engine's contact, a real sensor), `h` the control period (s).
+    pub fn act_sensed(
+        &mut self,
+        tree: &Tree<T>,
+        data: &mut Data<T>,
+        (q, v, force): (&[T], &[T], T),
+        xi: T,
+        (target, h): (Vector3<f64>, f64),
+        tau: &mut [T],
+    ) -> Action<T> {
         let gains = self.gains;
         let step = xi + lift::<T>(h * gains.k_xi) * (lift::<T>(F_GOAL) - force);
         let xi_next = clamp(step, XI_LIMIT);
