@@ -23,14 +23,14 @@ pub mod ilqr;
 use std::collections::VecDeque;
 
 use rand::rngs::StdRng;
-use rand::{RngExt, SeedableRng};
+use rand::SeedableRng;
 
 use crate::derivatives::Transition;
 use crate::model::State;
 use crate::osi::mlp::MuMlp;
 use crate::osi::{ChangeDetection, CmaEs, Identifier, Lm, Online, OsiError, Problem, Sampling};
 use crate::rl::{Policy, PolicyKind};
-use crate::tasks::{average_mu, sample_mu, Env, EnvError, Task};
+use crate::tasks::{average_mu, middle_of, sample_mu, uniform_in, Env, EnvError, Task};
 
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -121,11 +121,7 @@ impl RandomMu {
 
 impl MuEstimator for RandomMu {
     fn reset(&mut self, _: &[f64]) -> Result<(), ControlError> {
-        let rng = &mut self.rng;
-        let bounds = self.lower.iter().zip(&self.upper);
-        self.mu = bounds
-            .map(|(&l, &h)| l + (h - l) * rng.random::<f64>())
-            .collect();
+        self.mu = uniform_in(&self.lower, &self.upper, &mut self.rng);
         Ok(())
     }
     fn mu(&self) -> &[f64] {
@@ -226,12 +222,7 @@ impl MlpMu {
 impl MuEstimator for MlpMu {
     fn reset(&mut self, _: &[f64]) -> Result<(), ControlError> {
         self.history.clear();
-        self.mu = self
-            .lower
-            .iter()
-            .zip(&self.upper)
-            .map(|(l, h)| 0.5 * (l + h))
-            .collect();
+        self.mu = middle_of(&self.lower, &self.upper);
         Ok(())
     }
     fn observe(&mut self, transition: Transition, _: &[f64]) -> Result<(), ControlError> {

@@ -36,14 +36,14 @@ use std::path::Path;
 use std::time::Instant;
 
 use rand::rngs::StdRng;
-use rand::{RngExt, SeedableRng};
+use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
 use crate::derivatives::Transition;
 use crate::nn::{fit_least_squares, Activation, LayerFile, Mlp, Schedule, Tape};
 use crate::rl::Policy;
-use crate::tasks::{Env, EnvError, Task};
+use crate::tasks::{uniform_in, Env, EnvError, Task};
 
 const FORMAT: &str = "diffosi-mu-mlp/1";
 
@@ -277,12 +277,7 @@ fn collect(
     for policy in controllers {
         let std: Vec<f64> = policy.log_std.iter().map(|s| (*s as f64).exp()).collect();
         for episode in 0..config.episodes {
-            let mu: Vec<f64> = config
-                .mu_lower
-                .iter()
-                .zip(&config.mu_upper)
-                .map(|(l, h)| l + (h - l) * rng.random::<f64>())
-                .collect();
+            let mu = uniform_in(&config.mu_lower, &config.mu_upper, &mut rng);
             env.reset(&mu, &mut rng)?;
             let mut history: Vec<Transition> = vec![];
             loop {

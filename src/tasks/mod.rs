@@ -75,19 +75,35 @@ pub fn by_name(name: &str) -> Result<Box<dyn Task>, String> {
     }
 }
 
+/// A point drawn uniformly in the box [lower, upper] (one draw per
+/// component, in order).
+pub fn uniform_in(lower: &[f64], upper: &[f64], rng: &mut StdRng) -> Vec<f64> {
+    lower
+        .iter()
+        .zip(upper)
+        .map(|(&l, &h)| l + (h - l) * rng.random::<f64>())
+        .collect()
+}
+
+/// The middle of the box [lower, upper].
+pub fn middle_of(lower: &[f64], upper: &[f64]) -> Vec<f64> {
+    lower
+        .iter()
+        .zip(upper)
+        .map(|(l, h)| 0.5 * (l + h))
+        .collect()
+}
+
 /// mu drawn uniformly in the task's box.
 pub fn sample_mu(task: &dyn Task, rng: &mut StdRng) -> Vec<f64> {
     let (lo, hi) = task.mu_range();
-    lo.iter()
-        .zip(hi)
-        .map(|(&l, &h)| l + (h - l) * rng.random::<f64>())
-        .collect()
+    uniform_in(lo, hi, rng)
 }
 
 /// The middle of the task's mu box.
 pub fn average_mu(task: &dyn Task) -> Vec<f64> {
     let (lo, hi) = task.mu_range();
-    lo.iter().zip(hi).map(|(l, h)| 0.5 * (l + h)).collect()
+    middle_of(lo, hi)
 }
 
 #[derive(Debug, thiserror::Error)]

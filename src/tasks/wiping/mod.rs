@@ -27,13 +27,13 @@ pub use segments::{Segment, Segments};
 
 use nalgebra::Vector3;
 use rand::rngs::StdRng;
-use rand::RngExt;
 
 use crate::control::admittance::{Action, Admittance, ArmJoint, Gains};
 use crate::dynamics::{crba, step, Data, StepError, Tree};
 use crate::model::{MapEntry, Model, ParamError, ParamMap, State};
 use crate::osi::Problem;
 use crate::spatial::{lift, Real};
+use crate::tasks::{middle_of, uniform_in};
 
 /// The canonical gains theta_hat that collect identification data: good for
 /// no mu in particular, stable for all (found by a sweep of the box below).
@@ -273,16 +273,13 @@ impl Wiping {
     /// The middle of mu's box: the identifiers' prior, UC-Average's mu.
     pub fn prior(&self) -> Vec<f64> {
         let (lo, hi) = self.mu_range();
-        lo.iter().zip(&hi).map(|(l, h)| 0.5 * (l + h)).collect()
+        middle_of(&lo, &hi)
     }
 
     /// mu drawn uniformly in its box.
     pub fn sample_mu(&self, rng: &mut StdRng) -> Vec<f64> {
         let (lo, hi) = self.mu_range();
-        lo.iter()
-            .zip(&hi)
-            .map(|(l, h)| l + (h - l) * rng.random::<f64>())
-            .collect()
+        uniform_in(&lo, &hi, rng)
     }
 
     /// Identifying mu from this task's [`Segments`]: mu's box, the prior in
