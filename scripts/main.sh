@@ -19,6 +19,8 @@ $py -m harness figures --task wiping-dims
 # The paper's runtime comparison: iLQR MPC (horizon 200, replanning every 40
 # control steps) against UC-DiffOSI over the same 40 steps, half cheetah.
 $bin mpc --task half_cheetah
+# The cartpole's MPC (horizon 60, replanning every 5): it balances every pole.
+$bin mpc --task cartpole --episodes 10
 
 # Transfer gaps (paper Section 4.6, Table 5): the targets as a user leaves them,
 # then with effects our model lacks.

@@ -132,6 +132,14 @@ enum Command {
         /// Learning-curve CSV (default: the output path with extension .curve.csv).
         #[arg(long)]
         curve: Option<PathBuf>,
+        /// How a uc or dr policy learns: ppo, or imitation of the iLQR MPC
+        /// expert (DAgger; its --steps is ignored).
+        #[arg(long, value_enum, default_value = "ppo")]
+        method: cli::train::Method,
+        /// PPO only: start from this policy's network and input normalisation
+        /// (e.g. one made by imitation) instead of a random network.
+        #[arg(long)]
+        init: Option<PathBuf>,
     },
     /// Evaluate trained policies: mean +- std of the task metric over
     /// episodes with the true mu drawn uniformly (the same episodes for every
@@ -182,16 +190,19 @@ enum Command {
         /// without them only the MPC side is reported.
         #[arg(long)]
         policy: Option<PathBuf>,
-        /// Control steps planned.
-        #[arg(long, default_value_t = 200)]
-        horizon: usize,
-        /// Control steps executed between replans.
-        #[arg(long, default_value_t = 40)]
-        replan: usize,
-        /// Most iLQR iterations per plan (per stage of an episode's first plan);
-        /// the default keeps the half cheetah run under a minute or two.
-        #[arg(long, default_value_t = 5)]
-        iterations: usize,
+        /// Control steps planned (default: the task's; half cheetah 200 as the
+        /// paper, cartpole 60).
+        #[arg(long)]
+        horizon: Option<usize>,
+        /// Control steps executed between replans (default: the task's; half
+        /// cheetah 40 as the paper, cartpole 5).
+        #[arg(long)]
+        replan: Option<usize>,
+        /// Most iLQR iterations per plan (per stage of an episode's first plan;
+        /// default: the task's, half cheetah 5, which keeps its run under a
+        /// minute or two, cartpole 10).
+        #[arg(long)]
+        iterations: Option<usize>,
         #[arg(long, default_value_t = 3)]
         episodes: usize,
         /// Seed of the episodes (true mu, initial states).
@@ -327,6 +338,8 @@ fn main() -> ExitCode {
             steps,
             output,
             curve,
+            method,
+            init,
         } => cli::train::train(cli::train::Request {
             task: &task,
             target: policy,
@@ -335,6 +348,8 @@ fn main() -> ExitCode {
             steps,
             output: &output,
             curve,
+            method,
+            init,
         }),
         Command::Eval {
             task,

@@ -19,7 +19,7 @@ use rand::rngs::StdRng;
 use rand::SeedableRng;
 use serde_json::json;
 
-use diffosi::control::ilqr::{run_mpc_episode, IlqrOptions, MpcOptions};
+use diffosi::control::ilqr::{run_mpc_episode, MpcOptions};
 use diffosi::control::{
     run_episode, ControlError, Episode, MuEstimator, OracleMu, Source, Sources,
 };
@@ -32,9 +32,10 @@ pub struct Request<'a> {
     /// The Universal Controller (default policies/<task>/uc-seed0.json); the
     /// report holds the MPC side only when the file is missing.
     pub policy: Option<PathBuf>,
-    pub horizon: usize,
-    pub replan: usize,
-    pub iterations: usize,
+    /// Overrides of the task's MPC settings ([`MpcOptions::for_task`]).
+    pub horizon: Option<usize>,
+    pub replan: Option<usize>,
+    pub iterations: Option<usize>,
     pub episodes: usize,
     pub seed: u64,
     /// Transitions per DiffOSI window.
@@ -144,17 +145,13 @@ fn uc_side(
 pub fn mpc(request: Request) -> Result<(), String> {
     let task = tasks::by_name(request.task)?;
     let task = task.as_ref();
-    if request.episodes == 0 || request.replan == 0 || request.horizon < request.replan {
+    let mut options = MpcOptions::for_task(request.task);
+    options.horizon = request.horizon.unwrap_or(options.horizon);
+    options.replan = request.replan.unwrap_or(options.replan);
+    options.ilqr.iterations = request.iterations.unwrap_or(options.ilqr.iterations);
+    if request.episodes == 0 || options.replan == 0 || options.horizon < options.replan {
         return Err("need --episodes >= 1 and 1 <= --replan <= --horizon".into());
     }
-    let options = MpcOptions {
-        horizon: request.horizon,
-        ilqr: IlqrOptions {
-            iterations: request.iterations,
-            ..IlqrOptions::default()
-        },
-        replan: request.replan,
-    };
     let mut rng = StdRng::seed_from_u64(request.seed);
     let episodes: Vec<Episode> = (0..request.episodes)
         .map(|_| Episode::draw(task, &mut rng))
@@ -198,7 +195,7 @@ pub fn mpc(request: Request) -> Result<(), String> {
             task,
             &policy,
             &episodes,
-            request.replan,
+            options.replan,
             request.window,
             request.seed,
         )?;

@@ -4,8 +4,8 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use diffosi::osi::mlp::{self, MlpConfig};
-use diffosi::rl::{self, CurveRow, Policy, PolicyKind, PpoConfig};
-use diffosi::tasks;
+use diffosi::rl::{self, CurveRow, DaggerConfig, Policy, PolicyKind, PpoConfig, RoundRow};
+use diffosi::tasks::{self, Task};
 use indicatif::{ProgressBar, ProgressStyle};
 
 /// What `diffosi train` trains.
@@ -21,6 +21,15 @@ pub enum Target {
     MlpNarrow,
 }
 
+/// How `diffosi train` makes a uc or dr policy.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Method {
+    /// PPO from a random network, or from --init.
+    Ppo,
+    /// DAgger on the iLQR MPC expert ([`rl::train_dagger`]).
+    Imitation,
+}
+
 pub struct Request<'a> {
     pub task: &'a str,
     pub target: Target,
@@ -30,6 +39,8 @@ pub struct Request<'a> {
     pub steps: Option<usize>,
     pub output: &'a Path,
     pub curve: Option<PathBuf>,
+    pub method: Method,
+    pub init: Option<PathBuf>,
 }
 
 pub fn train(request: Request) -> Result<(), String> {
@@ -39,32 +50,49 @@ pub fn train(request: Request) -> Result<(), String> {
         Target::Mlp | Target::MlpNarrow => return train_mlp(request),
     };
     let task = tasks::by_name(request.task)?;
+    if request.method == Method::Imitation {
+        return imitate(task.as_ref(), kind, &request);
+    }
+    let init = request.init.as_deref().map(Policy::load).transpose()?;
+    if let Some(policy) = &init {
+        if policy.kind != kind || policy.task != task.name() {
+            return Err(format!(
+                "--init: a {:?} policy for '{}', not {kind:?} for '{}'",
+                policy.kind,
+                policy.task,
+                task.name()
+            ));
+        }
+    }
     let mut config = PpoConfig {
         seed: request.seed,
+        // A given network meets a value function trained first.
+        value_warmup: if init.is_some() { INIT_VALUE_WARMUP } else { 0 },
         ..PpoConfig::for_task(request.task)
     };
     if let Some(steps) = request.steps {
         config.total_steps = steps;
     }
-    let curve_path = request
-        .curve
-        .unwrap_or_else(|| request.output.with_extension("curve.csv"));
+    let curve_path = curve_path(&request);
     let batch = config.num_envs * config.rollout_len;
     let bar = ProgressBar::new(config.total_steps.div_ceil(batch) as u64).with_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} iterations {elapsed}<{eta} {msg}")
             .expect("valid template"),
     );
-    let trained = rl::train(task.as_ref(), kind, &config, |row| {
+    let trained = rl::train_from(task.as_ref(), kind, &config, init.as_ref(), |row| {
         bar.set_message(format!("metric {:.1}", row.mean_metric));
         bar.inc(1);
     })
     .map_err(|e| e.to_string())?;
     bar.finish_and_clear();
     trained.policy.save(request.output)?;
-    write_curve(&curve_path, &trained.curve)?;
-    let plot_path = curve_path.with_extension("svg");
-    std::fs::write(&plot_path, curve_svg(&trained.curve))
-        .map_err(|e| format!("cannot write {}: {e}", plot_path.display()))?;
+    let rows: Vec<String> = trained.curve.iter().map(CurveRow::csv).collect();
+    let points: Vec<(f64, f64)> = trained
+        .curve
+        .iter()
+        .map(|r| (r.env_steps as f64, r.mean_metric))
+        .collect();
+    let plot_path = write_curve(&curve_path, CurveRow::CSV_HEADER, &rows, &points)?;
     let info = trained.policy.training.as_ref().expect("set by training");
     println!(
         "{} {:?} seed {}: {} env steps in {:.1} s, mean task metric of the last {} training episodes {}",
@@ -80,6 +108,55 @@ pub fn train(request: Request) -> Result<(), String> {
         "wrote {}, {} and {}",
         request.output.display(),
         curve_path.display(),
+        plot_path.display()
+    );
+    Ok(())
+}
+
+/// PPO iterations that train only the value network when starting from --init.
+const INIT_VALUE_WARMUP: usize = 10;
+
+fn curve_path(request: &Request) -> PathBuf {
+    request
+        .curve
+        .clone()
+        .unwrap_or_else(|| request.output.with_extension("curve.csv"))
+}
+
+/// `diffosi train --method imitation`: DAgger on the task's MPC expert.
+fn imitate(task: &dyn Task, kind: PolicyKind, request: &Request) -> Result<(), String> {
+    let config = DaggerConfig {
+        seed: request.seed,
+        ..DaggerConfig::default()
+    };
+    let bar = ProgressBar::new(config.rounds as u64).with_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} rounds {elapsed}<{eta} {msg}")
+            .expect("valid template"),
+    );
+    let (policy, curve) = rl::train_dagger(task, kind, &config, |row| {
+        bar.set_message(format!("metric {:.1}", row.mean_metric));
+        bar.inc(1);
+    })
+    .map_err(|e| e.to_string())?;
+    bar.finish_and_clear();
+    policy.save(request.output)?;
+    let rows: Vec<String> = curve.iter().map(RoundRow::csv).collect();
+    let points: Vec<(f64, f64)> = curve
+        .iter()
+        .map(|r| (r.env_steps as f64, r.mean_metric))
+        .collect();
+    let path = curve_path(request);
+    let plot_path = write_curve(&path, RoundRow::CSV_HEADER, &rows, &points)?;
+    let info = policy.training.as_ref().expect("set by training");
+    println!(
+        "{} {kind:?} seed {} by imitation: {} labelled states in {:.1} s, mean task metric of the last round {:.1}; wrote {}, {} and {}",
+        task.name(),
+        request.seed,
+        info.env_steps,
+        info.wall_seconds,
+        info.final_metric.unwrap_or(f64::NAN),
+        request.output.display(),
+        path.display(),
         plot_path.display()
     );
     Ok(())
@@ -137,26 +214,33 @@ fn train_mlp(request: Request) -> Result<(), String> {
     Ok(())
 }
 
-fn write_curve(path: &Path, curve: &[CurveRow]) -> Result<(), String> {
+/// Writes the learning curve's CSV (header, rows) and, next to it, its plot
+/// of (env steps, mean metric) points as SVG; returns the plot's path.
+fn write_curve(
+    path: &Path,
+    header: &str,
+    rows: &[String],
+    points: &[(f64, f64)],
+) -> Result<PathBuf, String> {
     let io = |e: std::io::Error| format!("cannot write {}: {e}", path.display());
     let mut out = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
-    writeln!(out, "{}", CurveRow::CSV_HEADER).map_err(io)?;
-    for row in curve {
-        writeln!(out, "{}", row.csv()).map_err(io)?;
+    writeln!(out, "{header}").map_err(io)?;
+    for row in rows {
+        writeln!(out, "{row}").map_err(io)?;
     }
-    out.flush().map_err(io)
+    out.flush().map_err(io)?;
+    let plot_path = path.with_extension("svg");
+    std::fs::write(&plot_path, curve_svg(points))
+        .map_err(|e| format!("cannot write {}: {e}", plot_path.display()))?;
+    Ok(plot_path)
 }
 
 /// The learning curve (mean task metric against environment steps) as a
 /// small self-contained SVG line plot; the y axis spans min(0, lowest) to
 /// max(1, highest).
-fn curve_svg(curve: &[CurveRow]) -> String {
+fn curve_svg(points: &[(f64, f64)]) -> String {
     let (w, h, pad) = (640.0, 360.0, 50.0);
-    let points: Vec<(f64, f64)> = curve
-        .iter()
-        .filter(|r| r.mean_metric.is_finite())
-        .map(|r| (r.env_steps as f64, r.mean_metric))
-        .collect();
+    let points: Vec<(f64, f64)> = points.iter().filter(|p| p.1.is_finite()).copied().collect();
     let x_max = points.iter().map(|p| p.0).fold(1.0, f64::max);
     let y_max = points.iter().map(|p| p.1).fold(1.0, f64::max);
     let y_min = points.iter().map(|p| p.1).fold(0.0, f64::min);

@@ -12,20 +12,20 @@
 //!   dtau/du is the secant of `Task::forces` over [0, 1] per component, exact
 //!   because a task's forces are affine in the action inside [-1, 1]
 //!   (checked when the planner is built).
-//! - The cost of a plan is the sum over its H control steps of
-//!   l = -Task::reward(mu, x, u, x'), no terminal cost. The tasks give no
-//!   reward derivatives, so the gradient and Hessian of the reward in
-//!   z = (x, u, x') are central finite differences of the reward alone (the
-//!   dynamics derivatives stay exact); only the coordinates of z the reward
+//! - The cost of a plan is the sum over its H control steps of the task's
+//!   planning cost l = Task::cost(mu, x, u, x') (the negated training reward
+//!   unless the task gives a smooth one), no terminal cost. The tasks give no
+//!   cost derivatives, so the gradient and Hessian of the cost in
+//!   z = (x, u, x') are central finite differences of the cost alone (the
+//!   dynamics derivatives stay exact); only the coordinates of z the cost
 //!   depends on are differenced, found once per planner by perturbing each
 //!   coordinate at a few reset states under random actions (fixed seed).
 //!   With x' = f(x, u), the cost's derivatives in (x, u) are
-//!   l_xu = -Z^T g and l_xu,xu = -Z^T H Z, Z = dz/d(x, u): the second
+//!   l_xu = Z^T g and l_xu,xu = Z^T H Z, Z = dz/d(x, u): the second
 //!   derivatives of the dynamics are dropped (iLQR, Li and Todorov 2004),
-//!   and H is replaced by its concave part (the cost's Hessian in z by its
-//!   positive semi-definite part, negative eigenvalues set to zero), so the
-//!   value function's Hessian stays positive semi-definite where the reward
-//!   is not concave (the cartpole's cos term past the horizontal).
+//!   and H is replaced by its positive semi-definite part (negative
+//!   eigenvalues set to zero), so the value function's Hessian stays
+//!   positive semi-definite where the cost is not convex.
 //! - Action bounds: each backward-pass step solves the box-constrained
 //!   quadratic for the feed-forward change by projected Newton (Tassa, Mansard
 //!   and Todorov 2014); the feedback gains of clamped components are zero.
@@ -37,7 +37,7 @@
 //!   so the cost decreases monotonically over accepted iterations.
 //! - MPC ([`run_mpc_episode`]): plan H control steps from the current state
 //!   (the episode's first plan, from zero actions, grows its horizon R, 2R,
-//!   4R, ..., H, each stage warm-started by the last: where the reward
+//!   4R, ..., H, each stage warm-started by the last: where the cost
 //!   vanishes once the task fails, as the cartpole's, a zero-action rollout
 //!   fails early and gives no gradient past the failure), execute the first
 //!   R with the plan's feedback law
@@ -139,18 +139,18 @@ pub struct Ilqr<'a> {
     ws: Workspace,
     /// dtau/du (nv x act_dim).
     dtau_du: DMatrix<f64>,
-    /// The coordinates of z = (q, v, u, q', v') the reward depends on.
-    reward_coords: Vec<usize>,
+    /// The coordinates of z = (q, v, u, q', v') the cost depends on.
+    cost_coords: Vec<usize>,
 }
 
-/// The reward's arguments, laid out as z = (q, v, u, q', v') for differencing.
-struct RewardPoint {
+/// The cost's arguments, laid out as z = (q, v, u, q', v') for differencing.
+struct CostPoint {
     state: State,
     action: Vec<f64>,
     next: State,
 }
 
-impl RewardPoint {
+impl CostPoint {
     fn slot(&mut self, i: usize) -> &mut f64 {
         let (n, m) = (self.state.0.len(), self.action.len());
         match i {
@@ -162,11 +162,11 @@ impl RewardPoint {
         }
     }
 
-    fn reward(&self, task: &dyn Task, mu: &[f64]) -> f64 {
-        task.reward(mu, &self.state, &self.action, &self.next)
+    fn cost(&self, task: &dyn Task, mu: &[f64]) -> f64 {
+        task.cost(mu, &self.state, &self.action, &self.next)
     }
 
-    /// The reward with coordinates i and j moved by di and dj (i may equal j).
+    /// The cost with coordinates i and j moved by di and dj (i may equal j).
     fn moved(
         &mut self,
         task: &dyn Task,
@@ -177,10 +177,10 @@ impl RewardPoint {
         let (zi, zj) = (*self.slot(i), *self.slot(j));
         *self.slot(i) += di;
         *self.slot(j) += dj;
-        let r = self.reward(task, mu);
+        let c = self.cost(task, mu);
         *self.slot(i) = zi;
         *self.slot(j) = zj;
-        r
+        c
     }
 }
 
@@ -227,15 +227,15 @@ impl<'a> Ilqr<'a> {
             mu: mu.to_vec(),
             options,
             dtau_du,
-            reward_coords: vec![],
+            cost_coords: vec![],
         };
-        planner.reward_coords = planner.probe_reward_coords()?;
+        planner.cost_coords = planner.probe_cost_coords()?;
         Ok(planner)
     }
 
-    /// The coordinates of z whose change moves the reward at any of a few
+    /// The coordinates of z whose change moves the cost at any of a few
     /// reset states under random actions (seeded, so always the same).
-    fn probe_reward_coords(&mut self) -> Result<Vec<usize>, ControlError> {
+    fn probe_cost_coords(&mut self) -> Result<Vec<usize>, ControlError> {
         let mut rng = StdRng::seed_from_u64(0);
         let (n, m) = (self.model.nv(), self.task.act_dim());
         let mut used = vec![false; 4 * n + m];
@@ -243,16 +243,16 @@ impl<'a> Ilqr<'a> {
             let state = self.task.reset(&mut rng);
             let action: Vec<f64> = (0..m).map(|_| rng.random_range(-1.0..=1.0)).collect();
             let next = self.control_step(&state, &action).map_err(step_error)?;
-            let mut point = RewardPoint {
+            let mut point = CostPoint {
                 state,
                 action,
                 next,
             };
-            let r = point.reward(self.task, &self.mu);
+            let c = point.cost(self.task, &self.mu);
             for (i, flag) in used.iter_mut().enumerate() {
                 let h = 1e-3 * point.slot(i).abs().max(1.0);
                 for d in [h, -h] {
-                    *flag |= point.moved(self.task, &self.mu, (i, d), (i, 0.0)) != r;
+                    *flag |= point.moved(self.task, &self.mu, (i, d), (i, 0.0)) != c;
                 }
             }
         }
@@ -276,27 +276,28 @@ impl<'a> Ilqr<'a> {
         for u in actions {
             let x = states.last().expect("starts with x0");
             let next = self.control_step(x, u).ok()?;
-            cost -= self.task.reward(&self.mu, x, u, &next);
+            cost += self.task.cost(&self.mu, x, u, &next);
             states.push(next);
         }
         cost.is_finite().then_some((states, cost))
     }
 
-    /// The rollout under the feedback law around `plan` with step size alpha.
+    /// The rollout from x0 under the feedback law around `plan` with step size alpha.
     fn forward(
         &mut self,
+        x0: &State,
         plan: &Plan,
         feedforward: &[DVector<f64>],
         alpha: f64,
     ) -> Option<(Vec<State>, Vec<Vec<f64>>, f64)> {
-        let mut states = vec![plan.states[0].clone()];
+        let mut states = vec![x0.clone()];
         let mut actions = Vec::with_capacity(plan.actions.len());
         let mut cost = 0.0;
         for (t, k) in feedforward.iter().enumerate() {
             let x = states.last().expect("starts with x0");
             let u = plan.law(t, x, alpha, k);
             let next = self.control_step(x, &u).ok()?;
-            cost -= self.task.reward(&self.mu, x, &u, &next);
+            cost += self.task.cost(&self.mu, x, &u, &next);
             states.push(next);
             actions.push(u);
         }
@@ -336,16 +337,16 @@ impl<'a> Ilqr<'a> {
         Ok((a, b_tau * &self.dtau_du))
     }
 
-    /// Gradient and Hessian of the step cost l = -r in (x, u), through x' = f(x, u)
+    /// Gradient and Hessian of the step cost l in (x, u), through x' = f(x, u)
     /// with the dynamics' second derivatives dropped.
     fn cost_derivatives(
         &self,
-        point: &mut RewardPoint,
+        point: &mut CostPoint,
         a: &DMatrix<f64>,
         b: &DMatrix<f64>,
     ) -> (DVector<f64>, DMatrix<f64>) {
         let (n2, m) = (a.nrows(), b.ncols());
-        let coords = &self.reward_coords;
+        let coords = &self.cost_coords;
         let d = coords.len();
         // Z: rows dz_i / d(x, u) for the used coordinates.
         let mut z = DMatrix::zeros(d, n2 + m);
@@ -363,7 +364,7 @@ impl<'a> Ilqr<'a> {
             .map(|&i| point.slot(i).abs().max(1.0))
             .collect();
         let (task, mu) = (self.task, &self.mu[..]);
-        let r0 = point.reward(task, mu);
+        let c0 = point.cost(task, mu);
         let mut g = DVector::zeros(d);
         let mut h = DMatrix::zeros(d, d);
         for (p, &i) in coords.iter().enumerate() {
@@ -374,7 +375,7 @@ impl<'a> Ilqr<'a> {
             let s = HESSIAN_STEP * steps[p];
             let plus = point.moved(task, mu, (i, s), (i, 0.0));
             let minus = point.moved(task, mu, (i, -s), (i, 0.0));
-            h[(p, p)] = (plus - 2.0 * r0 + minus) / (s * s);
+            h[(p, p)] = (plus - 2.0 * c0 + minus) / (s * s);
             for (r, &j) in coords.iter().enumerate().take(p) {
                 let t = HESSIAN_STEP * steps[r];
                 let pp = point.moved(task, mu, (i, s), (j, t));
@@ -385,12 +386,12 @@ impl<'a> Ilqr<'a> {
                 h[(r, p)] = h[(p, r)];
             }
         }
-        let curvature = convex_part(-h);
-        (-(z.transpose() * g), z.transpose() * curvature * &z)
+        let curvature = convex_part(h);
+        (z.transpose() * g, z.transpose() * curvature * &z)
     }
 
     /// Optimises the actions of the next `warm.len()` control steps from x0,
-    /// starting from `warm`.
+    /// starting from `warm` (run open loop).
     pub fn plan(
         &mut self,
         x0: &State,
@@ -406,12 +407,55 @@ impl<'a> Ilqr<'a> {
         let (states, cost) = self
             .rollout(x0, &warm)
             .ok_or(step_error(StepError::Diverged))?;
-        let mut plan = Plan {
+        self.improve(Plan {
             states,
             actions: warm,
             gains: vec![DMatrix::zeros(m, n2); h_len],
             cost,
+        })
+    }
+
+    /// Optimises the next `horizon` control steps from x0, starting from
+    /// `previous` without its first `shift` steps, run under its feedback law
+    /// (so that a start off the old trajectory stays close to it instead of
+    /// drifting away open loop) and padded with zero actions.
+    pub fn replan(
+        &mut self,
+        x0: &State,
+        previous: &Plan,
+        shift: usize,
+        horizon: usize,
+    ) -> Result<(Plan, PlanLog), ControlError> {
+        let (n2, m) = (2 * self.model.nv(), self.task.act_dim());
+        let mut warm = Plan {
+            states: previous.states[shift..].to_vec(),
+            actions: previous.actions[shift..].to_vec(),
+            gains: previous.gains[shift..].to_vec(),
+            cost: previous.cost,
         };
+        warm.states.truncate(warm.actions.len());
+        let end = previous.states.last().expect("a plan has states").clone();
+        warm.states.resize(horizon, end);
+        warm.actions.resize(horizon, vec![0.0; m]);
+        warm.gains.resize(horizon, DMatrix::zeros(m, n2));
+        warm.actions.truncate(horizon);
+        warm.gains.truncate(horizon);
+        warm.states.truncate(horizon);
+        let no_change = vec![DVector::zeros(m); horizon];
+        let (states, actions, cost) = self
+            .forward(x0, &warm, &no_change, 0.0)
+            .ok_or(step_error(StepError::Diverged))?;
+        self.improve(Plan {
+            states,
+            actions,
+            gains: warm.gains,
+            cost,
+        })
+    }
+
+    /// iLQR iterations from `plan` (its states the rollout of its actions).
+    fn improve(&mut self, mut plan: Plan) -> Result<(Plan, PlanLog), ControlError> {
+        let cost = plan.cost;
         let mut log = PlanLog {
             costs: vec![cost],
             iterations: 0,
@@ -440,7 +484,7 @@ impl<'a> Ilqr<'a> {
                 ..plan.clone()
             };
             let accepted = (0..10).map(|k| 0.5f64.powi(k)).find_map(|alpha| {
-                self.forward(&trial, &feedforward, alpha)
+                self.forward(&trial.states[0], &trial, &feedforward, alpha)
                     .filter(|(_, _, cost)| *cost < plan.cost)
             });
             let Some((states, actions, cost)) = accepted else {
@@ -473,7 +517,7 @@ impl<'a> Ilqr<'a> {
         for (t, u) in plan.actions.iter().enumerate() {
             let x = &plan.states[t];
             let (a, b) = self.linearise(x, u).map_err(step_error)?;
-            let mut point = RewardPoint {
+            let mut point = CostPoint {
                 state: x.clone(),
                 action: u.clone(),
                 next: plan.states[t + 1].clone(),
@@ -648,6 +692,30 @@ impl Default for MpcOptions {
     }
 }
 
+impl MpcOptions {
+    /// The settings `diffosi mpc` uses for a task by name. The half cheetah:
+    /// the paper's horizon and replanning period, at most 5 iterations per
+    /// plan. The cartpole: 60 control steps (1.2 s, enough to swing a pole
+    /// to a balance angle up to 1 rad from the start), replanning every 5, at
+    /// most 10 iterations; it balances every pole of the mu range (the
+    /// paper's 200 / 40 leaves the swing of the poles with |mu| near 0.6 to
+    /// 40 open-loop steps, which a falling pole does not survive).
+    pub fn for_task(task: &str) -> MpcOptions {
+        let (horizon, replan, iterations) = match task {
+            "cartpole" => (60, 5, 10),
+            _ => (200, 40, 5),
+        };
+        MpcOptions {
+            ilqr: IlqrOptions {
+                iterations,
+                ..IlqrOptions::default()
+            },
+            horizon,
+            replan,
+        }
+    }
+}
+
 /// One replan of an MPC episode.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Replan {
@@ -674,6 +742,56 @@ impl MpcEpisode {
     }
 }
 
+/// iLQR MPC as a feedback controller for one episode at one mu (see the
+/// module conventions): [`Mpc::act`] replans every `replan` calls from the
+/// state it is given, the first time from zero actions with a growing
+/// horizon, then warm-started by the last plan shifted by the steps taken.
+pub struct Mpc<'a> {
+    planner: Ilqr<'a>,
+    horizon: usize,
+    replan: usize,
+    plan: Option<Plan>,
+    /// Control steps taken on the current plan.
+    taken: usize,
+}
+
+impl<'a> Mpc<'a> {
+    pub fn new(task: &'a dyn Task, mu: &[f64], options: &MpcOptions) -> Result<Self, ControlError> {
+        let replan = options.replan.min(options.horizon);
+        assert!(replan > 0, "replanning every 0 steps");
+        Ok(Mpc {
+            planner: Ilqr::new(task, mu, options.ilqr.clone())?,
+            horizon: options.horizon,
+            replan,
+            plan: None,
+            taken: 0,
+        })
+    }
+
+    /// The action at `state`, and the replan made for it if one was due.
+    pub fn act(&mut self, state: &State) -> Result<(Vec<f64>, Option<Replan>), ControlError> {
+        let mut replan = None;
+        if self.plan.is_none() || self.taken == self.replan {
+            let start = Instant::now();
+            let (plan, log) = match self.plan.take() {
+                Some(old) => self.planner.replan(state, &old, self.taken, self.horizon)?,
+                None => cold_plan(&mut self.planner, state, self.replan, self.horizon)?,
+            };
+            replan = Some(Replan {
+                t: 0,
+                seconds: start.elapsed().as_secs_f64(),
+                log,
+            });
+            self.plan = Some(plan);
+            self.taken = 0;
+        }
+        let plan = self.plan.as_ref().expect("planned above");
+        let action = plan.action(self.taken, state);
+        self.taken += 1;
+        Ok((action, replan))
+    }
+}
+
 /// Runs iLQR MPC for one episode of `task` with true parameters `mu` from
 /// `initial` (see the module conventions), to the task's horizon or its end.
 pub fn run_mpc_episode(
@@ -682,38 +800,25 @@ pub fn run_mpc_episode(
     initial: &State,
     options: &MpcOptions,
 ) -> Result<MpcEpisode, ControlError> {
-    let (h_len, replan) = (options.horizon, options.replan.min(options.horizon));
-    assert!(replan > 0, "replanning every 0 steps");
-    let mut planner = Ilqr::new(task, mu, options.ilqr.clone())?;
+    let mut mpc = Mpc::new(task, mu, options)?;
     let mut env = Env::new(task);
     env.reset_to(mu, initial.clone())?;
-    let zero = vec![0.0; task.act_dim()];
-    let mut warm = None;
     let mut episode = MpcEpisode::default();
     loop {
-        let start = Instant::now();
-        let (plan, log) = match warm {
-            Some(actions) => planner.plan(env.state(), actions)?,
-            None => cold_plan(&mut planner, env.state(), replan, h_len)?,
-        };
-        episode.replans.push(Replan {
-            t: env.t(),
-            seconds: start.elapsed().as_secs_f64(),
-            log,
-        });
-        for t in 0..replan {
-            let action = plan.action(t, env.state());
-            let out = env.step(&action)?;
-            episode.rewards.push(out.reward);
-            episode.metric.push(out.metric);
-            episode.actions.push(action);
-            if out.terminated || out.truncated {
-                return Ok(episode);
-            }
+        let (action, replan) = mpc.act(env.state())?;
+        if let Some(replan) = replan {
+            episode.replans.push(Replan {
+                t: env.t(),
+                ..replan
+            });
         }
-        let mut shifted = plan.actions[replan..].to_vec();
-        shifted.resize(h_len, zero.clone());
-        warm = Some(shifted);
+        let out = env.step(&action)?;
+        episode.rewards.push(out.reward);
+        episode.metric.push(out.metric);
+        episode.actions.push(action);
+        if out.terminated || out.truncated {
+            return Ok(episode);
+        }
     }
 }
 
@@ -786,6 +891,9 @@ mod tests {
         fn reward(&self, mu: &[f64], state: &State, action: &[f64], next: &State) -> f64 {
             self.0.reward(mu, state, action, next)
         }
+        fn cost(&self, mu: &[f64], state: &State, action: &[f64], next: &State) -> f64 {
+            self.0.cost(mu, state, action, next)
+        }
         fn terminated(&self, state: &State) -> bool {
             self.0.terminated(state)
         }
@@ -833,10 +941,11 @@ mod tests {
             }
         }
         assert!(worst < 1e-6, "{worst:e}");
+        // The cartpole's cost reads the action and the end state (z = (x, u, x')).
         assert!(
-            planner.reward_coords == vec![5, 6],
+            planner.cost_coords == vec![4, 5, 6, 7, 8],
             "{:?}",
-            planner.reward_coords
+            planner.cost_coords
         );
     }
 

@@ -56,6 +56,10 @@ pub struct PpoConfig {
     pub obs_clip: f64,
     /// Episodes averaged in a learning-curve row.
     pub curve_window: usize,
+    /// Iterations at the start that train the value network only (the
+    /// policy held), so that a policy given to [`train_from`] meets useful
+    /// advantages.
+    pub value_warmup: usize,
 }
 
 impl Default for PpoConfig {
@@ -79,6 +83,7 @@ impl Default for PpoConfig {
             init_log_std: -1.0,
             obs_clip: 10.0,
             curve_window: 20,
+            value_warmup: 0,
         }
     }
 }
@@ -158,17 +163,39 @@ pub fn train(
     task: &dyn Task,
     kind: PolicyKind,
     config: &PpoConfig,
+    progress: impl FnMut(&CurveRow),
+) -> Result<Trained, EnvError> {
+    train_from(task, kind, config, None, progress)
+}
+
+/// [`train`], starting from `init`'s actor and input normalisation when given
+/// (its statistics then keep moving with the data, weighted as many samples
+/// as the configured total); the log standard deviation and the value
+/// network start afresh.
+pub fn train_from(
+    task: &dyn Task,
+    kind: PolicyKind,
+    config: &PpoConfig,
+    init: Option<&Policy>,
     mut progress: impl FnMut(&CurveRow),
 ) -> Result<Trained, EnvError> {
     let started = Instant::now();
     let mut ppo = Ppo::new(task, kind, config);
+    if let Some(policy) = init {
+        ppo.actor = policy.actor.clone();
+        ppo.obs_stats = RunningStats {
+            mean: policy.obs_mean.clone(),
+            var: policy.obs_std.iter().map(|s| s * s).collect(),
+            count: config.total_steps as f64,
+        };
+    }
     let batch = config.num_envs * config.rollout_len;
     let iterations = config.total_steps.div_ceil(batch).max(1);
     let mut curve = vec![];
     for iteration in 1..=iterations {
         let lr = config.lr * (1.0 - (iteration - 1) as f64 / iterations as f64);
         ppo.collect()?;
-        let losses = ppo.update(lr);
+        let losses = ppo.update(lr, iteration > config.value_warmup);
         let row = ppo.curve_row(iteration, losses, started.elapsed().as_secs_f64());
         progress(&row);
         curve.push(row);
@@ -413,7 +440,7 @@ impl<'a> Ppo<'a> {
     }
 
     /// The epochs of minibatch updates on the collected buffer.
-    fn update(&mut self, lr: f64) -> Losses {
+    fn update(&mut self, lr: f64, train_policy: bool) -> Losses {
         for opt_lr in [
             &mut self.actor_opt.lr,
             &mut self.log_std_opt.lr,
@@ -429,7 +456,7 @@ impl<'a> Ppo<'a> {
         for _ in 0..self.config.epochs {
             order.shuffle(&mut self.shuffle_rng);
             for chunk in order.chunks(size) {
-                let losses = self.minibatch(chunk);
+                let losses = self.minibatch(chunk, train_policy);
                 total.policy += losses.policy;
                 total.value += losses.value;
                 total.approx_kl += losses.approx_kl;
@@ -445,7 +472,7 @@ impl<'a> Ppo<'a> {
         }
     }
 
-    fn minibatch(&mut self, rows: &[usize]) -> Losses {
+    fn minibatch(&mut self, rows: &[usize], train_policy: bool) -> Losses {
         let (dim, act) = (self.obs_stats.mean.len(), self.task.act_dim());
         let m = rows.len() as f64;
         let b = &self.buffer;
@@ -501,8 +528,10 @@ impl<'a> Ppo<'a> {
             &mut [&mut grad, &mut grad_log_std],
             self.config.max_grad_norm,
         );
-        self.actor_opt.step(self.actor.params_mut(), &grad);
-        self.log_std_opt.step(&mut self.log_std, &grad_log_std);
+        if train_policy {
+            self.actor_opt.step(self.actor.params_mut(), &grad);
+            self.log_std_opt.step(&mut self.log_std, &grad_log_std);
+        }
 
         // Value: 0.5 mean (V - return)^2.
         let values = self.critic.forward(&z, &mut self.tape).to_vec();

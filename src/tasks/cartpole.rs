@@ -24,6 +24,13 @@
 //!   when the offset COM is balanced above the hinge). Surviving dominates;
 //!   the terms guide the pole toward its mu-dependent balance angle and keep
 //!   the cart from drifting to the track's end late in an episode.
+//! - Planning cost (what iLQR minimises, [`Task::cost`]), smooth where the
+//!   reward is not: psi^2 / 4 + 0.1 (x / 2.5)^2 (the reward's terms to second
+//!   order, with psi unwrapped so that a full turn of the pole costs) +
+//!   2.5e-4 x_dot^2 + 1.25e-3 theta_dot^2 + 2.5e-4 a^2, plus quadratic walls
+//!   5 (|x| - 2)^2 past |x| = 2 m and 50 (|theta| - 1.4)^2 past 1.4 rad,
+//!   inside the metric's bounds, all at the step's end state. Its optimum is
+//!   the reward's: the pole still at its balance angle, the cart at rest at 0.
 
 use std::f64::consts::FRAC_PI_2;
 
@@ -77,6 +84,13 @@ impl Cartpole {
                 gain: &[&[1.0], &[0.0], &[0.2]],
             }],
         )
+    }
+
+    /// psi, the angle of the hinge-to-COM line from vertical, at pole angle
+    /// theta with parameters mu.
+    fn tilt(&self, mu: &[f64], theta: f64) -> f64 {
+        let com = &self.map.values(mu)[0];
+        theta + com[0].atan2(com[2])
     }
 
     fn in_bounds((q, _): &State) -> bool {
@@ -143,9 +157,20 @@ impl Task for Cartpole {
         if !Self::in_bounds(next) {
             return 0.0;
         }
-        let com = &self.map.values(mu)[0];
-        let upright = next.0[1] + com[0].atan2(com[2]);
-        0.5 + 0.5 * upright.cos() - 0.1 * (next.0[0] / Self::X_LIMIT).powi(2)
+        let psi = self.tilt(mu, next.0[1]);
+        0.5 + 0.5 * psi.cos() - 0.1 * (next.0[0] / Self::X_LIMIT).powi(2)
+    }
+
+    fn cost(&self, mu: &[f64], _state: &State, action: &[f64], (q, v): &State) -> f64 {
+        let wall = |z: f64, at: f64| (z.abs() - at).max(0.0).powi(2);
+        let psi = self.tilt(mu, q[1]);
+        0.25 * psi * psi
+            + 0.1 * (q[0] / Self::X_LIMIT).powi(2)
+            + 2.5e-4 * v[0] * v[0]
+            + 1.25e-3 * v[1] * v[1]
+            + 2.5e-4 * action[0] * action[0]
+            + 5.0 * wall(q[0], 2.0)
+            + 50.0 * wall(q[1], 1.4)
     }
 
     fn terminated(&self, state: &State) -> bool {

@@ -54,6 +54,13 @@ pub trait Task: Send + Sync {
     fn forces(&self, action: &[f64]) -> Vec<f64>;
     /// The training reward of one control step, in an episode with parameters mu.
     fn reward(&self, mu: &[f64], state: &State, action: &[f64], next: &State) -> f64;
+    /// The cost of one control step that a trajectory optimiser minimises
+    /// ([`crate::control::ilqr`]): the negated reward, unless the task gives a
+    /// cost smooth where its reward is not (a reward that vanishes once the
+    /// task fails gives a planner no gradient there).
+    fn cost(&self, mu: &[f64], state: &State, action: &[f64], next: &State) -> f64 {
+        -self.reward(mu, state, action, next)
+    }
     /// Whether the episode ends at `state`.
     fn terminated(&self, state: &State) -> bool;
     /// One control step's contribution to the task metric.
