@@ -81,7 +81,7 @@ impl Default for DaggerConfig {
             lr: 1e-3,
             horizon: 60,
             iterations: 10,
-            noise: 0.1,
+            noise: 0.2,
             change: 0.5,
             log_std: -2.0,
             obs_clip: 10.0,
