@@ -4,6 +4,12 @@
   reports/window-<task>.png: UC-DiffOSI's mean |mu_hat - mu| against the control step, one
   line per context window N (N - 1 transitions), log scale; the JSON layout is documented
   in src/experiments/mod.rs.
+- Task performance against the true mu, reports/table1-by-mu-cartpole.json (Table 1's
+  methods on 10x its episodes; the half cheetah's table2-half_cheetah.json)
+  -> reports/by-mu-<task>.png: per method of the table, the mean score of its
+  episodes in equal bins of the true mu's range (`summary.by_mu`, binned by the Rust
+  experiments; the bin's episode count under the axis), so one sees which poles (torso
+  masses) each method loses.
 - The wiping task's higher-dimension study (paper Fig. 6), `--task wiping-dims`:
   reports/wiping-dims.json -> reports/wiping-dims.png: per dimension, the parameter error
   (mean over mu's components of |mu_hat - mu|) of DiffOSI and CMA-ES against evaluations
@@ -37,6 +43,39 @@ def window_figure(doc: dict, out: Path) -> Path:
     title = (f"{doc['task']}: UC-DiffOSI |mu error| vs step "
              f"({len(doc['models'])} models x {doc['episodes_per_model']} episodes)")
     return plot_lines(out, series, title, "control step", "mean |mu_hat - mu|")
+
+
+# The study whose per-method `by_mu` bins a task's by-mu figure draws.
+TABLES = {"cartpole": "table1-by-mu-cartpole", "half_cheetah": "table2-half_cheetah"}
+
+
+def by_mu_figure(doc: dict, out: Path) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 4.5), dpi=110)
+    for k, m in enumerate(doc["methods"]):
+        bins = m["summary"]["by_mu"]
+        centres = [(b["lo"] + b["hi"]) / 2 for b in bins]
+        means = [np.nan if b["mean"] is None else b["mean"] for b in bins]
+        style = "-" if m["source"] in ("oracle", "diffosi") else "--"
+        ax.plot(centres, means, style, marker="o", ms=3.5, lw=1.6 if style == "-" else 1.0,
+                color=f"C{k}", label=m["label"])
+    first = doc["methods"][0]["summary"]["by_mu"]
+    ax.set_xticks([b["lo"] for b in first] + [first[-1]["hi"]])
+    counts = ", ".join(str(b["episodes"]) for b in first)
+    episodes = len(doc["methods"][0]["episodes"])
+    ax.set(title=f"{doc['task']}: task performance vs true mu ({episodes} episodes per method)",
+           xlabel=f"true mu (bins; episodes per bin: {counts})", ylabel="mean task metric")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, metadata={"Software": None})
+    plt.close(fig)
+    return out
 
 
 def dims_figure(doc: dict, out: Path) -> Path:
@@ -89,5 +128,12 @@ def run(args) -> int:
     if not source.exists():
         raise SystemExit(f"{source} missing: run `diffosi reproduce {args.task}` first")
     out = window_figure(json.loads(source.read_text()), args.reports / f"window-{args.task}.png")
+    print(f"wrote {out}")
+    if args.task not in TABLES:
+        return 0
+    table = args.reports / f"{TABLES[args.task]}.json"
+    if not table.exists():
+        raise SystemExit(f"{table} missing: run `diffosi reproduce {args.task}` first")
+    out = by_mu_figure(json.loads(table.read_text()), args.reports / f"by-mu-{args.task}.png")
     print(f"wrote {out}")
     return 0

@@ -7,8 +7,10 @@ use diffosi::rl::{evaluate, train, MuSource, Policy, PolicyKind, PpoConfig};
 use diffosi::tasks::{Cartpole, Task};
 
 /// Measured on the shipped policies (30 episodes each, seed 1): UC-Oracle
-/// 467.6 over 3 x 30 episodes, DR 339.6; the floors leave a margin.
-const UC_ORACLE_FLOOR: f64 = 430.0;
+/// 468.4 over 3 x 30 episodes (the UCs imitate the MPC expert; the PPO ones
+/// scored 467.6 here but 457 on seed 7's 200), DR 339.6; the floors leave a
+/// margin.
+const UC_ORACLE_FLOOR: f64 = 460.0;
 const DR_GAP: f64 = 60.0;
 
 fn short(seed: u64, steps: usize) -> PpoConfig {

@@ -22,3 +22,20 @@ def test_missing_study_is_a_clear_error(tmp_path):
         assert "run `diffosi reproduce toy` first" in str(e)
     else:
         raise AssertionError("no error for a missing study")
+
+
+def test_by_mu_figure_draws_every_method_and_empty_bins(tmp_path):
+    from harness.figures import by_mu_figure
+
+    def bins(means):
+        return [{"lo": -0.6 + 0.3 * k, "hi": -0.3 + 0.3 * k, "episodes": 0 if m is None else 2, "mean": m}
+                for k, m in enumerate(means)]
+
+    doc = {"task": "cartpole", "methods": [
+        {"label": "UC-Oracle", "source": "oracle", "summary": {"by_mu": bins([300.0, 500.0, None, 500.0])},
+         "episodes": [{}] * 6},
+        {"label": "DR", "source": None, "summary": {"by_mu": bins([100.0, 450.0, None, 200.0])},
+         "episodes": [{}] * 6},
+    ]}
+    png = by_mu_figure(doc, tmp_path / "by-mu.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10_000

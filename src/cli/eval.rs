@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use diffosi::control::{Source, Sources};
-use diffosi::experiments::{self, Method, Models, Study};
+use diffosi::experiments::{self, Method, Models, MuBin, Study};
 use diffosi::osi::mlp::MuMlp;
 use diffosi::rl::{mean_std, Policy, PolicyKind};
 use diffosi::tasks::{self, Task};
@@ -60,6 +60,18 @@ fn load_policy(task: &dyn Task, path: &Path) -> Result<Policy, String> {
     Ok(policy)
 }
 
+/// "by true mu: [lo, hi) mean (episodes) | ...", the last bin closed.
+fn bins_line(bins: &[MuBin]) -> String {
+    let cells: Vec<String> = bins
+        .iter()
+        .map(|b| {
+            let mean = b.mean.map_or("-".into(), |m| format!("{m:.1}"));
+            format!("[{:.2}, {:.2}) {mean} ({})", b.lo, b.hi, b.episodes)
+        })
+        .collect();
+    format!("by true mu: {}", cells.join(" | "))
+}
+
 /// Evaluates every policy on the same episodes; the summary pools all
 /// policies' episodes (the paper's "3 models x 10 episodes").
 pub fn eval(request: Request) -> Result<(), String> {
@@ -74,7 +86,7 @@ pub fn eval(request: Request) -> Result<(), String> {
         request.window,
     )?;
     let mut rows = vec![];
-    let (mut pooled, mut errors) = (vec![], vec![]);
+    let (mut pooled, mut errors, mut all) = (vec![], vec![], vec![]);
     for path in request.policies {
         let policy = load_policy(task.as_ref(), path)?;
         let method = Method {
@@ -100,6 +112,7 @@ pub fn eval(request: Request) -> Result<(), String> {
         let result = results.methods.into_iter().next().expect("one method");
         pooled.extend(result.episodes.iter().map(|e| e.score));
         errors.extend(result.episodes.iter().filter_map(|e| e.mu_mae));
+        all.extend(result.episodes.iter().cloned());
         rows.push((path, policy.kind, result));
     }
     let (mean, std) = mean_std(&pooled);
@@ -114,6 +127,7 @@ pub fn eval(request: Request) -> Result<(), String> {
                     "mean": result.summary.task.0,
                     "std": result.summary.task.1,
                     "mu_mae": result.summary.mu_mae.map(|s| s.0),
+                    "by_mu": result.summary.by_mu,
                     "metrics": episodes.iter().map(|e| e.score).collect::<Vec<_>>(),
                     "mu_true": episodes.iter().map(|e| &e.episode.mu).collect::<Vec<_>>(),
                     "mu_fed": episodes.iter().map(|e| e.trace.mu_hat.first()).collect::<Vec<_>>(),
@@ -127,6 +141,7 @@ pub fn eval(request: Request) -> Result<(), String> {
             "seed": request.seed,
             "mean": mean,
             "std": std,
+            "by_mu": experiments::by_mu(task.as_ref(), &all),
             "policies": policies,
         });
         println!(
@@ -149,8 +164,10 @@ pub fn eval(request: Request) -> Result<(), String> {
             .mu_mae
             .map_or(String::new(), |(e, _)| format!("  mean |mu error| {e:.3e}"));
         println!("  {:<40} {kind:?}  {m:.2} +- {s:.2}{error}", path.display());
+        println!("    {}", bins_line(&result.summary.by_mu));
     }
     println!("all {} episodes: {mean:.2} +- {std:.2}", pooled.len());
+    println!("  {}", bins_line(&experiments::by_mu(task.as_ref(), &all)));
     if !errors.is_empty() {
         println!("mean |mu error| {:.3e}", mean_std(&errors).0);
     }

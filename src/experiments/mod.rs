@@ -27,6 +27,7 @@
 //! (file names), `episodes_per_model`, `change_at`, and `methods`, each with
 //! `label`, `policy` ("uc"/"dr"), `source` (null for DR), `summary`
 //! (`mu_mae`, `mu_mare`, `task`: [mean, std], null for DR's mu errors;
+//! `by_mu`: [`MuBin`]s with `lo`, `hi`, `episodes`, `mean`;
 //! `fraction_of_oracle`), `paper` (the paper's row as printed, or null) and
 //! `episodes`: per episode `model`, `mu`, `change` ([t, mu'] or null),
 //! `score`, `mu_mae`, `mu_mare`, and per step `metric` and `mu_error`
@@ -231,12 +232,53 @@ pub struct EpisodeResult {
 }
 
 /// Mean and population standard deviation over the pooled episodes.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Summary {
     pub mu_mae: Option<(f64, f64)>,
     pub mu_mare: Option<(f64, f64)>,
     pub task: (f64, f64),
+    /// Task performance against the true mu ([`by_mu`]).
+    pub by_mu: Vec<MuBin>,
 }
+
+/// The episodes whose true mu (its first component, at the start) lies in
+/// [lo, hi): how many, and their mean score (None when there are none).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct MuBin {
+    pub lo: f64,
+    pub hi: f64,
+    pub episodes: usize,
+    pub mean: Option<f64>,
+}
+
+/// Bins of the task performance against the true mu: [`MU_BINS`] equal bins
+/// of the range of mu's first component (the last bin closed), over `episodes`.
+pub fn by_mu<'a>(
+    task: &dyn Task,
+    episodes: impl IntoIterator<Item = &'a EpisodeResult>,
+) -> Vec<MuBin> {
+    let (lo, hi) = task.mu_range();
+    let (lo, width) = (lo[0], (hi[0] - lo[0]) / MU_BINS as f64);
+    let mut sums = [(0usize, 0.0); MU_BINS];
+    for e in episodes {
+        let k = (((e.episode.mu[0] - lo) / width).floor().max(0.0) as usize).min(MU_BINS - 1);
+        sums[k].0 += 1;
+        sums[k].1 += e.score;
+    }
+    sums.iter()
+        .enumerate()
+        .map(|(k, &(n, total))| MuBin {
+            lo: lo + k as f64 * width,
+            hi: lo + (k + 1) as f64 * width,
+            episodes: n,
+            mean: (n > 0).then(|| total / n as f64),
+        })
+        .collect()
+}
+
+/// Bins of [`by_mu`]: on the cartpole, the first holds the poles with
+/// mu <= -0.45 that are the hardest to balance.
+pub const MU_BINS: usize = 8;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct MethodResult {
@@ -338,7 +380,7 @@ pub fn run(
         .map(|method| {
             let episodes: Vec<EpisodeResult> = outputs.by_ref().take(n_models).flatten().collect();
             MethodResult {
-                summary: summarise(&episodes),
+                summary: summarise(task, &episodes),
                 method: method.clone(),
                 episodes,
             }
@@ -417,7 +459,7 @@ fn score_episode(task: &dyn Task, model: usize, episode: Episode, trace: Trace) 
     }
 }
 
-fn summarise(episodes: &[EpisodeResult]) -> Summary {
+fn summarise(task: &dyn Task, episodes: &[EpisodeResult]) -> Summary {
     let stat = |f: &dyn Fn(&EpisodeResult) -> Option<f64>| {
         let values: Option<Vec<f64>> = episodes.iter().map(f).collect();
         values.filter(|v| !v.is_empty()).map(|v| mean_std(&v))
@@ -427,6 +469,7 @@ fn summarise(episodes: &[EpisodeResult]) -> Summary {
         mu_mae: stat(&|e| e.mu_mae),
         mu_mare: stat(&|e| e.mu_mare),
         task: mean_std(&scores),
+        by_mu: by_mu(task, episodes),
     }
 }
 

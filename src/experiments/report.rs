@@ -104,6 +104,7 @@ fn method_json(results: &Results, m: &MethodResult) -> Value {
             "mu_mae": pair(m.summary.mu_mae),
             "mu_mare": pair(m.summary.mu_mare),
             "task": [m.summary.task.0, m.summary.task.1],
+            "by_mu": m.summary.by_mu,
             "fraction_of_oracle": results.fraction_of_oracle(m),
         },
         "paper": m.method.paper,
