@@ -115,24 +115,20 @@ def dims_figure(doc: dict, out: Path) -> Path:
     return out
 
 
+def draw(reports: Path, source: str, figure, out: str, experiment: str) -> None:
+    """figure(the JSON of reports/<source>.json) -> reports/<out>.png; a missing JSON names the
+    `diffosi reproduce` run that writes it."""
+    path = reports / f"{source}.json"
+    if not path.exists():
+        raise SystemExit(f"{path} missing: run `diffosi reproduce {experiment}` first")
+    print(f"wrote {figure(json.loads(path.read_text()), reports / f'{out}.png')}")
+
+
 def run(args) -> int:
     if args.task == "wiping-dims":
-        source = args.reports / "wiping-dims.json"
-        if not source.exists():
-            raise SystemExit(f"{source} missing: run `diffosi reproduce wiping-dims` first")
-        out = dims_figure(json.loads(source.read_text()), args.reports / "wiping-dims.png")
-        print(f"wrote {out}")
+        draw(args.reports, "wiping-dims", dims_figure, "wiping-dims", args.task)
         return 0
-    source = args.reports / f"window-{args.task}.json"
-    if not source.exists():
-        raise SystemExit(f"{source} missing: run `diffosi reproduce {args.task}` first")
-    out = window_figure(json.loads(source.read_text()), args.reports / f"window-{args.task}.png")
-    print(f"wrote {out}")
-    if args.task not in TABLES:
-        return 0
-    table = args.reports / f"{TABLES[args.task]}.json"
-    if not table.exists():
-        raise SystemExit(f"{table} missing: run `diffosi reproduce {args.task}` first")
-    out = by_mu_figure(json.loads(table.read_text()), args.reports / f"by-mu-{args.task}.png")
-    print(f"wrote {out}")
+    draw(args.reports, f"window-{args.task}", window_figure, f"window-{args.task}", args.task)
+    if args.task in TABLES:
+        draw(args.reports, TABLES[args.task], by_mu_figure, f"by-mu-{args.task}", args.task)
     return 0

@@ -3,20 +3,13 @@
 
 mod common;
 
-use diffosi::control::ilqr::{run_mpc_episode, Ilqr, IlqrOptions, MpcEpisode, MpcOptions};
+use diffosi::control::ilqr::{run_mpc_episode, Ilqr, MpcEpisode, MpcOptions};
 use diffosi::tasks::{Cartpole, Task};
 use rand::rngs::StdRng;
 use rand::SeedableRng;
 
 fn options(horizon: usize, iterations: usize, replan: usize) -> MpcOptions {
-    MpcOptions {
-        ilqr: IlqrOptions {
-            iterations,
-            ..IlqrOptions::default()
-        },
-        horizon,
-        replan,
-    }
+    MpcOptions::new(horizon, replan, iterations)
 }
 
 #[test]

@@ -693,6 +693,19 @@ impl Default for MpcOptions {
 }
 
 impl MpcOptions {
+    /// Plans of `horizon` control steps, replanned every `replan`, with at
+    /// most `iterations` iLQR iterations (the other iLQR settings default).
+    pub fn new(horizon: usize, replan: usize, iterations: usize) -> MpcOptions {
+        MpcOptions {
+            ilqr: IlqrOptions {
+                iterations,
+                ..IlqrOptions::default()
+            },
+            horizon,
+            replan,
+        }
+    }
+
     /// The settings `diffosi mpc` uses for a task by name. The half cheetah:
     /// the paper's horizon and replanning period, at most 5 iterations per
     /// plan. The cartpole: 60 control steps (1.2 s, enough to swing a pole
@@ -705,14 +718,7 @@ impl MpcOptions {
             "cartpole" => (60, 5, 10),
             _ => (200, 40, 5),
         };
-        MpcOptions {
-            ilqr: IlqrOptions {
-                iterations,
-                ..IlqrOptions::default()
-            },
-            horizon,
-            replan,
-        }
+        MpcOptions::new(horizon, replan, iterations)
     }
 }
 

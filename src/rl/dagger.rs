@@ -34,7 +34,7 @@ use rand_distr::{Distribution, Normal};
 
 use super::policy::{input_dim, observation, Policy, PolicyKind, TrainingInfo};
 use super::stats::{normalize_into, RunningStats};
-use crate::control::ilqr::{IlqrOptions, Mpc, MpcOptions};
+use crate::control::ilqr::{Mpc, MpcOptions};
 use crate::control::ControlError;
 use crate::nn::{fit_least_squares, Mlp, Schedule};
 use crate::tasks::{sample_mu, Env, Task};
@@ -91,14 +91,7 @@ impl Default for DaggerConfig {
 
 impl DaggerConfig {
     fn expert(&self) -> MpcOptions {
-        MpcOptions {
-            ilqr: IlqrOptions {
-                iterations: self.iterations,
-                ..IlqrOptions::default()
-            },
-            horizon: self.horizon,
-            replan: 1,
-        }
+        MpcOptions::new(self.horizon, 1, self.iterations)
     }
 }
 
