@@ -1,4 +1,4 @@
-//! Soft contact and joint limits: which geoms pair up, forces at rest, the
+//! Soft contact and joint limits (the smooth contact model): which geoms pair up, forces at rest, the
 //! step's determinism, and stability of the half cheetah on its floor.
 //! (Jacobians through contact: tests/derivatives.rs; windows: tests/window.rs.)
 
@@ -9,7 +9,7 @@ use diffosi::dynamics::body_contact_forces;
 use diffosi::model::{mjcf, Model, Param};
 
 fn cheetah() -> Model {
-    Model::load(common::model_path("reference_models/half_cheetah.xml")).unwrap()
+    common::smooth(Model::load(common::model_path("reference_models/half_cheetah.xml")).unwrap())
 }
 
 #[test]
@@ -56,7 +56,7 @@ fn pairs_follow_masks_and_the_parent_child_rule() {
     </body>
   </worldbody>
 </mujoco>"#;
-    let model = mjcf::parse(text, "chain.xml").unwrap();
+    let model = common::smooth(mjcf::parse(text, "chain.xml").unwrap());
     let pairs: Vec<[&str; 2]> = common::contact_pair_names(&model);
     let expected = [
         ["ground", "a"],
@@ -86,7 +86,12 @@ fn geoms_touch_where_their_shapes_say() {
         let model = common::dropped(shape, 1.0, 0.095);
         let n = model.nv();
         let contacts = model
-            .contacts(&mut model.data(), &vec![0.0; n], &vec![0.0; n])
+            .contacts(
+                &mut model.data(),
+                &vec![0.0; n],
+                &vec![0.0; n],
+                &vec![0.0; n],
+            )
             .unwrap();
         let touching: Vec<_> = contacts.iter().filter(|c| c.depth > 0.0).collect();
         assert_eq!(touching.len(), count, "{shape}");
@@ -116,10 +121,10 @@ fn a_pair_rubs_with_its_larger_friction_times_the_scale() {
   </worldbody>
 </mujoco>"#
         );
-        let mut model = mjcf::parse(&text, "rub.xml").unwrap();
+        let mut model = common::smooth(mjcf::parse(&text, "rub.xml").unwrap());
         model.set_param("contact/friction", &[scale]).unwrap();
         let contacts = model
-            .contacts(&mut model.data(), &[0.0, 0.0], &[0.3, 0.0])
+            .contacts(&mut model.data(), &[0.0, 0.0], &[0.3, 0.0], &[0.0, 0.0])
             .unwrap();
         let [c] = &contacts[..] else {
             panic!("one contact, got {}", contacts.len())
@@ -163,7 +168,9 @@ fn spheres_and_capsules_touch_at_their_closest_points() {
     for (shape, at, point, depth) in cases {
         let model = common::crossing(shape, at);
         let zero = vec![0.0; model.nv()];
-        let contacts = model.contacts(&mut model.data(), &zero, &zero).unwrap();
+        let contacts = model
+            .contacts(&mut model.data(), &zero, &zero, &zero)
+            .unwrap();
         let [c] = &contacts[..] else {
             panic!("{shape}: one contact, got {}", contacts.len())
         };
@@ -203,7 +210,9 @@ fn a_resting_box_carries_its_weight() {
     for _ in 0..2000 {
         (q, v) = model.step(&mut data, &q, &v, &vec![0.0; n]).unwrap();
     }
-    let contacts = model.contacts(&mut data, &q, &v).unwrap();
+    let contacts = model
+        .contacts(&mut data, &q, &v, &vec![0.0; v.len()])
+        .unwrap();
     let forces = body_contact_forces(&contacts, model.bodies.len());
     let weight = mass * 9.81;
     let thing = model.body_index("thing").unwrap();
@@ -246,7 +255,9 @@ fn steps_depend_on_their_inputs_only() {
         assert_eq!(again, first);
     }
     assert_eq!((first.q_next, first.v_next), fresh);
-    let contacts = model.contacts(&mut data, &q, &v).unwrap();
+    let contacts = model
+        .contacts(&mut data, &q, &v, &vec![0.0; v.len()])
+        .unwrap();
     assert!(contacts.iter().any(|c| c.depth > 0.0), "in contact");
     assert_eq!(n, 9);
 }
@@ -260,7 +271,9 @@ fn the_half_cheetah_lands_and_stands() {
     for _ in 0..300 {
         (q, v) = model.step(&mut data, &q, &v, &vec![0.0; n]).unwrap();
     }
-    let contacts = model.contacts(&mut data, &q, &v).unwrap();
+    let contacts = model
+        .contacts(&mut data, &q, &v, &vec![0.0; v.len()])
+        .unwrap();
     let deepest = contacts.iter().map(|c| c.depth).fold(f64::MIN, f64::max);
     let forces = body_contact_forces(&contacts, model.bodies.len());
     let lift: f64 = forces[1..].iter().map(|f| f.z).sum();

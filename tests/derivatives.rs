@@ -18,7 +18,7 @@ const SETTINGS: [(Integrator, PassiveMode); 4] = [
 ];
 
 fn load(name: &str) -> Model {
-    Model::load(common::model_path(&format!("reference_models/{name}"))).unwrap()
+    common::smooth(Model::load(common::model_path(&format!("reference_models/{name}"))).unwrap())
 }
 
 fn with_settings(model: &Model, (integrator, passive): (Integrator, PassiveMode)) -> Model {
@@ -315,7 +315,9 @@ fn a_workspace_follows_the_model_it_is_used_with() {
 fn at_depth(model: &Model, seed: u64, height: usize, depth: f64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let (mut q, v, tau) = common::random_state(model, seed);
     q[height] = 0.0;
-    let contacts = model.contacts(&mut model.data(), &q, &v).unwrap();
+    let contacts = model
+        .contacts(&mut model.data(), &q, &v, &vec![0.0; v.len()])
+        .unwrap();
     let deepest = contacts.iter().map(|c| c.depth).fold(f64::MIN, f64::max);
     // Contacts beyond the cutoff are not listed: start from a touching pose.
     assert!(deepest > -0.02, "seed {seed}: no contact to move from");
@@ -352,7 +354,12 @@ fn jacobians_through_contact_match_finite_differences() {
         for (seed, depth) in [(0, 0.005), (1, 0.0005), (2, -0.02)] {
             let state = at_depth(model, seed, height, depth);
             let contacts = model
-                .contacts(&mut model.data(), &state.0, &state.1)
+                .contacts(
+                    &mut model.data(),
+                    &state.0,
+                    &state.1,
+                    &vec![0.0; state.1.len()],
+                )
                 .unwrap();
             let deepest = contacts.iter().map(|c| c.depth).fold(f64::MIN, f64::max);
             assert!(
@@ -394,7 +401,9 @@ fn jacobians_through_capsule_contact_match_finite_differences() {
             // Slides (joints 1-3) within 2 mm, hinges within 0.03 rad.
             let scale = |i: usize| if (1..=3).contains(&i) { 0.002 } else { 0.03 };
             let q: Vec<f64> = q.iter().enumerate().map(|(i, x)| scale(i) * x).collect();
-            let contacts = model.contacts(&mut model.data(), &q, &v).unwrap();
+            let contacts = model
+                .contacts(&mut model.data(), &q, &v, &vec![0.0; v.len()])
+                .unwrap();
             let [c] = &contacts[..] else {
                 panic!("case {k}: one contact, got {}", contacts.len())
             };

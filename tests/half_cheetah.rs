@@ -172,7 +172,12 @@ fn diffosi_finds_the_torso_mass_from_one_transition_through_contact() {
         let mut data = task.model().data();
         let contacts = task
             .model()
-            .contacts(&mut data, &transition.q, &transition.v)
+            .contacts(
+                &mut data,
+                &transition.q,
+                &transition.v,
+                &vec![0.0; transition.v.len()],
+            )
             .unwrap();
         in_contact += usize::from(!contacts.is_empty());
         let est = Lm::default()

@@ -139,8 +139,15 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         actuators,
         geoms,
         opt,
+        pairs,
+        excludes,
     } = ours;
     assert_eq!(name, &theirs.name, "{model}: model name");
+    assert_eq!(
+        (pairs, excludes),
+        (&theirs.pairs, &theirs.excludes),
+        "{model}: contact pairs"
+    );
     let Options {
         timestep,
         gravity,
@@ -148,7 +155,9 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         passive,
         contact,
         limits,
+        contact_model,
         soft,
+        solver,
     } = opt;
     let o = &theirs.opt;
     assert_eq!(
@@ -157,8 +166,8 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         "{model}: options"
     );
     assert_eq!(
-        (contact, limits, soft),
-        (&o.contact, &o.limits, &o.soft),
+        (contact, limits, contact_model, soft, solver),
+        (&o.contact, &o.limits, &o.contact_model, &o.soft, &o.solver),
         "{model}: contact options"
     );
     let mut worst = Worst::default();
@@ -202,12 +211,20 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
             armature,
             frictionloss,
             range,
+            margin,
+            limit_sol,
+            friction_sol,
         } = a;
         let at = |what: &str| format!("joint '{name}' {what}");
         assert_eq!(
             (name, kind, body, range.is_some()),
             (&b.name, &b.kind, &b.body, b.range.is_some()),
             "{model}"
+        );
+        assert_eq!(
+            (margin, limit_sol, friction_sol),
+            (&b.margin, &b.limit_sol, &b.friction_sol),
+            "{model}: joint '{name}' solver parameters"
         );
         worst.numbers(|| at("axis"), axis.as_slice(), b.axis.as_slice());
         worst.numbers(|| at("anchor"), anchor.as_slice(), b.anchor.as_slice());
@@ -262,17 +279,19 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
             contype,
             conaffinity,
             friction,
+            contact,
         } = a;
         let at = |what: &str| format!("geom '{name}' {what}");
         assert_eq!(
-            (name, body, shape, contype, conaffinity, friction),
+            (name, body, shape, contype, conaffinity, friction, contact),
             (
                 &b.name,
                 &b.body,
                 &b.shape,
                 &b.contype,
                 &b.conaffinity,
-                &b.friction
+                &b.friction,
+                &b.contact
             ),
             "{model}"
         );

@@ -41,8 +41,10 @@ fn load_twins(name: &str) -> (Model, Model) {
             env!("CARGO_MANIFEST_DIR")
         )
     };
+    // Both under the smooth contact model (URDF's default): a contact law
+    // the URDF file can state.
     let load = |p: String| Model::load(&p).unwrap_or_else(|e| panic!("{p}: {e}"));
-    (load(path("xml")), load(path("urdf")))
+    (common::smooth(load(path("xml"))), load(path("urdf")))
 }
 
 /// Body frames in world coordinates (rotation, origin) at the reference configuration.

@@ -282,7 +282,9 @@ fn bad_windows_are_clear_errors() {
 /// parameters goes through step_jacobians; both give the step's rows.
 #[test]
 fn rows_match_through_contact() {
-    let mut model = Model::load(common::model_path("reference_models/half_cheetah.xml")).unwrap();
+    let mut model = common::smooth(
+        Model::load(common::model_path("reference_models/half_cheetah.xml")).unwrap(),
+    );
     let n = model.nv();
     let scale: Vec<f64> = (0..2 * n).map(|i| 1e-3 * (1.0 + i as f64)).collect();
     let one = [1.0];
@@ -326,7 +328,12 @@ fn rows_match_through_contact() {
             })
             .collect();
         let contacts = model
-            .contacts(&mut model.data(), &window[0].q, &window[0].v)
+            .contacts(
+                &mut model.data(),
+                &window[0].q,
+                &window[0].v,
+                &vec![0.0; window[0].v.len()],
+            )
             .unwrap();
         assert!(contacts.iter().any(|c| c.depth > 0.0));
         let mut ws = Workspace::new(&model);

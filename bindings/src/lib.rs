@@ -15,7 +15,7 @@ mod wiping;
 
 use engine::derivatives::{step_jacobians, Transition, Workspace, Wrt};
 use engine::dynamics::{body_contact_forces, Contact, Data};
-use engine::model::{Integrator, MapEntry, Param, ParamError, ParamMap, PassiveMode};
+use engine::model::{ContactModel, Integrator, MapEntry, Param, ParamError, ParamMap, PassiveMode};
 use engine::osi::{
     Adam, CmaEs, CmaEsOptions, Estimate, Identifier, Lm, LmOptions, Loss, OsiError, Problem,
     HUBER_THRESHOLD,
@@ -113,9 +113,11 @@ impl PyModel {
 
     /// A copy run with other options, e.g. the conventions of the engine it is
     /// compared with: `m.with_options(passive="implicit_damping_stiffness",
-    /// timestep=0.005)`; `contact=False` / `limits=False` switch off the soft
-    /// contacts and joint limits. Options not given keep their value.
-    #[pyo3(signature = (*, timestep = None, gravity = None, integrator = None, passive = None, contact = None, limits = None))]
+    /// timestep=0.005)`; `contact=False` / `limits=False` switch off the
+    /// contacts and joint limits; `contact_model` is "constraint" (MuJoCo's
+    /// soft constraints, the default for MJCF files) or "smooth" (the penalty
+    /// model, the default for URDF files). Options not given keep their value.
+    #[pyo3(signature = (*, timestep = None, gravity = None, integrator = None, passive = None, contact = None, limits = None, contact_model = None))]
     #[allow(clippy::too_many_arguments)]
     fn with_options(
         &self,
@@ -125,7 +127,11 @@ impl PyModel {
         passive: Option<&str>,
         contact: Option<bool>,
         limits: Option<bool>,
+        contact_model: Option<&str>,
     ) -> PyResult<Self> {
+        let contact_model = contact_model
+            .map(|c| keyword("contact_model", c, &ContactModel::NAMES))
+            .transpose()?;
         let gravity = gravity.map(|g| vector(g, "gravity", 3, "3")).transpose()?;
         let integrator = integrator
             .map(|i| keyword("integrator", i, &Integrator::NAMES))
@@ -144,6 +150,7 @@ impl PyModel {
                 s.opt.passive = passive.unwrap_or(s.opt.passive);
                 s.opt.contact = contact.unwrap_or(s.opt.contact);
                 s.opt.limits = limits.unwrap_or(s.opt.limits);
+                s.opt.contact_model = contact_model.unwrap_or(s.opt.contact_model);
             })
             .map_err(model_error)?;
         Ok(PyModel::new(model))
@@ -288,24 +295,32 @@ impl PyModel {
         Ok(out)
     }
 
-    /// The soft contacts at (q, v), with the forces a step from (q, v)
-    /// applies: a list of dicts, one per geom pair within reach (depth > -30
-    /// activation widths; `depth` < 0 is a separation, whose force is tiny but
-    /// not zero). World frame, SI units. Keys: `geoms` and `bodies` (names of
-    /// a and b; b is the plane when there is one), `point` (halfway between
-    /// the surfaces), `normal` (unit, from b into a: the direction of the
-    /// normal force on a), `depth` (m, > 0 overlapping), `normal_force` (N
-    /// along `normal` on a; negative only while separating fast), `friction`
-    /// (3-vector, N, tangential force on a) and `force` (the total force on a,
-    /// normal_force * normal + friction); b feels the opposite. Empty when
-    /// contacts are off. NaN or infinite input raises ValueError.
+    /// The contacts at (q, v), with the forces a step from (q, v) under the
+    /// generalized forces `tau` (default zero) applies: a list of dicts, one
+    /// per contact point. Under the smooth model (forces independent of tau)
+    /// every geom pair within reach (depth > -30 activation widths; `depth`
+    /// < 0 is a separation, whose force is tiny but not zero); under the
+    /// constraint model MuJoCo's contacts within their margin, with the
+    /// solver's forces (mj_contactForce in world coordinates, torsional and
+    /// rolling moments left out). World frame, SI units. Keys: `geoms` and
+    /// `bodies` (names of a and b; b is the plane when there is one, else the
+    /// geom first in MuJoCo's shape order), `point` (halfway between the
+    /// surfaces), `normal` (unit, from b into a: the direction of the normal
+    /// force on a), `depth` (m, > 0 overlapping), `normal_force` (N along
+    /// `normal` on a; negative only while separating fast under the smooth
+    /// model), `friction` (3-vector, N, tangential force on a) and `force`
+    /// (the total force on a, normal_force * normal + friction); b feels the
+    /// opposite. Empty when contacts are off. NaN or infinite input raises
+    /// ValueError.
+    #[pyo3(signature = (q, v, tau = None))]
     fn contacts<'py>(
         &mut self,
         py: Python<'py>,
         q: &Bound<'py, PyAny>,
         v: &Bound<'py, PyAny>,
+        tau: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyList>> {
-        let contacts = self.contact_list(q, v)?;
+        let contacts = self.contact_list(q, v, tau)?;
         let out = PyList::empty(py);
         for c in contacts {
             let d = PyDict::new(py);
@@ -324,17 +339,19 @@ impl PyModel {
         Ok(out)
     }
 
-    /// The net contact force on each body at (q, v): an array of shape
-    /// (number of bodies, 3), rows in `body_names` order (the world first),
-    /// world frame, N: the sum of the forces of `contacts(q, v)` on the body
-    /// (no moments). The rows sum to zero.
+    /// The net contact force on each body at (q, v) under `tau` (default
+    /// zero): an array of shape (number of bodies, 3), rows in `body_names`
+    /// order (the world first), world frame, N: the sum of the forces of
+    /// `contacts(q, v, tau)` on the body (no moments). The rows sum to zero.
+    #[pyo3(signature = (q, v, tau = None))]
     fn body_contact_forces<'py>(
         &mut self,
         py: Python<'py>,
         q: &Bound<'py, PyAny>,
         v: &Bound<'py, PyAny>,
+        tau: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let contacts = self.contact_list(q, v)?;
+        let contacts = self.contact_list(q, v, tau)?;
         let forces = body_contact_forces(&contacts, self.model.bodies.len());
         let a = Array2::from_shape_fn((forces.len(), 3), |(b, k)| forces[b][k]);
         Ok(PyArray2::from_owned_array(py, a))
@@ -357,12 +374,17 @@ impl PyModel {
         &mut self,
         q: &Bound<'_, PyAny>,
         v: &Bound<'_, PyAny>,
+        tau: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Vec<Contact<f64>>> {
         let q = vector(q, "q", self.model.nq(), "nq")?;
         let v = vector(v, "v", self.model.nv(), "nv")?;
+        let tau = match tau {
+            Some(t) => vector(t, "tau", self.model.nv(), "nv")?,
+            None => vec![0.0; self.model.nv()],
+        };
         let contacts = self
             .model
-            .contacts(&mut self.data, &q, &v)
+            .contacts(&mut self.data, &q, &v, &tau)
             .map_err(|e| PyValueError::new_err(format!("contacts: {e}")))?;
         let finite = |c: &Contact<f64>| {
             c.point.iter().chain(&c.force()).all(|x| x.is_finite()) && c.depth.is_finite()

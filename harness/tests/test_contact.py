@@ -19,8 +19,8 @@ KEYS = {"geoms", "bodies", "point", "normal", "depth", "normal_force", "friction
 
 
 def sunk_box(depth=0.002):
-    """The box level, `depth` into the floor, at rest."""
-    m = diffosi.Model.load(BOX)
+    """The box level, `depth` into the floor, at rest (the smooth contact model)."""
+    m = diffosi.Model.load(BOX).with_options(contact_model="smooth")
     q = np.zeros(6)
     q[2] = -depth
     return m, q, np.zeros(6)
@@ -104,7 +104,7 @@ def test_bad_shapes_and_huge_states_are_refused():
 
 
 def test_half_cheetah_contacts_name_its_geoms():
-    m = diffosi.Model.load(CHEETAH)
+    m = diffosi.Model.load(CHEETAH).with_options(contact_model="smooth")
     q, v = np.zeros(9), np.zeros(9)
     q[1] = -0.2  # torso 0.5 m up: the feet in the floor
     contacts = m.contacts(q, v)

@@ -55,7 +55,8 @@ def test_a_python_rollout_is_bitwise_the_binary_rollout(tmp_path):
     nq, nv = q.shape[1], v.shape[1]
     assert rows[:, 1:1 + nq].tobytes() == q.tobytes()
     assert rows[:, 1 + nq:1 + nq + nv].tobytes() == v.tobytes()
-    # The force-sensing columns, one per geom pair: the normal forces Model.contacts reports.
+    # The force-sensing columns, one per geom pair: the normal forces Model.contacts reports
+    # under the torques of the step from that row (none after the last).
     model = diffosi.Model.load(path)
     pairs = [name[len("fn_"):] for name in header[1 + nq + nv:]]
     assert pairs and all(p.endswith("_floor") for p in pairs)
@@ -63,7 +64,8 @@ def test_a_python_rollout_is_bitwise_the_binary_rollout(tmp_path):
     assert forces.max() > 1.0  # the cheetah does touch its floor
     for t in (0, int(forces.sum(axis=1).argmax()), 200):
         sensed = dict.fromkeys(pairs, 0.0)
-        for c in model.contacts(q[t], v[t]):
+        tau = taus[t] if t < len(taus) else np.zeros(nv)
+        for c in model.contacts(q[t], v[t], tau):
             sensed["_".join(c["geoms"])] += c["normal_force"]
         assert forces[t].tolist() == list(sensed.values())
 

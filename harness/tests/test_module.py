@@ -18,7 +18,8 @@ RNG = np.random.default_rng(0)
 
 
 def load(path):
-    return diffosi.Model.load(path)
+    """The model under the smooth contact model, whose step Jacobians these tests check."""
+    return diffosi.Model.load(path).with_options(contact_model="smooth")
 
 
 def random_state(m, scale=0.3):

@@ -4,12 +4,16 @@
 //! pairs one `fn_<geom a>_<geom b>` per pair (force sensing): the normal
 //! force (N) on a along the contact normal at the row's state, summed over
 //! the pair's contact points (a box's corners, a capsule's two ends), which
-//! is the force the step from that row applies (0 out of reach; see
-//! `diffosi::dynamics::contact` for the conventions).
+//! is the force the step from that row applies under that step's torques
+//! (the last row: none). 0 out of reach; b is the plane, or the geom first
+//! in MuJoCo's shape order (see `diffosi::dynamics::contact` and
+//! `diffosi::dynamics::collision` for the conventions).
 
 use std::io::Write;
 
+use diffosi::dynamics::collision::collision_pairs;
 use diffosi::dynamics::contact::contact_pairs;
+use diffosi::model::ContactModel;
 use diffosi::Model;
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -39,7 +43,7 @@ pub fn simulate(
     let mut out = std::io::BufWriter::new(file);
     let io = |e: std::io::Error| format!("cannot write {}: {e}", output.display());
     let names = model.joints.iter().map(|j| j.name.as_str());
-    let pairs = contact_pairs(&model);
+    let pairs = sensed_pairs(&model);
     let geom = |g: usize| model.geoms[g].name.as_str();
     let header: Vec<String> = std::iter::once("t".to_string())
         .chain(names.clone().map(|n| format!("q_{n}")))
@@ -52,18 +56,17 @@ pub fn simulate(
         .collect();
     writeln!(out, "{}", header.join(",")).map_err(io)?;
     let started = std::time::Instant::now();
-    for (t, tau) in std::iter::once(None)
-        .chain(taus.iter().map(Some))
-        .enumerate()
-    {
-        if let Some(tau) = tau {
+    let zero = vec![0.0; model.nv()];
+    for t in 0..=steps {
+        if t > 0 {
             (q, v) = model
-                .step(&mut data, &q, &v, tau)
+                .step(&mut data, &q, &v, &taus[t - 1])
                 .map_err(|e| format!("step {}: {e}", t - 1))?;
             bar.inc(1);
         }
         let time = t as f64 * model.opt.timestep;
-        let sensed = normal_forces(&model, &mut data, &pairs, &q, &v)
+        let tau = taus.get(t).unwrap_or(&zero);
+        let sensed = normal_forces(&model, &mut data, &pairs, (&q, &v, tau))
             .map_err(|e| format!("contacts at step {t}: {e}"))?;
         let row: Vec<String> = std::iter::once(time)
             .chain(q.iter().copied())
@@ -85,19 +88,30 @@ pub fn simulate(
     Ok(())
 }
 
-/// The normal force of each pair's contact at (q, v), in the order of `pairs`.
+/// The geom pairs [a, b] that may touch, as the contacts name them.
+fn sensed_pairs(model: &Model) -> Vec<[usize; 2]> {
+    match model.opt.contact_model {
+        ContactModel::Smooth => contact_pairs(model),
+        ContactModel::Constraint => collision_pairs(model)
+            .into_iter()
+            .map(|([g1, g2], ..)| [g2, g1])
+            .collect(),
+    }
+}
+
+/// The normal force of each pair's contact at (q, v) under tau, in the
+/// order of `pairs`.
 fn normal_forces(
     model: &Model,
     data: &mut diffosi::dynamics::Data<f64>,
     pairs: &[[usize; 2]],
-    q: &[f64],
-    v: &[f64],
+    (q, v, tau): (&[f64], &[f64], &[f64]),
 ) -> Result<Vec<f64>, diffosi::dynamics::StepError> {
     let mut out = vec![0.0; pairs.len()];
     if pairs.is_empty() {
         return Ok(out);
     }
-    for c in model.contacts(data, q, v)? {
+    for c in model.contacts(data, q, v, tau)? {
         if let Some(k) = pairs.iter().position(|&p| p == c.geoms) {
             out[k] += c.normal_force;
         }

@@ -11,7 +11,7 @@ use crate::dynamics::{
     ltdl_solve_columns, rnea, step,
 };
 use crate::dynamics::{Data, StepError};
-use crate::model::{Integrator, Model, Param, PassiveMode};
+use crate::model::{ContactModel, Integrator, Model, Param, PassiveMode};
 
 /// Which Jacobian blocks to compute; blocks not asked for cost nothing.
 #[derive(Clone, Copy, Debug, Default)]
@@ -94,6 +94,11 @@ pub fn step_jacobians(
     wrt: &Wrt,
 ) -> Result<StepJacobians, StepError> {
     let n = model.nv();
+    let tree = model.tree();
+    check_inputs(n, (q, v, tau))?;
+    if tree.contact_model == ContactModel::Constraint && tree.has_constraints() {
+        return Err(StepError::ConstraintDerivatives);
+    }
     ws.size_for(model);
     let (mut q_next, mut v_next) = (vec![0.0; n], vec![0.0; n]);
     let blocks = match model.opt.integrator {

@@ -355,7 +355,12 @@ fn reach(shape: &Shape) -> f64 {
 
 /// Whether geom a (never a plane) is farther than `cutoff` from geom b by
 /// their bounding spheres (b's: its plane when it is one).
-fn apart<T: Real>(a: &GeomFrame<T>, b: &GeomFrame<T>, world: &[Transform<T>], cutoff: f64) -> bool {
+pub(crate) fn apart<T: Real>(
+    a: &GeomFrame<T>,
+    b: &GeomFrame<T>,
+    world: &[Transform<T>],
+    cutoff: f64,
+) -> bool {
     let gap = a.centre(world) - b.centre(world);
     let limit: T = lift(reach(&a.shape) + cutoff);
     match b.shape {

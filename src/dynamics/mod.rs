@@ -14,12 +14,15 @@
 #![allow(clippy::needless_range_loop)]
 
 mod aba;
+pub mod collision;
+pub mod constraint;
 pub mod contact;
 mod crba;
 mod kinematics;
 mod ltdl;
 mod passive;
 mod rnea;
+pub mod solver;
 mod step;
 mod tree;
 
@@ -30,7 +33,9 @@ pub use kinematics::{body_poses, update_transforms};
 pub use ltdl::{ltdl_factor, ltdl_solve, ltdl_solve_columns};
 pub use passive::passive_forces;
 pub use rnea::{bias_forces, rnea};
-pub use step::{acceleration, check_inputs, implicit_terms, integrate_euler, step, StepError};
+pub use step::{
+    acceleration, check_inputs, implicit_terms, integrate_euler, step, Constrained, StepError,
+};
 pub use tree::{body_inertia, BodyFrame, NodeJoint, Tree};
 
 use crate::spatial::{ArticulatedInertia, Force, Inertia, Motion, Real, Transform};
@@ -62,8 +67,10 @@ pub struct Data<T: Real> {
     pub world_axis: Vec<Motion<T>>,
     pub world_vel: Vec<Motion<T>>,
     pub world_force: Vec<Force<T>>,
-    /// The contacts of the last force evaluation.
+    /// The contacts of the last force evaluation (smooth model).
     pub contacts: Vec<Contact<T>>,
+    /// The constraint model's last evaluation: its contacts, rows and solution.
+    pub constrained: Option<Constrained<T>>,
     /// Scratch vectors of length nv: the acceleration's, and RK4's stages.
     scratch: [Vec<T>; 3],
     stage: [Vec<T>; 3],
@@ -90,6 +97,7 @@ impl<T: Real> Data<T> {
             world_vel: vec![Motion::zero(); n],
             world_force: vec![Force::zero(); n],
             contacts: vec![],
+            constrained: None,
             scratch: std::array::from_fn(|_| vec![T::zero(); n]),
             stage: std::array::from_fn(|_| vec![T::zero(); n]),
         }

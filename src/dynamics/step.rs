@@ -1,10 +1,15 @@
 //! One timestep of the equations of motion.
 
+use nalgebra::DMatrix;
+
+use super::collision::ConstraintContact;
+use super::constraint::{rows, unreachable_pair, world_frames, Rows};
+use super::solver::{solve, Solution};
 use super::{
-    aba_with_transforms, add_soft_forces_with_transforms, passive_forces, update_transforms, Data,
-    Tree,
+    aba_with_transforms, add_soft_forces_with_transforms, bias_forces, crba, ltdl_factor,
+    ltdl_solve, passive_forces, update_transforms, Data, Tree,
 };
-use crate::model::{Integrator, Options, PassiveMode};
+use crate::model::{ContactModel, Integrator, Options, PassiveMode};
 use crate::spatial::{lift, Real};
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -20,6 +25,23 @@ pub enum StepError {
     NotFinite { name: &'static str, index: usize },
     #[error("the step diverged: the next state is not finite (timestep too large?)")]
     Diverged,
+    /// Step Jacobians of a model whose constraint rows (contacts, limits,
+    /// dry friction) would be left out of them.
+    #[error(
+        "step Jacobians through the constraint contact model are not available yet: \
+         the model has contacts, limits or dry friction under it; for derivatives use \
+         the smooth contact model (Python: m.with_options(contact_model=\"smooth\"); \
+         MJCF: <custom><text name=\"diffosi:contact\" data=\"smooth\"/></custom>)"
+    )]
+    ConstraintDerivatives,
+    /// Two geoms within reach of each other whose shapes have no collider.
+    #[error(
+        "geoms {} and {} (model geom indices) are within reach and the constraint model has \
+         no collider for their shapes yet (see diffosi::dynamics::collision); switch their \
+         contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
+        .0[0], .0[1]
+    )]
+    NoCollider([usize; 2]),
     /// The next state is finite but a Jacobian block overflowed.
     #[error("the step Jacobian {block} is not finite (state, forces or parameters too large)")]
     JacobianNotFinite { block: &'static str },
@@ -55,6 +77,15 @@ pub fn step<T: Real>(
                 got: x.len(),
                 expected: n,
             });
+        }
+    }
+    if tree.contact_model == ContactModel::Constraint
+        && tree.constraint.pairs.iter().any(|p| !p.supported)
+    {
+        update_transforms(tree, data, q);
+        world_frames(tree, data, v);
+        if let Some(pair) = unreachable_pair(tree, data) {
+            return Err(StepError::NoCollider(pair));
         }
     }
     let h = opt.timestep;
@@ -110,11 +141,92 @@ pub fn acceleration<T: Real>(
     for i in 0..tree.nv() {
         force[i] += tau[i];
     }
+    let implicit = (mode != PassiveMode::Explicit).then_some(&extra[..]);
     update_transforms(tree, data, q);
-    add_soft_forces_with_transforms(tree, data, (q, v), force);
-    let implicit = mode != PassiveMode::Explicit;
-    aba_with_transforms(tree, data, v, force, implicit.then_some(&extra[..]), qdd);
+    data.constrained = None;
+    if tree.contact_model == ContactModel::Constraint && tree.has_constraints() {
+        world_frames(tree, data, v);
+        let (rows, contacts) = rows(tree, data, (q, v));
+        if !rows.is_empty() {
+            constrained(tree, data, (q, v), force, implicit, (rows, contacts), qdd);
+            data.scratch = scratch;
+            return;
+        }
+    } else {
+        add_soft_forces_with_transforms(tree, data, (q, v), force);
+    }
+    aba_with_transforms(tree, data, v, force, implicit, qdd);
     data.scratch = scratch;
+}
+
+/// The constraint model's last evaluation (see [`constrained`]).
+#[derive(Clone, Debug)]
+pub struct Constrained<T: Real> {
+    pub contacts: Vec<ConstraintContact<T>>,
+    pub rows: Rows<T>,
+    pub solution: Solution<T>,
+}
+
+/// The acceleration under the constraint model, as MuJoCo's forward pass
+/// computes it:
+/// 1. collision and constraint rows at (q, v) ([`super::constraint`]; with
+///    none, the step is the plain articulated dynamics, bit for bit);
+/// 2. a0 = M^-1 (tau + tau_passive - c), M from CRBA (armature included);
+/// 3. the constrained acceleration and forces f ([`super::solver`]);
+/// 4. with implicit passive terms (MuJoCo's Euler), the acceleration is
+///    solved again with them: (M + diag(extra)) qdd = tau + tau_passive - c
+///    + J^T f; otherwise qdd is the solver's.
+///
+/// `force` holds tau + tau_passive on entry.
+fn constrained<T: Real>(
+    tree: &Tree<T>,
+    data: &mut Data<T>,
+    (q, v): (&[T], &[T]),
+    force: &mut [T],
+    implicit: Option<&[T]>,
+    (rows, contacts): (Rows<T>, Vec<ConstraintContact<T>>),
+    qdd: &mut [T],
+) {
+    let n = tree.nv();
+    let mut bias = vec![T::zero(); n];
+    bias_forces(tree, data, q, v, &mut bias);
+    for i in 0..n {
+        force[i] -= bias[i];
+    }
+    crba(tree, data, q);
+    let mass = data.mass_matrix.clone();
+    let mut factored = mass.clone();
+    ltdl_factor(tree, &mut factored);
+    let mut a0 = force.to_vec();
+    ltdl_solve(tree, &factored, &mut a0);
+    let solution = solve(&mass, &a0, &rows, tree.constraint.solver.iterations);
+    match implicit {
+        None => qdd.copy_from_slice(&solution.qacc),
+        Some(extra) => {
+            qdd.copy_from_slice(force);
+            for (row, f) in rows.j.iter().zip(&solution.force) {
+                for i in 0..n {
+                    qdd[i] += row[i] * *f;
+                }
+            }
+            let mut m = mass;
+            for i in 0..n {
+                m[(i, i)] += extra[i];
+            }
+            solve_dense(tree, m, qdd);
+        }
+    }
+    data.constrained = Some(Constrained {
+        contacts,
+        rows,
+        solution,
+    });
+}
+
+/// Solves m x = b in place (m a mass matrix of the tree's sparsity).
+fn solve_dense<T: Real>(tree: &Tree<T>, mut m: DMatrix<T>, b: &mut [T]) {
+    ltdl_factor(tree, &mut m);
+    ltdl_solve(tree, &m, b);
 }
 
 /// For a semi-implicit Euler step: the position at which the spring acts, and

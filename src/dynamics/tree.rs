@@ -9,9 +9,11 @@
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
+use super::collision::{collision_pairs, CollisionPair};
+use super::constraint::{invweight0, ConstraintConsts, Limit};
 use super::contact::{contact_pairs, GeomFrame, Pair, Soft};
 use crate::model::params::inertia_to_six;
-use crate::model::{Body, JointKind, Param, SoftOptions, Spec};
+use crate::model::{Body, ContactModel, JointKind, Param, SoftOptions, Spec};
 use crate::spatial::{lift, lift_vector, Inertia, Motion, Real, Transform};
 
 /// A one-dof joint in its node's frame. Its motion subspace `s` is the same
@@ -85,9 +87,14 @@ pub struct Tree<T: Real> {
     /// [`super::contact`]); both empty when contacts are off.
     pub geoms: Vec<GeomFrame<T>>,
     pub pairs: Vec<Pair>,
-    /// Per node: the joint's range if it is limited and limits are on.
+    /// Per node: the joint's range if it is limited and limits are on
+    /// (smooth model).
     pub limits: Vec<Option<(f64, f64)>>,
     pub soft: Soft<T>,
+    /// Which law contacts, limits and dry friction follow; the constraint
+    /// model's constants (empty under the smooth model).
+    pub contact_model: ContactModel,
+    pub constraint: ConstraintConsts<T>,
 }
 
 impl<T: Real> Tree<T> {
@@ -108,6 +115,8 @@ impl<T: Real> Tree<T> {
             pairs: vec![],
             limits: vec![],
             soft: Soft::new(&SoftOptions::default(), [T::zero(); 3]),
+            contact_model: ContactModel::Smooth,
+            constraint: ConstraintConsts::empty(),
         }
     }
 
@@ -115,6 +124,15 @@ impl<T: Real> Tree<T> {
     /// articulated dynamics).
     pub fn has_soft_forces(&self) -> bool {
         !self.pairs.is_empty() || self.limits.iter().any(Option::is_some)
+    }
+
+    /// Whether constraint rows can exist (else the step is the plain
+    /// articulated dynamics under either model).
+    pub fn has_constraints(&self) -> bool {
+        let c = &self.constraint;
+        !c.pairs.is_empty()
+            || c.limits.iter().any(Option::is_some)
+            || c.frictionloss.iter().any(|(f, _)| *f > T::zero())
     }
 
     pub fn nv(&self) -> usize {
@@ -181,28 +199,78 @@ impl<T: Real> Tree<T> {
             (Param::ContactFriction, soft.friction),
         ];
         tree.soft = Soft::new(soft, constants.map(|(p, x)| lift_param(p, 0, x)));
-        tree.add_pairs(model);
+        tree.contact_model = model.opt.contact_model;
+        match model.opt.contact_model {
+            ContactModel::Smooth => tree.add_pairs(model),
+            ContactModel::Constraint => tree.add_constraints(model),
+        }
         tree
+    }
+
+    /// The constraint model's constants: collision pairs, limits, dry
+    /// friction, invweight0 (at the reference configuration, as MuJoCo's
+    /// mj_setConst computes them).
+    fn add_constraints(&mut self, model: &Spec) {
+        let limits = std::mem::take(&mut self.limits);
+        let opt = &model.opt;
+        let c = &mut self.constraint;
+        c.solver = opt.solver;
+        c.timestep = opt.timestep;
+        c.limits = model
+            .joints
+            .iter()
+            .zip(limits)
+            .map(|(j, range)| {
+                range.map(|range| Limit {
+                    range,
+                    margin: j.margin,
+                    sol: j.limit_sol,
+                })
+            })
+            .collect();
+        c.frictionloss = model
+            .joints
+            .iter()
+            .map(|j| {
+                let on = opt.solver.frictionloss && j.frictionloss > 0.0;
+                (lift(if on { j.frictionloss } else { 0.0 }), j.friction_sol)
+            })
+            .collect();
+        for (geoms, params, supported) in collision_pairs(model) {
+            let geoms = geoms.map(|g| self.geom_frame(model, g));
+            self.constraint.pairs.push(CollisionPair {
+                geoms,
+                params,
+                supported,
+            });
+        }
+        let (bodies, dofs) = invweight0(self, model);
+        self.constraint.body_invweight = bodies;
+        self.constraint.dof_invweight = dofs;
+    }
+
+    /// The index in `geoms` of model geom `g`, placed in its node's frame
+    /// the first time it is asked for.
+    fn geom_frame(&mut self, model: &Spec, g: usize) -> usize {
+        if let Some(k) = self.geoms.iter().position(|f| f.geom == g) {
+            return k;
+        }
+        let geom = &model.geoms[g];
+        let frame = self.body[geom.body];
+        self.geoms.push(GeomFrame {
+            geom: g,
+            body: geom.body,
+            node: frame.node,
+            offset: Transform::from_pose_f64(&geom.rot, &geom.pos).compose(&frame.offset),
+            shape: geom.shape,
+        });
+        self.geoms.len() - 1
     }
 
     /// Places the geoms of the model's contact pairs and indexes the pairs.
     fn add_pairs(&mut self, model: &Spec) {
         for [a, b] in contact_pairs(model) {
-            let geoms = [a, b].map(|g| {
-                if let Some(k) = self.geoms.iter().position(|f| f.geom == g) {
-                    return k;
-                }
-                let geom = &model.geoms[g];
-                let frame = self.body[geom.body];
-                self.geoms.push(GeomFrame {
-                    geom: g,
-                    body: geom.body,
-                    node: frame.node,
-                    offset: Transform::from_pose_f64(&geom.rot, &geom.pos).compose(&frame.offset),
-                    shape: geom.shape,
-                });
-                self.geoms.len() - 1
-            });
+            let geoms = [a, b].map(|g| self.geom_frame(model, g));
             let friction = model.geoms[a].friction[0].max(model.geoms[b].friction[0]);
             self.pairs.push(Pair { geoms, friction });
         }

@@ -17,6 +17,7 @@
 //! - Generalized forces tau have length nv. An actuator maps a control u to
 //!   tau[joint] += gear * u.
 
+pub mod constraint;
 pub mod geom_inertia;
 pub mod mjcf;
 pub mod params;
@@ -25,6 +26,7 @@ mod xml;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
+pub use constraint::{Cone, ContactModel, ContactPair, GeomContact, SolParams, SolverOptions};
 pub use params::{MapEntry, Param, ParamError, ParamMap};
 
 use crate::dynamics::{self, Contact, Data, StepError, Tree};
@@ -116,10 +118,17 @@ pub struct Joint {
     pub springref: f64,
     /// Rotor inertia added to the mass-matrix diagonal (MuJoCo armature).
     pub armature: f64,
-    /// Dry friction (stored for later use; not in the smooth dynamics yet).
+    /// Dry friction: a constraint row of the constraint model (MuJoCo's
+    /// `frictionloss`); the smooth model ignores it.
     pub frictionloss: f64,
     /// Position limits, if the joint is limited.
     pub range: Option<(f64, f64)>,
+    /// The constraint model's settings of the limit (MJCF `margin`,
+    /// `solreflimit`, `solimplimit`) and of the dry friction
+    /// (`solreffriction`, `solimpfriction`).
+    pub margin: f64,
+    pub limit_sol: SolParams,
+    pub friction_sol: SolParams,
 }
 
 /// A control input acting on one joint: tau[joint] += gear * u.
@@ -167,9 +176,11 @@ pub struct Geom {
     /// MJCF contype/conaffinity bitmasks (URDF collision geoms get 1/1).
     pub contype: u32,
     pub conaffinity: u32,
-    /// Sliding, torsional, rolling friction (MJCF order); only the sliding
-    /// coefficient enters the contact forces (see [`SoftOptions::friction`]).
+    /// Sliding, torsional, rolling friction (MJCF order); the smooth model
+    /// uses only the sliding coefficient (see [`SoftOptions::friction`]).
     pub friction: [f64; 3],
+    /// How the constraint model makes and solves this geom's contacts.
+    pub contact: GeomContact,
 }
 
 /// How velocities and positions advance over one timestep.
@@ -223,11 +234,17 @@ pub struct Options {
     pub contact: bool,
     /// Soft joint limits on joints with a `range` (on by default).
     pub limits: bool,
+    /// Which law contacts, limits and dry friction follow.
+    pub contact_model: ContactModel,
+    /// The smooth model's constants.
     pub soft: SoftOptions,
+    /// The constraint model's solver.
+    pub solver: SolverOptions,
 }
 
 impl Default for Options {
-    /// MuJoCo's defaults; contacts and limits on, with [`SoftOptions::default`].
+    /// MuJoCo's defaults; contacts and limits on, under the smooth model
+    /// with [`SoftOptions::default`] (the MJCF loader picks the constraint model).
     fn default() -> Self {
         Options {
             timestep: 0.002,
@@ -236,7 +253,9 @@ impl Default for Options {
             passive: PassiveMode::ImplicitDamping,
             contact: true,
             limits: true,
+            contact_model: ContactModel::Smooth,
             soft: SoftOptions::default(),
+            solver: SolverOptions::default(),
         }
     }
 }
@@ -320,6 +339,10 @@ pub struct Spec {
     pub actuators: Vec<Actuator>,
     pub geoms: Vec<Geom>,
     pub opt: Options,
+    /// Explicit contact pairs (MJCF `<contact><pair>`), and pairs of bodies
+    /// whose geoms never collide (`<exclude>`, body indices).
+    pub pairs: Vec<ContactPair>,
+    pub excludes: Vec<[usize; 2]>,
 }
 
 /// A validated [`Spec`] together with the numeric tree the dynamics run on.
@@ -356,6 +379,8 @@ impl Model {
             actuators,
             geoms,
             opt,
+            pairs: vec![],
+            excludes: vec![],
         })
     }
 
@@ -458,6 +483,7 @@ impl Spec {
             return bad(format!("gravity must be finite, got {:?}", o.gravity));
         }
         check_soft(&o.soft)?;
+        o.solver.check().map_err(ModelError::NotPhysical)?;
         let mut next_joint = 0;
         for (i, b) in self.bodies.iter().enumerate().skip(1) {
             if b.parent >= i {
@@ -480,15 +506,29 @@ impl Spec {
                 return bad(format!("joint '{}' axis is not a unit vector", j.name));
             }
             check_passive(j)?;
-        }
-        for g in &self.geoms {
-            if !g.friction.iter().all(|f| f.is_finite() && *f >= 0.0) {
-                return bad(format!(
-                    "geom '{}' friction must be finite and >= 0",
-                    g.name
-                ));
+            let owner = format!("joint '{}'", j.name);
+            j.limit_sol.check(&owner).map_err(ModelError::NotPhysical)?;
+            j.friction_sol
+                .check(&owner)
+                .map_err(ModelError::NotPhysical)?;
+            if !(j.margin.is_finite() && j.margin >= 0.0) {
+                return bad(format!("{owner}: margin must be finite and >= 0"));
             }
         }
+        for g in &self.geoms {
+            let owner = format!("geom '{}'", g.name);
+            constraint::check_friction(&g.friction, &owner)
+                .and_then(|()| g.contact.check(&owner))
+                .map_err(ModelError::NotPhysical)?;
+        }
+        for p in &self.pairs {
+            p.check(self.geoms.len()).map_err(ModelError::NotPhysical)?;
+        }
+        let nbody = self.bodies.len();
+        if self.excludes.iter().flatten().any(|b| *b >= nbody) {
+            return bad("an excluded body pair names a body that does not exist".into());
+        }
+
         for a in &self.actuators {
             if a.joint >= self.joints.len() || !a.gear.is_finite() {
                 return bad(format!("actuator '{}' has a bad joint or gear", a.name));
@@ -629,18 +669,31 @@ impl Model {
     }
 
     /// The contacts at (q, v) with their forces: those a semi-implicit Euler
-    /// step from (q, v) applies (see [`dynamics::contact`]; net force per
-    /// body: [`dynamics::body_contact_forces`]).
+    /// step from (q, v) under generalized forces tau applies (net force per
+    /// body: [`dynamics::body_contact_forces`]). Under the smooth model the
+    /// forces depend on (q, v) only ([`dynamics::contact`]); under the
+    /// constraint model they are the solver's and depend on tau too
+    /// ([`dynamics::constraint::contact_forces`]).
     pub fn contacts(
         &self,
         data: &mut Data<f64>,
         q: &[f64],
         v: &[f64],
+        tau: &[f64],
     ) -> Result<Vec<Contact<f64>>, StepError> {
-        dynamics::check_inputs(self.nv(), (q, v, v))?;
-        let mut tau = vec![0.0; self.nv()];
-        dynamics::add_soft_forces(&self.tree, data, (q, v), &mut tau);
-        Ok(data.contacts.clone())
+        dynamics::check_inputs(self.nv(), (q, v, tau))?;
+        if self.opt.contact_model == ContactModel::Smooth {
+            let mut out = vec![0.0; self.nv()];
+            dynamics::add_soft_forces(&self.tree, data, (q, v), &mut out);
+            return Ok(data.contacts.clone());
+        }
+        data.constrained = None;
+        let mut qdd = vec![0.0; self.nv()];
+        let mode = (self.opt.passive, self.opt.timestep);
+        dynamics::acceleration(&self.tree, data, mode, (q, v, tau), &mut qdd);
+        Ok(data.constrained.as_ref().map_or(vec![], |c| {
+            dynamics::constraint::contact_forces(&c.contacts, &c.rows, &c.solution.force)
+        }))
     }
 
     /// Steps from (q0, v0) under each row of `taus`; returns the T+1 states

@@ -17,10 +17,11 @@
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use super::{
-    check_inertial, check_passive, check_soft, check_tree_inertia, Model, ModelError, SoftOptions,
-    Spec,
+    check_inertial, check_passive, check_soft, check_tree_inertia, ContactModel, Model, ModelError,
+    SoftOptions, Spec,
 };
 use crate::dynamics::body_inertia;
+use crate::dynamics::constraint::invweight0;
 use crate::dynamics::contact::contact_pairs;
 #[cfg(doc)]
 use crate::dynamics::Tree;
@@ -389,6 +390,14 @@ impl Model {
             tree.damping[k] = j.damping;
             tree.stiffness[k] = j.stiffness;
             tree.armature[k] = j.armature;
+        }
+        if tree.contact_model == ContactModel::Constraint {
+            // MuJoCo's mj_setConst after an edit of inertial values.
+            let (body, dof) = invweight0(tree, &self.spec);
+            (
+                tree.constraint.body_invweight,
+                tree.constraint.dof_invweight,
+            ) = (body, dof);
         }
     }
 }

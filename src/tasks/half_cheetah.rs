@@ -33,7 +33,7 @@ use rand::RngExt;
 use rand_distr::{Distribution, StandardNormal};
 
 use super::Task;
-use crate::model::{mjcf, MapEntry, Model, ParamError, ParamMap, State};
+use crate::model::{mjcf, ContactModel, MapEntry, Model, ParamError, ParamMap, State};
 
 /// The model file, compiled in so the task needs no path at run time.
 const MJCF: &str = include_str!("../../reference_models/half_cheetah.xml");
@@ -54,9 +54,11 @@ impl HalfCheetah {
     /// Standard deviation of the Gaussian noise on v at reset.
     pub const RESET_V_NOISE: f64 = 0.1;
 
-    /// The task on the shipped `reference_models/half_cheetah.xml`.
+    /// The task on the shipped `reference_models/half_cheetah.xml`, under
+    /// the smooth contact model its shipped controllers were trained on.
     pub fn new() -> HalfCheetah {
         let model = mjcf::parse(MJCF, "reference_models/half_cheetah.xml")
+            .and_then(|m| m.edited(|s| s.opt.contact_model = ContactModel::Smooth))
             .expect("the shipped half cheetah model loads");
         HalfCheetah::with_model(model).expect("the shipped half cheetah has a torso")
     }

@@ -71,6 +71,9 @@ pub fn random_model(seed: u64, n: usize, passive: PassiveMode, integrator: Integ
                 },
                 frictionloss: 0.0,
                 range: None,
+                margin: 0.0,
+                limit_sol: Default::default(),
+                friction_sol: Default::default(),
             });
         }
         bodies.push(Body {
@@ -237,7 +240,7 @@ pub fn dropped(shape: &str, mass: f64, height: f64) -> Model {
   </worldbody>
 </mujoco>"#
     );
-    diffosi::model::mjcf::parse(&text, "dropped.xml").unwrap()
+    smooth(diffosi::model::mjcf::parse(&text, "dropped.xml").unwrap())
 }
 
 /// A capsule "bar" (radius 0.05, half length 0.2) along y at height 0.3, on
@@ -257,5 +260,13 @@ pub fn crossing(shape: &str, at: [f64; 3]) -> Model {
   </worldbody>
 </mujoco>"#
     );
-    diffosi::model::mjcf::parse(&text, "crossing.xml").unwrap()
+    smooth(diffosi::model::mjcf::parse(&text, "crossing.xml").unwrap())
+}
+
+/// The model under the smooth contact model (the penalty forces whose
+/// properties and derivatives the smooth-contact tests check).
+pub fn smooth(model: Model) -> Model {
+    model
+        .edited(|s| s.opt.contact_model = diffosi::model::ContactModel::Smooth)
+        .unwrap()
 }

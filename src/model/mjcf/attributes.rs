@@ -5,7 +5,8 @@
 use nalgebra::Vector3;
 
 use super::{xml, Node, Result};
-use crate::model::ModelError;
+use crate::model::constraint::{SOLIMP, SOLREF};
+use crate::model::{ModelError, SolParams};
 
 /// One element's attributes with the class elements it inherits from.
 #[derive(Clone, Copy)]
@@ -129,6 +130,15 @@ impl<'a, 'b> Attrs<'a, 'b> {
                 Err(self.error(node, msg))
             }
         }
+    }
+
+    /// A `solref` and a `solimp` attribute (up to 2 and 5 numbers over
+    /// MuJoCo's defaults).
+    pub fn sol_params(&self, solref: &str, solimp: &str) -> Result<SolParams> {
+        Ok(SolParams {
+            solref: self.leading(solref, SOLREF)?,
+            solimp: self.leading(solimp, SOLIMP)?,
+        })
     }
 
     pub fn flag(&self, name: &str) -> Result<Option<bool>> {

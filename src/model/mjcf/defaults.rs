@@ -10,7 +10,7 @@
 use super::attributes::{value, Attrs};
 use super::schema::{
     check_attributes, check_default_attributes, ACTUATOR_KINDS, GENERAL_ONLY_ATTRS, GEOM_ATTRS,
-    JOINT_ATTRS, MOTOR_ATTRS,
+    JOINT_ATTRS, MOTOR_ATTRS, PAIR_ATTRS,
 };
 use super::{children, elements, tag, unrecognized, Node, Reader, Result};
 
@@ -20,13 +20,14 @@ use super::{children, elements, tag, unrecognized, Node, Reader, Result};
 pub struct Class<'a> {
     pub joint: Vec<Node<'a>>,
     pub geom: Vec<Node<'a>>,
+    pub pair: Vec<Node<'a>>,
     pub actuator: Vec<Node<'a>>,
 }
 
 /// Default elements that only set up elements we ignore or reject anyway.
 #[rustfmt::skip]
 const INERT_DEFAULTS: &[&str] = &[
-    "mesh", "material", "site", "camera", "light", "pair", "equality", "tendon",
+    "mesh", "material", "site", "camera", "light", "equality", "tendon",
 ];
 
 impl<'a> Reader<'a> {
@@ -65,6 +66,10 @@ impl<'a> Reader<'a> {
             "geom" => {
                 check_default_attributes(file, child, GEOM_ATTRS)?;
                 class.geom.push(child);
+            }
+            "pair" => {
+                check_default_attributes(file, child, PAIR_ATTRS)?;
+                class.pair.push(child);
             }
             "motor" => {
                 check_default_attributes(file, child, MOTOR_ATTRS)?;

@@ -12,7 +12,7 @@ use super::schema::{check_attributes, GEOM_ATTRS};
 use super::tree::{Kind, Tree};
 use super::{Node, Reader, Result};
 use crate::model::geom_inertia::{self, MJ_EPS};
-use crate::model::{Geom, Shape};
+use crate::model::{Geom, GeomContact, Shape};
 
 impl<'a> Reader<'a> {
     /// The geoms among `contents`, attached to `body`; returns the inertial
@@ -69,7 +69,12 @@ impl<'a> Reader<'a> {
             contype: bitmask(&a, "contype")?,
             conaffinity: bitmask(&a, "conaffinity")?,
             friction: a.leading::<3>("friction", [1.0, 0.005, 0.0001])?,
+            contact: contact_settings(&a)?,
         };
+        let owner = format!("geom '{}'", geom.name);
+        crate::model::constraint::check_friction(&geom.friction, &owner)
+            .and_then(|()| geom.contact.check(&owner))
+            .map_err(|e| self.error(node, e))?;
         let part = if counts {
             self.inertial_part(&a, &geom)?
         } else {
@@ -195,6 +200,22 @@ fn geom_type(a: &Attrs) -> Result<&'static str> {
         return Err(a.error(a.element, "fluid forces (fluidshape) are not supported"));
     }
     Ok(kind)
+}
+
+/// The constraint model's settings of a geom (MuJoCo's defaults where unset).
+fn contact_settings(a: &Attrs) -> Result<GeomContact> {
+    let d = GeomContact::default();
+    let condim = a.int("condim")?.unwrap_or(d.condim as i64);
+    let priority = a.int("priority")?.unwrap_or(0);
+    Ok(GeomContact {
+        condim: usize::try_from(condim).unwrap_or(0),
+        priority: i32::try_from(priority)
+            .map_err(|_| a.error(a.element, format!("priority {priority} is out of range")))?,
+        solmix: a.number("solmix")?.unwrap_or(d.solmix),
+        sol: a.sol_params("solref", "solimp")?,
+        margin: a.number("margin")?.unwrap_or(d.margin),
+        gap: a.number("gap")?.unwrap_or(d.gap),
+    })
 }
 
 /// A contact bitmask (`contype`, `conaffinity`), 1 by default.

@@ -47,7 +47,17 @@ impl<'a> Reader<'a> {
             armature: a.number("armature")?.unwrap_or(0.0),
             frictionloss: a.number("frictionloss")?.unwrap_or(0.0),
             range: range.map(|[lo, hi]| (angle(lo), angle(hi))),
+            margin: a.number("margin")?.unwrap_or(0.0),
+            limit_sol: a.sol_params("solreflimit", "solimplimit")?,
+            friction_sol: a.sol_params("solreffriction", "solimpfriction")?,
         };
+        let owner = format!("joint '{}'", joint.name);
+        for sol in [&joint.limit_sol, &joint.friction_sol] {
+            sol.check(&owner).map_err(|e| self.error(node, e))?;
+        }
+        if joint.margin < 0.0 {
+            return Err(self.error(node, "margin must be >= 0"));
+        }
         let passive = [
             joint.damping,
             joint.stiffness,

@@ -45,6 +45,7 @@ mod actuators;
 mod attributes;
 mod bodies;
 mod compiler;
+mod contact;
 mod defaults;
 mod geoms;
 mod inertial;
@@ -59,7 +60,7 @@ mod write;
 
 use std::collections::HashMap;
 
-use super::{xml, Model, ModelError};
+use super::{xml, Model, ModelError, Spec};
 use compiler::Compiler;
 use defaults::Class;
 use schema::check_attributes;
@@ -94,11 +95,22 @@ pub fn parse(text: &str, file: &str) -> Result<Model> {
     let mut actuators = reader.read_actuators(&tree, root)?;
     tree::fill_names(&mut actuators, "actuator", |a| &mut a.name);
     let (bodies, joints, geoms) = tree.finish();
+    let body_names: Vec<&str> = bodies.iter().map(|b| b.name.as_str()).collect();
+    let (pairs, excludes) = reader.read_contact(root, &geoms, &body_names)?;
     let name = root
         .attribute("model")
         .unwrap_or("MuJoCo Model")
         .to_string();
-    Model::new(name, bodies, joints, actuators, geoms, opt)
+    Model::from_spec(Spec {
+        name,
+        bodies,
+        joints,
+        actuators,
+        geoms,
+        opt,
+        pairs,
+        excludes,
+    })
 }
 
 /// Reads the model once the compiler settings and default classes are known.
@@ -250,7 +262,7 @@ mod tests {
         let head = r#"<default><tendon/></default><visual/><size nstack="10"/>"#;
         let bodies = format!("<light/>{}", body("<camera/><site/>"));
         let tail = r#"<tendon/><equality/><sensor><jointpos joint="x"/></sensor>
-                      <contact><exclude body1="a" body2="b"/></contact>"#;
+                      <contact/>"#;
         assert_eq!(load(&model(head, &bodies, tail)).nv(), 1);
     }
 

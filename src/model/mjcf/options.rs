@@ -12,6 +12,15 @@
 //! and `<flag limit="disable">` switch off [`Options::contact`] and
 //! [`Options::limits`].
 //!
+//! An MJCF model runs the constraint contact model ([`ContactModel`]) unless
+//! `<custom><text name="diffosi:contact" data="smooth"/></custom>` names the
+//! smooth one. The solver's `cone`, `impratio` and `iterations` are read;
+//! `solver`, `tolerance`, `jacobian` and the line-search settings only tune
+//! how MuJoCo approaches the same answer and are ignored (ours converges).
+//! The flags `constraint`, `frictionloss`, `refsafe` and `filterparent` are
+//! read into [`SolverOptions`]; `noslip_iterations` and the `override` flag
+//! change the answer and are rejected.
+//!
 //! The soft-contact constants ([`SoftOptions`]) are read from `<custom>`
 //! numerics named `diffosi:<setting>` ([`SoftOptions::NAMES`]), one number
 //! each; other numerics (and other custom elements) are ignored, as MuJoCo's
@@ -22,18 +31,22 @@ use nalgebra::Vector3;
 use super::attributes::Attrs;
 use super::schema::{check_attributes, OPTION_ATTRS};
 use super::{children, elements, tag, unrecognized, xml, Node, Result};
-use crate::model::{Integrator, Options, PassiveMode, SoftOptions};
+use crate::model::{
+    Cone, ContactModel, Integrator, Options, PassiveMode, SoftOptions, SolverOptions,
+};
 
 /// Flags that only concern contacts, constraints, sensors or the solver.
 #[rustfmt::skip]
 const IGNORED_FLAGS: &[&str] = &[
-    "constraint", "equality", "frictionloss", "warmstart", "filterparent",
-    "refsafe", "sensor", "midphase", "autoreset", "nativeccd", "island", "multiccd", "override",
+    "equality", "warmstart", "sensor", "midphase", "autoreset", "nativeccd", "island", "multiccd",
     "energy", "fwdinv", "invdiscrete", "sleep", "diagexact",
 ];
 
 /// Flags whose disabling changes the smooth dynamics in ways we do not model.
 const REJECTED_FLAGS: &[&str] = &["spring", "damper", "clampctrl", "actuation"];
+
+/// Flags whose enabling changes the contacts in ways we do not model.
+const REJECTED_ENABLED: &[&str] = &["override"];
 
 /// The `<flag>` settings we model; MuJoCo enables both by default.
 struct Flags {
@@ -44,6 +57,12 @@ struct Flags {
     /// Contacts and joint limits ([`Options::contact`], [`Options::limits`]).
     contact: bool,
     limit: bool,
+    /// All constraints; dry friction rows; the time-constant floor of
+    /// solref; the parent-child contact filter ([`SolverOptions`]).
+    constraint: bool,
+    frictionloss: bool,
+    refsafe: bool,
+    filterparent: bool,
 }
 
 pub fn read(file: &str, root: Node) -> Result<Options> {
@@ -54,6 +73,10 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
         gravity: true,
         contact: true,
         limit: true,
+        constraint: true,
+        frictionloss: true,
+        refsafe: true,
+        filterparent: true,
     };
     for node in children(root, "option") {
         check_attributes(file, node, OPTION_ATTRS)?;
@@ -66,6 +89,7 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
         }
         opt.gravity = a.vector("gravity")?.unwrap_or(opt.gravity);
         integrator = read_integrator(&a)?.unwrap_or(integrator);
+        read_solver(&a, &mut opt.solver)?;
         check_unsupported(&a)?;
         for flag in elements(node) {
             if tag(flag) != "flag" {
@@ -77,7 +101,13 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
     if !flags.gravity {
         opt.gravity = Vector3::zeros();
     }
-    (opt.contact, opt.limits) = (flags.contact, flags.limit);
+    (opt.contact, opt.limits) = (
+        flags.contact && flags.constraint,
+        flags.limit && flags.constraint,
+    );
+    opt.solver.frictionloss = flags.frictionloss && flags.constraint;
+    (opt.solver.refsafe, opt.solver.filterparent) = (flags.refsafe, flags.filterparent);
+    opt.contact_model = contact_model(file, root)?;
     opt.integrator = if integrator == "RK4" {
         Integrator::Rk4
     } else {
@@ -112,6 +142,48 @@ fn read_soft(file: &str, root: Node, soft: &mut SoftOptions) -> Result<()> {
         }
     }
     Ok(())
+}
+
+fn read_solver(a: &Attrs, solver: &mut SolverOptions) -> Result<()> {
+    if let Some(cone) = a.keyword("cone", &Cone::NAMES.map(|(n, _)| n))? {
+        solver.cone = Cone::NAMES
+            .iter()
+            .find(|(n, _)| *n == cone)
+            .expect("listed")
+            .1;
+    }
+    solver.impratio = a.number("impratio")?.unwrap_or(solver.impratio);
+    if let Some(n) = a.int("iterations")? {
+        solver.iterations = usize::try_from(n).unwrap_or(0);
+    }
+    a.keyword("solver", &["PGS", "CG", "Newton"])?;
+    if a.int("noslip_iterations")?.unwrap_or(0) != 0 {
+        return Err(a.error(a.element, "noslip_iterations is not supported"));
+    }
+    solver.check().map_err(|e| a.error(a.element, e))
+}
+
+/// The contact model a file asks for: `diffosi:contact` in `<custom><text>`,
+/// else the constraint model.
+fn contact_model(file: &str, root: Node) -> Result<ContactModel> {
+    let names = ContactModel::NAMES.map(|(n, _)| n);
+    for custom in children(root, "custom") {
+        for text in children(custom, "text") {
+            let a = Attrs::of(file, text);
+            if a.text("name") != Some("diffosi:contact") {
+                continue;
+            }
+            let Some(data) = a.keyword("data", &names)? else {
+                return Err(a.error(text, "diffosi:contact needs its data"));
+            };
+            return Ok(ContactModel::NAMES
+                .iter()
+                .find(|(n, _)| *n == data)
+                .expect("listed")
+                .1);
+        }
+    }
+    Ok(ContactModel::Constraint)
 }
 
 fn read_integrator(a: &Attrs) -> Result<Option<&'static str>> {
@@ -159,6 +231,16 @@ fn read_flags(file: &str, flag: Node, flags: &mut Flags) -> Result<()> {
             "gravity" => flags.gravity = enabled,
             "contact" => flags.contact = enabled,
             "limit" => flags.limit = enabled,
+            "constraint" => flags.constraint = enabled,
+            "frictionloss" => flags.frictionloss = enabled,
+            "refsafe" => flags.refsafe = enabled,
+            "filterparent" => flags.filterparent = enabled,
+            name if REJECTED_ENABLED.contains(&name) => {
+                if enabled {
+                    let msg = format!("flag {name}=\"enable\" is not supported");
+                    return Err(xml::invalid(file, flag, msg));
+                }
+            }
             name if IGNORED_FLAGS.contains(&name) => {}
             name if REJECTED_FLAGS.contains(&name) => {
                 if !enabled {

@@ -58,6 +58,12 @@ pub const GEOM_ATTRS: &[&str] = &[
     "zaxis", "euler", "hfield", "mesh", "fitscale", "rgba", "fluidshape", "fluidcoef", "user",
 ];
 #[rustfmt::skip]
+pub const PAIR_ATTRS: &[&str] = &[
+    "name", "class", "geom1", "geom2", "condim", "friction", "solref", "solreffriction", "solimp",
+    "gap", "margin",
+];
+pub const EXCLUDE_ATTRS: &[&str] = &["name", "body1", "body2"];
+#[rustfmt::skip]
 pub const MOTOR_ATTRS: &[&str] = &[
     "name", "class", "group", "nsample", "interp", "delay", "ctrlrange", "user", "ctrllimited",
     "forcelimited", "forcerange", "lengthrange", "gear", "damping", "armature", "cranklength",

@@ -20,6 +20,9 @@
 //!   the soft-contact constants ([`crate::model::SoftOptions`]) are custom
 //!   numerics, `<custom><numeric name="diffosi:contact_stiffness" data=".."/>`
 //!   and so on ([`SoftOptions::NAMES`]), which MuJoCo keeps and ignores.
+//!   The contact model is the custom text `diffosi:contact`; the constraint
+//!   model's settings are MuJoCo's own attributes (geom and joint solver
+//!   parameters, `cone`, `impratio`, `iterations`, flags, `<contact>`).
 //!
 //! What MJCF cannot express is an error ([`ModelError::Unwritable`]): implicit
 //! stiffness under Euler ([`PassiveMode::ImplicitDampingStiffness`], DART's
@@ -32,8 +35,8 @@ use nalgebra::{Rotation3, UnitQuaternion};
 
 use crate::model::params::inertia_to_six;
 use crate::model::{
-    Actuator, Body, Geom, Integrator, Joint, JointKind, ModelError, Options, PassiveMode, Shape,
-    SoftOptions, Spec,
+    Actuator, Body, Cone, ContactModel, Geom, Integrator, Joint, JointKind, ModelError, Options,
+    PassiveMode, Shape, SoftOptions, SolParams, Spec,
 };
 
 /// Writes `spec` as an MJCF document, checked by loading it.
@@ -61,6 +64,7 @@ fn document(spec: &Spec) -> Result<String, ModelError> {
     doc.empty(1, compiler);
     write_options(&mut doc, &spec.opt)?;
     write_bodies(&mut doc, spec)?;
+    write_contact(&mut doc, spec);
     doc.open(1, Tag::new("actuator"));
     for a in &spec.actuators {
         doc.empty(2, motor(a, &spec.joints[a.joint].name));
@@ -74,6 +78,17 @@ fn document(spec: &Spec) -> Result<String, ModelError> {
             .number("data", *field(&mut soft));
         doc.empty(2, numeric);
     }
+    let model = ContactModel::NAMES
+        .iter()
+        .find(|(_, m)| *m == spec.opt.contact_model)
+        .expect("listed")
+        .0;
+    doc.empty(
+        2,
+        Tag::new("text")
+            .text("name", "diffosi:contact")
+            .text("data", model),
+    );
     doc.close(1, "custom");
     doc.close(0, "mujoco");
     Ok(doc.0)
@@ -88,10 +103,17 @@ fn write_options(doc: &mut Document, opt: &Options) -> Result<(), ModelError> {
         Integrator::Euler => "Euler",
         Integrator::Rk4 => "RK4",
     };
+    let cone = match opt.solver.cone {
+        Cone::Pyramidal => "pyramidal",
+        Cone::Elliptic => "elliptic",
+    };
     let option = Tag::new("option")
         .number("timestep", opt.timestep)
         .numbers("gravity", opt.gravity.as_slice())
-        .text("integrator", integrator);
+        .text("integrator", integrator)
+        .text("cone", cone)
+        .number("impratio", opt.solver.impratio)
+        .text("iterations", &opt.solver.iterations.to_string());
     if (opt.integrator, opt.passive) == (Integrator::Euler, PassiveMode::ImplicitDampingStiffness) {
         return Err(unwritable(
             "MuJoCo has no implicit joint stiffness (passive mode ImplicitDampingStiffness, \
@@ -107,6 +129,9 @@ fn write_options(doc: &mut Document, opt: &Options) -> Result<(), ModelError> {
         ),
         ("contact", !opt.contact),
         ("limit", !opt.limits),
+        ("frictionloss", !opt.solver.frictionloss),
+        ("refsafe", !opt.solver.refsafe),
+        ("filterparent", !opt.solver.filterparent),
     ];
     for (name, _) in disabled.into_iter().filter(|(_, off)| *off) {
         flag = flag.text(name, "disable");
@@ -188,6 +213,9 @@ fn joint_tag(j: &Joint) -> Tag {
         .number("armature", j.armature)
         .number("frictionloss", j.frictionloss)
         .limits("limited", "range", j.range)
+        .number("margin", j.margin)
+        .sol("solreflimit", "solimplimit", &j.limit_sol)
+        .sol("solreffriction", "solimpfriction", &j.friction_sol)
 }
 
 /// `diaginertia` for a diagonal tensor (it reads back exactly), else
@@ -234,6 +262,39 @@ fn geom_tag(g: &Geom) -> Tag {
         .text("contype", &g.contype.to_string())
         .text("conaffinity", &g.conaffinity.to_string())
         .numbers("friction", &g.friction)
+        .text("condim", &g.contact.condim.to_string())
+        .text("priority", &g.contact.priority.to_string())
+        .number("solmix", g.contact.solmix)
+        .sol("solref", "solimp", &g.contact.sol)
+        .number("margin", g.contact.margin)
+        .number("gap", g.contact.gap)
+}
+
+/// `<contact>`: explicit pairs with every attribute, and excluded body pairs.
+fn write_contact(doc: &mut Document, spec: &Spec) {
+    if spec.pairs.is_empty() && spec.excludes.is_empty() {
+        return;
+    }
+    doc.open(1, Tag::new("contact"));
+    for p in &spec.pairs {
+        let [g1, g2] = p.geoms.map(|g| spec.geoms[g].name.as_str());
+        let pair = Tag::new("pair")
+            .text("name", &p.name)
+            .text("geom1", g1)
+            .text("geom2", g2)
+            .text("condim", &p.condim.to_string())
+            .numbers("friction", &p.friction)
+            .sol("solref", "solimp", &p.sol)
+            .numbers("solreffriction", &p.solreffriction)
+            .number("margin", p.margin)
+            .number("gap", p.gap);
+        doc.empty(2, pair);
+    }
+    for e in &spec.excludes {
+        let [b1, b2] = e.map(|b| spec.bodies[b].name.as_str());
+        doc.empty(2, Tag::new("exclude").text("body1", b1).text("body2", b2));
+    }
+    doc.close(1, "contact");
 }
 
 fn motor(a: &Actuator, joint: &str) -> Tag {
@@ -298,6 +359,11 @@ impl Tag {
 
     fn number(self, key: &str, value: f64) -> Tag {
         self.numbers(key, &[value])
+    }
+
+    fn sol(self, solref: &str, solimp: &str, sol: &SolParams) -> Tag {
+        self.numbers(solref, &sol.solref)
+            .numbers(solimp, &sol.solimp)
     }
 
     /// MuJoCo's pair of a `limited` flag and its range.

@@ -32,6 +32,7 @@ impl Reader<'_> {
             contype: self.bitmask(collision, "diffosi:contype")?,
             conaffinity: self.bitmask(collision, "diffosi:conaffinity")?,
             friction,
+            contact: Default::default(),
         }))
     }
 

@@ -34,6 +34,9 @@ impl Reader<'_> {
             armature,
             frictionloss,
             range,
+            margin: 0.0,
+            limit_sol: Default::default(),
+            friction_sol: Default::default(),
         }))
     }
 

@@ -30,7 +30,7 @@ use rand::rngs::StdRng;
 
 use crate::control::admittance::{Action, Admittance, ArmJoint, Gains};
 use crate::dynamics::{crba, step, Data, StepError, Tree};
-use crate::model::{MapEntry, Model, ParamError, ParamMap, State};
+use crate::model::{ContactModel, MapEntry, Model, ParamError, ParamMap, State};
 use crate::osi::Problem;
 use crate::spatial::{lift, Real};
 use crate::tasks::{middle_of, uniform_in};
@@ -218,7 +218,10 @@ impl Wiping {
             env!("CARGO_MANIFEST_DIR"),
             "/reference_models/wiping_arm.xml"
         );
-        let model = Model::load(path).map_err(|e| ParamError::Map(e.to_string()))?;
+        // The smooth contact model: the shipped controller was trained on it.
+        let model = Model::load(path)
+            .and_then(|m| m.edited(|s| s.opt.contact_model = ContactModel::Smooth))
+            .map_err(|e| ParamError::Map(e.to_string()))?;
         let n = unknowns.len();
         let rows: Vec<(String, Vec<f64>)> = unknowns
             .iter()

@@ -1,0 +1,601 @@
+//! Constraint rows of the constraint model, as MuJoCo builds them: dry
+//! friction, joint limits and contacts as rows of a Jacobian J (nefc x nv),
+//! each with its regulariser R and reference acceleration aref.
+//!
+//! Conventions (MuJoCo's, from its Computation chapter):
+//! - Row order: dry friction (one row per dof with `frictionloss`), joint
+//!   limits (one row per violated side), contacts in collision order.
+//! - A limit row has J = +e_i below the range (dist = q - lo) and -e_i
+//!   above it (dist = hi - q); it exists while dist < margin.
+//! - A contact's rows project J(body 2) - J(body 1) at the contact point on
+//!   its frame: condim 1 one normal row; pyramidal cones 2 (condim - 1)
+//!   rows, the normal plus and minus mu_k times tangent k (k = 1, 2 sliding,
+//!   3 torsional, 4, 5 rolling; torsional and rolling rows use the angular
+//!   Jacobian); elliptic cones condim rows (normal, tangents, then angular).
+//! - Impedance d = imp(|dist - margin|) in (0, 1) from solimp (clamped as
+//!   MuJoCo clamps it); R = max(1e-15, (1 - d) / d * A_ii) with A_ii the
+//!   diagonal approximation of J M^-1 J^T from the invweight0 constants;
+//!   D = 1 / R. A contact's frictional rows take R_normal / impratio; a
+//!   pyramid's rows all take 2 mu^2 R_normal with mu = friction_1 /
+//!   sqrt(impratio); an elliptic cone's friction row k takes R_1 mu_1^2 /
+//!   mu_k^2.
+//! - aref = -B (J v) - K d (dist - margin), with from solref (timeconst,
+//!   dampratio) K = 1 / (dmax^2 timeconst^2 dampratio^2) and B = 2 / (dmax
+//!   timeconst), or from the direct form (-k, -b) K = k / dmax^2 and B = b /
+//!   dmax; timeconst is at least 2 timesteps (`refsafe`); friction rows (dry
+//!   friction, an elliptic cone's tangents) have K = 0.
+
+use nalgebra::{DMatrix, Matrix3, Vector3};
+
+use super::collision::{collide, out_of_reach, CollisionPair, ConstraintContact, MINVAL};
+use super::{crba, ltdl_factor, ltdl_solve, Contact, Data, Tree};
+use crate::model::{Cone, JointKind, SolParams, SolverOptions, Spec};
+use crate::spatial::{lift, Real};
+
+/// MuJoCo's bounds on impedance.
+const MIN_IMP: f64 = 0.0001;
+const MAX_IMP: f64 = 0.9999;
+
+/// The constants of the constraint model in a tree's scalar.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ConstraintConsts<T: Real> {
+    pub pairs: Vec<CollisionPair>,
+    /// Per model body: MuJoCo's body_invweight0 (translation, rotation).
+    pub body_invweight: Vec<[T; 2]>,
+    /// Per node (dof): dof_invweight0.
+    pub dof_invweight: Vec<T>,
+    /// Per node: the limit, if the joint is limited and limits are on.
+    pub limits: Vec<Option<Limit>>,
+    /// Per node: dry friction and its solver parameters (0 when off).
+    pub frictionloss: Vec<(T, SolParams)>,
+    pub solver: SolverOptions,
+    pub timestep: f64,
+}
+
+impl<T: Real> ConstraintConsts<T> {
+    pub fn empty() -> Self {
+        ConstraintConsts {
+            pairs: vec![],
+            body_invweight: vec![],
+            dof_invweight: vec![],
+            limits: vec![],
+            frictionloss: vec![],
+            solver: SolverOptions::default(),
+            timestep: 0.0,
+        }
+    }
+}
+
+/// A joint limit: the range, the margin within which its rows exist, and
+/// its solver parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Limit {
+    pub range: (f64, f64),
+    pub margin: f64,
+    pub sol: SolParams,
+}
+
+/// What a row is, for the solver's cost.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RowKind {
+    /// Dry friction with this bound on the force.
+    Friction,
+    /// Limits, frictionless contacts and pyramid edges: force >= 0.
+    Unilateral,
+    /// An elliptic cone of `dim` rows starting at this one (on its first row;
+    /// its other rows are `ConeRest`), with its entry in [`Rows::cone`].
+    Cone {
+        dim: usize,
+        cone: usize,
+    },
+    ConeRest,
+}
+
+/// The rows at one state; see the module documentation.
+#[derive(Clone, Debug)]
+pub struct Rows<T: Real> {
+    pub j: Vec<Vec<T>>,
+    pub kind: Vec<RowKind>,
+    pub aref: Vec<T>,
+    pub r: Vec<T>,
+    /// Dry friction bound (0 for other rows).
+    pub floss: Vec<T>,
+    /// Per elliptic cone: mu of the regularised cone and the five friction
+    /// coefficients.
+    pub cone: Vec<(T, [T; 5])>,
+    /// Per contact of the state: its first row and number of rows (none
+    /// when the contact moves no dof).
+    pub contact_rows: Vec<(usize, usize)>,
+}
+
+impl<T: Real> Default for Rows<T> {
+    fn default() -> Self {
+        Rows {
+            j: vec![],
+            kind: vec![],
+            aref: vec![],
+            r: vec![],
+            floss: vec![],
+            cone: vec![],
+            contact_rows: vec![],
+        }
+    }
+}
+
+impl<T: Real> Rows<T> {
+    pub fn len(&self) -> usize {
+        self.kind.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.kind.is_empty()
+    }
+}
+
+/// MuJoCo's body_invweight0 and dof_invweight0 of a tree built from `spec`,
+/// at the reference configuration (mj_setConst). A value that is not finite
+/// (inertia so large the mass matrix overflows) is 0.
+pub fn invweight0<T: Real>(tree: &Tree<T>, spec: &Spec) -> (Vec<[T; 2]>, Vec<T>) {
+    let (bodies, dofs) = invweight0_raw(tree, spec);
+    let finite = |x: T| if x.is_finite() { x } else { T::zero() };
+    (
+        bodies.into_iter().map(|b| b.map(finite)).collect(),
+        dofs.into_iter().map(finite).collect(),
+    )
+}
+
+fn invweight0_raw<T: Real>(tree: &Tree<T>, spec: &Spec) -> (Vec<[T; 2]>, Vec<T>) {
+    let n = tree.nv();
+    let mut data = Data::new(tree);
+    let q: Vec<T> = tree.joint.iter().map(|j| j.reference).collect();
+    crba(tree, &mut data, &q);
+    let mut factored = data.mass_matrix.clone();
+    ltdl_factor(tree, &mut factored);
+    world_frames(tree, &mut data, &vec![T::zero(); n]);
+    let three: T = lift(3.0);
+    let simple: Vec<bool> = (0..spec.bodies.len())
+        .map(|b| slides_only(spec, b))
+        .collect();
+    let mut bodies = vec![[T::zero(); 2]; spec.bodies.len()];
+    for (b, body) in spec.bodies.iter().enumerate().skip(1) {
+        let frame = tree.body[b];
+        let Some(node) = frame.node else { continue };
+        if simple[b] {
+            bodies[b] = [T::one() / lift(body.mass.max(MINVAL)), T::zero()];
+            continue;
+        }
+        let x = frame.offset.compose(&data.world[node]);
+        let com = x.trans + x.axes() * body.com.map(lift::<T>);
+        let (jp, jr) = point_jacobian(tree, &data, node, &com);
+        let mut trace = [T::zero(); 2];
+        for (k, jac) in [jp, jr].iter().enumerate() {
+            for row in jac.row_iter() {
+                let mut x: Vec<T> = row.iter().copied().collect();
+                ltdl_solve(tree, &factored, &mut x);
+                trace[k] += row.iter().zip(&x).fold(T::zero(), |s, (a, b)| s + *a * *b);
+            }
+        }
+        bodies[b] = trace.map(|t| t / three);
+    }
+    let dofs = (0..n)
+        .map(|i| {
+            let body = spec.joints[i].body;
+            if simple[body] {
+                return T::one() / lift(spec.bodies[body].mass.max(MINVAL));
+            }
+            let mut e = vec![T::zero(); n];
+            e[i] = T::one();
+            ltdl_solve(tree, &factored, &mut e);
+            e[i]
+        })
+        .collect();
+    (bodies, dofs)
+}
+
+/// MuJoCo's "simple" bodies of level 2, whose invweight0 is 1 / mass: only
+/// slide joints along coordinate axes through the body origin, the COM at
+/// the origin with principal axes along the body's, a child of the world or
+/// of a static child of the world, and no children.
+fn slides_only(spec: &Spec, b: usize) -> bool {
+    let body = &spec.bodies[b];
+    let parent = &spec.bodies[body.parent];
+    let root = body.parent == 0 || (parent.parent == 0 && parent.joints.is_empty());
+    let joints = &spec.joints[body.joints.clone()];
+    let aligned = |a: &Vector3<f64>| a.iter().filter(|x| x.abs() > 1e-14).count() == 1;
+    let inertia = body.inertia;
+    let diagonal = inertia == Matrix3::from_diagonal(&inertia.diagonal());
+    b > 0
+        && !joints.is_empty()
+        && root
+        && body.com == Vector3::zeros()
+        && diagonal
+        && !spec.bodies.iter().any(|c| c.parent == b)
+        && joints
+            .iter()
+            .all(|j| j.kind == JointKind::Slide && j.anchor == Vector3::zeros() && aligned(&j.axis))
+}
+
+/// Fills `data.world`, `data.world_axis` and `data.world_vel` (see [`Data`])
+/// from `data.x_up`.
+pub fn world_frames<T: Real>(tree: &Tree<T>, data: &mut Data<T>, v: &[T]) {
+    for i in 0..tree.nv() {
+        let parent = tree.parent[i].map(|p| (data.world[p], data.world_vel[p]));
+        let (world, vel) = parent.unwrap_or((
+            crate::spatial::Transform::identity(),
+            crate::spatial::Motion::zero(),
+        ));
+        data.world[i] = data.x_up[i].compose(&world);
+        data.world_axis[i] = data.world[i].inverse_apply_motion(&tree.joint[i].s);
+        data.world_vel[i] = vel + data.world_axis[i] * v[i];
+    }
+}
+
+/// The translational and rotational Jacobians (3 x nv, world coordinates)
+/// of the point `p` (world coordinates) fixed to node `node` (none: the world).
+pub fn point_jacobian<T: Real>(
+    tree: &Tree<T>,
+    data: &Data<T>,
+    node: usize,
+    p: &Vector3<T>,
+) -> (DMatrix<T>, DMatrix<T>) {
+    let n = tree.nv();
+    let (mut jp, mut jr) = (DMatrix::zeros(3, n), DMatrix::zeros(3, n));
+    let mut k = Some(node);
+    while let Some(i) = k {
+        let s = &data.world_axis[i];
+        jp.set_column(i, &(s.lin + s.ang.cross(p)));
+        jr.set_column(i, &s.ang);
+        k = tree.parent[i];
+    }
+    (jp, jr)
+}
+
+/// The contacts at the current state (`data.world` filled by [`world_frames`]).
+pub fn contacts<T: Real>(tree: &Tree<T>, data: &Data<T>) -> Vec<ConstraintContact<T>> {
+    let mut out = vec![];
+    for pair in tree.constraint.pairs.iter().filter(|p| p.supported) {
+        let geoms = pair.geoms.map(|g| &tree.geoms[g]);
+        let poses = geoms.map(|g| g.pose(&data.world));
+        collide(pair, geoms, poses, &mut out);
+    }
+    out
+}
+
+/// Solver parameters as MuJoCo uses them: solref with its time constant at
+/// least two timesteps (when `refsafe`), solimp clamped.
+fn effective(sol: &SolParams, solver: &SolverOptions, timestep: f64) -> SolParams {
+    let mut s = *sol;
+    if solver.refsafe && s.solref[0] > 0.0 {
+        s.solref[0] = s.solref[0].max(2.0 * timestep);
+    }
+    let clamp = |x: f64| x.clamp(MIN_IMP, MAX_IMP);
+    s.solimp[0] = clamp(s.solimp[0]);
+    s.solimp[1] = clamp(s.solimp[1]);
+    s.solimp[2] = s.solimp[2].max(0.0);
+    s.solimp[3] = clamp(s.solimp[3]);
+    s.solimp[4] = s.solimp[4].max(1.0);
+    s
+}
+
+/// MuJoCo's impedance at violation `x` = dist - margin (see the module
+/// documentation), for an effective solimp.
+pub fn impedance<T: Real>(solimp: &[f64; 5], x: T) -> T {
+    let [dmin, dmax, width, mid, power] = *solimp;
+    if dmin == dmax || width <= MINVAL {
+        return lift(0.5 * (dmin + dmax));
+    }
+    let x = (x / lift::<T>(width)).abs();
+    if x >= T::one() {
+        return lift(dmax);
+    }
+    if x <= T::zero() {
+        return lift(dmin);
+    }
+    let y = if power == 1.0 {
+        x
+    } else if x <= lift(mid) {
+        x.powf(lift(power)) / lift::<T>(mid.powf(power - 1.0))
+    } else {
+        T::one() - (T::one() - x).powf(lift(power)) / lift::<T>((1.0 - mid).powf(power - 1.0))
+    };
+    lift::<T>(dmin) + y * lift::<T>(dmax - dmin)
+}
+
+/// K and B of a reference (see the module documentation).
+fn stiffness_damping(solref: &[f64; 2], dmax: f64) -> (f64, f64) {
+    let k = if solref[0] > 0.0 {
+        1.0 / (dmax * dmax * solref[0] * solref[0] * solref[1] * solref[1]).max(MINVAL)
+    } else {
+        -solref[0] / (dmax * dmax).max(MINVAL)
+    };
+    let b = if solref[1] > 0.0 {
+        2.0 / (dmax * solref[0]).max(MINVAL)
+    } else {
+        -solref[1] / dmax.max(MINVAL)
+    };
+    (k, b)
+}
+
+/// One constraint (a block of rows sharing impedance) before it joins the rows.
+struct Block<T: Real> {
+    j: Vec<Vec<T>>,
+    kind: Vec<RowKind>,
+    /// A_ii per row.
+    diag: Vec<T>,
+    dist: T,
+    margin: f64,
+    sol: SolParams,
+    floss: T,
+}
+
+impl<T: Real> Rows<T> {
+    /// Appends a block: impedance, R (before a contact's adjustment), aref.
+    fn push(
+        &mut self,
+        block: Block<T>,
+        v: &[T],
+        consts: &ConstraintConsts<T>,
+        friction_ref: Option<[f64; 2]>,
+    ) {
+        let sol = effective(&block.sol, &consts.solver, consts.timestep);
+        let x = block.dist - lift::<T>(block.margin);
+        let imp = impedance(&sol.solimp, x);
+        let dmax = sol.solimp[1];
+        for (k, row) in block.j.into_iter().enumerate() {
+            let kind = block.kind[k];
+            let elliptic_friction = matches!(kind, RowKind::ConeRest);
+            let solref = match friction_ref {
+                Some(r) if elliptic_friction && r != [0.0; 2] => {
+                    effective(
+                        &SolParams { solref: r, ..sol },
+                        &consts.solver,
+                        consts.timestep,
+                    )
+                    .solref
+                }
+                _ => sol.solref,
+            };
+            let (stiff, damp) = stiffness_damping(&solref, dmax);
+            let stiff = if kind == RowKind::Friction || elliptic_friction {
+                0.0
+            } else {
+                stiff
+            };
+            let vel = row.iter().zip(v).fold(T::zero(), |s, (a, b)| s + *a * *b);
+            let r = (T::one() - imp) * block.diag[k] / imp;
+            self.r.push(if r > lift(MINVAL) { r } else { lift(MINVAL) });
+            self.aref
+                .push(-vel * lift::<T>(damp) - x * imp * lift::<T>(stiff));
+            self.floss.push(block.floss);
+            self.kind.push(kind);
+            self.j.push(row);
+        }
+    }
+}
+
+/// The rows at (q, v): `data.x_up` at q and [`world_frames`] filled.
+pub fn rows<T: Real>(
+    tree: &Tree<T>,
+    data: &Data<T>,
+    (q, v): (&[T], &[T]),
+) -> (Rows<T>, Vec<ConstraintContact<T>>) {
+    let consts = &tree.constraint;
+    let n = tree.nv();
+    let mut rows = Rows::default();
+    let unit = |i: usize, sign: T| {
+        let mut row = vec![T::zero(); n];
+        row[i] = sign;
+        row
+    };
+    for i in 0..n {
+        let (floss, sol) = consts.frictionloss[i];
+        if floss > T::zero() {
+            let block = Block {
+                j: vec![unit(i, T::one())],
+                kind: vec![RowKind::Friction],
+                diag: vec![consts.dof_invweight[i]],
+                dist: T::zero(),
+                margin: 0.0,
+                sol,
+                floss,
+            };
+            rows.push(block, v, consts, None);
+        }
+    }
+    for i in 0..n {
+        let Some(Limit {
+            range: (lo, hi),
+            margin,
+            sol,
+        }) = consts.limits[i]
+        else {
+            continue;
+        };
+        for (dist, sign) in [
+            (q[i] - lift(lo), T::one()),
+            (lift::<T>(hi) - q[i], -T::one()),
+        ] {
+            if dist < lift(margin) {
+                let block = Block {
+                    j: vec![unit(i, sign)],
+                    kind: vec![RowKind::Unilateral],
+                    diag: vec![consts.dof_invweight[i]],
+                    dist,
+                    margin,
+                    sol,
+                    floss: T::zero(),
+                };
+                rows.push(block, v, consts, None);
+            }
+        }
+    }
+    let contacts: Vec<ConstraintContact<T>> = contacts(tree, data)
+        .into_iter()
+        .filter(|c| c.dist < lift(c.params.margin))
+        .collect();
+    for c in &contacts {
+        contact_rows(tree, data, c, v, &mut rows);
+    }
+    (rows, contacts)
+}
+
+/// Appends the rows of contact `c` at velocity `v`.
+fn contact_rows<T: Real>(
+    tree: &Tree<T>,
+    data: &Data<T>,
+    c: &ConstraintContact<T>,
+    v: &[T],
+    rows: &mut Rows<T>,
+) {
+    let consts = &tree.constraint;
+    let n = tree.nv();
+    let [b1, b2] = c.bodies;
+    let (mut jp, mut jr) = (DMatrix::zeros(3, n), DMatrix::zeros(3, n));
+    for (body, sign) in [(b2, T::one()), (b1, -T::one())] {
+        if let Some(node) = tree.body[body].node {
+            let (p, r) = point_jacobian(tree, data, node, &c.pos);
+            jp += p * sign;
+            jr += r * sign;
+        }
+    }
+    if jp.iter().chain(jr.iter()).all(|x| *x == T::zero()) {
+        rows.contact_rows.push((rows.len(), 0));
+        return;
+    }
+    let dim = c.params.condim;
+    let frame_rows = |jac: &DMatrix<T>, k: usize| -> Vec<T> {
+        (0..n)
+            .map(|col| (0..3).fold(T::zero(), |s, r| s + c.frame[(k, r)] * jac[(r, col)]))
+            .collect()
+    };
+    // The condim rows in the contact frame: normal, tangents, then angular.
+    let mut frame: Vec<Vec<T>> = (0..dim.min(3)).map(|k| frame_rows(&jp, k)).collect();
+    frame.extend((0..dim.saturating_sub(3)).map(|k| frame_rows(&jr, k)));
+    let [w1, w2] = [b1, b2].map(|b| consts.body_invweight[b]);
+    let (tran, rot) = (w1[0] + w2[0], w1[1] + w2[1]);
+    let friction: [T; 5] = c.params.friction.map(|f| lift(f.max(1e-5)));
+    let mut block = Block {
+        j: vec![],
+        kind: vec![],
+        diag: vec![],
+        dist: c.dist,
+        margin: c.params.margin,
+        sol: c.params.sol,
+        floss: T::zero(),
+    };
+    let elliptic = consts.solver.cone == Cone::Elliptic && dim > 1;
+    if dim == 1 {
+        block.j.push(frame.swap_remove(0));
+        block.kind.push(RowKind::Unilateral);
+        block.diag.push(tran);
+    } else if elliptic {
+        for (k, row) in frame.into_iter().enumerate() {
+            block.j.push(row);
+            block.kind.push(if k == 0 {
+                RowKind::Cone {
+                    dim,
+                    cone: rows.cone.len(),
+                }
+            } else {
+                RowKind::ConeRest
+            });
+            block.diag.push(if k < 3 { tran } else { rot });
+        }
+    } else {
+        for k in 1..dim {
+            let mu = friction[k - 1];
+            let a = if k < 3 { tran } else { rot };
+            for sign in [T::one(), -T::one()] {
+                let row = (0..n)
+                    .map(|col| frame[0][col] + sign * mu * frame[k][col])
+                    .collect();
+                block.j.push(row);
+                block.kind.push(RowKind::Unilateral);
+                block.diag.push(tran + mu * mu * a);
+            }
+        }
+    }
+    let first = rows.len();
+    let count = block.j.len();
+    rows.contact_rows.push((first, count));
+    rows.push(block, v, consts, Some(c.params.solreffriction));
+    if dim == 1 {
+        return;
+    }
+    let r0 = rows.r[first];
+    let r1 = r0 / lift(consts.solver.impratio);
+    let mu = friction[0] * (r1 / r0).sqrt();
+    if elliptic {
+        rows.cone.push((mu, friction));
+        rows.r[first + 1] = r1;
+        for k in 1..dim - 1 {
+            rows.r[first + k + 1] = r1 * friction[0] * friction[0] / (friction[k] * friction[k]);
+        }
+    } else {
+        let rpy = (mu * mu + mu * mu) * r0;
+        for r in &mut rows.r[first..first + count] {
+            *r = rpy;
+        }
+    }
+}
+
+/// The force of each contact from the rows' forces, in the smooth model's
+/// [`Contact`] form (MuJoCo's mj_contactForce in world coordinates): a is
+/// geom 2 and b geom 1, the normal from b into a, depth = -dist, the normal
+/// force the sum of a pyramid's edge forces (an elliptic cone's first), the
+/// friction the tangential force on a (a pyramid's edge pair k gives
+/// mu_k (f+ - f-) along tangent k). Torsional and rolling moments are not
+/// part of it.
+pub fn contact_forces<T: Real>(
+    contacts: &[ConstraintContact<T>],
+    rows: &Rows<T>,
+    force: &[T],
+) -> Vec<Contact<T>> {
+    contacts
+        .iter()
+        .zip(&rows.contact_rows)
+        .map(|(c, &(first, count))| {
+            let f = &force[first..first + count];
+            let dim = c.params.condim;
+            let pyramid = count > 0 && count != dim;
+            let tangent = |k: usize| -> T {
+                if count == 0 || k >= dim {
+                    T::zero()
+                } else if pyramid {
+                    (f[2 * k - 2] - f[2 * k - 1]) * lift::<T>(c.params.friction[k - 1])
+                } else {
+                    f[k]
+                }
+            };
+            let normal_force = match (count, pyramid) {
+                (0, _) => T::zero(),
+                (_, true) => f.iter().fold(T::zero(), |s, x| s + *x),
+                (_, false) => f[0],
+            };
+            let row = |k: usize| c.frame.row(k).transpose();
+            Contact {
+                geoms: [c.geoms[1], c.geoms[0]],
+                bodies: [c.bodies[1], c.bodies[0]],
+                point: c.pos,
+                normal: row(0),
+                depth: -c.dist,
+                normal_force,
+                friction: row(1) * tangent(1) + row(2) * tangent(2),
+            }
+        })
+        .collect()
+}
+
+/// The first geom pair without a collider that is within reach at the
+/// current state (`data.world` filled by [`world_frames`]), as model geom indices.
+pub fn unreachable_pair<T: Real>(tree: &Tree<T>, data: &Data<T>) -> Option<[usize; 2]> {
+    tree.constraint
+        .pairs
+        .iter()
+        .filter(|p| !p.supported)
+        .find(|p| {
+            let geoms = p.geoms.map(|g| &tree.geoms[g]);
+            !out_of_reach(p, geoms, &data.world)
+        })
+        .map(|p| p.geoms.map(|g| tree.geoms[g].geom))
+}

@@ -1,0 +1,346 @@
+//! The constraint solver: MuJoCo's primal problem, solved by Newton's method
+//! with an exact line search until the answer is exact.
+//!
+//! The constrained acceleration a minimises
+//!   c(a) = 1/2 (a - a0)^T M (a - a0) + sum_rows s(J a - aref),
+//! with a0 = M^-1 (forces without constraints) and, for jar = J a - aref:
+//! - dry friction (bound F, D = 1/R): 1/2 D jar^2 while |jar| < R F, else the
+//!   linear continuation F |jar| - 1/2 R F^2;
+//! - unilateral rows (limits, pyramid edges, frictionless contacts): 1/2 D
+//!   jar^2 while jar < 0, else 0;
+//! - elliptic cones: MuJoCo's three zones (inside the dual cone: nothing;
+//!   below it: 1/2 sum D jar^2; between: 1/2 D0 / (mu^2 (1 + mu^2)) (N - mu
+//!   T)^2 in the scaled coordinates N = mu jar_0, T = |friction_k jar_k|).
+//!
+//! The cost is strictly convex (M positive definite), so its minimiser is
+//! unique: the answer depends on nothing but the problem (no warm start, no
+//! row order). The constraint forces are f = -ds/djar and M (a - a0) = J^T f.
+//!
+//! Newton's method: H = M + J^T (d^2 s) J, direction -H^-1 grad, step
+//! length minimising c along it (its derivative is monotone; safeguarded
+//! Newton inside a bracket). Once the zones of every row repeat, a full
+//! Newton step on them is the exact minimiser when no cone is in its middle
+//! zone; it is kept if the zones stay the same there. With a cone in the
+//! middle zone the iteration stops when a step changes nothing.
+
+use nalgebra::{Cholesky, DMatrix, DVector};
+
+use super::constraint::{RowKind, Rows};
+use crate::spatial::{lift, Real};
+
+/// Where a row (or a cone) is on its cost.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Zone {
+    /// No force.
+    Free,
+    /// Quadratic: f = -D jar.
+    Quadratic,
+    /// Dry friction at its bound, below (-) or above (+).
+    LinearNeg,
+    LinearPos,
+    /// An elliptic cone between its free and quadratic zones.
+    Cone,
+}
+
+/// The solver's answer.
+#[derive(Clone, Debug)]
+pub struct Solution<T: Real> {
+    pub qacc: Vec<T>,
+    /// Per row: its force and zone.
+    pub force: Vec<T>,
+    pub zone: Vec<Zone>,
+    pub iterations: usize,
+    /// False if the iteration limit stopped the solver first.
+    pub converged: bool,
+}
+
+/// Forces, zones and (optionally) the Hessian of the row costs at jar.
+struct Eval<T: Real> {
+    force: Vec<T>,
+    zone: Vec<Zone>,
+    /// Per elliptic cone in its middle zone: first row and its Hessian.
+    cone_hessians: Vec<(usize, DMatrix<T>)>,
+}
+
+fn evaluate<T: Real>(rows: &Rows<T>, jar: &[T], hessians: bool) -> Eval<T> {
+    let n = rows.len();
+    let mut force = vec![T::zero(); n];
+    let mut zone = vec![Zone::Free; n];
+    let mut cone_hessians = vec![];
+    let mut i = 0;
+    while i < n {
+        let d = T::one() / rows.r[i];
+        match rows.kind[i] {
+            RowKind::Friction => {
+                let bound = rows.r[i] * rows.floss[i];
+                (force[i], zone[i]) = if jar[i] <= -bound {
+                    (rows.floss[i], Zone::LinearNeg)
+                } else if jar[i] >= bound {
+                    (-rows.floss[i], Zone::LinearPos)
+                } else {
+                    (-d * jar[i], Zone::Quadratic)
+                };
+            }
+            RowKind::Unilateral => {
+                if jar[i] < T::zero() {
+                    (force[i], zone[i]) = (-d * jar[i], Zone::Quadratic);
+                }
+            }
+            RowKind::Cone { dim, cone } => {
+                let (mu, friction) = rows.cone[cone];
+                let z = cone_zone(rows, i, dim, (mu, &friction), jar, &mut force, hessians);
+                if let Some(h) = z.1 {
+                    cone_hessians.push((i, h));
+                }
+                zone[i..i + dim].fill(z.0);
+                i += dim;
+                continue;
+            }
+            RowKind::ConeRest => unreachable!("cone rows follow their first row"),
+        }
+        i += 1;
+    }
+    Eval {
+        force,
+        zone,
+        cone_hessians,
+    }
+}
+
+/// An elliptic cone's zone and forces (MuJoCo's formulas), with its
+/// Hessian in the middle zone when asked.
+fn cone_zone<T: Real>(
+    rows: &Rows<T>,
+    i: usize,
+    dim: usize,
+    (mu, friction): (T, &[T; 5]),
+    jar: &[T],
+    force: &mut [T],
+    hessians: bool,
+) -> (Zone, Option<DMatrix<T>>) {
+    let scale = |k: usize| if k == 0 { mu } else { friction[k - 1] };
+    let u: Vec<T> = (0..dim).map(|k| jar[i + k] * scale(k)).collect();
+    let normal = u[0];
+    let tangent = u[1..].iter().fold(T::zero(), |s, x| s + *x * *x).sqrt();
+    let zero = T::zero();
+    if normal >= mu * tangent || (tangent <= zero && normal >= zero) {
+        return (Zone::Free, None);
+    }
+    if mu * normal + tangent <= zero || (tangent <= zero && normal < zero) {
+        for k in 0..dim {
+            force[i + k] = -jar[i + k] / rows.r[i + k];
+        }
+        return (Zone::Quadratic, None);
+    }
+    let d0 = T::one() / rows.r[i];
+    let dm = d0 / (mu * mu * (T::one() + mu * mu));
+    let nmt = normal - mu * tangent;
+    force[i] = -dm * nmt * mu;
+    for k in 1..dim {
+        force[i + k] = -force[i] / tangent * u[k] * friction[k - 1];
+    }
+    if !hessians {
+        return (Zone::Cone, None);
+    }
+    let mut h = DMatrix::zeros(dim, dim);
+    h[(0, 0)] = T::one();
+    for k in 1..dim {
+        h[(0, k)] = -mu / tangent * u[k];
+        h[(k, 0)] = h[(0, k)];
+        for j in 1..dim {
+            h[(k, j)] = mu * normal / (tangent * tangent * tangent) * u[j] * u[k];
+        }
+        h[(k, k)] += mu * mu - mu * normal / tangent;
+    }
+    for k in 0..dim {
+        for j in 0..dim {
+            h[(k, j)] *= dm * scale(k) * scale(j);
+        }
+    }
+    (Zone::Cone, Some(h))
+}
+
+fn dot<T: Real>(a: &[T], b: &[T]) -> T {
+    a.iter().zip(b).fold(T::zero(), |s, (x, y)| s + *x * *y)
+}
+
+/// J a - aref.
+fn residual<T: Real>(rows: &Rows<T>, a: &[T]) -> Vec<T> {
+    rows.j
+        .iter()
+        .zip(&rows.aref)
+        .map(|(j, r)| dot(j, a) - *r)
+        .collect()
+}
+
+/// Minimises the constrained cost (see the module documentation) for the
+/// mass matrix `m`, the unconstrained acceleration `a0` and the rows;
+/// `iterations` bounds the Newton steps.
+pub fn solve<T: Real>(m: &DMatrix<T>, a0: &[T], rows: &Rows<T>, iterations: usize) -> Solution<T> {
+    let mut a = a0.to_vec();
+    let mut previous: Option<Vec<Zone>> = None;
+    let mut converged = false;
+    let mut iteration = 0;
+    while iteration < iterations {
+        iteration += 1;
+        let jar = residual(rows, &a);
+        let eval = evaluate(rows, &jar, true);
+        let (grad, hessian) = gradient_hessian(m, a0, rows, &a, &eval);
+        let Some(chol) = Cholesky::new(hessian) else {
+            break;
+        };
+        let dir = -chol.solve(&DVector::from_column_slice(&grad));
+        let dir = dir.as_slice();
+        let repeated = previous.as_ref() == Some(&eval.zone);
+        if repeated && eval.cone_hessians.is_empty() {
+            // The zones repeat: the full step is the minimiser if they hold there.
+            let trial: Vec<T> = a.iter().zip(dir).map(|(x, d)| *x + *d).collect();
+            let again = evaluate(rows, &residual(rows, &trial), false);
+            if again.zone == eval.zone {
+                a = trial;
+                converged = true;
+                break;
+            }
+        }
+        if dir.iter().all(|d| *d == T::zero()) {
+            converged = true;
+            break;
+        }
+        let alpha = line_search(m, a0, rows, &a, dir);
+        let before = a.clone();
+        for (x, d) in a.iter_mut().zip(dir) {
+            *x += alpha * *d;
+        }
+        if a == before {
+            converged = true;
+            break;
+        }
+        previous = Some(eval.zone);
+    }
+    let jar = residual(rows, &a);
+    let eval = evaluate(rows, &jar, false);
+    Solution {
+        qacc: a,
+        force: eval.force,
+        zone: eval.zone,
+        iterations: iteration,
+        converged,
+    }
+}
+
+/// The cost's gradient M (a - a0) - J^T f and Hessian M + J^T (d^2 s) J.
+fn gradient_hessian<T: Real>(
+    m: &DMatrix<T>,
+    a0: &[T],
+    rows: &Rows<T>,
+    a: &[T],
+    eval: &Eval<T>,
+) -> (Vec<T>, DMatrix<T>) {
+    let n = a.len();
+    let delta: Vec<T> = a.iter().zip(a0).map(|(x, y)| *x - *y).collect();
+    let mut grad: Vec<T> = (m * DVector::from_column_slice(&delta)).data.into();
+    let mut h = m.clone();
+    for (k, row) in rows.j.iter().enumerate() {
+        for i in 0..n {
+            grad[i] -= row[i] * eval.force[k];
+        }
+        let quadratic = eval.zone[k] == Zone::Quadratic;
+        if quadratic {
+            let d = T::one() / rows.r[k];
+            for i in 0..n {
+                if row[i] == T::zero() {
+                    continue;
+                }
+                for j in 0..n {
+                    h[(i, j)] += d * row[i] * row[j];
+                }
+            }
+        }
+    }
+    for (first, hc) in &eval.cone_hessians {
+        let dim = hc.nrows();
+        for p in 0..dim {
+            for q in 0..dim {
+                let (jp, jq) = (&rows.j[first + p], &rows.j[first + q]);
+                for i in 0..n {
+                    for j in 0..n {
+                        h[(i, j)] += hc[(p, q)] * jp[i] * jq[j];
+                    }
+                }
+            }
+        }
+    }
+    (grad, h)
+}
+
+/// The derivative and second derivative of the cost along `dir` at a + t dir.
+fn along<T: Real>(
+    m: &DMatrix<T>,
+    a0: &[T],
+    rows: &Rows<T>,
+    (a, dir): (&[T], &[T]),
+    jd: &[T],
+    t: T,
+) -> (T, T) {
+    let point: Vec<T> = a.iter().zip(dir).map(|(x, d)| *x + t * *d).collect();
+    let eval = evaluate(rows, &residual(rows, &point), true);
+    let md: Vec<T> = (m * DVector::from_column_slice(dir)).data.into();
+    let delta: Vec<T> = point.iter().zip(a0).map(|(x, y)| *x - *y).collect();
+    let first = dot(&md, &delta) - dot(&eval.force, jd);
+    let mut second = dot(&md, dir);
+    for (k, z) in eval.zone.iter().enumerate() {
+        if *z == Zone::Quadratic {
+            second += jd[k] * jd[k] / rows.r[k];
+        }
+    }
+    for (i, hc) in &eval.cone_hessians {
+        let dim = hc.nrows();
+        for p in 0..dim {
+            for q in 0..dim {
+                second += hc[(p, q)] * jd[i + p] * jd[i + q];
+            }
+        }
+    }
+    (first, second)
+}
+
+/// The step t > 0 where the cost's derivative along `dir` vanishes: a
+/// bracket from t = 0 (a descent direction) to the first doubling of t = 1
+/// with a non-negative derivative, then Newton steps kept inside the bracket
+/// (bisection otherwise) until t stops changing.
+fn line_search<T: Real>(m: &DMatrix<T>, a0: &[T], rows: &Rows<T>, a: &[T], dir: &[T]) -> T {
+    let jd: Vec<T> = rows.j.iter().map(|j| dot(j, dir)).collect();
+    let slope = |t: T| along(m, a0, rows, (a, dir), &jd, t);
+    let (mut lo, mut hi) = (T::zero(), T::one());
+    let two: T = lift(2.0);
+    for _ in 0..60 {
+        if slope(hi).0 >= T::zero() {
+            break;
+        }
+        lo = hi;
+        hi *= two;
+    }
+    let mut t = hi;
+    for _ in 0..100 {
+        let (g, h) = slope(t);
+        if g == T::zero() {
+            return t;
+        }
+        if g < T::zero() {
+            lo = t;
+        } else {
+            hi = t;
+        }
+        let newton = t - g / h;
+        let next = if h > T::zero() && newton > lo && newton < hi {
+            newton
+        } else {
+            (lo + hi) / two
+        };
+        if next == t || hi - lo <= lift::<T>(f64::EPSILON) * hi {
+            return next;
+        }
+        t = next;
+    }
+    t
+}
