@@ -23,8 +23,8 @@ enum Command {
     /// Simulate a model and write t, q..., v... per step as CSV, and for a
     /// model with contacts each geom pair's normal force (N) at that state.
     Simulate {
-        /// Model file: .xml (MJCF) or .urdf.
-        model: PathBuf,
+        #[command(flatten)]
+        model: cli::ModelFile,
         /// Number of steps.
         #[arg(long)]
         steps: usize,
@@ -45,8 +45,8 @@ enum Command {
     },
     /// One step's Jacobians d(q', v')/d(q, v, tau) and d(q', v')/d(params).
     Jacobian {
-        /// Model file: .xml (MJCF) or .urdf.
-        model: PathBuf,
+        #[command(flatten)]
+        model: cli::ModelFile,
         #[command(flatten)]
         state: cli::jacobian::State,
         /// Named parameters, comma separated (e.g. body/pole/com,joint/hinge/damping).
@@ -67,8 +67,8 @@ enum Command {
     /// value; at_bound; not_converged).
     #[command(verbatim_doc_comment)]
     Identify {
-        /// Model file: .xml (MJCF) or .urdf.
-        model: PathBuf,
+        #[command(flatten)]
+        model: cli::ModelFile,
         /// Named parameters, comma separated (e.g. body/pole/mass,joint/hinge/damping).
         #[arg(long, value_delimiter = ',', required = true)]
         params: Vec<String>,

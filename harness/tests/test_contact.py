@@ -1,6 +1,7 @@
-"""Contacts at the Python boundary (Model.contacts, Model.body_contact_forces), the resting
-box in our engine and the three references, and `python -m harness contact` on a short
-horizon. Run with `make test`."""
+"""Contacts at the Python boundary (Model.contacts, Model.body_contact_forces; the smooth
+model's forces and the constraint model's), the resting box in our engine and the three
+references, and `python -m harness contact` on a short horizon (against MuJoCo model by
+model). Run with `make test`."""
 
 import argparse
 import json
@@ -115,6 +116,26 @@ def test_half_cheetah_contacts_name_its_geoms():
     assert lift == pytest.approx(sum(c["normal_force"] for c in contacts), rel=1e-12)
 
 
+def test_constraint_contacts_carry_what_the_step_applies():
+    """Under the constraint model (the MJCF default) the forces are the solver's: they
+    depend on the applied forces, sum to the weight at rest, and come with MuJoCo's frame."""
+    m = diffosi.Model.load(BOX)
+    q, v = np.zeros(6), np.zeros(6)
+    q[2] = -0.001  # 1 mm in the floor
+    tau = np.zeros(6)
+    rest = m.contacts(q, v, tau)
+    assert len(rest) == 4 and all(c["geoms"] == ("box", "floor") for c in rest)
+    assert all(c["depth"] == pytest.approx(0.001, abs=1e-15) for c in rest)
+    pushed = m.contacts(q, v, np.array([0, 0, -50.0, 0, 0, 0]))
+    assert sum(c["normal_force"] for c in pushed) > sum(c["normal_force"] for c in rest) + 40
+    # The step's vertical velocity change is the contact force's, (f - m g) h / m.
+    q1, v1 = m.step(q, v, tau)
+    fz = m.body_contact_forces(q, v, tau)[m.body_names.index("box")][2]
+    assert v1[2] == pytest.approx(m.timestep * (fz / contact.BOX_MASS - 9.81), rel=1e-12)
+    with pytest.raises(ValueError, match="tau"):
+        m.contacts(q, v, np.zeros(5))
+
+
 # ---------------------------------------------------------------- the resting box
 
 
@@ -157,7 +178,16 @@ def test_contact_command_reports_finite_numbers(tmp_path):
         assert seq["ours"]["error"][1] < 1e-12  # the first steps fall freely: the same model
         free = seq["one_step"]["free"]["ours"]
         assert free["states"] > 0 and free["max_error"] <= 1e-9, (name, free)
-        assert seq["one_step"]["contact"]["ours"]["states"] > 0
+        touching = seq["one_step"]["contact"]["ours"]
+        assert touching["states"] > 0 and touching["max_error"] <= 1e-9, (name, touching)
+    # MuJoCo's contact, model by model: one step from MuJoCo's own states in contact.
+    models = {a["model"]: a for a in doc["agreement"]}
+    assert set(models) == {"half_cheetah", "box", "wiping_arm", "hopper", "walker2d"}
+    for name, a in models.items():
+        assert a["pass"] and a["one_step"]["contact"]["states"] > 0, (name, a["one_step"])
+        assert a["one_step"]["contact"]["max"] <= 1e-12, (name, a["one_step"])
+        assert a["normal_force"]["max_relative_gap"] <= 1e-9, (name, a["normal_force"])
+    assert models["walker2d"]["one_step"]["limit"]["states"] > 0  # limits alone, too
     md = (tmp_path / "contact-half_cheetah.md").read_text()
     assert "Result: PASS" in md and "solref" in md and "missing_armature" in md
     assert (tmp_path / "contact-half_cheetah.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -22,7 +22,7 @@ pub enum Method {
 
 /// What `identify` is asked, as parsed from the command line.
 pub struct Request<'a> {
-    pub model: &'a Path,
+    pub model: &'a super::ModelFile,
     pub params: &'a [String],
     pub transitions: &'a Path,
     pub method: Method,
@@ -34,7 +34,7 @@ pub struct Request<'a> {
 }
 
 pub fn identify(r: Request) -> Result<(), String> {
-    let model = Model::load(r.model).map_err(|e| e.to_string())?;
+    let model = r.model.load()?;
     if r.params.is_empty() {
         return Err("--params names no parameter".into());
     }

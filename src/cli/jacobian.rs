@@ -20,12 +20,12 @@ pub struct State {
 }
 
 pub fn jacobian(
-    path: &std::path::Path,
+    file: &super::ModelFile,
     state: State,
     names: &[String],
     as_json: bool,
 ) -> Result<(), String> {
-    let model = Model::load(path).map_err(|e| e.to_string())?;
+    let model = file.load()?;
     let q = state.q.unwrap_or_else(|| model.reference_q());
     let v = state.v.unwrap_or_else(|| vec![0.0; model.nv()]);
     let tau = state.tau.unwrap_or_else(|| vec![0.0; model.nv()]);

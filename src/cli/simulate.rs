@@ -18,14 +18,14 @@ use diffosi::Model;
 use indicatif::{ProgressBar, ProgressStyle};
 
 pub fn simulate(
-    path: &std::path::Path,
+    file: &super::ModelFile,
     steps: usize,
     torques: Option<&std::path::Path>,
     q0: Option<Vec<f64>>,
     v0: Option<Vec<f64>>,
     output: &std::path::Path,
 ) -> Result<(), String> {
-    let model = Model::load(path).map_err(|e| e.to_string())?;
+    let model = file.load()?;
     let q0 = q0.unwrap_or_else(|| model.reference_q());
     let v0 = v0.unwrap_or_else(|| vec![0.0; model.nv()]);
     let taus = match torques {
