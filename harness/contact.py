@@ -63,20 +63,20 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
 
 
 class OursContact:
-    """Our engine with contacts and limits on under the constraint model (the MJCF
-    default); `normal_force` is the total normal force of the last step, read with
-    Model.contacts at the state it started from under the step's torques."""
+    """Our engine with contacts and limits on, under the file's contact model (the
+    constraint model unless the file names the smooth one); `normal_force` is the total
+    normal force of the last step, read with Model.contacts at the state it started from
+    under the step's torques."""
 
     name = "ours"
 
     def __init__(self, path: Path):
         import diffosi
 
-        self.m = diffosi.Model.load(str(path)).with_options(contact_model="constraint")
+        self.m = diffosi.Model.load(str(path))
         self.off = self.m.with_options(contact=False, limits=False)
         self.timestep = self.m.timestep
-        self.settings = {"model": label_of(path), "contact_model": "constraint (MuJoCo's soft constraints, "
-                         "Newton's method to convergence; src/dynamics/constraint.rs)"}
+        self.settings = {"model": label_of(path), "contact_model": self.m.contact_model}
 
     def set_state(self, q, v):
         self.q, self.v = np.array(q, float), np.array(v, float)

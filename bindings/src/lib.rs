@@ -111,6 +111,14 @@ impl PyModel {
         name_of(&PassiveMode::NAMES, self.model.opt.passive)
     }
 
+    /// The law contacts, limits and dry friction follow: "constraint" (MuJoCo's
+    /// soft constraints, the default for MJCF files) or "smooth" (the penalty
+    /// model, the default for URDF files).
+    #[getter]
+    fn contact_model(&self) -> &'static str {
+        name_of(&ContactModel::NAMES, self.model.opt.contact_model)
+    }
+
     /// A copy run with other options, e.g. the conventions of the engine it is
     /// compared with: `m.with_options(passive="implicit_damping_stiffness",
     /// timestep=0.005)`; `contact=False` / `limits=False` switch off the
