@@ -43,6 +43,7 @@ bench: setup
 # Regenerates the reference engines' golden data (committed; see reference_models/golden/README.md).
 golden: setup
 	$(VENV)/bin/python -m harness golden --all --seed 0
+	$(VENV)/bin/python -m harness golden-contact --seed 0
 
 # The long fuzz run (nightly + cargo-fuzz, installed on first use): 10^6
 # executions per target. Its stable smoke run is part of `cargo test`.

@@ -12,6 +12,7 @@ COMMANDS = {
     "replay": "harness.replay",
     "gradcheck": "harness.gradcheck",
     "golden": "harness.golden",
+    "golden-contact": "harness.golden_contact",
     "bench": "harness.bench",
     "osi-bench": "harness.osi_bench",
     "figures": "harness.figures",

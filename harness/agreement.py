@@ -34,12 +34,19 @@ AGREEMENT_TOL = 1e-9  # one step from MuJoCo's states, converged solver, relativ
 PART = 1e-6  # replay: the trajectories have parted
 
 
+FEATURES = MODELS.parent / "tests" / "models"
+
+
 def models() -> dict:
-    """The models of the report: name -> MJCF path (the wiping arm's comes with its episode)."""
+    """The models of the report: name -> (MJCF path, steps). The wiping arm's episode
+    brings its own arm; the feature models (every collider and contact setting, under
+    both cones) fall passively for 1.2 s, before their hinge chains near gimbal lock."""
     gym = gym_assets_dir()
-    return {"half_cheetah": MODELS / "half_cheetah.xml", "box": MODELS / "box.xml",
-            "wiping_arm": MODELS / "wiping_arm.xml", "hopper": gym / "hopper.xml",
-            "walker2d": gym / "walker2d.xml"}
+    return {"half_cheetah": (MODELS / "half_cheetah.xml", 500), "box": (MODELS / "box.xml", 500),
+            "wiping_arm": (MODELS / "wiping_arm.xml", 2000), "hopper": (gym / "hopper.xml", 500),
+            "walker2d": (gym / "walker2d.xml", 500),
+            "features_pyramidal": (FEATURES / "contact_features_pyramidal.xml", 300),
+            "features_elliptic": (FEATURES / "contact_features_elliptic.xml", 300)}
 
 
 def controls(m, steps: int, seed: int, name: str) -> np.ndarray:

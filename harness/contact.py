@@ -2,7 +2,8 @@
 against MuJoCo model by model, and against the other engines' contact laws.
 
 1. MuJoCo, model by model (harness/agreement.py): the half cheetah, the box, the wiping arm
-   pressing its tool on the table, gymnasium's hopper and walker2d. One step from MuJoCo's
+   pressing its tool on the table, gymnasium's hopper and walker2d, and two models of every
+   collider and contact setting (tests/models/contact_features_{pyramidal,elliptic}.xml). One step from MuJoCo's
    own states (in contact, at joint limits, free) against MuJoCo with its solver converged
    and at the file's own tolerance, the normal forces, and a replay. Ours must equal the
    converged MuJoCo to <= 1e-9 (relative) at one step: the exit status says whether it did.
@@ -366,21 +367,21 @@ def one_step(engines: list, trajectory: tuple, taus: np.ndarray, samples: int) -
 
 
 def agreements(samples: int, seed: int) -> list:
-    """harness/agreement.py on every model: 500 steps each (the wiping arm: 2000 steps of
-    1 ms of a wiping episode at mu = (50, 50))."""
+    """harness/agreement.py on every model (the wiping arm: a wiping episode at mu =
+    (50, 50))."""
     import tempfile
 
     from harness import agreement, wiping_replay
 
     out = []
-    for name, path in agreement.models().items():
+    for name, (path, steps) in agreement.models().items():
         if name != "wiping_arm":
-            out.append(agreement.one_model(name, path, 500, samples, seed))
+            out.append(agreement.one_model(name, path, steps, samples, seed))
             continue
         with tempfile.TemporaryDirectory() as tmp:
-            rec, xml = wiping_replay.record("50,50", 2000, Path(tmp))
+            rec, xml = wiping_replay.record("50,50", steps, Path(tmp))
             episode = (rec["q"][0], rec["v"][0], rec["tau"])
-            out.append(agreement.one_model(name, xml, 2000, samples, seed, episode=episode))
+            out.append(agreement.one_model(name, xml, steps, samples, seed, episode=episode))
         out[-1]["file"] = "reference_models/wiping_arm.xml (tool at mu = 50, 50)"
     return out
 

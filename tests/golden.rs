@@ -5,6 +5,7 @@
 
 mod common;
 
+use common::rel_err;
 use diffosi::dynamics::{bias_forces, crba, Data};
 use diffosi::model::{Integrator, Model, PassiveMode};
 use nalgebra::Vector3;
@@ -44,17 +45,6 @@ struct Rollout {
     taus: Vec<Vec<f64>>,
     q: Vec<Vec<f64>>,
     v: Vec<Vec<f64>>,
-}
-
-/// Largest error relative to max(1, |reference|), elementwise.
-fn rel_err<'a>(
-    ours: impl IntoIterator<Item = &'a f64>,
-    theirs: impl IntoIterator<Item = &'a f64>,
-) -> f64 {
-    ours.into_iter()
-        .zip(theirs)
-        .map(|(a, b)| (a - b).abs() / b.abs().max(1.0))
-        .fold(0.0, f64::max)
 }
 
 /// The model as the reference engine ran it: its passive-force convention,

@@ -29,7 +29,11 @@ pub(super) fn document<'i>(text: &'i str, file: &str) -> Result<Document<'i>, Mo
                 node.tag_name().name()
             )));
         }
-        stack.extend(node.children().filter(|c| c.is_element()).map(|c| (c, depth + 1)));
+        stack.extend(
+            node.children()
+                .filter(|c| c.is_element())
+                .map(|c| (c, depth + 1)),
+        );
     }
     Ok(doc)
 }

@@ -270,3 +270,14 @@ pub fn smooth(model: Model) -> Model {
         .edited(|s| s.opt.contact_model = diffosi::model::ContactModel::Smooth)
         .unwrap()
 }
+
+/// Largest error relative to max(1, |reference|), elementwise.
+pub fn rel_err<'a>(
+    ours: impl IntoIterator<Item = &'a f64>,
+    theirs: impl IntoIterator<Item = &'a f64>,
+) -> f64 {
+    ours.into_iter()
+        .zip(theirs)
+        .map(|(a, b)| (a - b).abs() / b.abs().max(1.0))
+        .fold(0.0, f64::max)
+}

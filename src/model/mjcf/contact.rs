@@ -1,16 +1,13 @@
 //! `<contact>`: explicit geom pairs (`<pair>`) and excluded body pairs
-//! (`<exclude>`). A pair's unset attributes come from its geoms as MuJoCo's
-//! compiler sets them: margin and gap the larger of the geoms'; condim,
-//! friction, solref and solimp from the geom of higher priority, or at equal
-//! priority the larger condim and friction, solimp mixed by solmix and
-//! solref the smaller of each entry (MuJoCo's compiler takes that branch for
-//! an unset solref).
+//! (`<exclude>`). A pair's unset attributes take MuJoCo's pair defaults
+//! (through `<default><pair>` classes), not its geoms' values: condim 3,
+//! friction (1, 1, 0.005, 0.0001, 0.0001), the default solref and solimp,
+//! margin and gap 0 (measured on MuJoCo 4.0.0's compiled pair_* arrays).
 
 use super::attributes::Attrs;
 use super::schema::{check_attributes, EXCLUDE_ATTRS, PAIR_ATTRS};
 use super::{children, elements, tag, unrecognized, Node, Reader, Result};
-use crate::model::constraint::solmix;
-use crate::model::{ContactPair, Geom, SolParams};
+use crate::model::{ContactPair, Geom};
 
 impl<'a> Reader<'a> {
     /// The explicit pairs and excluded body pairs of every `<contact>`;
@@ -54,44 +51,16 @@ impl<'a> Reader<'a> {
                 .position(|g| g.name == name)
                 .ok_or_else(|| a.error(node, format!("{key} '{name}' is not a geom")))
         };
-        let ids = [find("geom1")?, find("geom2")?];
-        let [g1, g2] = ids.map(|g| &geoms[g]);
-        let (c1, c2) = (&g1.contact, &g2.contact);
-        let leader = match c1.priority.cmp(&c2.priority) {
-            std::cmp::Ordering::Greater => Some(g1),
-            std::cmp::Ordering::Less => Some(g2),
-            std::cmp::Ordering::Equal => None,
-        };
-        let (condim, friction, sol) = match leader {
-            Some(g) => (g.contact.condim, g.friction, g.contact.sol),
-            None => {
-                let mix = solmix(c1.solmix, c2.solmix);
-                let sol = SolParams {
-                    solref: std::array::from_fn(|i| c1.sol.solref[i].min(c2.sol.solref[i])),
-                    solimp: std::array::from_fn(|i| {
-                        mix * c1.sol.solimp[i] + (1.0 - mix) * c2.sol.solimp[i]
-                    }),
-                };
-                let friction = std::array::from_fn(|i| g1.friction[i].max(g2.friction[i]));
-                (c1.condim.max(c2.condim), friction, sol)
-            }
-        };
-        let [slide, spin, roll] = friction;
-        let condim = a
-            .int("condim")?
-            .map_or(condim, |c| usize::try_from(c).unwrap_or(0));
+        let condim = a.int("condim")?.unwrap_or(3);
         let pair = ContactPair {
             name: a.text("name").unwrap_or_default().to_string(),
-            geoms: ids,
-            condim,
-            friction: a.leading("friction", [slide, slide, spin, roll, roll])?,
-            sol: SolParams {
-                solref: a.leading("solref", sol.solref)?,
-                solimp: a.leading("solimp", sol.solimp)?,
-            },
+            geoms: [find("geom1")?, find("geom2")?],
+            condim: usize::try_from(condim).unwrap_or(0),
+            friction: a.leading("friction", [1.0, 1.0, 0.005, 0.0001, 0.0001])?,
+            sol: a.sol_params("solref", "solimp")?,
             solreffriction: a.leading("solreffriction", [0.0; 2])?,
-            margin: a.number("margin")?.unwrap_or(c1.margin.max(c2.margin)),
-            gap: a.number("gap")?.unwrap_or(c1.gap.max(c2.gap)),
+            margin: a.number("margin")?.unwrap_or(0.0),
+            gap: a.number("gap")?.unwrap_or(0.0),
         };
         pair.check(geoms.len()).map_err(|e| a.error(node, e))?;
         Ok(pair)

@@ -1,0 +1,108 @@
+//! Our constraint contact model against MuJoCo's converged solver on MuJoCo's own
+//! states in contact and at joint limits (reference_models/golden/contact/*.json,
+//! written by `python -m harness golden-contact`): one step to 1e-12, the same
+//! contacts, and each contact's normal and friction forces to 1e-9.
+
+mod common;
+
+use common::rel_err;
+use diffosi::model::Model;
+use serde::Deserialize;
+use sha2::Digest;
+
+#[derive(Deserialize)]
+struct Golden {
+    model: String,
+    model_sha256: String,
+    states: Vec<State>,
+}
+
+#[derive(Deserialize)]
+struct State {
+    q: Vec<f64>,
+    v: Vec<f64>,
+    tau: Vec<f64>,
+    q_next: Vec<f64>,
+    v_next: Vec<f64>,
+    limit_rows: usize,
+    contacts: Vec<GoldenContact>,
+}
+
+/// MuJoCo's contact: geoms 1 and 2, dist, and the force in its frame (normal first).
+#[derive(Deserialize)]
+struct GoldenContact {
+    geoms: [String; 2],
+    dist: f64,
+    force: Vec<f64>,
+}
+
+fn load(golden: &Golden) -> Model {
+    let path = common::model_path(&golden.model);
+    let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    assert_eq!(
+        format!("{:x}", sha2::Sha256::digest(&bytes)),
+        golden.model_sha256,
+        "{} changed since its golden data was recorded: run `make golden`",
+        path.display()
+    );
+    Model::load(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Worst one-step error and worst force error of one model's states; counts the
+/// states at limits.
+fn compare(name: &str, golden: &Golden) -> (f64, f64, usize) {
+    let model = load(golden);
+    let mut data = model.data();
+    let (mut step, mut force, mut limits) = (0.0f64, 0.0f64, 0);
+    for (k, s) in golden.states.iter().enumerate() {
+        let (q1, v1) = model.step(&mut data, &s.q, &s.v, &s.tau).unwrap();
+        step = step
+            .max(rel_err(&q1, &s.q_next))
+            .max(rel_err(&v1, &s.v_next));
+        let ours = model.contacts(&mut data, &s.q, &s.v, &s.tau).unwrap();
+        assert_eq!(ours.len(), s.contacts.len(), "{name} state {k}: contacts");
+        for theirs in &s.contacts {
+            // Ours name geom 2 first (the geom the normal force pushes).
+            let c = ours
+                .iter()
+                .find(|c| {
+                    let [a, b] = c.geoms.map(|g| model.geoms[g].name.as_str());
+                    [b, a] == [theirs.geoms[0].as_str(), theirs.geoms[1].as_str()]
+                        && (-c.depth - theirs.dist).abs() < 1e-12
+                })
+                .unwrap_or_else(|| panic!("{name} state {k}: no contact {:?}", theirs.geoms));
+            force = force.max(rel_err(&[c.normal_force], &theirs.force[..1]));
+            let tangential = theirs.force[1..].iter().take(2).map(|f| f * f).sum::<f64>();
+            force = force.max(rel_err(&[c.friction.norm()], &[tangential.sqrt()]));
+        }
+        limits += usize::from(s.limit_rows > 0);
+    }
+    (step, force, limits)
+}
+
+#[test]
+fn steps_and_contact_forces_equal_mujocos() {
+    let dir =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("reference_models/golden/contact");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .flatten()
+        .map(|e| e.path())
+        .collect();
+    files.sort();
+    assert_eq!(files.len(), 7, "one file per model in {}", dir.display());
+    let mut limits = 0;
+    for file in &files {
+        let name = file.file_stem().unwrap().to_string_lossy().to_string();
+        let golden: Golden = serde_json::from_str(&std::fs::read_to_string(file).unwrap()).unwrap();
+        let (step, force, at_limits) = compare(&name, &golden);
+        println!(
+            "{name:<14} {} states ({at_limits} at limits): one step {step:.1e}, forces {force:.1e}",
+            golden.states.len()
+        );
+        assert!(step <= 1e-12, "{name}: one step {step:e}");
+        assert!(force <= 1e-9, "{name}: contact forces {force:e}");
+        limits += at_limits;
+    }
+    assert!(limits > 0, "no state at a joint limit");
+}
