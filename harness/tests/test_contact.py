@@ -183,10 +183,11 @@ def test_contact_command_reports_finite_numbers(tmp_path):
     # MuJoCo's contact, model by model: one step from MuJoCo's own states in contact.
     models = {a["model"]: a for a in doc["agreement"]}
     assert set(models) == {"half_cheetah", "box", "wiping_arm", "hopper", "walker2d",
-                           "features_pyramidal", "features_elliptic"}
+                           "features_pyramidal", "features_elliptic", "overlapping_chain"}
     for name, a in models.items():
         assert a["pass"] and a["one_step"]["contact"]["states"] > 0, (name, a["one_step"])
-        assert a["one_step"]["contact"]["max"] <= 1e-12, (name, a["one_step"])
+        # the chain: 4704 rows on 50 dofs, the Newton system's conditioning
+        assert a["one_step"]["contact"]["max"] <= (1e-10 if name == "overlapping_chain" else 1e-12), name
         assert a["normal_force"]["max_relative_gap"] <= 1e-9, (name, a["normal_force"])
     assert models["walker2d"]["one_step"]["limit"]["states"] > 0  # limits alone, too
     md = (tmp_path / "contact-half_cheetah.md").read_text()

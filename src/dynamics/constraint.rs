@@ -94,7 +94,9 @@ pub enum RowKind {
 /// The rows at one state; see the module documentation.
 #[derive(Clone, Debug)]
 pub struct Rows<T: Real> {
-    pub j: Vec<Vec<T>>,
+    /// J, row-major: row i is `j[i nv..(i + 1) nv]` ([`Rows::row`]).
+    pub j: Vec<T>,
+    pub nv: usize,
     pub kind: Vec<RowKind>,
     pub aref: Vec<T>,
     pub r: Vec<T>,
@@ -112,6 +114,7 @@ impl<T: Real> Default for Rows<T> {
     fn default() -> Self {
         Rows {
             j: vec![],
+            nv: 0,
             kind: vec![],
             aref: vec![],
             r: vec![],
@@ -123,6 +126,10 @@ impl<T: Real> Default for Rows<T> {
 }
 
 impl<T: Real> Rows<T> {
+    pub fn row(&self, i: usize) -> &[T] {
+        &self.j[i * self.nv..(i + 1) * self.nv]
+    }
+
     pub fn len(&self) -> usize {
         self.kind.len()
     }
@@ -368,7 +375,7 @@ impl<T: Real> Rows<T> {
                 .push(-vel * lift::<T>(damp) - x * imp * lift::<T>(stiff));
             self.floss.push(block.floss);
             self.kind.push(kind);
-            self.j.push(row);
+            self.j.extend(row);
         }
     }
 }
@@ -381,7 +388,10 @@ pub fn rows<T: Real>(
 ) -> (Rows<T>, Vec<ConstraintContact<T>>) {
     let consts = &tree.constraint;
     let n = tree.nv();
-    let mut rows = Rows::default();
+    let mut rows = Rows {
+        nv: n,
+        ..Rows::default()
+    };
     let unit = |i: usize, sign: T| {
         let mut row = vec![T::zero(); n];
         row[i] = sign;
@@ -450,23 +460,26 @@ fn contact_rows<T: Real>(
     let consts = &tree.constraint;
     let n = tree.nv();
     let [b1, b2] = c.bodies;
-    let (mut jp, mut jr) = (DMatrix::zeros(3, n), DMatrix::zeros(3, n));
+    // J(body 2) - J(body 1) at the contact point, per dof: translation, rotation.
+    let (mut jp, mut jr) = (vec![Vector3::zeros(); n], vec![Vector3::zeros(); n]);
     for (body, sign) in [(b2, T::one()), (b1, -T::one())] {
-        if let Some(node) = tree.body[body].node {
-            let (p, r) = point_jacobian(tree, data, node, &c.pos);
-            jp += p * sign;
-            jr += r * sign;
+        let mut k = tree.body[body].node;
+        while let Some(i) = k {
+            let s = &data.world_axis[i];
+            jp[i] += (s.lin + s.ang.cross(&c.pos)) * sign;
+            jr[i] += s.ang * sign;
+            k = tree.parent[i];
         }
     }
-    if jp.iter().chain(jr.iter()).all(|x| *x == T::zero()) {
+    let zero = Vector3::zeros();
+    if jp.iter().chain(&jr).all(|x| *x == zero) {
         rows.contact_rows.push((rows.len(), 0));
         return;
     }
     let dim = c.params.condim;
-    let frame_rows = |jac: &DMatrix<T>, k: usize| -> Vec<T> {
-        (0..n)
-            .map(|col| (0..3).fold(T::zero(), |s, r| s + c.frame[(k, r)] * jac[(r, col)]))
-            .collect()
+    let frame_rows = |jac: &[Vector3<T>], k: usize| -> Vec<T> {
+        let axis = c.frame.row(k).transpose();
+        jac.iter().map(|x| axis.dot(x)).collect()
     };
     // The condim rows in the contact frame: normal, tangents, then angular.
     let mut frame: Vec<Vec<T>> = (0..dim.min(3)).map(|k| frame_rows(&jp, k)).collect();

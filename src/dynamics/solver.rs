@@ -16,12 +16,14 @@
 //! unique: the answer depends on nothing but the problem (no warm start, no
 //! row order). The constraint forces are f = -ds/djar and M (a - a0) = J^T f.
 //!
-//! Newton's method: H = M + J^T (d^2 s) J, direction -H^-1 grad, step
-//! length minimising c along it (its derivative is monotone; safeguarded
-//! Newton inside a bracket). Once the zones of every row repeat, a full
-//! Newton step on them is the exact minimiser when no cone is in its middle
-//! zone; it is kept if the zones stay the same there. With a cone in the
-//! middle zone the iteration stops when a step changes nothing.
+//! Newton's method: H = M + J^T (d^2 s) J built on the zones at the current
+//! point, direction -H^-1 grad. The full step minimises the cost with those
+//! zones; where no cone is in its middle zone and the zones are the same at
+//! the full step, the cost's gradient vanishes there: it is the exact
+//! minimiser, and the solver stops. Otherwise the step length minimises c
+//! along the direction (its derivative is monotone; safeguarded Newton inside
+//! a bracket). With a cone in the middle zone the iteration stops when a step
+//! changes nothing.
 
 use nalgebra::{Cholesky, DMatrix, DVector};
 
@@ -166,10 +168,8 @@ fn dot<T: Real>(a: &[T], b: &[T]) -> T {
 
 /// J a - aref.
 fn residual<T: Real>(rows: &Rows<T>, a: &[T]) -> Vec<T> {
-    rows.j
-        .iter()
-        .zip(&rows.aref)
-        .map(|(j, r)| dot(j, a) - *r)
+    (0..rows.len())
+        .map(|i| dot(rows.row(i), a) - rows.aref[i])
         .collect()
 }
 
@@ -178,7 +178,6 @@ fn residual<T: Real>(rows: &Rows<T>, a: &[T]) -> Vec<T> {
 /// `iterations` bounds the Newton steps.
 pub fn solve<T: Real>(m: &DMatrix<T>, a0: &[T], rows: &Rows<T>, iterations: usize) -> Solution<T> {
     let mut a = a0.to_vec();
-    let mut previous: Option<Vec<Zone>> = None;
     let mut converged = false;
     let mut iteration = 0;
     while iteration < iterations {
@@ -191,13 +190,18 @@ pub fn solve<T: Real>(m: &DMatrix<T>, a0: &[T], rows: &Rows<T>, iterations: usiz
         };
         let dir = -chol.solve(&DVector::from_column_slice(&grad));
         let dir = dir.as_slice();
-        let repeated = previous.as_ref() == Some(&eval.zone);
-        if repeated && eval.cone_hessians.is_empty() {
-            // The zones repeat: the full step is the minimiser if they hold there.
+        if eval.cone_hessians.is_empty() {
+            // The full step minimises the cost with these zones; if the zones hold
+            // there, the cost's gradient vanishes there too: it is the minimiser.
             let trial: Vec<T> = a.iter().zip(dir).map(|(x, d)| *x + *d).collect();
             let again = evaluate(rows, &residual(rows, &trial), false);
             if again.zone == eval.zone {
-                a = trial;
+                // One more step from there on the same factor: its gradient is at
+                // rounding level, so the correction removes the rounding the large
+                // first step left (ill-conditioned H, many stiff rows).
+                let grad = gradient(m, a0, rows, &trial, &again);
+                let fix = chol.solve(&DVector::from_column_slice(&grad));
+                a = trial.iter().zip(fix.iter()).map(|(x, d)| *x - *d).collect();
                 converged = true;
                 break;
             }
@@ -215,7 +219,6 @@ pub fn solve<T: Real>(m: &DMatrix<T>, a0: &[T], rows: &Rows<T>, iterations: usiz
             converged = true;
             break;
         }
-        previous = Some(eval.zone);
     }
     let jar = residual(rows, &a);
     let eval = evaluate(rows, &jar, false);
@@ -228,7 +231,19 @@ pub fn solve<T: Real>(m: &DMatrix<T>, a0: &[T], rows: &Rows<T>, iterations: usiz
     }
 }
 
-/// The cost's gradient M (a - a0) - J^T f and Hessian M + J^T (d^2 s) J.
+/// The cost's gradient M (a - a0) - J^T f.
+fn gradient<T: Real>(m: &DMatrix<T>, a0: &[T], rows: &Rows<T>, a: &[T], eval: &Eval<T>) -> Vec<T> {
+    let delta: Vec<T> = a.iter().zip(a0).map(|(x, y)| *x - *y).collect();
+    let mut grad: Vec<T> = (m * DVector::from_column_slice(&delta)).data.into();
+    for k in 0..rows.len() {
+        for (g, j) in grad.iter_mut().zip(rows.row(k)) {
+            *g -= *j * eval.force[k];
+        }
+    }
+    grad
+}
+
+/// The cost's gradient and Hessian M + J^T (d^2 s) J.
 fn gradient_hessian<T: Real>(
     m: &DMatrix<T>,
     a0: &[T],
@@ -237,15 +252,11 @@ fn gradient_hessian<T: Real>(
     eval: &Eval<T>,
 ) -> (Vec<T>, DMatrix<T>) {
     let n = a.len();
-    let delta: Vec<T> = a.iter().zip(a0).map(|(x, y)| *x - *y).collect();
-    let mut grad: Vec<T> = (m * DVector::from_column_slice(&delta)).data.into();
+    let grad = gradient(m, a0, rows, a, eval);
     let mut h = m.clone();
-    for (k, row) in rows.j.iter().enumerate() {
-        for i in 0..n {
-            grad[i] -= row[i] * eval.force[k];
-        }
-        let quadratic = eval.zone[k] == Zone::Quadratic;
-        if quadratic {
+    for k in 0..rows.len() {
+        let row = rows.row(k);
+        if eval.zone[k] == Zone::Quadratic {
             let d = T::one() / rows.r[k];
             for i in 0..n {
                 if row[i] == T::zero() {
@@ -261,7 +272,7 @@ fn gradient_hessian<T: Real>(
         let dim = hc.nrows();
         for p in 0..dim {
             for q in 0..dim {
-                let (jp, jq) = (&rows.j[first + p], &rows.j[first + q]);
+                let (jp, jq) = (rows.row(first + p), rows.row(first + q));
                 for i in 0..n {
                     for j in 0..n {
                         h[(i, j)] += hc[(p, q)] * jp[i] * jq[j];
@@ -273,35 +284,53 @@ fn gradient_hessian<T: Real>(
     (grad, h)
 }
 
-/// The derivative and second derivative of the cost along `dir` at a + t dir.
-fn along<T: Real>(
-    m: &DMatrix<T>,
-    a0: &[T],
-    rows: &Rows<T>,
-    (a, dir): (&[T], &[T]),
-    jd: &[T],
-    t: T,
-) -> (T, T) {
-    let point: Vec<T> = a.iter().zip(dir).map(|(x, d)| *x + t * *d).collect();
-    let eval = evaluate(rows, &residual(rows, &point), true);
-    let md: Vec<T> = (m * DVector::from_column_slice(dir)).data.into();
-    let delta: Vec<T> = point.iter().zip(a0).map(|(x, y)| *x - *y).collect();
-    let first = dot(&md, &delta) - dot(&eval.force, jd);
-    let mut second = dot(&md, dir);
-    for (k, z) in eval.zone.iter().enumerate() {
-        if *z == Zone::Quadratic {
-            second += jd[k] * jd[k] / rows.r[k];
+/// The cost along a + t dir: its Gauss part's slope at t = 0 and curvature
+/// ((a - a0)^T M dir, dir^T M dir), the residual at t = 0 and its rate J dir.
+struct Line<T: Real> {
+    gauss: (T, T),
+    jar: Vec<T>,
+    jd: Vec<T>,
+}
+
+impl<T: Real> Line<T> {
+    fn new(m: &DMatrix<T>, a0: &[T], rows: &Rows<T>, (a, dir): (&[T], &[T])) -> Self {
+        let md: Vec<T> = (m * DVector::from_column_slice(dir)).data.into();
+        let delta: Vec<T> = a.iter().zip(a0).map(|(x, y)| *x - *y).collect();
+        Line {
+            gauss: (dot(&md, &delta), dot(&md, dir)),
+            jar: residual(rows, a),
+            jd: (0..rows.len()).map(|i| dot(rows.row(i), dir)).collect(),
         }
     }
-    for (i, hc) in &eval.cone_hessians {
-        let dim = hc.nrows();
-        for p in 0..dim {
-            for q in 0..dim {
-                second += hc[(p, q)] * jd[i + p] * jd[i + q];
+
+    /// The cost's first and second derivatives in t at t.
+    fn slope(&self, rows: &Rows<T>, t: T) -> (T, T) {
+        let jar: Vec<T> = self
+            .jar
+            .iter()
+            .zip(&self.jd)
+            .map(|(r, d)| *r + t * *d)
+            .collect();
+        let eval = evaluate(rows, &jar, true);
+        let (g1, g2) = self.gauss;
+        let jd = &self.jd;
+        let first = g1 + t * g2 - dot(&eval.force, jd);
+        let mut second = g2;
+        for (k, z) in eval.zone.iter().enumerate() {
+            if *z == Zone::Quadratic {
+                second += jd[k] * jd[k] / rows.r[k];
             }
         }
+        for (i, hc) in &eval.cone_hessians {
+            let dim = hc.nrows();
+            for p in 0..dim {
+                for q in 0..dim {
+                    second += hc[(p, q)] * jd[i + p] * jd[i + q];
+                }
+            }
+        }
+        (first, second)
     }
-    (first, second)
 }
 
 /// The step t > 0 where the cost's derivative along `dir` vanishes: a
@@ -309,8 +338,8 @@ fn along<T: Real>(
 /// with a non-negative derivative, then Newton steps kept inside the bracket
 /// (bisection otherwise) until t stops changing.
 fn line_search<T: Real>(m: &DMatrix<T>, a0: &[T], rows: &Rows<T>, a: &[T], dir: &[T]) -> T {
-    let jd: Vec<T> = rows.j.iter().map(|j| dot(j, dir)).collect();
-    let slope = |t: T| along(m, a0, rows, (a, dir), &jd, t);
+    let line = Line::new(m, a0, rows, (a, dir));
+    let slope = |t: T| line.slope(rows, t);
     let (mut lo, mut hi) = (T::zero(), T::one());
     let two: T = lift(2.0);
     for _ in 0..60 {

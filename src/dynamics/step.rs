@@ -204,7 +204,7 @@ fn constrained<T: Real>(
         None => qdd.copy_from_slice(&solution.qacc),
         Some(extra) => {
             qdd.copy_from_slice(force);
-            for (row, f) in rows.j.iter().zip(&solution.force) {
+            for (row, f) in rows.j.chunks_exact(n).zip(&solution.force) {
                 for i in 0..n {
                     qdd[i] += row[i] * *f;
                 }
