@@ -7,6 +7,7 @@ mod common;
 use common::{load, load_with_contact, settled, state};
 use criterion::{criterion_group, criterion_main, Criterion};
 use diffosi::derivatives::{step_jacobians, Workspace, Wrt};
+use diffosi::model::ContactModel;
 use diffosi::Model;
 use std::hint::black_box;
 
@@ -66,10 +67,11 @@ fn bench_model(c: &mut Criterion, name: &str, param: &str) {
     });
 }
 
-/// The half cheetah standing on its floor (both feet in contact): the full
-/// step Jacobian, and the one of the torso mass and the contact parameters.
+/// The half cheetah standing on its floor (both feet in contact) under the
+/// smooth contact model: the full step Jacobian, and the one of the torso
+/// mass and the contact parameters.
 fn bench_contact(c: &mut Criterion) {
-    let model = load_with_contact("half_cheetah");
+    let model = load_with_contact("half_cheetah", ContactModel::Smooth);
     let (q, v, tau) = settled(&model, 300);
     let mut ws = Workspace::new(&model);
     let params = [

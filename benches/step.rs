@@ -7,6 +7,7 @@ mod common;
 use common::{load, load_with_contact, settled, state};
 use criterion::{criterion_group, criterion_main, Criterion};
 use diffosi::dynamics::{aba, crba, rnea, step};
+use diffosi::model::ContactModel;
 use std::hint::black_box;
 
 fn bench_model(c: &mut Criterion, name: &str) {
@@ -39,14 +40,15 @@ fn bench_model(c: &mut Criterion, name: &str) {
     });
 }
 
-/// One step of the half cheetah standing on its floor: both feet in contact.
-fn bench_contact(c: &mut Criterion) {
-    let model = load_with_contact("half_cheetah");
+/// One step of the half cheetah standing on its floor (both feet in contact)
+/// under either contact model.
+fn bench_contact(c: &mut Criterion, law: ContactModel, name: &str) {
+    let model = load_with_contact("half_cheetah", law);
     let mut data = model.data();
     let (q, v, tau) = settled(&model, 300);
     let n = model.nv();
     let (mut q1, mut v1) = (vec![0.0; n], vec![0.0; n]);
-    c.bench_function("step_contact/half_cheetah", |b| {
+    c.bench_function(name, |b| {
         b.iter(|| {
             step(
                 model.tree(),
@@ -64,7 +66,8 @@ fn benches(c: &mut Criterion) {
     for name in ["cartpole", "half_cheetah"] {
         bench_model(c, name);
     }
-    bench_contact(c);
+    bench_contact(c, ContactModel::Constraint, "step_contact/half_cheetah");
+    bench_contact(c, ContactModel::Smooth, "step_contact_smooth/half_cheetah");
 }
 
 criterion_group!(step_benches, benches);

@@ -32,11 +32,12 @@ Our calls restart from that state; MuJoCo's state advances with its steps
   engine, NimblePhysics, needed 52 µs (cartpole) and 395 µs (half cheetah) per
   Gauss-Newton update (shared/notes/reference-engines.md).
 
-With floor contact (issue 8's target: at least as fast as MuJoCo): the half cheetah
-standing on its floor, contacts and joint limits on, ours on reference_models/half_cheetah.xml
-and MuJoCo on gymnasium's half_cheetah.xml (same dt 0.01), each first settled by
-SETTLE_STEPS steps without forces from its reference pose; both then step on from there
-(zero forces, so they keep standing and the contact count stays put).
+With floor contact (target: at least as fast as MuJoCo): the half cheetah standing on its
+floor, contacts and joint limits on, ours on reference_models/half_cheetah.xml under the
+constraint model (MuJoCo's contact, the file's default) and, in a row of its own, under the
+smooth penalty model, and MuJoCo on gymnasium's half_cheetah.xml (same dt 0.01), each first
+settled by SETTLE_STEPS steps without forces from its reference pose; all then step on from
+there (zero forces, so they keep standing and the contact count stays put).
 
 Ratio = their time / ours: > 1 means we are faster. An OSI table from
 benches/osi.rs follows (criterion only): one DiffOSI identification (LM from
@@ -158,11 +159,15 @@ def pinocchio_jobs(name):
 
 
 def contact_jobs():
-    """{(library, what): job}: ours and MuJoCo's half cheetah stepping while standing on the floor."""
+    """{(library, what): job}: ours (constraint and smooth models) and MuJoCo's half cheetah
+    stepping while standing on the floor."""
     m = diffosi.Model.load(str(ROOT / "reference_models" / "half_cheetah.xml"))
+    smooth = m.with_options(contact_model="smooth")
     rest = np.zeros((SETTLE_STEPS, m.nv))
     Q, V = m.rollout(np.zeros(m.nq), np.zeros(m.nv), rest)
     q, v = Q[-1], V[-1]
+    Q, V = smooth.rollout(np.zeros(m.nq), np.zeros(m.nv), rest)
+    qs, vs = Q[-1], V[-1]
     with quiet_stdio():  # MuJoCo warns that gym's settotalmass is deprecated
         model = mujoco.MjModel.from_xml_path(str(gym_assets_dir() / "half_cheetah.xml"))
     data = mujoco.MjData(model)
@@ -170,6 +175,8 @@ def contact_jobs():
     return {
         ("diffosi", "step"): (m.step, (q, v, rest[0]), 1),
         ("diffosi", "loop"): (m.rollout, (q, v, np.zeros((NATIVE_STEPS, m.nv))), NATIVE_STEPS),
+        ("diffosi smooth", "step"): (smooth.step, (qs, vs, rest[0]), 1),
+        ("diffosi smooth", "loop"): (smooth.rollout, (qs, vs, np.zeros((NATIVE_STEPS, m.nv))), NATIVE_STEPS),
         ("MuJoCo", "step"): (mujoco.mj_step, (model, data), 1),
         ("MuJoCo", "loop"): (mujoco.mj_step, (model, data, NATIVE_STEPS), NATIVE_STEPS),
     }
@@ -237,11 +244,14 @@ def speed_table():
             overheads.append(f"| {name} | {library} | {us(t['overhead'])} | {us(beyond)} |")
     ours, mj = times[CONTACT]["diffosi"], times[CONTACT]["MuJoCo"]
     native = criterion("step_contact_half_cheetah")
-    for what, mine, theirs in [("step, one Python call", ours["step"], mj["step"]),
-                               (f"step, loop of {NATIVE_STEPS} in native code (rollout; mj_step nstep)",
-                                ours["loop"], mj["loop"])]:
-        cells = [what, CONTACT, us(mine), us(native), versus(theirs, mine), "—"]
-        lines.append("| " + " | ".join(cells) + " |")
+    for label, key, bench in [("constraint", "diffosi", "step_contact_half_cheetah"),
+                              ("smooth", "diffosi smooth", "step_contact_smooth_half_cheetah")]:
+        t = times[CONTACT][key]
+        for what, mine, theirs in [("step, one Python call", t["step"], mj["step"]),
+                                   (f"step, loop of {NATIVE_STEPS} in native code (rollout; mj_step nstep)",
+                                    t["loop"], mj["loop"])]:
+            cells = [f"{what} ({label} model)", CONTACT, us(mine), us(criterion(bench)), versus(theirs, mine), "—"]
+            lines.append("| " + " | ".join(cells) + " |")
     target = (f"ours {us(ours['loop'])} µs per step (rollout) vs MuJoCo's {us(mj['loop'])} µs (mj_step "
               f"nstep), interleaved in one run: MuJoCo / ours = {mj['loop'] / ours['loop']:.1f}x "
               f"(criterion, native: {us(native)} µs)")

@@ -1,5 +1,6 @@
 //! What the benchmarks share: the reference models and a fixed state.
 
+use diffosi::model::ContactModel;
 use diffosi::Model;
 
 /// A reference model, contacts and joint limits off: the articulated dynamics
@@ -17,12 +18,13 @@ pub fn load(name: &str) -> Model {
     .unwrap()
 }
 
-/// A reference model as its file says: contacts and joint limits on.
-pub fn load_with_contact(name: &str) -> Model {
+/// A reference model with contacts and joint limits on, under contact model `law`.
+pub fn load_with_contact(name: &str, law: ContactModel) -> Model {
     Model::load(format!(
         "{}/reference_models/{name}.xml",
         env!("CARGO_MANIFEST_DIR")
     ))
+    .and_then(|m| m.edited(|s| s.opt.contact_model = law))
     .unwrap()
 }
 
