@@ -34,7 +34,7 @@ AGREEMENT_TOL = 1e-9  # one step from MuJoCo's states, converged solver, relativ
 PART = 1e-6  # replay: the trajectories have parted
 
 
-FEATURES = MODELS.parent / "tests" / "models"
+FEATURES = MODELS.parent / "tests" / "data"
 
 
 def models() -> dict:

@@ -3,7 +3,7 @@ against MuJoCo model by model, and against the other engines' contact laws.
 
 1. MuJoCo, model by model (harness/agreement.py): the half cheetah, the box, the wiping arm
    pressing its tool on the table, gymnasium's hopper and walker2d, and two models of every
-   collider and contact setting (tests/models/contact_features_{pyramidal,elliptic}.xml). One step from MuJoCo's
+   collider and contact setting (tests/data/contact_features_{pyramidal,elliptic}.xml). One step from MuJoCo's
    own states (in contact, at joint limits, free) against MuJoCo with its solver converged
    and at the file's own tolerance, the normal forces, and a replay. Ours must equal the
    converged MuJoCo to <= 1e-9 (relative) at one step: the exit status says whether it did.

@@ -318,3 +318,66 @@ fn names_with_slashes_resolve() {
         "unknown parameter 'body/leg/mass': no body named 'leg'"
     );
 }
+
+/// A model nested deeper than MuJoCo's XML reader allows is refused before any
+/// recursive walk (20,000 levels aborted the process with a stack overflow).
+#[test]
+fn deep_nesting_is_refused() {
+    let n = 20_000;
+    let text = format!(
+        "<mujoco><worldbody>{}{}</worldbody></mujoco>",
+        r#"<body><joint/><geom size="0.1"/>"#.repeat(n),
+        "</body>".repeat(n)
+    );
+    let err = diffosi::model::mjcf::parse(&text, "deep.xml").unwrap_err();
+    assert!(
+        err.to_string().contains("element nesting is too deep"),
+        "{err}"
+    );
+    // MuJoCo's limit: a chain of 496 bodies loads, one of 497 does not.
+    let chain = |n: usize| {
+        format!(
+            "<mujoco><worldbody>{}{}</worldbody></mujoco>",
+            r#"<body><joint/><geom size="0.1" contype="0"/>"#.repeat(n),
+            "</body>".repeat(n)
+        )
+    };
+    assert!(diffosi::model::mjcf::parse(&chain(496), "chain.xml").is_ok());
+    assert!(diffosi::model::mjcf::parse(&chain(497), "chain.xml").is_err());
+}
+
+/// Constraint-model refusals: geoms without a collider within reach, and step
+/// Jacobians through constraint rows (until exact derivatives land).
+#[test]
+fn the_constraint_model_refuses_what_it_cannot_do_yet() {
+    let text = r#"<mujoco><worldbody>
+        <body><joint type="slide" axis="0 0 1"/><geom name="a" type="box" size="0.1 0.1 0.1"/></body>
+        <body pos="0 0 0.19"><joint type="slide" axis="0 0 1"/><geom name="b" type="box" size="0.1 0.1 0.1"/></body>
+        </worldbody></mujoco>"#;
+    let model = diffosi::model::mjcf::parse(text, "boxes.xml").unwrap();
+    let zero = [0.0, 0.0];
+    let err = model
+        .step(&mut model.data(), &zero, &zero, &zero)
+        .unwrap_err();
+    assert_eq!(err, StepError::NoCollider([0, 1]));
+    assert!(err.to_string().contains("no collider"), "{err}");
+    // Out of reach they step; so does the smooth model, which ignores the pair.
+    assert!(model
+        .step(&mut model.data(), &[0.0, 1.0], &zero, &zero)
+        .is_ok());
+    let smooth = common::smooth(model);
+    assert!(smooth.step(&mut smooth.data(), &zero, &zero, &zero).is_ok());
+
+    let cheetah = load("half_cheetah.xml");
+    let wrt = Wrt {
+        state: true,
+        control: true,
+        params: &[],
+    };
+    let x = cheetah.reference_q();
+    let v = vec![0.0; cheetah.nv()];
+    let err = step_jacobians(&cheetah, &mut Workspace::new(&cheetah), (&x, &v, &v), &wrt);
+    assert_eq!(err.unwrap_err(), StepError::ConstraintDerivatives);
+    let smooth = common::smooth(cheetah);
+    assert!(step_jacobians(&smooth, &mut Workspace::new(&smooth), (&x, &v, &v), &wrt).is_ok());
+}

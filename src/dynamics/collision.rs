@@ -701,3 +701,90 @@ fn capsule_capsule<T: Real>(
         sphere_sphere(&s1, r1, &s2, r2, margin, out);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frames_are_mujocos() {
+        // No hint: the tangent is world y made orthogonal to the normal, or world z
+        // when the normal is close to y; rows orthonormal and right-handed.
+        let n = Vector3::new(0.0, 0.0, 2.0);
+        let f: Matrix3<f64> = make_frame(n, Vector3::zeros());
+        assert_eq!(
+            f,
+            Matrix3::new(0.0, 0.0, 1.0, 0.0, 1.0, 0.0, -1.0, 0.0, 0.0)
+        );
+        let f: Matrix3<f64> = make_frame(Vector3::new(0.1, 0.9, 0.0), Vector3::zeros());
+        let n = Vector3::new(0.1, 0.9, 0.0).normalize();
+        assert!((f.row(1).transpose() - (Vector3::z())).norm() < 1e-15);
+        assert!((f.row(0).transpose() - n).norm() < 1e-15);
+        // A hint (a capsule's axis) is made orthogonal to the normal.
+        let f: Matrix3<f64> = make_frame(Vector3::z(), Vector3::new(1.0, 0.0, 1.0));
+        assert!((f.row(1).transpose() - Vector3::x()).norm() < 1e-15);
+        assert!((f * f.transpose() - Matrix3::identity()).norm() < 1e-15);
+        assert!((f.determinant() - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_box_on_a_plane_touches_with_its_four_lowest_corners_at_most() {
+        let plane = Placed {
+            pos: Vector3::zeros(),
+            mat: Matrix3::identity(),
+        };
+        let cube = Placed {
+            pos: Vector3::new(0.0, 0.0, 0.049),
+            mat: Matrix3::identity(),
+        };
+        let mut out: Vec<Pre<f64>> = vec![];
+        plane_box(&plane, &cube, &Vector3::new(0.2, 0.1, 0.05), 0.0, &mut out);
+        assert_eq!(out.len(), 4);
+        for c in &out {
+            assert!((c.dist + 0.001).abs() < 1e-15);
+            assert!((c.pos.z + 0.0005).abs() < 1e-15); // midway between the surfaces
+            assert_eq!(c.normal, Vector3::z());
+        }
+        // Lifted beyond the margin: nothing; within it: contacts at positive distance.
+        let lifted = Placed {
+            pos: Vector3::new(0.0, 0.0, 0.06),
+            ..cube
+        };
+        out.clear();
+        plane_box(
+            &plane,
+            &lifted,
+            &Vector3::new(0.2, 0.1, 0.05),
+            0.005,
+            &mut out,
+        );
+        assert!(out.is_empty());
+        plane_box(
+            &plane,
+            &lifted,
+            &Vector3::new(0.2, 0.1, 0.05),
+            0.02,
+            &mut out,
+        );
+        assert!(out.len() == 4 && out.iter().all(|c| (c.dist - 0.01).abs() < 1e-15));
+    }
+
+    #[test]
+    fn parallel_capsules_touch_at_two_points() {
+        let lying = Matrix3::new(0.0, 0.0, 1.0, 0.0, 1.0, 0.0, -1.0, 0.0, 0.0);
+        let a = Placed {
+            pos: Vector3::zeros(),
+            mat: lying,
+        };
+        let b = Placed {
+            pos: Vector3::new(0.1, 0.0, 0.09),
+            mat: lying,
+        };
+        let mut out: Vec<Pre<f64>> = vec![];
+        capsule_capsule((&a, [0.05, 0.2]), (&b, [0.05, 0.2]), 0.0, &mut out);
+        assert_eq!(out.len(), 2);
+        for c in &out {
+            assert!((c.dist + 0.01).abs() < 1e-15 && (c.normal - Vector3::z()).norm() < 1e-15);
+        }
+    }
+}

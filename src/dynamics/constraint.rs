@@ -612,3 +612,46 @@ pub fn unreachable_pair<T: Real>(tree: &Tree<T>, data: &Data<T>) -> Option<[usiz
         })
         .map(|p| p.geoms.map(|g| tree.geoms[g].geom))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn impedance_follows_the_solimp_sigmoid() {
+        // dmin 0.9, dmax 0.95, width 0.001, midpoint 0.5, power 2 (MuJoCo's default).
+        let s = [0.9, 0.95, 0.001, 0.5, 2.0];
+        assert_eq!(impedance::<f64>(&s, 0.0), 0.9);
+        assert_eq!(impedance::<f64>(&s, -0.002), 0.95);
+        // x = 0.25: below the midpoint, y = x^2 / 0.5 = 0.125.
+        assert!((impedance::<f64>(&s, -0.00025) - (0.9 + 0.125 * 0.05)).abs() < 1e-15);
+        // x = 0.75: above it, y = 1 - (1 - x)^2 / 0.5 = 0.875; symmetric in the sign.
+        assert!((impedance::<f64>(&s, 0.00075) - (0.9 + 0.875 * 0.05)).abs() < 1e-15);
+        // Linear (power 1) and flat (dmin = dmax) laws.
+        assert!((impedance::<f64>(&[0.5, 0.9, 0.01, 0.5, 1.0], 0.005) - 0.7).abs() < 1e-15);
+        assert_eq!(impedance::<f64>(&[0.8, 0.8, 0.01, 0.5, 2.0], 0.3), 0.8);
+    }
+
+    #[test]
+    fn references_have_mujocos_stiffness_and_damping() {
+        // Time constant 0.02 s, damping ratio 1, dmax 0.95.
+        let (k, b) = stiffness_damping(&[0.02, 1.0], 0.95);
+        assert!((k - 1.0 / (0.95f64.powi(2) * 0.02f64.powi(2))).abs() < 1e-9);
+        assert!((b - 2.0 / (0.95 * 0.02)).abs() < 1e-12);
+        // The direct form: -k, -b, scaled by dmax.
+        assert_eq!(stiffness_damping(&[-1000.0, -10.0], 0.5), (4000.0, 20.0));
+        // refsafe raises a time constant below two timesteps.
+        let solver = SolverOptions::default();
+        let sol = effective(&SolParams::default(), &solver, 0.02);
+        assert_eq!(sol.solref[0], 0.04);
+        let clamped = effective(
+            &SolParams {
+                solimp: [0.0, 1.0, -1.0, 0.0, 0.5],
+                ..SolParams::default()
+            },
+            &solver,
+            0.001,
+        );
+        assert_eq!(clamped.solimp, [MIN_IMP, MAX_IMP, 0.0, MIN_IMP, 1.0]);
+    }
+}

@@ -373,3 +373,77 @@ fn line_search<T: Real>(m: &DMatrix<T>, a0: &[T], rows: &Rows<T>, a: &[T], dir: 
     }
     t
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One dof of mass m with one row J = 1 of regulariser R: a unilateral row
+    /// is active when a0 - aref < 0, and then a = (m a0 + aref / R) / (m + 1 / R).
+    fn one_row(kind: RowKind, aref: f64, r: f64, floss: f64) -> Rows<f64> {
+        Rows {
+            j: vec![1.0],
+            nv: 1,
+            kind: vec![kind],
+            aref: vec![aref],
+            r: vec![r],
+            floss: vec![floss],
+            ..Rows::default()
+        }
+    }
+
+    #[test]
+    fn a_unilateral_row_pushes_only_when_violated() {
+        let m = DMatrix::from_element(1, 1, 2.0);
+        let rows = one_row(RowKind::Unilateral, 1.0, 0.01, 0.0);
+        let s = solve(&m, &[-3.0], &rows, 100);
+        let expected = (2.0 * -3.0 + 1.0 / 0.01) / (2.0 + 1.0 / 0.01);
+        assert!(s.converged && (s.qacc[0] - expected).abs() < 1e-14);
+        assert_eq!(s.zone, vec![Zone::Quadratic]);
+        assert!((s.force[0] - 2.0 * (s.qacc[0] + 3.0)).abs() < 1e-12); // M (a - a0) = J^T f
+        let free = solve(&m, &[3.0], &rows, 100);
+        assert_eq!(
+            (free.qacc[0], free.force[0], free.zone[0]),
+            (3.0, 0.0, Zone::Free)
+        );
+    }
+
+    #[test]
+    fn dry_friction_saturates_at_its_bound() {
+        // A large push: the friction force is the bound F, opposing.
+        let m = DMatrix::from_element(1, 1, 1.0);
+        let rows = one_row(RowKind::Friction, 0.0, 1e-4, 0.5);
+        let s = solve(&m, &[10.0], &rows, 100);
+        assert_eq!((s.zone[0], s.force[0]), (Zone::LinearPos, -0.5));
+        assert!((s.qacc[0] - 9.5).abs() < 1e-14);
+        // A small one: stuck (quadratic zone), almost no motion.
+        let s = solve(&m, &[1e-6], &rows, 100);
+        assert_eq!(s.zone[0], Zone::Quadratic);
+        assert!(s.qacc[0].abs() < 1e-9 && s.force[0] < 0.0);
+    }
+
+    #[test]
+    fn the_answer_does_not_depend_on_row_order() {
+        // Two dofs, three rows in two orders: the same acceleration, bit for bit.
+        let m = DMatrix::from_row_slice(2, 2, &[2.0, 0.3, 0.3, 1.0]);
+        let rows = |order: [usize; 3]| {
+            let all = [([1.0, 0.0], 0.5), ([0.3, 1.0], -0.2), ([1.0, -1.0], 0.1)];
+            let mut r = Rows {
+                nv: 2,
+                ..Rows::default()
+            };
+            for k in order {
+                r.j.extend(all[k].0);
+                r.kind.push(RowKind::Unilateral);
+                r.aref.push(all[k].1);
+                r.r.push(0.01 * (k + 1) as f64);
+                r.floss.push(0.0);
+            }
+            r
+        };
+        let a = solve(&m, &[-1.0, -2.0], &rows([0, 1, 2]), 100);
+        let b = solve(&m, &[-1.0, -2.0], &rows([2, 0, 1]), 100);
+        assert!(a.converged && b.converged);
+        assert!((a.qacc[0] - b.qacc[0]).abs() < 1e-15 && (a.qacc[1] - b.qacc[1]).abs() < 1e-15);
+    }
+}

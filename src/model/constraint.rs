@@ -257,3 +257,51 @@ pub fn solmix(first: f64, second: f64) -> f64 {
         (true, false) => 1.0,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settings_mujoco_would_silently_replace_are_refused() {
+        let sol = |solref, solimp| SolParams { solref, solimp };
+        assert!(sol(SOLREF, SOLIMP).check("g").is_ok());
+        assert!(sol([-1000.0, -10.0], [0.0, 1.0, 0.0, 0.0, 1.0])
+            .check("g")
+            .is_ok());
+        for bad in [
+            sol([0.02, 0.0], SOLIMP),
+            sol([-1.0, 1.0], SOLIMP),
+            sol([f64::NAN, 1.0], SOLIMP),
+            sol(SOLREF, [1.1, 0.95, 0.001, 0.5, 2.0]),
+            sol(SOLREF, [0.9, 0.95, -0.001, 0.5, 2.0]),
+            sol(SOLREF, [0.9, 0.95, 0.001, 1.5, 2.0]),
+            sol(SOLREF, [0.9, 0.95, 0.001, 0.5, 0.5]),
+        ] {
+            let e = bad.check("geom 'g'").unwrap_err();
+            assert!(e.starts_with("geom 'g': sol"), "{e}");
+        }
+        let contact = |condim, margin, gap| GeomContact {
+            condim,
+            margin,
+            gap,
+            ..GeomContact::default()
+        };
+        assert!(contact(6, 0.01, 0.0).check("g").is_ok());
+        for (bad, expected) in [
+            (contact(2, 0.0, 0.0), "condim"),
+            (contact(3, -0.01, 0.0), "margin and gap"),
+            (contact(3, 0.0, -1.0), "margin and gap"),
+        ] {
+            assert!(bad.check("g").unwrap_err().contains(expected));
+        }
+    }
+
+    #[test]
+    fn solmix_follows_mujocos_rule() {
+        assert_eq!(solmix(1.0, 3.0), 0.25);
+        assert_eq!(solmix(0.0, 0.0), 0.5);
+        assert_eq!(solmix(0.0, 2.0), 0.0);
+        assert_eq!(solmix(2.0, 1e-16), 1.0);
+    }
+}

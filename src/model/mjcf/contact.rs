@@ -66,3 +66,65 @@ impl<'a> Reader<'a> {
         Ok(pair)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::test_util::*;
+    use crate::model::constraint::{SOLIMP, SOLREF};
+
+    const BODIES: &str = r#"<geom name="floor" type="plane" size="1 1 1"/>
+        <body name="a"><joint/><geom name="ga" size="0.1" friction="2 0.1 0.01"/></body>
+        <body name="b"><joint/><geom name="gb" size="0.1"/></body>"#;
+
+    #[test]
+    fn pairs_take_their_own_values_or_mujocos_defaults() {
+        let contact = r#"<default><pair margin="0.01"/></default>"#;
+        let tail = r#"<contact><pair name="p" geom1="ga" geom2="floor" condim="4" solref="0.05 2"/>
+            <pair geom1="gb" geom2="ga" friction="0.5"/><exclude body1="a" body2="b"/></contact>"#;
+        let m = load(&model(contact, BODIES, tail));
+        let [p, q] = [&m.pairs[0], &m.pairs[1]];
+        assert_eq!((p.name.as_str(), p.geoms, p.condim), ("p", [1, 0], 4));
+        assert_eq!((p.sol.solref, p.sol.solimp), ([0.05, 2.0], SOLIMP));
+        // Unset: MuJoCo's pair defaults (not the geoms' friction), the class's margin.
+        assert_eq!(p.friction, [1.0, 1.0, 0.005, 0.0001, 0.0001]);
+        assert_eq!((p.margin, p.gap), (0.01, 0.0));
+        assert_eq!(
+            (q.friction[0], q.friction[2], q.sol.solref),
+            (0.5, 0.005, SOLREF)
+        );
+        assert_eq!(m.excludes, vec![[1, 2]]);
+    }
+
+    #[test]
+    fn bad_pairs_and_excludes_name_their_line() {
+        let cases = [
+            (
+                r#"<pair geom1="ga" geom2="nope"/>"#,
+                "geom2 'nope' is not a geom",
+            ),
+            (r#"<pair geom1="ga" geom2="ga"/>"#, "two different geoms"),
+            (
+                r#"<pair geom1="ga" geom2="gb" condim="2"/>"#,
+                "condim must be 1, 3, 4 or 6",
+            ),
+            (
+                r#"<pair geom1="ga" geom2="gb" solref="0.02 -1"/>"#,
+                "solref",
+            ),
+            (r#"<pair geom1="ga" geom2="gb" friction="-1"/>"#, "friction"),
+            (
+                r#"<exclude body1="a" body2="c"/>"#,
+                "body2 'c' is not a body",
+            ),
+            (
+                r#"<pair geom1="ga" geom2="gb" radius="1"/>"#,
+                "unrecognized attribute 'radius'",
+            ),
+        ];
+        for (element, expected) in cases {
+            let xml = model("", BODIES, &format!("<contact>\n{element}</contact>"));
+            assert_rejects(&xml, expected);
+            assert_eq!(error(&xml).0, 4, "{element}: the line of the element");
+        }
+    }
+}

@@ -262,7 +262,7 @@ mod tests {
     use nalgebra::Vector3;
 
     use super::super::test_util::*;
-    use crate::model::{Integrator, PassiveMode, SoftOptions};
+    use crate::model::{Integrator, PassiveMode, SoftOptions, SolverOptions};
 
     #[test]
     fn options_map_to_integrator_and_passive_mode() {
@@ -294,6 +294,52 @@ mod tests {
             "",
         ));
         assert_eq!(m.opt.gravity, Vector3::zeros());
+    }
+
+    #[test]
+    fn solver_options_flags_and_the_contact_model_are_read() {
+        use crate::model::{Cone, ContactModel};
+        let m = load(&model("", &body(""), ""));
+        assert_eq!(m.opt.contact_model, ContactModel::Constraint);
+        assert_eq!(m.opt.solver, SolverOptions::default());
+        let option = r#"<option cone="elliptic" impratio="10" iterations="7" tolerance="1e-3">
+            <flag frictionloss="disable" refsafe="disable" filterparent="disable"/></option>"#;
+        let smooth = r#"<custom><text name="diffosi:contact" data="smooth"/></custom>"#;
+        let m = load(&model(option, &body(""), smooth));
+        let s = m.opt.solver;
+        assert_eq!(
+            (s.cone, s.impratio, s.iterations),
+            (Cone::Elliptic, 10.0, 7)
+        );
+        assert!(!s.frictionloss && !s.refsafe && !s.filterparent);
+        assert_eq!(m.opt.contact_model, ContactModel::Smooth);
+        let off = load(&model(
+            r#"<option><flag constraint="disable"/></option>"#,
+            "",
+            "",
+        ));
+        assert!(!off.opt.contact && !off.opt.limits && !off.opt.solver.frictionloss);
+        for (head, tail, expected) in [
+            (
+                r#"<option noslip_iterations="3"/>"#,
+                "",
+                "noslip_iterations",
+            ),
+            (
+                r#"<option><flag override="enable"/></option>"#,
+                "",
+                "override",
+            ),
+            (r#"<option impratio="0"/>"#, "", "impratio must be positive"),
+            (r#"<option cone="round"/>"#, "", "cone"),
+            (
+                "",
+                r#"<custom><text name="diffosi:contact" data="soft"/></custom>"#,
+                "data",
+            ),
+        ] {
+            assert_rejects(&model(head, "", tail), expected);
+        }
     }
 
     #[test]
