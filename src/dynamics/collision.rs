@@ -25,9 +25,10 @@
 //! (`filterparent`), or when an explicit pair joins them.
 //!
 //! Supported shapes: plane against sphere, capsule, cylinder and box; sphere
-//! against sphere, capsule, cylinder and box; capsule against capsule. A
-//! model may hold other pairs (ellipsoids, capsule-box, box-box, cylinders
-//! with capsules or boxes): a step refuses to run while one of them is
+//! against sphere, capsule, cylinder and box; capsule against capsule; box
+//! against box ([`super::box_box`]). A
+//! model may hold other pairs (ellipsoids, capsule-box, cylinders with
+//! capsules or boxes): a step refuses to run while one of them is
 //! within reach ([`super::StepError::NoCollider`]).
 
 use nalgebra::{Matrix3, Vector3};
@@ -89,7 +90,10 @@ fn rank(shape: &Shape) -> usize {
 
 /// Whether a primitive collider exists for shapes of these ranks (a <= b).
 fn supported(a: usize, b: usize) -> bool {
-    matches!((a, b), (0, 2 | 3 | 5 | 6) | (2, 2 | 3 | 5 | 6) | (3, 3))
+    matches!(
+        (a, b),
+        (0, 2 | 3 | 5 | 6) | (2, 2 | 3 | 5 | 6) | (3, 3) | (6, 6)
+    )
 }
 
 /// The parameters of a pair from its geoms' (see the module documentation).
@@ -198,7 +202,7 @@ pub fn collision_pairs(spec: &Spec) -> Vec<([usize; 2], PairParams, bool)> {
 
 /// A geom at its world pose: centre and axes (columns), MuJoCo's geom_xpos
 /// and geom_xmat.
-struct Placed<T: Real> {
+pub(super) struct Placed<T: Real> {
     pos: Vector3<T>,
     mat: Matrix3<T>,
 }
@@ -217,11 +221,11 @@ impl<T: Real> Placed<T> {
 }
 
 /// A contact before its frame is complete: the tangent is a hint (zero for none).
-struct Pre<T: Real> {
-    dist: T,
-    pos: Vector3<T>,
-    normal: Vector3<T>,
-    tangent: Vector3<T>,
+pub(super) struct Pre<T: Real> {
+    pub dist: T,
+    pub pos: Vector3<T>,
+    pub normal: Vector3<T>,
+    pub tangent: Vector3<T>,
 }
 
 /// Whether the geoms of a pair without a collider are out of reach: their
@@ -285,16 +289,16 @@ fn make_frame<T: Real>(normal: Vector3<T>, hint: Vector3<T>) -> Matrix3<T> {
 
 /// MuJoCo's mju_normalize3: the unit vector and the length; (1, 0, 0) for a
 /// vector shorter than mjMINVAL.
-fn normalize<T: Real>(v: Vector3<T>) -> (Vector3<T>, T) {
-    let len = v.norm();
+pub(super) fn normalize<T: Real>(v: Vector3<T>) -> (Vector3<T>, T) {
+    let len = (v.x * v.x + v.y * v.y + v.z * v.z).sqrt();
     if len < lift(MINVAL) {
         (Vector3::x(), len)
     } else {
-        (v / len, len)
+        (v * (T::one() / len), len)
     }
 }
 
-fn clip<T: Real>(x: T, lo: T, hi: T) -> T {
+pub(super) fn clip<T: Real>(x: T, lo: T, hi: T) -> T {
     if x < lo {
         lo
     } else if x > hi {
@@ -371,6 +375,9 @@ fn narrow<T: Real>(
                 half_length: h2,
             },
         ) => capsule_capsule((p1, [r1, h1]), (p2, [r2, h2]), margin, out),
+        (Shape::Box { half: h1 }, Shape::Box { half: h2 }) => {
+            super::box_box::collide((p1.pos, p1.mat, &h1), (p2.pos, p2.mat, &h2), margin, out);
+        }
         _ => {}
     }
 }

@@ -14,6 +14,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod aba;
+mod box_box;
 pub mod collision;
 pub mod constraint;
 pub mod contact;
