@@ -50,6 +50,7 @@ def models() -> dict:
             "features_pyramidal": (FEATURES / "contact_features_pyramidal.xml", 300),
             "features_elliptic": (FEATURES / "contact_features_elliptic.xml", 300),
             "box_stack": (FEATURES / "box_stack.xml", 500),
+            "capsule_box": (FEATURES / "capsule_box.xml", 500),
             "overlapping_chain": (FEATURES / "overlapping_chain.xml", 3)}
 
 

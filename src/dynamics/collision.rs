@@ -25,10 +25,10 @@
 //! (`filterparent`), or when an explicit pair joins them.
 //!
 //! Supported shapes: plane against sphere, capsule, cylinder and box; sphere
-//! against sphere, capsule, cylinder and box; capsule against capsule; box
-//! against box ([`super::box_box`]). A
-//! model may hold other pairs (ellipsoids, capsule-box, cylinders with
-//! capsules or boxes): a step refuses to run while one of them is
+//! against sphere, capsule, cylinder and box; capsule against capsule and box
+//! ([`super::capsule_box`]); box against box ([`super::box_box`]). A model
+//! may hold other pairs (ellipsoids, cylinders with capsules, cylinders or
+//! boxes): a step refuses to run while one of them is
 //! within reach ([`super::StepError::NoCollider`]).
 
 use nalgebra::{Matrix3, Vector3};
@@ -92,7 +92,7 @@ fn rank(shape: &Shape) -> usize {
 fn supported(a: usize, b: usize) -> bool {
     matches!(
         (a, b),
-        (0, 2 | 3 | 5 | 6) | (2, 2 | 3 | 5 | 6) | (3, 3) | (6, 6)
+        (0, 2 | 3 | 5 | 6) | (2, 2 | 3 | 5 | 6) | (3, 3 | 6) | (6, 6)
     )
 }
 
@@ -203,8 +203,8 @@ pub fn collision_pairs(spec: &Spec) -> Vec<([usize; 2], PairParams, bool)> {
 /// A geom at its world pose: centre and axes (columns), MuJoCo's geom_xpos
 /// and geom_xmat.
 pub(super) struct Placed<T: Real> {
-    pos: Vector3<T>,
-    mat: Matrix3<T>,
+    pub pos: Vector3<T>,
+    pub mat: Matrix3<T>,
 }
 
 impl<T: Real> Placed<T> {
@@ -215,7 +215,7 @@ impl<T: Real> Placed<T> {
         }
     }
 
-    fn axis(&self, k: usize) -> Vector3<T> {
+    pub(super) fn axis(&self, k: usize) -> Vector3<T> {
         self.mat.column(k).into_owned()
     }
 }
@@ -375,6 +375,13 @@ fn narrow<T: Real>(
                 half_length: h2,
             },
         ) => capsule_capsule((p1, [r1, h1]), (p2, [r2, h2]), margin, out),
+        (
+            Shape::Capsule {
+                radius,
+                half_length,
+            },
+            Shape::Box { half },
+        ) => super::capsule_box::collide((p1, [radius, half_length]), (p2, &half), margin, out),
         (Shape::Box { half: h1 }, Shape::Box { half: h2 }) => {
             super::box_box::collide((p1.pos, p1.mat, &h1), (p2.pos, p2.mat, &h2), margin, out);
         }
@@ -602,7 +609,7 @@ fn sphere_cylinder<T: Real>(
 
 /// MuJoCo's sphere-box: from the point of the box nearest the sphere's
 /// centre, or, with the centre inside, from the nearest face.
-fn sphere_box<T: Real>(
+pub(super) fn sphere_box<T: Real>(
     sphere: &Placed<T>,
     radius: T,
     cube: &Placed<T>,

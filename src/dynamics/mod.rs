@@ -15,6 +15,7 @@
 
 mod aba;
 mod box_box;
+mod capsule_box;
 pub mod collision;
 pub mod constraint;
 pub mod contact;
