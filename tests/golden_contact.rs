@@ -2,8 +2,8 @@
 //! states in contact and at joint limits (reference_models/golden/contact/*.json,
 //! written by `python -m harness golden-contact`): one step to 1e-12 (the chain
 //! of 50 overlapping spheres, 4704 rows on 50 dofs, to 1e-10: its Newton system's
-//! conditioning), the same contacts, and each contact's normal and friction
-//! forces to 1e-9.
+//! conditioning), the same contacts, and each contact's force in its frame
+//! (normal, tangential, torsional, rolling: mj_contactForce) to 1e-9.
 
 mod common;
 
@@ -73,9 +73,9 @@ fn compare(name: &str, golden: &Golden) -> (f64, f64, usize) {
                         && (-c.depth - theirs.dist).abs() < 1e-12
                 })
                 .unwrap_or_else(|| panic!("{name} state {k}: no contact {:?}", theirs.geoms));
-            force = force.max(rel_err(&[c.normal_force], &theirs.force[..1]));
-            let tangential = theirs.force[1..].iter().take(2).map(|f| f * f).sum::<f64>();
-            force = force.max(rel_err(&[c.friction.norm()], &[tangential.sqrt()]));
+            // mj_contactForce: normal, tangential, torsional, rolling, in the frame.
+            let local = c.in_frame();
+            force = force.max(rel_err(&local[..theirs.force.len()], &theirs.force));
         }
         limits += usize::from(s.limit_rows > 0);
     }

@@ -317,7 +317,11 @@ impl PyModel {
     /// force on a), `depth` (m, > 0 overlapping), `normal_force` (N along
     /// `normal` on a; negative only while separating fast under the smooth
     /// model), `friction` (3-vector, N, tangential force on a) and `force`
-    /// (the total force on a, normal_force * normal + friction); b feels the
+    /// (the total force on a, normal_force * normal + friction), `torque`
+    /// (3-vector, N m: torsional and rolling friction moments on a, condim 4
+    /// and 6), `frame` (3 x 3, rows: the normal and two tangents, MuJoCo's
+    /// contact frame) and `frame_force` (6: normal, tangential, torsional and
+    /// rolling components in that frame, mj_contactForce's); b feels the
     /// opposite. Empty when contacts are off. NaN or infinite input raises
     /// ValueError.
     #[pyo3(signature = (q, v, tau = None))]
@@ -342,6 +346,10 @@ impl PyModel {
             d.set_item("normal_force", c.normal_force)?;
             d.set_item("friction", PyArray1::from_slice(py, c.friction.as_slice()))?;
             d.set_item("force", PyArray1::from_slice(py, c.force().as_slice()))?;
+            d.set_item("torque", PyArray1::from_slice(py, c.torque.as_slice()))?;
+            let frame = Array2::from_shape_fn((3, 3), |(r, k)| c.frame[(r, k)]);
+            d.set_item("frame", PyArray2::from_owned_array(py, frame))?;
+            d.set_item("frame_force", PyArray1::from_slice(py, &c.in_frame()))?;
             out.append(d)?;
         }
         Ok(out)

@@ -16,7 +16,8 @@ from harness import contact
 MODELS = Path(__file__).resolve().parents[2] / "reference_models"
 BOX = str(MODELS / "box.xml")
 CHEETAH = str(MODELS / "half_cheetah.xml")
-KEYS = {"geoms", "bodies", "point", "normal", "depth", "normal_force", "friction", "force"}
+KEYS = {"geoms", "bodies", "point", "normal", "depth", "normal_force", "friction", "force", "torque", "frame",
+        "frame_force"}
 
 
 def sunk_box(depth=0.002):
@@ -134,6 +135,12 @@ def test_constraint_contacts_carry_what_the_step_applies():
     assert v1[2] == pytest.approx(m.timestep * (fz / contact.BOX_MASS - 9.81), rel=1e-12)
     with pytest.raises(ValueError, match="tau"):
         m.contacts(q, v, np.zeros(5))
+    # The force in MuJoCo's contact frame (mj_contactForce): rows normal, tangents.
+    for c in rest:
+        np.testing.assert_allclose(c["frame"] @ c["frame"].T, np.eye(3), atol=1e-15)
+        np.testing.assert_array_equal(c["frame"][0], c["normal"])
+        assert c["frame_force"][0] == c["normal_force"]
+        np.testing.assert_allclose(c["frame"][1:].T @ c["frame_force"][1:3], c["friction"], atol=1e-12)
 
 
 # ---------------------------------------------------------------- the resting box

@@ -271,7 +271,7 @@ pub fn collide<T: Real, U: Real>(
 /// MuJoCo's contact frame from a normal and an optional tangent hint: the
 /// hint (else world y, or world z when the normal is close to y) made
 /// orthogonal to the normal, and their cross product.
-fn make_frame<T: Real>(normal: Vector3<T>, hint: Vector3<T>) -> Matrix3<T> {
+pub(crate) fn make_frame<T: Real>(normal: Vector3<T>, hint: Vector3<T>) -> Matrix3<T> {
     let (n, _) = normalize(normal);
     let half: T = lift(0.5);
     let mut y = hint;

@@ -553,12 +553,12 @@ fn contact_rows<T: Real>(
 }
 
 /// The force of each contact from the rows' forces, in the smooth model's
-/// [`Contact`] form (MuJoCo's mj_contactForce in world coordinates): a is
-/// geom 2 and b geom 1, the normal from b into a, depth = -dist, the normal
-/// force the sum of a pyramid's edge forces (an elliptic cone's first), the
-/// friction the tangential force on a (a pyramid's edge pair k gives
-/// mu_k (f+ - f-) along tangent k). Torsional and rolling moments are not
-/// part of it.
+/// [`Contact`] form (MuJoCo's mj_contactForce, also in world coordinates): a
+/// is geom 2 and b geom 1, the normal from b into a, depth = -dist; in the
+/// contact frame, a pyramid's normal force is the sum of its edge forces and
+/// its k-th frictional component mu_k (f+ - f-) of edge pair k; an elliptic
+/// cone's are its row forces. Tangential forces and torsional and rolling
+/// moments go to world coordinates through the frame.
 pub fn contact_forces<T: Real>(
     contacts: &[ConstraintContact<T>],
     rows: &Rows<T>,
@@ -568,23 +568,7 @@ pub fn contact_forces<T: Real>(
         .iter()
         .zip(&rows.contact_rows)
         .map(|(c, &(first, count))| {
-            let f = &force[first..first + count];
-            let dim = c.params.condim;
-            let pyramid = count > 0 && count != dim;
-            let tangent = |k: usize| -> T {
-                if count == 0 || k >= dim {
-                    T::zero()
-                } else if pyramid {
-                    (f[2 * k - 2] - f[2 * k - 1]) * lift::<T>(c.params.friction[k - 1])
-                } else {
-                    f[k]
-                }
-            };
-            let normal_force = match (count, pyramid) {
-                (0, _) => T::zero(),
-                (_, true) => f.iter().fold(T::zero(), |s, x| s + *x),
-                (_, false) => f[0],
-            };
+            let local = in_frame(c, &force[first..first + count]);
             let row = |k: usize| c.frame.row(k).transpose();
             Contact {
                 geoms: [c.geoms[1], c.geoms[0]],
@@ -592,8 +576,10 @@ pub fn contact_forces<T: Real>(
                 point: c.pos,
                 normal: row(0),
                 depth: -c.dist,
-                normal_force,
-                friction: row(1) * tangent(1) + row(2) * tangent(2),
+                normal_force: local[0],
+                friction: row(1) * local[1] + row(2) * local[2],
+                torque: row(0) * local[3] + row(1) * local[4] + row(2) * local[5],
+                frame: c.frame,
             }
         })
         .collect()
@@ -611,6 +597,24 @@ pub fn unreachable_pair<T: Real>(tree: &Tree<T>, data: &Data<T>) -> Option<[usiz
             !out_of_reach(p, geoms, &data.world)
         })
         .map(|p| p.geoms.map(|g| tree.geoms[g].geom))
+}
+
+/// A contact's force in its frame from its rows' forces `f` (see [`contact_forces`]).
+fn in_frame<T: Real>(c: &ConstraintContact<T>, f: &[T]) -> [T; 6] {
+    let dim = c.params.condim;
+    let mut local = [T::zero(); 6];
+    if f.is_empty() {
+        return local;
+    }
+    if f.len() == dim {
+        local[..dim].copy_from_slice(f);
+        return local;
+    }
+    local[0] = f.iter().fold(T::zero(), |s, x| s + *x);
+    for k in 1..dim {
+        local[k] = (f[2 * k - 2] - f[2 * k - 1]) * lift::<T>(c.params.friction[k - 1]);
+    }
+    local
 }
 
 #[cfg(test)]

@@ -45,7 +45,9 @@
 //! closest point on the other segment exactly at its end), and where two
 //! segments touch (distance 0: no normal).
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
+
+use super::collision::make_frame;
 
 use super::{update_transforms, Data, Tree};
 #[cfg(doc)]
@@ -120,12 +122,33 @@ pub struct Contact<T: Real> {
     pub normal_force: T,
     /// F_t on a, world coordinates (N).
     pub friction: Vector3<T>,
+    /// The torsional and rolling friction moments on a, world coordinates
+    /// (N m; the constraint model's condim 4 and 6, else zero).
+    pub torque: Vector3<T>,
+    /// The contact frame, rows: `normal` and two tangents (MuJoCo's frame:
+    /// the collider's, or from the normal by MuJoCo's rule).
+    pub frame: Matrix3<T>,
 }
 
 impl<T: Real> Contact<T> {
     /// The total force on geom a (world coordinates); b feels its opposite.
     pub fn force(&self) -> Vector3<T> {
         self.normal * self.normal_force + self.friction
+    }
+
+    /// Force and moment on a in the contact frame, as MuJoCo's mj_contactForce
+    /// gives them: normal, the two tangential forces, the torsional moment
+    /// and the two rolling moments.
+    pub fn in_frame(&self) -> [T; 6] {
+        let row = |k: usize| self.frame.row(k).transpose();
+        [
+            self.normal_force,
+            row(1).dot(&self.friction),
+            row(2).dot(&self.friction),
+            row(0).dot(&self.torque),
+            row(1).dot(&self.torque),
+            row(2).dot(&self.torque),
+        ]
     }
 }
 
@@ -297,6 +320,8 @@ pub fn pair_contacts<T: Real, U: Real>(
                 depth,
                 normal_force: T::zero(),
                 friction: Vector3::zeros(),
+                torque: Vector3::zeros(),
+                frame: make_frame(normal, Vector3::zeros()),
             });
         }
     };
