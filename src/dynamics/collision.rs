@@ -35,23 +35,11 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::contact::GeomFrame;
 use crate::model::constraint::solmix;
-use crate::model::{ContactPair, Shape, SolParams, Spec};
+use crate::model::{PairParams, Shape, SolParams, Spec};
 use crate::spatial::{lift, Real, Transform};
 
 /// MuJoCo's mjMINVAL: lengths below it count as zero.
 pub const MINVAL: f64 = 1e-15;
-
-/// What a geom pair's contacts carry into the solver.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PairParams {
-    pub condim: usize,
-    pub friction: [f64; 5],
-    pub sol: SolParams,
-    /// Reference of elliptic friction rows; (0, 0): `sol.solref`.
-    pub solreffriction: [f64; 2],
-    pub margin: f64,
-    pub gap: f64,
-}
 
 /// A geom pair that may touch: indices into the tree's geom frames, in
 /// MuJoCo's order (see the module documentation), and whether a collider
@@ -132,17 +120,6 @@ fn mixed(spec: &Spec, [a, b]: [usize; 2]) -> PairParams {
     }
 }
 
-fn explicit(pair: &ContactPair) -> PairParams {
-    PairParams {
-        condim: pair.condim,
-        friction: pair.friction,
-        sol: pair.sol,
-        solreffriction: pair.solreffriction,
-        margin: pair.margin,
-        gap: pair.gap,
-    }
-}
-
 /// The model's geom pairs that may touch, as model geom indices in MuJoCo's
 /// order, with their parameters and whether a collider exists for them;
 /// empty when contacts are off.
@@ -168,7 +145,7 @@ pub fn collision_pairs(spec: &Spec) -> Vec<([usize; 2], PairParams, bool)> {
             .any(|p| p.geoms == [i, j] || p.geoms == [j, i])
     };
     let mut pairs: Vec<([usize; 2], PairParams)> =
-        spec.pairs.iter().map(|p| (p.geoms, explicit(p))).collect();
+        spec.pairs.iter().map(|p| (p.geoms, p.params)).collect();
     for (i, gi) in spec.geoms.iter().enumerate() {
         for (j, gj) in spec.geoms.iter().enumerate().skip(i + 1) {
             let (bi, bj) = (gi.body, gj.body);

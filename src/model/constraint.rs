@@ -127,13 +127,11 @@ fn check_margin(margin: f64, gap: f64, owner: &str) -> Result<(), String> {
     Ok(())
 }
 
-/// An explicit contact pair (MJCF `<contact><pair>`): its geoms always
-/// collide, with these parameters instead of the geoms' mix. Friction has
-/// MuJoCo's five components (sliding 1 and 2, torsional, rolling 1 and 2).
-#[derive(Clone, Debug, PartialEq)]
-pub struct ContactPair {
-    pub name: String,
-    pub geoms: [usize; 2],
+/// What a geom pair's contacts carry into the solver: its own (an explicit
+/// pair's) or its geoms' mixed (see [`crate::dynamics::collision`]). Friction
+/// has MuJoCo's five components (sliding 1 and 2, torsional, rolling 1 and 2).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PairParams {
     pub condim: usize,
     pub friction: [f64; 5],
     pub sol: SolParams,
@@ -143,19 +141,29 @@ pub struct ContactPair {
     pub gap: f64,
 }
 
+/// An explicit contact pair (MJCF `<contact><pair>`): its geoms always
+/// collide, with these parameters instead of the geoms' mix.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ContactPair {
+    pub name: String,
+    pub geoms: [usize; 2],
+    pub params: PairParams,
+}
+
 impl ContactPair {
     pub fn check(&self, ngeom: usize) -> Result<(), String> {
         let owner = format!("contact pair '{}'", self.name);
         if self.geoms.iter().any(|g| *g >= ngeom) || self.geoms[0] == self.geoms[1] {
             return Err(format!("{owner}: needs two different geoms"));
         }
-        check_condim(self.condim, &owner)?;
-        check_friction(&self.friction, &owner)?;
-        self.sol.check(&owner)?;
-        if self.solreffriction != [0.0; 2] {
-            check_solref(&self.solreffriction, &owner, "solreffriction")?;
+        let p = &self.params;
+        check_condim(p.condim, &owner)?;
+        check_friction(&p.friction, &owner)?;
+        p.sol.check(&owner)?;
+        if p.solreffriction != [0.0; 2] {
+            check_solref(&p.solreffriction, &owner, "solreffriction")?;
         }
-        check_margin(self.margin, self.gap, &owner)
+        check_margin(p.margin, p.gap, &owner)
     }
 }
 

@@ -26,7 +26,9 @@ mod xml;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
-pub use constraint::{Cone, ContactModel, ContactPair, GeomContact, SolParams, SolverOptions};
+pub use constraint::{
+    Cone, ContactModel, ContactPair, GeomContact, PairParams, SolParams, SolverOptions,
+};
 pub use params::{MapEntry, Param, ParamError, ParamMap};
 
 use crate::dynamics::{self, Contact, Data, StepError, Tree};

@@ -7,7 +7,7 @@
 use super::attributes::Attrs;
 use super::schema::{check_attributes, EXCLUDE_ATTRS, PAIR_ATTRS};
 use super::{children, elements, tag, unrecognized, Node, Reader, Result};
-use crate::model::{ContactPair, Geom};
+use crate::model::{ContactPair, Geom, PairParams};
 
 impl<'a> Reader<'a> {
     /// The explicit pairs and excluded body pairs of every `<contact>`;
@@ -55,12 +55,14 @@ impl<'a> Reader<'a> {
         let pair = ContactPair {
             name: a.text("name").unwrap_or_default().to_string(),
             geoms: [find("geom1")?, find("geom2")?],
-            condim: usize::try_from(condim).unwrap_or(0),
-            friction: a.leading("friction", [1.0, 1.0, 0.005, 0.0001, 0.0001])?,
-            sol: a.sol_params("solref", "solimp")?,
-            solreffriction: a.leading("solreffriction", [0.0; 2])?,
-            margin: a.number("margin")?.unwrap_or(0.0),
-            gap: a.number("gap")?.unwrap_or(0.0),
+            params: PairParams {
+                condim: usize::try_from(condim).unwrap_or(0),
+                friction: a.leading("friction", [1.0, 1.0, 0.005, 0.0001, 0.0001])?,
+                sol: a.sol_params("solref", "solimp")?,
+                solreffriction: a.leading("solreffriction", [0.0; 2])?,
+                margin: a.number("margin")?.unwrap_or(0.0),
+                gap: a.number("gap")?.unwrap_or(0.0),
+            },
         };
         pair.check(geoms.len()).map_err(|e| a.error(node, e))?;
         Ok(pair)
@@ -82,8 +84,10 @@ mod tests {
         let tail = r#"<contact><pair name="p" geom1="ga" geom2="floor" condim="4" solref="0.05 2"/>
             <pair geom1="gb" geom2="ga" friction="0.5"/><exclude body1="a" body2="b"/></contact>"#;
         let m = load(&model(contact, BODIES, tail));
-        let [p, q] = [&m.pairs[0], &m.pairs[1]];
-        assert_eq!((p.name.as_str(), p.geoms, p.condim), ("p", [1, 0], 4));
+        let (pp, qp) = (&m.pairs[0], &m.pairs[1]);
+        assert_eq!((pp.name.as_str(), pp.geoms), ("p", [1, 0]));
+        let [p, q] = [&pp.params, &qp.params];
+        assert_eq!(p.condim, 4);
         assert_eq!((p.sol.solref, p.sol.solimp), ([0.05, 2.0], SOLIMP));
         // Unset: MuJoCo's pair defaults (not the geoms' friction), the class's margin.
         assert_eq!(p.friction, [1.0, 1.0, 0.005, 0.0001, 0.0001]);

@@ -276,10 +276,11 @@ fn write_contact(doc: &mut Document, spec: &Spec) {
         return;
     }
     doc.open(1, Tag::new("contact"));
-    for p in &spec.pairs {
-        let [g1, g2] = p.geoms.map(|g| spec.geoms[g].name.as_str());
+    for pair in &spec.pairs {
+        let [g1, g2] = pair.geoms.map(|g| spec.geoms[g].name.as_str());
+        let p = &pair.params;
         let pair = Tag::new("pair")
-            .text("name", &p.name)
+            .text("name", &pair.name)
             .text("geom1", g1)
             .text("geom2", g2)
             .text("condim", &p.condim.to_string())
