@@ -46,6 +46,6 @@ $py -m harness wiping-transfer --runs 5 --seed 0
 
 # Example trajectories and a Jacobian from the command line.
 $bin simulate reference_models/cartpole.xml --steps 500 --q0 0,0.3 -o reports/simulate-cartpole.csv
-$bin jacobian reference_models/half_cheetah.xml --contact-model smooth --v 0.5,0,0,1,-1,0.5,0,0,0 --tau 0,0,0,10,0,0,-10,0,0 \
+$bin jacobian reference_models/half_cheetah.xml --v 0.5,0,0,1,-1,0.5,0,0,0 --tau 0,0,0,10,0,0,-10,0,0 \
     --params body/torso/mass,joint/bthigh/damping --json > reports/jacobian-half_cheetah.json
 echo "main job done in $((SECONDS - start)) s; reports in reports/"

@@ -413,3 +413,30 @@ fn jacobians_through_capsule_contact_match_finite_differences() {
         }
     }
 }
+
+/// Through the constraint model (MuJoCo's contact, the MJCF default): every
+/// block, parameters included, against central differences at states in
+/// contact and at limits reached by letting each model settle, under Euler
+/// (the half cheetah, both feature models) and RK4 (gymnasium's hopper).
+#[test]
+fn jacobians_through_constraint_contact_match_finite_differences() {
+    let cases = [
+        ("reference_models/half_cheetah.xml", 150),
+        ("tests/data/contact_features_pyramidal.xml", 120),
+        ("tests/data/contact_features_elliptic.xml", 120),
+        ("gymnasium:hopper.xml", 300),
+    ];
+    for (file, steps) in cases {
+        let model = Model::load(common::model_path(file)).unwrap();
+        let n = model.nv();
+        let mut data = model.data();
+        let (mut q, mut v) = (model.reference_q(), vec![0.0; n]);
+        let tau = vec![0.0; n];
+        for _ in 0..steps {
+            (q, v) = model.step(&mut data, &q, &v, &tau).unwrap();
+        }
+        let touching = model.contacts(&mut data, &q, &v, &tau).unwrap();
+        assert!(!touching.is_empty(), "{file}: not in contact");
+        check_state_against_fd(&model, (q, v, tau), file);
+    }
+}

@@ -16,7 +16,7 @@
 
 use diffosi::derivatives::{step_jacobians, StepJacobians, Workspace, Wrt};
 use diffosi::dynamics::StepError;
-use diffosi::model::{mjcf, urdf, ContactModel, Integrator, Model, Param, PassiveMode};
+use diffosi::model::{mjcf, urdf, Integrator, Model, Param, PassiveMode};
 
 /// The reference models, MJCF and URDF twins, as the step check loads them.
 pub const REFERENCE_MODELS: [(&str, &str); 8] = [
@@ -305,8 +305,7 @@ pub fn check_set_param(model: &mut Model, name: &str, value: &[f64]) {
 
 /// The step at (q, v, tau) either succeeds with a finite next state or names
 /// the first bad input (or reports divergence); the step Jacobians agree with
-/// it and are finite whenever they succeed. Jacobians refused through the
-/// constraint model are checked again on the smooth model.
+/// it and are finite whenever they succeed.
 pub fn check_step_and_jacobians(
     model: &Model,
     (q, v, tau): (&[f64], &[f64], &[f64]),
@@ -334,13 +333,6 @@ pub fn check_step_and_jacobians(
     };
     let jacobians = step_jacobians(model, &mut Workspace::new(model), (q, v, tau), &wrt);
     match (&stepped, &jacobians) {
-        (_, Err(StepError::ConstraintDerivatives)) => {
-            assert_eq!(model.opt.contact_model, ContactModel::Constraint);
-            let smooth = model
-                .edited(|s| s.opt.contact_model = ContactModel::Smooth)
-                .expect("the smooth model of a valid model is valid");
-            check_step_and_jacobians(&smooth, (q, v, tau), params);
-        }
         (Ok(_), Ok(j)) => assert_finite_jacobians(j),
         (Err(a), Err(b)) => assert_eq!(a, b),
         // Jacobians may overflow where the state does not.

@@ -14,12 +14,15 @@
 //! The integrator's chain rule (Euler or RK4) then gives d(q', v').
 //! Contact and joint-limit forces add -tau_soft(q, v; k, c, mu) to R; their
 //! derivatives come from dual numbers through the scalar-generic force code
-//! (module `soft`), exact as the rest.
+//! (module `soft`), exact as the rest. Under the constraint model the step
+//! is differentiated by dual numbers end to end (module `constrained`):
+//! exact for the solver's converged zones, one-sided where they switch.
 //! No finite differences anywhere: they exist only in the tests.
 
 // Node-indexed sweeps read several per-node arrays at the node's index.
 #![allow(clippy::needless_range_loop)]
 
+mod constrained;
 mod params;
 mod rnea;
 mod soft;

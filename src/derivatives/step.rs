@@ -1,7 +1,10 @@
-//! Step Jacobians: d(q', v') / d(q, v), d(q', v') / d tau and d(q', v') / d p.
+//! Step Jacobians: d(q', v') / d(q, v), d(q', v') / d tau and d(q', v') / d p:
+//! analytic through the articulated dynamics and the smooth model, by dual
+//! numbers through the constraint model ([`super::constrained`]).
 
 use nalgebra::DMatrix;
 
+use super::constrained::dual_columns;
 use super::params::residual_derivative;
 use super::rnea::{rnea_derivatives, Sweep};
 use super::soft::{subtract_soft_derivatives, Columns};
@@ -96,12 +99,18 @@ pub fn step_jacobians(
     let n = model.nv();
     let tree = model.tree();
     check_inputs(n, (q, v, tau))?;
-    if tree.contact_model == ContactModel::Constraint && tree.has_constraints() {
-        return Err(StepError::ConstraintDerivatives);
-    }
     ws.size_for(model);
     let (mut q_next, mut v_next) = (vec![0.0; n], vec![0.0; n]);
+    let constrained = tree.contact_model == ContactModel::Constraint && tree.has_constraints();
     let blocks = match model.opt.integrator {
+        _ if constrained => {
+            let next = (&mut q_next[..], &mut v_next[..]);
+            step(tree, &model.opt, &mut ws.data, (q, v, tau), next)?;
+            let (dq, dv) = dual_columns(model, (q, v, tau), wrt)?;
+            let (dq_dq, dq_dv, dq_dtau, dq_dp) = split(&dq, n, wrt);
+            let (dv_dq, dv_dv, dv_dtau, dv_dp) = split(&dv, n, wrt);
+            [dq_dq, dq_dv, dq_dtau, dq_dp, dv_dq, dv_dv, dv_dtau, dv_dp]
+        }
         Integrator::Euler => {
             check_inputs(n, (q, v, tau))?;
             let h = model.opt.timestep;

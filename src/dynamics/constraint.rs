@@ -29,7 +29,7 @@ use nalgebra::{DMatrix, Matrix3, Vector3};
 
 use super::collision::{collide, out_of_reach, CollisionPair, ConstraintContact, MINVAL};
 use super::{crba, ltdl_factor, ltdl_solve, Contact, Data, Tree};
-use crate::model::{Cone, JointKind, SolParams, SolverOptions, Spec};
+use crate::model::{Cone, JointKind, Param, SolParams, SolverOptions, Spec};
 use crate::spatial::{lift, Real};
 
 /// MuJoCo's bounds on impedance.
@@ -140,10 +140,15 @@ impl<T: Real> Rows<T> {
 }
 
 /// MuJoCo's body_invweight0 and dof_invweight0 of a tree built from `spec`,
-/// at the reference configuration (mj_setConst). A value that is not finite
-/// (inertia so large the mass matrix overflows) is 0.
-pub fn invweight0<T: Real>(tree: &Tree<T>, spec: &Spec) -> (Vec<[T; 2]>, Vec<T>) {
-    let (bodies, dofs) = invweight0_raw(tree, spec);
+/// at the reference configuration (mj_setConst), with the body masses and
+/// COMs lifted as the tree's were (`lift_param`, see [`Tree::build_with`]).
+/// A value that is not finite (inertia so large the mass matrix overflows) is 0.
+pub fn invweight0<T: Real>(
+    tree: &Tree<T>,
+    spec: &Spec,
+    lift_param: &impl Fn(Param, usize, f64) -> T,
+) -> (Vec<[T; 2]>, Vec<T>) {
+    let (bodies, dofs) = invweight0_raw(tree, spec, lift_param);
     let finite = |x: T| if x.is_finite() { x } else { T::zero() };
     (
         bodies.into_iter().map(|b| b.map(finite)).collect(),
@@ -151,7 +156,11 @@ pub fn invweight0<T: Real>(tree: &Tree<T>, spec: &Spec) -> (Vec<[T; 2]>, Vec<T>)
     )
 }
 
-fn invweight0_raw<T: Real>(tree: &Tree<T>, spec: &Spec) -> (Vec<[T; 2]>, Vec<T>) {
+fn invweight0_raw<T: Real>(
+    tree: &Tree<T>,
+    spec: &Spec,
+    lift_param: &impl Fn(Param, usize, f64) -> T,
+) -> (Vec<[T; 2]>, Vec<T>) {
     let n = tree.nv();
     let mut data = Data::new(tree);
     let q: Vec<T> = tree.joint.iter().map(|j| j.reference).collect();
@@ -167,12 +176,14 @@ fn invweight0_raw<T: Real>(tree: &Tree<T>, spec: &Spec) -> (Vec<[T; 2]>, Vec<T>)
     for (b, body) in spec.bodies.iter().enumerate().skip(1) {
         let frame = tree.body[b];
         let Some(node) = frame.node else { continue };
+        let mass = lift_param(Param::Mass(b), 0, body.mass);
         if simple[b] {
-            bodies[b] = [T::one() / lift(body.mass.max(MINVAL)), T::zero()];
+            bodies[b] = [T::one() / mass.max(lift(MINVAL)), T::zero()];
             continue;
         }
         let x = frame.offset.compose(&data.world[node]);
-        let com = x.trans + x.axes() * body.com.map(lift::<T>);
+        let com = Vector3::from_fn(|r, _| lift_param(Param::Com(b), r, body.com[r]));
+        let com = x.trans + x.axes() * com;
         let (jp, jr) = point_jacobian(tree, &data, node, &com);
         let mut trace = [T::zero(); 2];
         for (k, jac) in [jp, jr].iter().enumerate() {
@@ -188,7 +199,8 @@ fn invweight0_raw<T: Real>(tree: &Tree<T>, spec: &Spec) -> (Vec<[T; 2]>, Vec<T>)
         .map(|i| {
             let body = spec.joints[i].body;
             if simple[body] {
-                return T::one() / lift(spec.bodies[body].mass.max(MINVAL));
+                let mass = lift_param(Param::Mass(body), 0, spec.bodies[body].mass);
+                return T::one() / mass.max(lift(MINVAL));
             }
             let mut e = vec![T::zero(); n];
             e[i] = T::one();

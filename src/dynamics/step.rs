@@ -25,15 +25,6 @@ pub enum StepError {
     NotFinite { name: &'static str, index: usize },
     #[error("the step diverged: the next state is not finite (timestep too large?)")]
     Diverged,
-    /// Step Jacobians of a model whose constraint rows (contacts, limits,
-    /// dry friction) would be left out of them.
-    #[error(
-        "step Jacobians through the constraint contact model are not available yet: \
-         the model has contacts, limits or dry friction under it; for derivatives use \
-         the smooth contact model (Python: m.with_options(contact_model=\"smooth\"); \
-         MJCF: <custom><text name=\"diffosi:contact\" data=\"smooth\"/></custom>)"
-    )]
-    ConstraintDerivatives,
     /// Two geoms within reach of each other whose shapes have no collider.
     #[error(
         "geoms {} and {} (model geom indices) are within reach and the constraint model has \

@@ -202,7 +202,7 @@ impl<T: Real> Tree<T> {
         tree.contact_model = model.opt.contact_model;
         match model.opt.contact_model {
             ContactModel::Smooth => tree.add_pairs(model),
-            ContactModel::Constraint => tree.add_constraints(model),
+            ContactModel::Constraint => tree.add_constraints(model, &lift_param),
         }
         tree
     }
@@ -210,7 +210,7 @@ impl<T: Real> Tree<T> {
     /// The constraint model's constants: collision pairs, limits, dry
     /// friction, invweight0 (at the reference configuration, as MuJoCo's
     /// mj_setConst computes them).
-    fn add_constraints(&mut self, model: &Spec) {
+    fn add_constraints(&mut self, model: &Spec, lift_param: &impl Fn(Param, usize, f64) -> T) {
         let limits = std::mem::take(&mut self.limits);
         let opt = &model.opt;
         let c = &mut self.constraint;
@@ -244,7 +244,7 @@ impl<T: Real> Tree<T> {
                 supported,
             });
         }
-        let (bodies, dofs) = invweight0(self, model);
+        let (bodies, dofs) = invweight0(self, model, lift_param);
         self.constraint.body_invweight = bodies;
         self.constraint.dof_invweight = dofs;
     }

@@ -393,7 +393,7 @@ impl Model {
         }
         if tree.contact_model == ContactModel::Constraint {
             // MuJoCo's mj_setConst after an edit of inertial values.
-            let (body, dof) = invweight0(tree, &self.spec);
+            let (body, dof) = invweight0(tree, &self.spec, &|_, _, x| x);
             (
                 tree.constraint.body_invweight,
                 tree.constraint.dof_invweight,

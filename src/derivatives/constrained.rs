@@ -1,0 +1,95 @@
+//! Step Jacobians through the constraint model: forward-mode dual numbers
+//! through the whole step (collision, rows, impedance, invweight0, the
+//! solver, the integrator), one column per input direction.
+//!
+//! Exact for the solver's converged zones: the solver's last iterate is a
+//! full Newton step on fixed zones from a point whose gradient is at rounding
+//! level, so its dual part is the derivative of that zone set's minimiser
+//! (the implicit derivative of the optimality conditions); with an elliptic
+//! cone in its middle zone, Newton's iteration carries the derivative to
+//! convergence with the value. Where a step of the input would change the
+//! zones (a contact appearing, a row switching between free and active, dry
+//! friction between stick and slip) the derivative is the one-sided
+//! derivative on the side of the zones at the point itself. Cost: one dual
+//! step per column (the analytic implicit derivative is issue 18's speed work).
+
+use nalgebra::DMatrix;
+use num_dual::Dual64;
+
+use super::step::Wrt;
+use crate::dynamics::{step, Data, StepError, Tree};
+use crate::model::{Model, Param};
+
+/// d q' and d v' (n rows each) with respect to the columns of `wrt`: [q, v]
+/// if the state was asked for, then tau, then the flattened parameters.
+pub(super) fn dual_columns(
+    model: &Model,
+    (q, v, tau): (&[f64], &[f64], &[f64]),
+    wrt: &Wrt,
+) -> Result<(DMatrix<f64>, DMatrix<f64>), StepError> {
+    let n = model.nv();
+    let inputs = [wrt.state, wrt.state, wrt.control]
+        .iter()
+        .filter(|x| **x)
+        .count()
+        * n;
+    let params: Vec<(Param, usize)> = wrt
+        .params
+        .iter()
+        .flat_map(|p| (0..p.size()).map(move |k| (*p, k)))
+        .collect();
+    let columns = inputs + params.len();
+    let (mut dq, mut dv) = (DMatrix::zeros(n, columns), DMatrix::zeros(n, columns));
+    // The input a column seeds: (q, v, tau) index in 0..3n.
+    let seeded: Vec<usize> = [(wrt.state, 0), (wrt.state, n), (wrt.control, 2 * n)]
+        .into_iter()
+        .filter(|(on, _)| *on)
+        .flat_map(|(_, start)| start..start + n)
+        .collect();
+    let plain: Tree<Dual64> = Tree::build(model);
+    let mut data = Data::new(&plain);
+    for (col, &input) in seeded.iter().enumerate() {
+        let (q1, v1) = dual_step(model, &plain, &mut data, (q, v, tau), Some(input))?;
+        dq.set_column(col, &q1);
+        dv.set_column(col, &v1);
+    }
+    for (k, (param, component)) in params.into_iter().enumerate() {
+        let tree: Tree<Dual64> = Tree::build_with(model, |p, c, x| {
+            Dual64::new(
+                x,
+                if (p, c) == (param, component) {
+                    1.0
+                } else {
+                    0.0
+                },
+            )
+        });
+        let (q1, v1) = dual_step(model, &tree, &mut data, (q, v, tau), None)?;
+        dq.set_column(inputs + k, &q1);
+        dv.set_column(inputs + k, &v1);
+    }
+    Ok((dq, dv))
+}
+
+/// The derivative parts of one dual step, the input `seed` (an index into
+/// (q, v, tau)) seeded with 1.
+fn dual_step(
+    model: &Model,
+    tree: &Tree<Dual64>,
+    data: &mut Data<Dual64>,
+    (q, v, tau): (&[f64], &[f64], &[f64]),
+    seed: Option<usize>,
+) -> Result<(nalgebra::DVector<f64>, nalgebra::DVector<f64>), StepError> {
+    let n = model.nv();
+    let lift = |x: &[f64], offset: usize| -> Vec<Dual64> {
+        x.iter()
+            .enumerate()
+            .map(|(i, &xi)| Dual64::new(xi, if seed == Some(offset + i) { 1.0 } else { 0.0 }))
+            .collect()
+    };
+    let (qd, vd, td) = (lift(q, 0), lift(v, n), lift(tau, 2 * n));
+    let (mut q1, mut v1) = (vec![Dual64::from(0.0); n], vec![Dual64::from(0.0); n]);
+    step(tree, &model.opt, data, (&qd, &vd, &td), (&mut q1, &mut v1))?;
+    let eps = |x: &[Dual64]| nalgebra::DVector::from_iterator(n, x.iter().map(|d| d.eps));
+    Ok((eps(&q1), eps(&v1)))
+}
