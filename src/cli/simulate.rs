@@ -92,7 +92,7 @@ pub fn simulate(
 fn sensed_pairs(model: &Model) -> Vec<[usize; 2]> {
     match model.opt.contact_model {
         ContactModel::Smooth => contact_pairs(model),
-        ContactModel::Constraint => collision_pairs(model)
+        ContactModel::Constraint => collision_pairs(model, &|_, _, x| x)
             .into_iter()
             .map(|([g1, g2], ..)| [g2, g1])
             .collect(),

@@ -39,8 +39,10 @@ pub fn residual_derivative(
             }
         }
         // Contact parameters act through the soft forces alone, added by
-        // `soft_derivatives`.
+        // `soft_derivatives`; the constraint model's act through its rows
+        // (derivatives/constrained.rs), never through this residual.
         Param::ContactStiffness | Param::ContactDamping | Param::ContactFriction => {}
+        p if p.is_constraint() => {}
         _ => {
             let (i, value) = joint_derivative(model.tree(), (mode, h), (q_spring, v, a), param);
             out[i] = value;

@@ -35,7 +35,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::contact::GeomFrame;
 use crate::model::constraint::solmix;
-use crate::model::{PairParams, Shape, SolParams, Spec};
+use crate::model::{PairParams, Param, Shape, SolParams, Spec};
 use crate::spatial::{lift, Real, Transform};
 
 /// MuJoCo's mjMINVAL: lengths below it count as zero.
@@ -45,9 +45,9 @@ pub const MINVAL: f64 = 1e-15;
 /// MuJoCo's order (see the module documentation), and whether a collider
 /// exists for its shapes.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CollisionPair {
+pub struct CollisionPair<T: Real> {
     pub geoms: [usize; 2],
-    pub params: PairParams,
+    pub params: PairParams<T>,
     pub supported: bool,
 }
 
@@ -61,7 +61,7 @@ pub struct ConstraintContact<T: Real> {
     /// Rows: normal (from geom 1 to geom 2), first and second tangent.
     pub frame: Matrix3<T>,
     pub dist: T,
-    pub params: PairParams,
+    pub params: PairParams<T>,
 }
 
 /// Shape order of MuJoCo's collision table; None for shapes without one.
@@ -84,27 +84,54 @@ fn supported(a: usize, b: usize) -> bool {
     )
 }
 
+/// A geom's friction, solref and solimp in scalar T, lifted as its named
+/// parameters (see [`Tree::build_with`](super::Tree::build_with)).
+fn geom_params<T: Real>(
+    spec: &Spec,
+    g: usize,
+    lift_param: &impl Fn(Param, usize, f64) -> T,
+) -> ([T; 3], SolParams<T>) {
+    let geom = &spec.geoms[g];
+    let friction = std::array::from_fn(|k| lift_param(Param::GeomFriction(g), k, geom.friction[k]));
+    let sol = geom.contact.sol.lift(
+        |k, x| lift_param(Param::GeomSolref(g), k, x),
+        |k, x| lift_param(Param::GeomSolimp(g), k, x),
+    );
+    (friction, sol)
+}
+
 /// The parameters of a pair from its geoms' (see the module documentation).
-fn mixed(spec: &Spec, [a, b]: [usize; 2]) -> PairParams {
-    let (ga, gb) = (&spec.geoms[a], &spec.geoms[b]);
-    let (ca, cb) = (&ga.contact, &gb.contact);
+fn mixed<T: Real>(
+    spec: &Spec,
+    [a, b]: [usize; 2],
+    lift_param: &impl Fn(Param, usize, f64) -> T,
+) -> PairParams<T> {
+    let (ca, cb) = (&spec.geoms[a].contact, &spec.geoms[b].contact);
+    let ((fa, sa), (fb, sb)) = (
+        geom_params(spec, a, lift_param),
+        geom_params(spec, b, lift_param),
+    );
     let (condim, friction, sol) = match ca.priority.cmp(&cb.priority) {
-        std::cmp::Ordering::Greater => (ca.condim, ga.friction, ca.sol),
-        std::cmp::Ordering::Less => (cb.condim, gb.friction, cb.sol),
+        std::cmp::Ordering::Greater => (ca.condim, fa, sa),
+        std::cmp::Ordering::Less => (cb.condim, fb, sb),
         std::cmp::Ordering::Equal => {
-            let mix = solmix(ca.solmix, cb.solmix);
-            let (ra, rb) = (ca.sol.solref, cb.sol.solref);
-            let solref = if ra[0] > 0.0 && rb[0] > 0.0 {
-                std::array::from_fn(|i| mix * ra[i] + (1.0 - mix) * rb[i])
+            let mix: T = lift(solmix(ca.solmix, cb.solmix));
+            let weigh = |x: T, y: T| mix * x + (T::one() - mix) * y;
+            // At a tie the value is either's; its derivative the mean of
+            // the one-sided ones (what central differences give).
+            let tie = |x: T, y: T| (x + y) * lift(0.5);
+            let smaller = |x: T, y: T| if x == y { tie(x, y) } else { x.min(y) };
+            let larger = |x: T, y: T| if x == y { tie(x, y) } else { x.max(y) };
+            let (ra, rb) = (sa.solref, sb.solref);
+            let solref = if ra[0] > T::zero() && rb[0] > T::zero() {
+                std::array::from_fn(|i| weigh(ra[i], rb[i]))
             } else {
-                std::array::from_fn(|i| ra[i].min(rb[i]))
+                std::array::from_fn(|i| smaller(ra[i], rb[i]))
             };
-            let solimp =
-                std::array::from_fn(|i| mix * ca.sol.solimp[i] + (1.0 - mix) * cb.sol.solimp[i]);
-            let friction = std::array::from_fn(|i| ga.friction[i].max(gb.friction[i]));
+            let solimp = std::array::from_fn(|i| weigh(sa.solimp[i], sb.solimp[i]));
             (
                 ca.condim.max(cb.condim),
-                friction,
+                std::array::from_fn(|i| larger(fa[i], fb[i])),
                 SolParams { solref, solimp },
             )
         }
@@ -114,16 +141,31 @@ fn mixed(spec: &Spec, [a, b]: [usize; 2]) -> PairParams {
         condim,
         friction: [slide, slide, spin, roll, roll],
         sol,
-        solreffriction: [0.0; 2],
+        solreffriction: [T::zero(); 2],
         margin: ca.margin + cb.margin,
         gap: ca.gap + cb.gap,
     }
 }
 
+/// An explicit pair's parameters in scalar T (they are no named parameter).
+fn lifted<T: Real>(p: &PairParams) -> PairParams<T> {
+    PairParams {
+        condim: p.condim,
+        friction: p.friction.map(lift),
+        sol: p.sol.lift(|_, x| lift(x), |_, x| lift(x)),
+        solreffriction: p.solreffriction.map(lift),
+        margin: p.margin,
+        gap: p.gap,
+    }
+}
+
 /// The model's geom pairs that may touch, as model geom indices in MuJoCo's
-/// order, with their parameters and whether a collider exists for them;
-/// empty when contacts are off.
-pub fn collision_pairs(spec: &Spec) -> Vec<([usize; 2], PairParams, bool)> {
+/// order, with their parameters (geoms' lifted by `lift_param`) and whether
+/// a collider exists for them; empty when contacts are off.
+pub fn collision_pairs<T: Real>(
+    spec: &Spec,
+    lift_param: &impl Fn(Param, usize, f64) -> T,
+) -> Vec<([usize; 2], PairParams<T>, bool)> {
     if !spec.opt.contact {
         return vec![];
     }
@@ -144,8 +186,11 @@ pub fn collision_pairs(spec: &Spec) -> Vec<([usize; 2], PairParams, bool)> {
             .iter()
             .any(|p| p.geoms == [i, j] || p.geoms == [j, i])
     };
-    let mut pairs: Vec<([usize; 2], PairParams)> =
-        spec.pairs.iter().map(|p| (p.geoms, p.params)).collect();
+    let mut pairs: Vec<([usize; 2], PairParams<T>)> = spec
+        .pairs
+        .iter()
+        .map(|p| (p.geoms, lifted(&p.params)))
+        .collect();
     for (i, gi) in spec.geoms.iter().enumerate() {
         for (j, gj) in spec.geoms.iter().enumerate().skip(i + 1) {
             let (bi, bj) = (gi.body, gj.body);
@@ -162,7 +207,7 @@ pub fn collision_pairs(spec: &Spec) -> Vec<([usize; 2], PairParams, bool)> {
             if !masks || wi == wj || parent || excluded || explicit_pair(i, j) {
                 continue;
             }
-            pairs.push(([i, j], mixed(spec, [i, j])));
+            pairs.push(([i, j], mixed(spec, [i, j], lift_param)));
         }
     }
     pairs
@@ -208,7 +253,7 @@ pub(super) struct Pre<T: Real> {
 /// Whether the geoms of a pair without a collider are out of reach: their
 /// bounding spheres (a plane's half-space) apart by more than margin + gap.
 pub fn out_of_reach<T: Real>(
-    pair: &CollisionPair,
+    pair: &CollisionPair<T>,
     geoms: [&GeomFrame<T>; 2],
     world: &[Transform<T>],
 ) -> bool {
@@ -222,9 +267,9 @@ pub fn out_of_reach<T: Real>(
 }
 
 /// Appends the contacts of `pair` at the geoms' world poses to `out`.
-pub fn collide<T: Real, U: Real>(
-    pair: &CollisionPair,
-    geoms: [&GeomFrame<U>; 2],
+pub fn collide<T: Real>(
+    pair: &CollisionPair<T>,
+    geoms: [&GeomFrame<T>; 2],
     poses: [Transform<T>; 2],
     out: &mut Vec<ConstraintContact<T>>,
 ) {

@@ -39,15 +39,15 @@ const MAX_IMP: f64 = 0.9999;
 /// The constants of the constraint model in a tree's scalar.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ConstraintConsts<T: Real> {
-    pub pairs: Vec<CollisionPair>,
+    pub pairs: Vec<CollisionPair<T>>,
     /// Per model body: MuJoCo's body_invweight0 (translation, rotation).
     pub body_invweight: Vec<[T; 2]>,
     /// Per node (dof): dof_invweight0.
     pub dof_invweight: Vec<T>,
     /// Per node: the limit, if the joint is limited and limits are on.
-    pub limits: Vec<Option<Limit>>,
+    pub limits: Vec<Option<Limit<T>>>,
     /// Per node: dry friction and its solver parameters (0 when off).
-    pub frictionloss: Vec<(T, SolParams)>,
+    pub frictionloss: Vec<(T, SolParams<T>)>,
     pub solver: SolverOptions,
     pub timestep: f64,
 }
@@ -69,10 +69,10 @@ impl<T: Real> ConstraintConsts<T> {
 /// A joint limit: the range, the margin within which its rows exist, and
 /// its solver parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Limit {
+pub struct Limit<T: Real> {
     pub range: (f64, f64),
     pub margin: f64,
-    pub sol: SolParams,
+    pub sol: SolParams<T>,
 }
 
 /// What a row is, for the solver's cost.
@@ -282,55 +282,76 @@ pub fn contacts<T: Real>(tree: &Tree<T>, data: &Data<T>) -> Vec<ConstraintContac
 
 /// Solver parameters as MuJoCo uses them: solref with its time constant at
 /// least two timesteps (when `refsafe`), solimp clamped.
-fn effective(sol: &SolParams, solver: &SolverOptions, timestep: f64) -> SolParams {
+fn effective<T: Real>(sol: &SolParams<T>, solver: &SolverOptions, timestep: f64) -> SolParams<T> {
     let mut s = *sol;
-    if solver.refsafe && s.solref[0] > 0.0 {
-        s.solref[0] = s.solref[0].max(2.0 * timestep);
+    // At a bound the derivative is the mean of the one-sided ones (what
+    // central differences give), as at the ties of pair mixing.
+    let at_least = |x: T, lo: f64| {
+        let lo: T = lift(lo);
+        match x.partial_cmp(&lo) {
+            Some(std::cmp::Ordering::Less) => lo,
+            Some(std::cmp::Ordering::Equal) => (x + lo) * lift(0.5),
+            _ => x,
+        }
+    };
+    let clamp = |x: T| {
+        if x > lift(MAX_IMP) {
+            lift(MAX_IMP)
+        } else {
+            at_least(x, MIN_IMP)
+        }
+    };
+    if solver.refsafe && s.solref[0] > T::zero() {
+        s.solref[0] = at_least(s.solref[0], 2.0 * timestep);
     }
-    let clamp = |x: f64| x.clamp(MIN_IMP, MAX_IMP);
     s.solimp[0] = clamp(s.solimp[0]);
     s.solimp[1] = clamp(s.solimp[1]);
-    s.solimp[2] = s.solimp[2].max(0.0);
+    s.solimp[2] = at_least(s.solimp[2], 0.0);
     s.solimp[3] = clamp(s.solimp[3]);
-    s.solimp[4] = s.solimp[4].max(1.0);
+    s.solimp[4] = at_least(s.solimp[4], 1.0);
     s
 }
 
 /// MuJoCo's impedance at violation `x` = dist - margin (see the module
 /// documentation), for an effective solimp.
-pub fn impedance<T: Real>(solimp: &[f64; 5], x: T) -> T {
+pub fn impedance<T: Real>(solimp: &[T; 5], x: T) -> T {
     let [dmin, dmax, width, mid, power] = *solimp;
-    if dmin == dmax || width <= MINVAL {
-        return lift(0.5 * (dmin + dmax));
+    let one = T::one();
+    // MuJoCo takes the mean when dmin = dmax too; the sigmoid below gives
+    // the same value there, and the derivatives in dmin and dmax.
+    if width <= lift(MINVAL) {
+        return (dmin + dmax) * lift(0.5);
     }
-    let x = (x / lift::<T>(width)).abs();
-    if x >= T::one() {
-        return lift(dmax);
+    let x = (x / width).abs();
+    if x >= one {
+        return dmax;
     }
     if x <= T::zero() {
-        return lift(dmin);
+        return dmin;
     }
-    let y = if power == 1.0 {
+    let y = if power == one {
         x
-    } else if x <= lift(mid) {
-        x.powf(lift(power)) / lift::<T>(mid.powf(power - 1.0))
+    } else if x <= mid {
+        x.powf(power) / mid.powf(power - one)
     } else {
-        T::one() - (T::one() - x).powf(lift(power)) / lift::<T>((1.0 - mid).powf(power - 1.0))
+        one - (one - x).powf(power) / (one - mid).powf(power - one)
     };
-    lift::<T>(dmin) + y * lift::<T>(dmax - dmin)
+    dmin + y * (dmax - dmin)
 }
 
 /// K and B of a reference (see the module documentation).
-fn stiffness_damping(solref: &[f64; 2], dmax: f64) -> (f64, f64) {
-    let k = if solref[0] > 0.0 {
-        1.0 / (dmax * dmax * solref[0] * solref[0] * solref[1] * solref[1]).max(MINVAL)
+fn stiffness_damping<T: Real>(solref: &[T; 2], dmax: T) -> (T, T) {
+    let [timeconst, ratio] = *solref;
+    let floor = |x: T| x.max(lift(MINVAL));
+    let k = if timeconst > T::zero() {
+        T::one() / floor(dmax * dmax * timeconst * timeconst * ratio * ratio)
     } else {
-        -solref[0] / (dmax * dmax).max(MINVAL)
+        -timeconst / floor(dmax * dmax)
     };
-    let b = if solref[1] > 0.0 {
-        2.0 / (dmax * solref[0]).max(MINVAL)
+    let b = if ratio > T::zero() {
+        lift::<T>(2.0) / floor(dmax * timeconst)
     } else {
-        -solref[1] / dmax.max(MINVAL)
+        -ratio / floor(dmax)
     };
     (k, b)
 }
@@ -343,7 +364,7 @@ struct Block<T: Real> {
     diag: Vec<T>,
     dist: T,
     margin: f64,
-    sol: SolParams,
+    sol: SolParams<T>,
     floss: T,
 }
 
@@ -354,7 +375,7 @@ impl<T: Real> Rows<T> {
         block: Block<T>,
         v: &[T],
         consts: &ConstraintConsts<T>,
-        friction_ref: Option<[f64; 2]>,
+        friction_ref: Option<[T; 2]>,
     ) {
         let sol = effective(&block.sol, &consts.solver, consts.timestep);
         let x = block.dist - lift::<T>(block.margin);
@@ -364,7 +385,7 @@ impl<T: Real> Rows<T> {
             let kind = block.kind[k];
             let elliptic_friction = matches!(kind, RowKind::ConeRest);
             let solref = match friction_ref {
-                Some(r) if elliptic_friction && r != [0.0; 2] => {
+                Some(r) if elliptic_friction && r != [T::zero(); 2] => {
                     effective(
                         &SolParams { solref: r, ..sol },
                         &consts.solver,
@@ -376,15 +397,14 @@ impl<T: Real> Rows<T> {
             };
             let (stiff, damp) = stiffness_damping(&solref, dmax);
             let stiff = if kind == RowKind::Friction || elliptic_friction {
-                0.0
+                T::zero()
             } else {
                 stiff
             };
             let vel = row.iter().zip(v).fold(T::zero(), |s, (a, b)| s + *a * *b);
             let r = (T::one() - imp) * block.diag[k] / imp;
             self.r.push(if r > lift(MINVAL) { r } else { lift(MINVAL) });
-            self.aref
-                .push(-vel * lift::<T>(damp) - x * imp * lift::<T>(stiff));
+            self.aref.push(-vel * damp - x * imp * stiff);
             self.floss.push(block.floss);
             self.kind.push(kind);
             self.j.extend(row);
@@ -498,7 +518,7 @@ fn contact_rows<T: Real>(
     frame.extend((0..dim.saturating_sub(3)).map(|k| frame_rows(&jr, k)));
     let [w1, w2] = [b1, b2].map(|b| consts.body_invweight[b]);
     let (tran, rot) = (w1[0] + w2[0], w1[1] + w2[1]);
-    let friction: [T; 5] = c.params.friction.map(|f| lift(f.max(1e-5)));
+    let friction: [T; 5] = c.params.friction.map(|f| f.max(lift(1e-5)));
     let mut block = Block {
         j: vec![],
         kind: vec![],
@@ -624,7 +644,7 @@ fn in_frame<T: Real>(c: &ConstraintContact<T>, f: &[T]) -> [T; 6] {
     }
     local[0] = f.iter().fold(T::zero(), |s, x| s + *x);
     for k in 1..dim {
-        local[k] = (f[2 * k - 2] - f[2 * k - 1]) * lift::<T>(c.params.friction[k - 1]);
+        local[k] = (f[2 * k - 2] - f[2 * k - 1]) * c.params.friction[k - 1];
     }
     local
 }

@@ -220,23 +220,30 @@ impl<T: Real> Tree<T> {
             .joints
             .iter()
             .zip(limits)
-            .map(|(j, range)| {
+            .enumerate()
+            .map(|(k, (j, range))| {
                 range.map(|range| Limit {
                     range,
                     margin: j.margin,
-                    sol: j.limit_sol,
+                    sol: j.limit_sol.lift(
+                        |c, x| lift_param(Param::LimitSolref(k), c, x),
+                        |c, x| lift_param(Param::LimitSolimp(k), c, x),
+                    ),
                 })
             })
             .collect();
         c.frictionloss = model
             .joints
             .iter()
-            .map(|j| {
+            .enumerate()
+            .map(|(k, j)| {
                 let on = opt.solver.frictionloss && j.frictionloss > 0.0;
-                (lift(if on { j.frictionloss } else { 0.0 }), j.friction_sol)
+                let value = lift_param(Param::FrictionLoss(k), 0, j.frictionloss);
+                let sol = j.friction_sol.lift(|_, x| lift(x), |_, x| lift(x));
+                (if on { value } else { T::zero() }, sol)
             })
             .collect();
-        for (geoms, params, supported) in collision_pairs(model) {
+        for (geoms, params, supported) in collision_pairs(model, lift_param) {
             let geoms = geoms.map(|g| self.geom_frame(model, g));
             self.constraint.pairs.push(CollisionPair {
                 geoms,

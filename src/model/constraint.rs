@@ -19,11 +19,12 @@
 pub const SOLREF: [f64; 2] = [0.02, 1.0];
 pub const SOLIMP: [f64; 5] = [0.9, 0.95, 0.001, 0.5, 2.0];
 
-/// A constraint's reference (`solref`) and impedance (`solimp`).
+/// A constraint's reference (`solref`) and impedance (`solimp`); in the
+/// model f64, in the dynamics any scalar (derivatives seed them).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SolParams {
-    pub solref: [f64; 2],
-    pub solimp: [f64; 5],
+pub struct SolParams<T = f64> {
+    pub solref: [T; 2],
+    pub solimp: [T; 5],
 }
 
 impl Default for SolParams {
@@ -36,6 +37,19 @@ impl Default for SolParams {
 }
 
 impl SolParams {
+    /// The values in scalar T, solref's lifted by `solref` and solimp's by
+    /// `solimp` (component index, value).
+    pub fn lift<T>(
+        &self,
+        solref: impl Fn(usize, f64) -> T,
+        solimp: impl Fn(usize, f64) -> T,
+    ) -> SolParams<T> {
+        SolParams {
+            solref: std::array::from_fn(|k| solref(k, self.solref[k])),
+            solimp: std::array::from_fn(|k| solimp(k, self.solimp[k])),
+        }
+    }
+
     /// Checks the values MuJoCo would otherwise replace or clamp silently
     /// (errors name `owner`):
     /// solref of mixed sign; solimp with dmin, dmax or midpoint outside
@@ -131,12 +145,12 @@ fn check_margin(margin: f64, gap: f64, owner: &str) -> Result<(), String> {
 /// pair's) or its geoms' mixed (see [`crate::dynamics::collision`]). Friction
 /// has MuJoCo's five components (sliding 1 and 2, torsional, rolling 1 and 2).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PairParams {
+pub struct PairParams<T = f64> {
     pub condim: usize,
-    pub friction: [f64; 5],
-    pub sol: SolParams,
+    pub friction: [T; 5],
+    pub sol: SolParams<T>,
     /// The reference of the friction rows under elliptic cones; (0, 0) uses `sol.solref`.
-    pub solreffriction: [f64; 2],
+    pub solreffriction: [T; 2],
     pub margin: f64,
     pub gap: f64,
 }

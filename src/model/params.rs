@@ -8,22 +8,30 @@
 //! - `body/<name>/inertia` (6 values, kg m^2): xx yy zz xy xz yz about the COM in
 //!   body axes.
 //! - `joint/<name>/damping`, `joint/<name>/stiffness`, `joint/<name>/armature`.
-//! - `contact/stiffness` (N/m), `contact/damping` (N s/m), `contact/friction`
-//!   (dimensionless: a scale on every pair's coefficient, the larger sliding
-//!   friction of its two geoms): the model's global soft-contact constants
-//!   ([`super::SoftOptions`]); listed by [`Param::all`] only when the model
-//!   has contact pairs.
+//! - The smooth contact model's: `contact/stiffness` (N/m), `contact/damping`
+//!   (N s/m), `contact/friction` (dimensionless: a scale on every pair's
+//!   coefficient, the larger sliding friction of its two geoms), the model's
+//!   global soft-contact constants ([`super::SoftOptions`]); listed by
+//!   [`Param::all`] only when the model has contact pairs.
+//! - The constraint contact model's (MuJoCo's meanings, [`super::constraint`]):
+//!   `geom/<name>/friction` (sliding, torsional, rolling), `geom/<name>/solref`
+//!   (2 values), `geom/<name>/solimp` (5 values), for the pairs the geom
+//!   forms by itself (an explicit `<pair>` has its own); `joint/<name>/frictionloss`
+//!   (N or N m), `joint/<name>/solreflimit` and `joint/<name>/solimplimit`.
+//!   Setters check them as MuJoCo's compiler would ([`super::SolParams::check`]).
+//!   The other contact model's parameters are an error naming the model.
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
+use super::constraint::check_friction;
 use super::{
-    check_inertial, check_passive, check_soft, check_tree_inertia, ContactModel, Model, ModelError,
-    SoftOptions, Spec,
+    check_inertial, check_passive, check_soft, check_tree_inertia, ContactModel, Geom, Joint,
+    Model, ModelError, SoftOptions, SolParams, Spec,
 };
 use crate::dynamics::body_inertia;
+use crate::dynamics::collision::collision_pairs;
 use crate::dynamics::constraint::invweight0;
 use crate::dynamics::contact::contact_pairs;
-#[cfg(doc)]
 use crate::dynamics::Tree;
 use crate::spatial::Inertia;
 
@@ -39,6 +47,12 @@ pub enum Param {
     ContactStiffness,
     ContactDamping,
     ContactFriction,
+    GeomFriction(usize),
+    GeomSolref(usize),
+    GeomSolimp(usize),
+    FrictionLoss(usize),
+    LimitSolref(usize),
+    LimitSolimp(usize),
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -67,11 +81,32 @@ pub enum ParamError {
 impl Param {
     /// Resolves a name such as `body/pole/com` against a model.
     pub fn parse(spec: &Spec, name: &str) -> Result<Param, ParamError> {
+        let param = Param::parse_any(spec, name)?;
+        let constraint = spec.opt.contact_model == ContactModel::Constraint;
+        if param.is_constraint() != constraint && (param.is_constraint() || param.is_contact()) {
+            let (ours, theirs) = if constraint {
+                ("constraint", "geom/<name>/friction|solref|solimp, joint/<name>/frictionloss|solreflimit|solimplimit")
+            } else {
+                ("smooth", "contact/stiffness|damping|friction")
+            };
+            return Err(ParamError::Unknown {
+                name: name.to_string(),
+                hint: format!(
+                    ": the model runs the {ours} contact model, whose contact parameters are {theirs}"
+                ),
+            });
+        }
+        Ok(param)
+    }
+
+    /// Resolves a name under either contact model.
+    fn parse_any(spec: &Spec, name: &str) -> Result<Param, ParamError> {
         let unknown = |hint: String| ParamError::Unknown {
             name: name.to_string(),
             hint,
         };
-        let expected = " (expected body/<name>/<field>, joint/<name>/<field> or contact/<field>)";
+        let expected = " (expected body/<name>/<field>, joint/<name>/<field>, \
+                        geom/<name>/<field> or contact/<field>)";
         if let Some(field) = name.strip_prefix("contact/") {
             return match field {
                 "stiffness" => Ok(Param::ContactStiffness),
@@ -82,9 +117,9 @@ impl Param {
                 )),
             };
         }
-        // Body and joint names may hold '/' themselves (MuJoCo's attach
-        // prefixes do): the kind ends at the first '/', the field starts
-        // after the last.
+        // Body, joint and geom names may hold '/' themselves (MuJoCo's
+        // attach prefixes do): the kind ends at the first '/', the field
+        // starts after the last.
         let parts = name
             .split_once('/')
             .and_then(|(kind, rest)| rest.rsplit_once('/').map(|(o, f)| (kind, o, f)));
@@ -112,9 +147,29 @@ impl Param {
                     "damping" => Ok(Param::Damping(j)),
                     "stiffness" => Ok(Param::Stiffness(j)),
                     "armature" => Ok(Param::Armature(j)),
+                    "frictionloss" => Ok(Param::FrictionLoss(j)),
+                    "solreflimit" => Ok(Param::LimitSolref(j)),
+                    "solimplimit" => Ok(Param::LimitSolimp(j)),
                     _ => Err(unknown(
-                        ": joint fields are damping, stiffness, armature".into(),
+                        ": joint fields are damping, stiffness, armature, frictionloss, \
+                         solreflimit, solimplimit"
+                            .into(),
                     )),
+                }
+            }
+            "geom" => {
+                let Some(g) = spec
+                    .geoms
+                    .iter()
+                    .position(|g| !g.name.is_empty() && g.name == object)
+                else {
+                    return Err(unknown(format!(": no geom named '{object}'")));
+                };
+                match field {
+                    "friction" => Ok(Param::GeomFriction(g)),
+                    "solref" => Ok(Param::GeomSolref(g)),
+                    "solimp" => Ok(Param::GeomSolimp(g)),
+                    _ => Err(unknown(": geom fields are friction, solref, solimp".into())),
                 }
             }
             _ => Err(unknown(expected.into())),
@@ -122,18 +177,47 @@ impl Param {
     }
 
     /// Every identifiable parameter of a model, bodies first, in model order,
-    /// then the contact parameters if the model has contact pairs.
+    /// then the joints', then the contact model's: the smooth model's three
+    /// if it has contact pairs; the constraint model's dry friction where a
+    /// joint has some (at 0 its rows vanish, and so does its derivative),
+    /// each limited joint's limit settings (when limits are on), and
+    /// the geoms of the pairs that mix their geoms' values, in geom order.
     pub fn all(spec: &Spec) -> Vec<Param> {
+        let constraint = spec.opt.contact_model == ContactModel::Constraint;
         let bodies =
             (1..spec.bodies.len()).flat_map(|b| [Param::Mass(b), Param::Com(b), Param::Inertia(b)]);
-        let joints = (0..spec.joints.len())
-            .flat_map(|j| [Param::Damping(j), Param::Stiffness(j), Param::Armature(j)]);
-        let contact = if contact_pairs(spec).is_empty() {
-            vec![]
-        } else {
-            Param::CONTACT.to_vec()
-        };
-        bodies.chain(joints).chain(contact).collect()
+        let mut params: Vec<Param> = bodies.collect();
+        for (j, joint) in spec.joints.iter().enumerate() {
+            params.extend([Param::Damping(j), Param::Stiffness(j), Param::Armature(j)]);
+            if constraint && spec.opt.solver.frictionloss && joint.frictionloss > 0.0 {
+                params.push(Param::FrictionLoss(j));
+            }
+            if constraint && spec.opt.limits && joint.range.is_some() {
+                params.extend([Param::LimitSolref(j), Param::LimitSolimp(j)]);
+            }
+        }
+        if constraint {
+            let mut geoms: Vec<usize> = collision_pairs(spec, &|_, _, x| x)
+                .into_iter()
+                .skip(spec.pairs.len())
+                .flat_map(|(g, ..)| g)
+                .collect();
+            geoms.sort_unstable();
+            geoms.dedup();
+            let named = geoms
+                .into_iter()
+                .filter(|g| !spec.geoms[*g].name.is_empty());
+            params.extend(named.flat_map(|g| {
+                [
+                    Param::GeomFriction(g),
+                    Param::GeomSolref(g),
+                    Param::GeomSolimp(g),
+                ]
+            }));
+        } else if !contact_pairs(spec).is_empty() {
+            params.extend(Param::CONTACT);
+        }
+        params
     }
 
     /// The three contact parameters.
@@ -143,13 +227,28 @@ impl Param {
         Param::ContactFriction,
     ];
 
+    /// Whether it is one of the smooth contact model's constants.
     pub fn is_contact(&self) -> bool {
         Param::CONTACT.contains(self)
+    }
+
+    /// Whether it belongs to the constraint contact model.
+    pub fn is_constraint(&self) -> bool {
+        matches!(
+            self,
+            Param::GeomFriction(_)
+                | Param::GeomSolref(_)
+                | Param::GeomSolimp(_)
+                | Param::FrictionLoss(_)
+                | Param::LimitSolref(_)
+                | Param::LimitSolimp(_)
+        )
     }
 
     pub fn name(&self, spec: &Spec) -> String {
         let body = |b: usize| &spec.bodies[b].name;
         let joint = |j: usize| &spec.joints[j].name;
+        let geom = |g: usize| &spec.geoms[g].name;
         match *self {
             Param::Mass(b) => format!("body/{}/mass", body(b)),
             Param::Com(b) => format!("body/{}/com", body(b)),
@@ -160,14 +259,22 @@ impl Param {
             Param::ContactStiffness => "contact/stiffness".into(),
             Param::ContactDamping => "contact/damping".into(),
             Param::ContactFriction => "contact/friction".into(),
+            Param::GeomFriction(g) => format!("geom/{}/friction", geom(g)),
+            Param::GeomSolref(g) => format!("geom/{}/solref", geom(g)),
+            Param::GeomSolimp(g) => format!("geom/{}/solimp", geom(g)),
+            Param::FrictionLoss(j) => format!("joint/{}/frictionloss", joint(j)),
+            Param::LimitSolref(j) => format!("joint/{}/solreflimit", joint(j)),
+            Param::LimitSolimp(j) => format!("joint/{}/solimplimit", joint(j)),
         }
     }
 
     /// Number of scalar values.
     pub fn size(&self) -> usize {
         match self {
-            Param::Com(_) => 3,
+            Param::Com(_) | Param::GeomFriction(_) => 3,
             Param::Inertia(_) => 6,
+            Param::GeomSolref(_) | Param::LimitSolref(_) => 2,
+            Param::GeomSolimp(_) | Param::LimitSolimp(_) => 5,
             _ => 1,
         }
     }
@@ -183,6 +290,12 @@ impl Param {
             Param::ContactStiffness => vec![spec.opt.soft.stiffness],
             Param::ContactDamping => vec![spec.opt.soft.damping],
             Param::ContactFriction => vec![spec.opt.soft.friction],
+            Param::GeomFriction(g) => spec.geoms[g].friction.to_vec(),
+            Param::GeomSolref(g) => spec.geoms[g].contact.sol.solref.to_vec(),
+            Param::GeomSolimp(g) => spec.geoms[g].contact.sol.solimp.to_vec(),
+            Param::FrictionLoss(j) => vec![spec.joints[j].frictionloss],
+            Param::LimitSolref(j) => spec.joints[j].limit_sol.solref.to_vec(),
+            Param::LimitSolimp(j) => spec.joints[j].limit_sol.solimp.to_vec(),
         }
     }
 
@@ -199,9 +312,15 @@ impl Param {
             Param::Damping(j) => edit.joint(j).passive[0] = value[0],
             Param::Stiffness(j) => edit.joint(j).passive[1] = value[0],
             Param::Armature(j) => edit.joint(j).passive[2] = value[0],
+            Param::FrictionLoss(j) => edit.joint(j).passive[3] = value[0],
+            Param::LimitSolref(j) => edit.joint(j).limit_sol.solref.copy_from_slice(value),
+            Param::LimitSolimp(j) => edit.joint(j).limit_sol.solimp.copy_from_slice(value),
             Param::ContactStiffness => edit.contact().stiffness = value[0],
             Param::ContactDamping => edit.contact().damping = value[0],
             Param::ContactFriction => edit.contact().friction = value[0],
+            Param::GeomFriction(g) => edit.geom(g).friction.copy_from_slice(value),
+            Param::GeomSolref(g) => edit.geom(g).sol.solref.copy_from_slice(value),
+            Param::GeomSolimp(g) => edit.geom(g).sol.solimp.copy_from_slice(value),
         }
     }
 
@@ -275,6 +394,7 @@ impl Model {
             spec: &self.spec,
             bodies: vec![],
             joints: vec![],
+            geoms: vec![],
             contact: None,
         };
         for (p, v) in values {
@@ -283,6 +403,7 @@ impl Model {
         let Edit {
             bodies,
             joints,
+            geoms,
             contact,
             ..
         } = edit;
@@ -290,13 +411,13 @@ impl Model {
             Some(soft) => check_soft(soft),
             None => Ok(()),
         };
-        if let Err(source) = checked.and_then(|_| self.check_edit(&bodies, &joints)) {
+        if let Err(source) = checked.and_then(|_| self.check_edit(&bodies, &joints, &geoms)) {
             return Err(not_physical(self, values, source));
         }
-        let old = self.write_edit(&bodies, &joints);
+        let old = self.write_edit(&bodies, &joints, &geoms);
         if let Err(source) = check_tree_inertia(self, &self.tree, bodies.iter().map(|b| b.index)) {
             // Writing the old values back restores the tree bit for bit.
-            self.write_edit(&old.0, &old.1);
+            self.write_edit(&old.0, &old.1, &old.2);
             return Err(not_physical(self, values, source));
         }
         if let Some(soft) = contact {
@@ -313,8 +434,9 @@ impl Model {
         &mut self,
         bodies: &[BodyEdit],
         joints: &[JointEdit],
-    ) -> (Vec<BodyEdit>, Vec<JointEdit>) {
-        let mut old = (vec![], vec![]);
+        geoms: &[GeomEdit],
+    ) -> (Vec<BodyEdit>, Vec<JointEdit>, Vec<GeomEdit>) {
+        let mut old = (vec![], vec![], vec![]);
         for b in bodies {
             let body = &mut self.spec.bodies[b.index];
             old.0.push(BodyEdit {
@@ -328,36 +450,72 @@ impl Model {
         }
         for j in joints {
             let joint = &mut self.spec.joints[j.index];
-            old.1.push(JointEdit {
-                index: j.index,
-                passive: [joint.damping, joint.stiffness, joint.armature],
-            });
-            [joint.damping, joint.stiffness, joint.armature] = j.passive;
+            old.1.push(JointEdit::of(j.index, joint));
+            [
+                joint.damping,
+                joint.stiffness,
+                joint.armature,
+                joint.frictionloss,
+            ] = j.passive;
+            joint.limit_sol = j.limit_sol;
         }
-        self.patch_tree(
-            bodies.iter().map(|b| b.index),
-            joints.iter().map(|j| j.index),
-        );
+        for g in geoms {
+            let geom = &mut self.spec.geoms[g.index];
+            old.2.push(GeomEdit::of(g.index, geom));
+            (geom.friction, geom.contact.sol) = (g.friction, g.sol);
+        }
+        let constraint = !geoms.is_empty() || joints.iter().any(|j| j.constraint(&old.1));
+        if constraint && self.tree.contact_model == ContactModel::Constraint {
+            // Contact settings reach the pairs' mixed values: rebuilt whole.
+            self.tree = Tree::build(&self.spec);
+        } else {
+            self.patch_tree(
+                bodies.iter().map(|b| b.index),
+                joints.iter().map(|j| j.index),
+            );
+        }
         old
     }
 
     /// The checks of a valid model on the edited values (already finite).
     /// The full checks run only where an edit can fail them: a body whose
     /// tensor changed or whose mass went negative (a valid tensor stays
-    /// valid under any mass >= 0 and COM), a joint with a negative value.
-    fn check_edit(&self, bodies: &[BodyEdit], joints: &[JointEdit]) -> Result<(), ModelError> {
+    /// valid under any mass >= 0 and COM), a joint with a negative value or
+    /// new limit settings, every edited geom.
+    fn check_edit(
+        &self,
+        bodies: &[BodyEdit],
+        joints: &[JointEdit],
+        geoms: &[GeomEdit],
+    ) -> Result<(), ModelError> {
         for b in bodies.iter().filter(|b| b.tensor || b.mass < 0.0) {
             let name = &self.spec.bodies[b.index].name;
             check_inertial(name, b.mass, &b.com, &b.inertia)?;
         }
-        for j in joints.iter().filter(|j| j.passive.iter().any(|x| *x < 0.0)) {
+        for j in joints {
             let mut joint = self.spec.joints[j.index].clone();
-            [joint.damping, joint.stiffness, joint.armature] = j.passive;
-            check_passive(&joint)?;
+            if j.passive.iter().any(|x| *x < 0.0) {
+                [
+                    joint.damping,
+                    joint.stiffness,
+                    joint.armature,
+                    joint.frictionloss,
+                ] = j.passive;
+                check_passive(&joint)?;
+            }
+            if j.limit_sol != joint.limit_sol {
+                let owner = format!("joint '{}'", joint.name);
+                j.limit_sol.check(&owner).map_err(ModelError::NotPhysical)?;
+            }
+        }
+        for g in geoms {
+            let owner = format!("geom '{}'", self.spec.geoms[g.index].name);
+            check_friction(&g.friction, &owner)
+                .and_then(|()| g.sol.check(&owner))
+                .map_err(ModelError::NotPhysical)?;
         }
         Ok(())
     }
-
     /// Brings the tree up to date after edits of the inertial values of
     /// `bodies` and the passive values of `joints`: each node carrying an
     /// edited body sums its bodies' inertias again, in body order from zero
@@ -425,18 +583,56 @@ struct BodyEdit {
     tensor: bool,
 }
 
-/// The new damping, stiffness and armature of a joint an edit touches.
+/// The new damping, stiffness, armature, frictionloss and limit settings
+/// of a joint an edit touches.
 struct JointEdit {
     index: usize,
-    passive: [f64; 3],
+    passive: [f64; 4],
+    limit_sol: SolParams,
 }
 
-/// The bodies and joints an edit touches, each taken from the model on
-/// first touch, and the soft-contact constants if it touches them.
+impl JointEdit {
+    fn of(index: usize, j: &Joint) -> Self {
+        JointEdit {
+            index,
+            passive: [j.damping, j.stiffness, j.armature, j.frictionloss],
+            limit_sol: j.limit_sol,
+        }
+    }
+
+    /// Whether it changes the constraint model's values from `old`'s.
+    fn constraint(&self, old: &[JointEdit]) -> bool {
+        old.iter().any(|o| {
+            o.index == self.index
+                && (o.passive[3] != self.passive[3] || o.limit_sol != self.limit_sol)
+        })
+    }
+}
+
+/// The new contact settings of a geom an edit touches.
+struct GeomEdit {
+    index: usize,
+    friction: [f64; 3],
+    sol: SolParams,
+}
+
+impl GeomEdit {
+    fn of(index: usize, g: &Geom) -> Self {
+        GeomEdit {
+            index,
+            friction: g.friction,
+            sol: g.contact.sol,
+        }
+    }
+}
+
+/// The bodies, joints and geoms an edit touches, each taken from the model
+/// on first touch, and the soft-contact constants if it touches them.
 struct Edit<'a> {
     spec: &'a Spec,
     bodies: Vec<BodyEdit>,
     joints: Vec<JointEdit>,
+    geoms: Vec<GeomEdit>,
     contact: Option<SoftOptions>,
 }
 
@@ -467,15 +663,22 @@ impl Edit<'_> {
         let k = match self.joints.iter().position(|e| e.index == j) {
             Some(k) => k,
             None => {
-                let joint = &self.spec.joints[j];
-                self.joints.push(JointEdit {
-                    index: j,
-                    passive: [joint.damping, joint.stiffness, joint.armature],
-                });
+                self.joints.push(JointEdit::of(j, &self.spec.joints[j]));
                 self.joints.len() - 1
             }
         };
         &mut self.joints[k]
+    }
+
+    fn geom(&mut self, g: usize) -> &mut GeomEdit {
+        let k = match self.geoms.iter().position(|e| e.index == g) {
+            Some(k) => k,
+            None => {
+                self.geoms.push(GeomEdit::of(g, &self.spec.geoms[g]));
+                self.geoms.len() - 1
+            }
+        };
+        &mut self.geoms[k]
     }
 }
 
@@ -639,7 +842,8 @@ mod tests {
         );
         assert_eq!(
             err(model.set_param("joint/hinge/friction", &[1.0])),
-            "unknown parameter 'joint/hinge/friction': joint fields are damping, stiffness, armature"
+            "unknown parameter 'joint/hinge/friction': joint fields are damping, stiffness, \
+             armature, frictionloss, solreflimit, solimplimit"
         );
         assert_eq!(
             err(model.set_param("body/pole/com", &[1.0])),
@@ -661,6 +865,74 @@ mod tests {
         assert!(e.contains("positive semi-definite"), "{e}");
         // A failed edit leaves the model as it was.
         assert_eq!(model.get_param("body/pole/mass").unwrap(), vec![0.1]);
+    }
+
+    #[test]
+    fn contact_parameters_follow_the_contact_model() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/reference_models/half_cheetah.xml"
+        );
+        let mut model = Model::load(path).unwrap();
+        let names = model.param_names();
+        for name in [
+            "joint/bthigh/solreflimit",
+            "joint/bthigh/solimplimit",
+            "geom/floor/friction",
+            "geom/floor/solref",
+            "geom/ffoot/solimp",
+        ] {
+            assert!(names.iter().any(|n| n == name), "{name} not listed");
+        }
+        assert!(!names.iter().any(|n| n.starts_with("contact/")));
+        model
+            .set_param("geom/floor/friction", &[0.7, 0.01, 0.001])
+            .unwrap();
+        model.set_param("geom/floor/solref", &[0.03, 0.9]).unwrap();
+        model
+            .set_param("joint/bthigh/frictionloss", &[0.2])
+            .unwrap();
+        model
+            .set_param("joint/bthigh/solimplimit", &[0.8, 0.9, 0.01, 0.4, 3.0])
+            .unwrap();
+        assert_eq!(model.get_param("geom/floor/solref").unwrap(), [0.03, 0.9]);
+        // The tree sees the edits: it equals one built from the edited file.
+        let fresh = Model::from_spec((*model).clone()).unwrap();
+        assert_eq!(fresh.tree(), model.tree());
+        // MuJoCo's compiler's checks; a refused edit changes nothing.
+        let before = model.clone();
+        let err = |m: &mut Model, name: &str, value: &[f64]| {
+            m.set_param(name, value).unwrap_err().to_string()
+        };
+        let e = err(&mut model, "geom/floor/friction", &[-0.1, 0.0, 0.0]);
+        assert!(
+            e.contains("geom 'floor': friction") && e.contains(">= 0"),
+            "{e}"
+        );
+        let e = err(&mut model, "geom/floor/solref", &[0.02, -1.0]);
+        assert!(
+            e.contains("solref [0.02, -1.0] must be two positive"),
+            "{e}"
+        );
+        let e = err(
+            &mut model,
+            "joint/bthigh/solimplimit",
+            &[1.2, 0.9, 0.01, 0.5, 2.0],
+        );
+        assert!(e.contains("joint 'bthigh': solimp"), "{e}");
+        let e = err(&mut model, "joint/bthigh/frictionloss", &[-1.0]);
+        assert!(e.contains("frictionloss must be finite and >= 0"), "{e}");
+        assert_eq!(model.tree(), before.tree());
+        assert_eq!(*model, *before);
+        // Each model's contact parameters, and only those.
+        let e = err(&mut model, "contact/stiffness", &[1.0]);
+        assert!(e.contains("runs the constraint contact model"), "{e}");
+        let mut smooth = model
+            .edited(|s| s.opt.contact_model = ContactModel::Smooth)
+            .unwrap();
+        let e = err(&mut smooth, "geom/floor/friction", &[1.0, 0.0, 0.0]);
+        assert!(e.contains("runs the smooth contact model"), "{e}");
+        assert!(smooth.param_names().iter().all(|n| !n.starts_with("geom/")));
     }
 
     #[test]
