@@ -108,12 +108,11 @@ def one_model(name: str, path: Path, steps: int, samples: int, seed: int, episod
     import mujoco
 
     import diffosi
-    from harness.engines.mujoco import load_mjcf
+    from harness.engines.mujoco import converge, load_mjcf
 
     filed = load_mjcf(path)
     tight = load_mjcf(path)
-    tight.opt.tolerance, tight.opt.ls_tolerance = 0.0, 1e-15
-    tight.opt.iterations, tight.opt.ls_iterations = 1000, 100
+    converge(tight.opt)
     ours = diffosi.Model.load(str(path)).with_options(contact_model="constraint")
     if episode is None:
         q0, v0 = filed.qpos0.copy(), np.zeros(filed.nv)

@@ -50,11 +50,10 @@ def trajectory(name: str, steps: int, seed: int, filed) -> dict:
 def case(name: str, path: Path, steps: int, seed: int, count: int) -> dict:
     import mujoco
 
-    from harness.engines.mujoco import load_mjcf
+    from harness.engines.mujoco import converge, load_mjcf
 
     filed, tight = load_mjcf(path), load_mjcf(path)
-    tight.opt.tolerance, tight.opt.ls_tolerance = 0.0, 1e-15
-    tight.opt.iterations, tight.opt.ls_iterations = 1000, 100
+    converge(tight.opt)
     run = trajectory(name, steps, seed, filed)
     touching = [t for t, n in enumerate(run["ncon"]) if n]
     limits = [t for t, n in enumerate(run["nl"]) if n and t not in touching]

@@ -49,7 +49,7 @@ ROUNDINGS = 10.0  # roundings of the output assumed in one step, for the bound r
 RESOLVE = 1e-6  # a block is judged relative to itself down to this resolution
 TINY = 1e-300  # keeps an all-zero block from dividing by 0
 MAX_SHRINK = 6  # times a refused step is divided by 10 before the check gives up
-NONNEGATIVE = ("mass", "damping", "stiffness", "armature")
+NONNEGATIVE = ("mass", "damping", "stiffness", "armature", "friction", "solimp")
 STATE_INPUTS = ("q", "v", "tau")
 
 # first derivative stencils, error O(s^4): (offsets in steps, weights per step)
@@ -127,10 +127,10 @@ def exact_blocks(model, q, v, tau, params) -> dict:
     return out
 
 
-def fd_blocks(oracle, q, v, tau, params, param_steps) -> dict:
+def fd_blocks(oracle, q, v, tau, params, param_steps, scale=1.0) -> dict:
     """Like exact_blocks, each block a pair (J, rho) from `fd_jacobian` of the oracle's
-    step(q, v, tau) -> (q', v'). The oracle's set_param raises ValueError for a value it
-    refuses; every parameter is restored afterwards."""
+    step(q, v, tau) -> (q', v'), every step times `scale`. The oracle's set_param raises
+    ValueError for a value it refuses; every parameter is restored afterwards."""
     nq = len(q)
     out = {}
 
@@ -140,9 +140,9 @@ def fd_blocks(oracle, q, v, tau, params, param_steps) -> dict:
     def diff(f, x, steps, one_sided=None, accepts=None):
         return fd_jacobian(lambda y: np.concatenate(f(y)), x, steps, one_sided, accepts)
 
-    split("q", *diff(lambda x: oracle.step(x, v, tau), q, state_steps(q)))
-    split("v", *diff(lambda x: oracle.step(q, x, tau), v, state_steps(v)))
-    split("tau", *diff(lambda x: oracle.step(q, v, x), tau, state_steps(tau)))
+    split("q", *diff(lambda x: oracle.step(x, v, tau), q, scale * state_steps(q)))
+    split("v", *diff(lambda x: oracle.step(q, x, tau), v, scale * state_steps(v)))
+    split("tau", *diff(lambda x: oracle.step(q, v, x), tau, scale * state_steps(tau)))
     for name in params:
         base = np.atleast_1d(oracle.get_param(name)).astype(float)
 
@@ -157,7 +157,7 @@ def fd_blocks(oracle, q, v, tau, params, param_steps) -> dict:
                 return False
             return True
 
-        steps = param_steps(name, base)
+        steps = scale * param_steps(name, base)
         one_sided = (base - 2.0 * steps < 0.0) & (name.rsplit("/", 1)[1] in NONNEGATIVE)
         try:
             split(name, *diff(f, base, steps, one_sided, accepts))
@@ -278,13 +278,20 @@ def markdown(doc: dict) -> list[str]:
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--model", required=True, help="a reference model: cartpole, double_pendulum, ...")
+    parser.add_argument("--model", required=True, help="a reference model: cartpole, double_pendulum, ... "
+                        "(with --contact: gymnasium's hopper or half_cheetah)")
+    parser.add_argument("--contact", action="store_true",
+                        help="states in contact, MuJoCo's solver converged (harness/gradcheck_contact.py)")
     parser.add_argument("--states", type=int, default=5, help="random states (default 5)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", type=Path, default=REPORTS, help="report directory (default reports/)")
 
 
 def run(args) -> int:
+    if args.contact:
+        from harness import gradcheck_contact
+
+        return gradcheck_contact.run(args)
     doc = gradcheck(args.model, args.states, args.seed)
     lines = markdown(doc)
     write_markdown(args.out / f"gradcheck-{args.model}.md", lines)

@@ -6,11 +6,18 @@ Both tools solve the same problems from the same MuJoCo-generated data:
   paper's mu puts it at (mu, 0, 0.5 + 0.2 mu). Planar motion cannot show y, so both
   tools keep its start value and only x (= mu) and z are scored.
 - double_pendulum: both link masses (kg) and both hinge dampings (N m s/rad).
+- In contact (gymnasium's files, MuJoCo's solver converged: tolerance 0): the half cheetah's
+  and the hopper's torso mass (kg) with their feet on the floor; the hopper's torso mass
+  jointly with the floor's solref (time constant s, damping ratio), which mixes into every
+  foot-floor pair.
 
 Data: for each true value and window length W, one trajectory of W steps of MuJoCo
 itself (harness/engines/mujoco.py: mj_step, generalized forces through qfrc_applied,
 contacts and limits off, the true parameters written into the MjModel) from a random
-state under random forces (harness/engines/sampling.py). DiffOSI gets its W transitions
+state under random forces (harness/engines/sampling.py). Contact problems: the file with
+the true parameters (written by sysid's own modifiers, compiled: invweight0 follows) settles
+on its floor for SETTLE steps, then takes W steps under random controls of its actuators;
+tau is MuJoCo's qfrc_actuator. DiffOSI gets its W transitions
 (q_t, v_t, tau_t, q_t+1, v_t+1); sysid gets the same trajectory in its own format: the
 initial state, the forces as controls of one gear-1 motor per joint, and jointpos and
 jointvel sensor rows. mj_step evaluates sensors before it integrates, so sensor row k
@@ -47,6 +54,7 @@ import numpy as np
 
 from harness import bench, engines
 from harness.engines.base import MODELS
+from harness.engines.mujoco import converge
 from harness.gym_env import pole_com
 from harness.engines.numpy_step import step_error
 from harness.engines.sampling import sample_rollout, tau_scale
@@ -64,14 +72,40 @@ TOOLS = {"diffosi": "DiffOSI", "sysid": "sysid", "sysid_tuned": "sysid tuned"}
 
 @dataclass(frozen=True)
 class Problem:
-    """Parameters of one reference model to identify: mu is their values flattened in
-    order (a COM takes 3), with bounds; `scored` are the components the data can excite."""
+    """Parameters of one model to identify: mu is their values flattened in order (a COM
+    takes 3, a solref 2), with bounds; `scored` are the components the data can excite.
+    `file`: a reference model's name (contacts and limits off), or a gymnasium asset run in
+    contact (`contact`)."""
 
     params: list
     lower: list
     upper: list
     truths: list
     scored: list
+    file: str
+    contact: bool = False
+
+
+def _gym_mass(name: str, body: str) -> float:
+    import mujoco
+
+    from harness.engines.base import gym_assets_dir
+
+    m = mujoco.MjModel.from_xml_path(str(gym_assets_dir() / f"{name}.xml"))
+    return float(m.body_mass[m.body(body).id])
+
+
+def _torso_problem(name: str, factors, extra=(), extra_truths=(), lower=(), upper=()) -> Problem:
+    mass = _gym_mass(name, "torso")
+    return Problem(
+        params=["body/torso/mass", *extra],
+        lower=[0.1 * mass, *lower],
+        upper=[3.0 * mass, *upper],
+        truths=[[f * mass, *t] for f, t in zip(factors, extra_truths or [()] * len(factors))],
+        scored=list(range(1 + len(lower))),
+        file=f"{name}.xml",
+        contact=True,
+    )
 
 
 PROBLEMS = {
@@ -81,6 +115,7 @@ PROBLEMS = {
         upper=[0.8, 0.2, 0.7],
         truths=[pole_com(mu) for mu in (-0.6, -0.3, 0.3, 0.6)],
         scored=[0, 2],
+        file="cartpole",
     ),
     "double_pendulum": Problem(
         params=["body/link1/mass", "body/link2/mass", "joint/hinge1/damping", "joint/hinge2/damping"],
@@ -88,15 +123,27 @@ PROBLEMS = {
         upper=[5.0, 5.0, 1.0, 1.0],
         truths=[[1.3, 0.7, 0.12, 0.03], [0.6, 1.5, 0.02, 0.2], [2.0, 1.2, 0.3, 0.1]],
         scored=[0, 1, 2, 3],
+        file="double_pendulum",
     ),
+    "half_cheetah_contact": _torso_problem("half_cheetah", (0.8, 1.3)),
+    "hopper_contact": _torso_problem("hopper", (0.8, 1.3)),
+    "hopper_floor_solref": _torso_problem(
+        "hopper", (0.8, 1.3), extra=["geom/floor/solref"], extra_truths=[(0.03, 0.8), (0.05, 1.3)],
+        lower=(0.005, 0.3), upper=(0.2, 3.0)),
 }
+SETTLE = 300  # steps at rest before a contact window: the feet on the floor
+
+
+def sizes(name: str) -> int:
+    """Components of parameter `name`."""
+    return {"com": 3, "solref": 2}.get(name.rsplit("/", 1)[-1], 1)
 
 
 def named_values(problem: Problem, mu) -> list:
     """[(parameter name, its slice of mu)] in order."""
     out, k = [], 0
     for name in problem.params:
-        n = 3 if name.endswith("/com") else 1
+        n = sizes(name)
         out.append((name, np.asarray(mu[k:k + n], dtype=float)))
         k += n
     return out
@@ -107,19 +154,44 @@ def named_values(problem: Problem, mu) -> list:
 # --------------------------------------------------------------------------------------
 
 
-def sysid_spec(path: Path):
-    """The MJCF as an MjSpec for sysid: contacts and limits off, one gear-1 motor per
-    joint in joint order (ctrl = generalized force, replacing the file's actuators),
-    and jointpos then jointvel sensors for every joint. None of this changes the dynamics."""
+def explicit_inertials(spec):
+    """`spec` with its compiled inertials written back as explicit ones. gymnasium's files
+    compute them from their geoms (and the half cheetah rescales its total mass to 14 kg):
+    recompiled after a mass edit they would move other values, or other bodies, where
+    ours, like an edit of the compiled MjModel, changes that body's mass alone."""
+    import mujoco
+
+    m = spec.compile()
+    for body in spec.bodies[1:]:
+        b = m.body(body.name).id
+        body.mass, body.ipos, body.iquat, body.inertia = (
+            m.body_mass[b], m.body_ipos[b], m.body_iquat[b], m.body_inertia[b])
+        body.explicitinertial = True
+    spec.compiler.settotalmass = -1
+    spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+    return spec
+
+
+def sysid_spec(path: Path, contact: bool = False):
+    """The MJCF as an MjSpec for sysid: one gear-1 motor per joint in joint order (ctrl =
+    generalized force, replacing the file's actuators), and jointpos then jointvel sensors
+    for every joint. None of this changes the dynamics. Contacts and limits off, or (with
+    `contact`) on, with the solver converged."""
     import mujoco
 
     spec = mujoco.MjSpec.from_file(str(path))
-    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_LIMIT
+    if contact:
+        explicit_inertials(spec)
+        converge(spec.option)
+    else:
+        spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_LIMIT
     for actuator in list(spec.actuators):
         spec.delete(actuator)
     joints = [j.name for j in spec.joints]
     for name in joints:
-        spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        # Unlimited whatever the file's defaults say (gymnasium's clamp motors to [-1, 1]).
+        spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT,
+                          ctrllimited=mujoco.mjtLimited.mjLIMITED_FALSE)
     for kind, suffix in ((mujoco.mjtSensor.mjSENS_JOINTPOS, "pos"), (mujoco.mjtSensor.mjSENS_JOINTVEL, "vel")):
         for name in joints:
             spec.add_sensor(name=f"{name}_{suffix}", type=kind, objtype=mujoco.mjtObj.mjOBJ_JOINT, objname=name)
@@ -136,6 +208,8 @@ def sysid_modifier(name: str):
         return lambda spec, p: setattr(spec.body(element), "ipos", p.value)
     if kind == "joint" and field == "damping":
         return lambda spec, p: spec.joint(element).damping.__setitem__(0, p.value[0])
+    if kind == "geom" and field == "solref":
+        return lambda spec, p: setattr(spec.geom(element), "solref", p.value)
     raise ValueError(f"osi-bench: no sysid modifier for {name}")
 
 
@@ -239,21 +313,58 @@ class Case:
         return jobs
 
 
+def reference_data(problem: Problem, truth, w: int, rng):
+    """(our model, our model with the truth, Q, V, taus, sysid's spec): W MuJoCo steps of a
+    reference model from a random state under random forces, contacts and limits off."""
+    with engines.load("mujoco", problem.file) as e:  # reference_models/<file>.xml
+        model = e.ours()
+        for pname, value in named_values(problem, truth):
+            e.set_param(pname, value)
+        q0, v0, taus = sample_rollout(e, rng, tau_scale(e), w)
+        Q, V = e.rollout(q0, v0, taus)
+        return model, e.ours(), Q, V, taus, sysid_spec(MODELS / f"{problem.file}.xml")
+
+
+def contact_data(problem: Problem, truth, w: int, rng):
+    """The same for a gymnasium file in contact: the truth written by sysid's modifiers,
+    SETTLE steps at rest, then W steps under random controls (tau = qfrc_actuator)."""
+    import diffosi
+    import mujoco
+
+    from harness.engines.base import gym_assets_dir
+
+    path = gym_assets_dir() / problem.file
+    spec = explicit_inertials(mujoco.MjSpec.from_file(str(path)))
+    converge(spec.option)
+    for p in sysid_params(problem, truth).values():
+        p.modifier(spec, p)
+    m = spec.compile()
+    d = mujoco.MjData(m)
+    mujoco.mj_step(m, d, SETTLE)
+    Q, V, taus = [d.qpos.copy()], [d.qvel.copy()], []
+    for _ in range(w):
+        d.ctrl[:] = rng.uniform(-0.5, 0.5, m.nu)
+        mujoco.mj_forward(m, d)
+        taus.append(d.qfrc_actuator.copy())
+        mujoco.mj_step(m, d)
+        Q.append(d.qpos.copy())
+        V.append(d.qvel.copy())
+    model, ours = diffosi.Model.load(str(path)), diffosi.Model.load(str(path))
+    for pname, value in named_values(problem, truth):
+        ours.set_param(pname, list(value))
+    return model, ours, np.array(Q), np.array(V), np.array(taus), sysid_spec(path, contact=True)
+
+
 def make_case(name: str, truth, w: int, rng) -> Case:
-    """W MuJoCo steps from a random state under random forces, with the true parameters;
-    raises if our engine or sysid's residual does not reproduce them to CHECK_TOL."""
+    """W MuJoCo steps with the true parameters; raises if our engine or sysid's residual
+    does not reproduce them to CHECK_TOL."""
     import diffosi
     from mujoco import sysid
 
     problem, truth = PROBLEMS[name], np.asarray(truth, dtype=float)
-    with engines.load("mujoco", name) as e:  # reference_models/<name>.xml
-        osi = diffosi.DiffOsi(e.ours(), params=problem.params, lower=problem.lower, upper=problem.upper)
-        for pname, value in named_values(problem, truth):
-            e.set_param(pname, value)
-        ours = e.ours()
-        q0, v0, taus = sample_rollout(e, rng, tau_scale(e), w)
-        Q, V = e.rollout(q0, v0, taus)
-    spec = sysid_spec(MODELS / f"{name}.xml")
+    data = contact_data if problem.contact else reference_data
+    model, ours, Q, V, taus, spec = data(problem, truth, w, rng)
+    osi = diffosi.DiffOsi(model, params=problem.params, lower=problem.lower, upper=problem.upper)
     case = Case(name, truth, osi.prior, Q, V, taus, osi, spec, spec.compile())
 
     case.one_step_error = max(step_error(*ours.step(Q[t], V[t], taus[t]), Q[t + 1], V[t + 1]) for t in range(w))
@@ -378,6 +489,10 @@ NOTES = [
     "Damping is identifiable in sysid through a custom Parameter modifier on MjsJoint.damping (sysid "
     "has built-in modifiers only for body inertia and position-actuator gains); masses use a plain "
     "MjsBody.mass modifier, which keeps the COM and the inertia about it, like our body/<b>/mass.",
+    "Contact problems: sysid edits and recompiles an MjSpec, where gymnasium's files compute inertials from "
+    "their geoms (the half cheetah also rescales its total mass to 14 kg on every compile); the bench writes "
+    "the compiled inertials back as explicit ones first, so a mass edit means what ours and an MjModel edit "
+    "mean. The motors it adds are unlimited explicitly (the files' defaults clamp motors to [-1, 1]).",
     "sysid's default residual path resamples the controls onto ceil(span / dt) + 1 instants; control "
     "times accumulated in floating point can round up and add a sample that blends neighbouring "
     "controls. The bench builds control times that survive this (the residual-at-truth check proves it).",
@@ -414,8 +529,10 @@ def markdown(report: dict) -> list:
         + ", ".join(f"{k} {v}" for k, v in meta["versions"].items()) + f". Machine: {meta['machine']}, "
         f"1-minute load average {before:.1f} before and {after:.1f} after the run (other jobs share it).",
         "",
-        "Same data for every tool: one MuJoCo trajectory of W steps per row (random state, random generalized "
-        "forces, contacts and limits off). Our engine with the true parameters reproduces every transition to "
+        "Same data for every tool: one MuJoCo trajectory of W steps per row (reference models: random state, "
+        "random generalized forces, contacts and limits off; `*_contact` and `hopper_floor_solref`: gymnasium's "
+        f"file settled on its floor for {SETTLE} steps, then random controls, contacts and limits on, MuJoCo's "
+        "solver converged with tolerance 0 in the data and in sysid's rollouts). Our engine with the true parameters reproduces every transition to "
         f"{max(r['one_step_error'] for r in rows):.1e} (relative), and sysid's residual at the truth is "
         f"{max(r['sysid_residual_at_truth'] for r in rows):.1e}: every tool can reach the truth exactly. All "
         "start from the model file's values. \"sysid\" is `sysid.optimize(optimizer=\"mujoco\")` with its "
@@ -423,7 +540,8 @@ def markdown(report: dict) -> list:
         "",
         "Truth and estimates list the scored components (cartpole: pole COM x = mu and z = 0.5 + 0.2 mu, m; "
         "its y cannot show in planar motion and stays at its start; double pendulum: link1 and link2 mass, kg, "
-        "hinge1 and hinge2 damping, N m s/rad); error = max |estimate - truth| over them.",
+        "hinge1 and hinge2 damping, N m s/rad; contact problems: torso mass, kg, then the floor's solref time "
+        "constant, s, and damping ratio); error = max |estimate - truth| over them.",
         "",
         "## Summary",
         "",

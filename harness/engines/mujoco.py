@@ -23,6 +23,13 @@ from harness.engines.base import Engine, label_of, nonzero_by_joint
 MJ_WARNINGS: list = []
 
 
+def converge(option) -> None:
+    """MuJoCo's solver run to convergence: tolerance 0 (its 1e-15 still stops early on
+    elliptic cones), 1000 iterations, line-search tolerance 1e-15. Its default tolerance
+    1e-8 leaves that much in a step in contact."""
+    option.tolerance, option.ls_tolerance, option.iterations, option.ls_iterations = 0.0, 1e-15, 1000, 100
+
+
 def load_mjcf(path: Path):
     """Compile an MJCF file; its warnings go to MJ_WARNINGS instead of ./MUJOCO_LOG.TXT."""
     mujoco.set_mju_user_warning(MJ_WARNINGS.append)

@@ -134,3 +134,16 @@ def test_cli_exits_1_when_a_block_fails(tmp_path, monkeypatch, capsys):
     assert main(["gradcheck", "--model", "cartpole", "--states", "1", "--out", str(tmp_path)]) == 1
     assert "| FAIL |" in capsys.readouterr().out
     assert not json.loads((tmp_path / "gradcheck-cartpole.json").read_text())["pass"]
+
+
+@pytest.mark.parametrize("name", ["hopper", "half_cheetah"])
+def test_jacobians_in_contact_match_ours_and_mujocos_differences(name):
+    """States in contact along MuJoCo's converged trajectory (harness/gradcheck_contact.py):
+    every block kept is within its threshold, and the torso mass is checked at least
+    against our own differences (a stencil across a switch or kink skips a state)."""
+    from harness import gradcheck_contact as gcc
+
+    doc = gcc.gradcheck_contact(name, 2, SEED)
+    assert doc["pass"], gcc.markdown(doc)
+    rows = {r["block"]: r for r in doc["rows"]}
+    assert rows["body/torso/mass"]["ours_fd"] is not None

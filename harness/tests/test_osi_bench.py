@@ -60,3 +60,17 @@ def test_same_seed_same_data_and_estimates():
     assert np.array_equal(a.Q, b.Q) and np.array_equal(a.V, b.V) and np.array_equal(a.taus, b.taus)
     for tool in TOOLS:
         assert ea[tool]["mu"] == eb[tool]["mu"]
+
+
+def test_contact_problems_recover_mass_and_floor_solref_from_mujoco_data():
+    """The hopper standing on its floor (MuJoCo's solver converged): torso mass with the
+    floor's solref. Both tools model the same engine, so both reach the truth; DiffOSI's
+    exact Jacobians through the constraint solver leave rounding."""
+    name = "hopper_floor_solref"
+    case = make_case(name, PROBLEMS[name].truths[1], 5, np.random.default_rng(3))
+    assert case.one_step_error <= 1e-12 and case.sysid_residual_at_truth <= 1e-12
+    estimates = identify(case, threads=1)
+    for tool in TOOLS:
+        relative = np.abs(np.asarray(estimates[tool]["mu"]) - case.truth) / case.truth
+        assert relative.max() < 1e-6, (tool, estimates[tool])
+    assert estimates["diffosi"]["flags"] == []
