@@ -642,44 +642,45 @@ impl Edit<'_> {
     }
 
     fn body(&mut self, b: usize) -> &mut BodyEdit {
-        let k = match self.bodies.iter().position(|e| e.index == b) {
-            Some(k) => k,
-            None => {
-                let body = &self.spec.bodies[b];
-                self.bodies.push(BodyEdit {
-                    index: b,
-                    mass: body.mass,
-                    com: body.com,
-                    inertia: body.inertia,
-                    tensor: false,
-                });
-                self.bodies.len() - 1
-            }
-        };
-        &mut self.bodies[k]
+        let body = &self.spec.bodies[b];
+        touched(
+            &mut self.bodies,
+            |e| e.index == b,
+            || BodyEdit {
+                index: b,
+                mass: body.mass,
+                com: body.com,
+                inertia: body.inertia,
+                tensor: false,
+            },
+        )
     }
 
     fn joint(&mut self, j: usize) -> &mut JointEdit {
-        let k = match self.joints.iter().position(|e| e.index == j) {
-            Some(k) => k,
-            None => {
-                self.joints.push(JointEdit::of(j, &self.spec.joints[j]));
-                self.joints.len() - 1
-            }
-        };
-        &mut self.joints[k]
+        let joint = &self.spec.joints[j];
+        touched(
+            &mut self.joints,
+            |e| e.index == j,
+            || JointEdit::of(j, joint),
+        )
     }
 
     fn geom(&mut self, g: usize) -> &mut GeomEdit {
-        let k = match self.geoms.iter().position(|e| e.index == g) {
-            Some(k) => k,
-            None => {
-                self.geoms.push(GeomEdit::of(g, &self.spec.geoms[g]));
-                self.geoms.len() - 1
-            }
-        };
-        &mut self.geoms[k]
+        let geom = &self.spec.geoms[g];
+        touched(&mut self.geoms, |e| e.index == g, || GeomEdit::of(g, geom))
     }
+}
+
+/// The entry of `edits` that `is` finds, pushed from `first` on first touch.
+fn touched<E>(edits: &mut Vec<E>, is: impl Fn(&E) -> bool, first: impl FnOnce() -> E) -> &mut E {
+    let k = match edits.iter().position(is) {
+        Some(k) => k,
+        None => {
+            edits.push(first());
+            edits.len() - 1
+        }
+    };
+    &mut edits[k]
 }
 
 /// One target of a [`ParamMap`]: parameter `name` = offset + gain mu, with
