@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from harness.agreement import controls, mujoco_run, mujoco_step
 from harness.gradcheck import THRESHOLDS, block_error, exact_blocks, fd_blocks, fmt, row_of
 from harness.report import REPORTS, markdown_table, write_json, write_markdown
 
@@ -53,8 +54,6 @@ class ConvergedMujoco:
         self.d = mujoco.MjData(self.m)
 
     def step(self, q, v, tau):
-        from harness.agreement import mujoco_step
-
         return mujoco_step(self.m, self.d, q, v, tau)[:2]
 
     def _field(self, name):
@@ -84,17 +83,13 @@ class ConvergedMujoco:
         mujoco.mj_setConst(self.m, self.d)  # invweight0, as ours recomputes it
 
 
-def contact_states(path, n: int, seed: int) -> list:
-    """n (q, v, tau) of MuJoCo's converged trajectory under seeded controls, evenly among
-    the steps after SETTLE that had contacts."""
-    from harness.agreement import controls, mujoco_run
-
-    oracle = ConvergedMujoco(path)
-    m = oracle.m
-    run = mujoco_run(m, m.qpos0.copy(), np.zeros(m.nv), ctrl=controls(m, SETTLE + 20 * n, seed, path.stem))
+def contact_states(m, name: str, n: int, seed: int) -> list:
+    """n (q, v, tau) of MuJoCo model m's trajectory under seeded controls, evenly among the
+    steps after SETTLE that had contacts."""
+    run = mujoco_run(m, m.qpos0.copy(), np.zeros(m.nv), ctrl=controls(m, SETTLE + 20 * n, seed, name))
     touching = [t for t, c in enumerate(run["ncon"]) if c and t >= SETTLE]
     if len(touching) < n:
-        raise RuntimeError(f"gradcheck --contact: {path.name} touched its floor in {len(touching)} steps")
+        raise RuntimeError(f"gradcheck --contact: {name} touched its floor in {len(touching)} steps")
     picks = [touching[k] for k in np.linspace(0, len(touching) - 1, n).astype(int)]
     return [(run["q"][t], run["v"][t], run["tau"][t]) for t in picks]
 
@@ -142,7 +137,7 @@ def gradcheck_contact(name: str, n_states: int, seed: int) -> dict:
     oracle = ConvergedMujoco(path)
     first_motor = oracle.m.joint(int(oracle.m.actuator_trnid[0, 0])).name
     params = [*PARAMS, f"joint/{first_motor}/damping"]
-    states = contact_states(path, n_states, seed)
+    states = contact_states(oracle.m, name, n_states, seed)
     vs_ours, vs_mujoco = compare(ours, ours, states, params), compare(ours, oracle, states, params)
     rows = []
     for row, r in vs_ours.items():

@@ -14,7 +14,7 @@ use crate::dynamics::{
     ltdl_solve_columns, rnea, step,
 };
 use crate::dynamics::{Data, StepError};
-use crate::model::{ContactModel, Integrator, Model, Param, PassiveMode};
+use crate::model::{Integrator, Model, Param, PassiveMode};
 
 /// Which Jacobian blocks to compute; blocks not asked for cost nothing.
 #[derive(Clone, Copy, Debug, Default)]
@@ -101,9 +101,8 @@ pub fn step_jacobians(
     check_inputs(n, (q, v, tau))?;
     ws.size_for(model);
     let (mut q_next, mut v_next) = (vec![0.0; n], vec![0.0; n]);
-    let constrained = tree.contact_model == ContactModel::Constraint && tree.has_constraints();
     let blocks = match model.opt.integrator {
-        _ if constrained => {
+        _ if tree.has_constraints() => {
             let next = (&mut q_next[..], &mut v_next[..]);
             step(tree, &model.opt, &mut ws.data, (q, v, tau), next)?;
             let (dq, dv) = dual_columns(model, (q, v, tau), wrt)?;

@@ -20,7 +20,7 @@ use nalgebra::{DMatrix, DVector};
 use super::params::{add_body_force, joint_derivative, node_inertia_derivative};
 use super::step::{step_jacobians, Workspace, Wrt};
 use crate::dynamics::{acceleration, implicit_terms, integrate_euler, Data, StepError, Tree};
-use crate::model::{ContactModel, Integrator, Model, Param, ParamError, ParamMap};
+use crate::model::{Integrator, Model, Param, ParamError, ParamMap};
 use crate::spatial::{Force, Inertia, Motion};
 
 /// One observed transition (q, v) --tau--> (q_next, v_next).
@@ -121,9 +121,8 @@ pub fn window_residuals_into(
     // constraint model's rows its solver's: those windows go through
     // step_jacobians.
     let tree = model.tree();
-    let constrained = tree.contact_model == ContactModel::Constraint && tree.has_constraints();
     let euler = model.opt.integrator == Integrator::Euler
-        && !constrained
+        && !tree.has_constraints()
         && !map.targets.iter().any(|(p, ..)| p.is_contact());
     if jacobian && euler {
         directions(model, map, &mut ws.window.columns);

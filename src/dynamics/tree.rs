@@ -127,7 +127,8 @@ impl<T: Real> Tree<T> {
     }
 
     /// Whether constraint rows can exist (else the step is the plain
-    /// articulated dynamics under either model).
+    /// articulated dynamics under either model); never under the smooth
+    /// model, whose tree holds no constraint constants.
     pub fn has_constraints(&self) -> bool {
         let c = &self.constraint;
         !c.pairs.is_empty()

@@ -83,7 +83,12 @@ impl Param {
     pub fn parse(spec: &Spec, name: &str) -> Result<Param, ParamError> {
         let param = Param::parse_any(spec, name)?;
         let constraint = spec.opt.contact_model == ContactModel::Constraint;
-        if param.is_constraint() != constraint && (param.is_constraint() || param.is_contact()) {
+        let other_model = if constraint {
+            param.is_contact()
+        } else {
+            param.is_constraint()
+        };
+        if other_model {
             let (ours, theirs) = if constraint {
                 ("constraint", "geom/<name>/friction|solref|solimp, joint/<name>/frictionloss|solreflimit|solimplimit")
             } else {
