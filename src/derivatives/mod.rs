@@ -23,6 +23,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod constrained;
+mod implicit;
 mod params;
 mod rnea;
 mod soft;

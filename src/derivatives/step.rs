@@ -2,9 +2,10 @@
 //! analytic through the articulated dynamics and the smooth model, by dual
 //! numbers through the constraint model ([`super::constrained`]).
 
-use nalgebra::DMatrix;
+use nalgebra::{Cholesky, DMatrix};
 
 use super::constrained::dual_columns;
+use super::implicit::{add_row_partials, differentiable};
 use super::params::residual_derivative;
 use super::rnea::{rnea_derivatives, Sweep};
 use super::soft::{subtract_soft_derivatives, Columns};
@@ -13,7 +14,8 @@ use crate::dynamics::{
     acceleration, check_inputs, crba, implicit_terms, integrate_euler, ltdl_factor,
     ltdl_solve_columns, rnea, step,
 };
-use crate::dynamics::{Data, StepError};
+use crate::dynamics::solver::quadratic_hessian;
+use crate::dynamics::{Constrained, Data, StepError};
 use crate::model::{Integrator, Model, Param, PassiveMode};
 
 /// Which Jacobian blocks to compute; blocks not asked for cost nothing.
@@ -101,26 +103,47 @@ pub fn step_jacobians(
     check_inputs(n, (q, v, tau))?;
     ws.size_for(model);
     let (mut q_next, mut v_next) = (vec![0.0; n], vec![0.0; n]);
-    let blocks = match model.opt.integrator {
-        _ if tree.has_constraints() => {
-            let next = (&mut q_next[..], &mut v_next[..]);
-            step(tree, &model.opt, &mut ws.data, (q, v, tau), next)?;
-            let (dq, dv) = dual_columns(model, (q, v, tau), wrt)?;
-            let (dq_dq, dq_dv, dq_dtau, dq_dp) = split(&dq, n, wrt);
-            let (dv_dq, dv_dv, dv_dtau, dv_dp) = split(&dv, n, wrt);
-            [dq_dq, dq_dv, dq_dtau, dq_dp, dv_dq, dv_dv, dv_dtau, dv_dp]
-        }
+    // Under the constraint model the state's columns are analytic and the
+    // parameters' dual; where the zones defeat the analytic derivative (an
+    // elliptic cone in its middle zone), every column is dual.
+    let constrained = tree.has_constraints();
+    let analytic_wrt = Wrt {
+        params: if constrained { &[] } else { wrt.params },
+        ..*wrt
+    };
+    let analytic = match model.opt.integrator {
         Integrator::Euler => {
-            check_inputs(n, (q, v, tau))?;
             let h = model.opt.timestep;
-            accel_derivatives(model, ws, (model.opt.passive, h), (q, v, tau), wrt);
-            integrate_euler(h, (q, v, &ws.qdd), (&mut q_next, &mut v_next));
-            euler_blocks(&ws.dqdd, h, n, wrt)
+            let mode = (model.opt.passive, h);
+            accel_derivatives(model, ws, mode, (q, v, tau), &analytic_wrt).then(|| {
+                integrate_euler(h, (q, v, &ws.qdd), (&mut q_next, &mut v_next));
+                euler_blocks(&ws.dqdd, h, n, &analytic_wrt)
+            })
         }
         Integrator::Rk4 => {
             let next = (&mut q_next[..], &mut v_next[..]);
-            step(model.tree(), &model.opt, &mut ws.data, (q, v, tau), next)?;
-            let (dq, dv) = rk4(model, ws, (q, v, tau), wrt);
+            step(tree, &model.opt, &mut ws.data, (q, v, tau), next)?;
+            rk4(model, ws, (q, v, tau), &analytic_wrt).map(|(dq, dv)| {
+                let (dq_dq, dq_dv, dq_dtau, dq_dp) = split(&dq, n, &analytic_wrt);
+                let (dv_dq, dv_dv, dv_dtau, dv_dp) = split(&dv, n, &analytic_wrt);
+                [dq_dq, dq_dv, dq_dtau, dq_dp, dv_dq, dv_dv, dv_dtau, dv_dp]
+            })
+        }
+    };
+    let blocks = match analytic {
+        Some(mut blocks) if constrained && !wrt.params.is_empty() => {
+            let params = Wrt {
+                params: wrt.params,
+                ..Wrt::default()
+            };
+            (blocks[3], blocks[7]) = dual_columns(model, (q, v, tau), &params)?;
+            blocks
+        }
+        Some(blocks) => blocks,
+        None => {
+            let next = (&mut q_next[..], &mut v_next[..]);
+            step(tree, &model.opt, &mut ws.data, (q, v, tau), next)?;
+            let (dq, dv) = dual_columns(model, (q, v, tau), wrt)?;
             let (dq_dq, dq_dv, dq_dtau, dq_dp) = split(&dq, n, wrt);
             let (dv_dq, dv_dv, dv_dtau, dv_dp) = split(&dv, n, wrt);
             [dq_dq, dq_dv, dq_dtau, dq_dp, dv_dq, dv_dv, dv_dtau, dv_dp]
@@ -207,7 +230,7 @@ fn rk4(
     ws: &mut Workspace,
     (q, v, tau): (&[f64], &[f64], &[f64]),
     wrt: &Wrt,
-) -> (DMatrix<f64>, DMatrix<f64>) {
+) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
     let n = model.nv();
     let h = model.opt.timestep;
     let full = Wrt {
@@ -224,13 +247,10 @@ fn rk4(
     let mut total = DMatrix::zeros(2 * n, 0);
     let (mut qs, mut vs) = (q.to_vec(), v.to_vec());
     for k in 0..4 {
-        accel_derivatives(
-            model,
-            ws,
-            (PassiveMode::Explicit, h),
-            (&qs, &vs, tau),
-            &full,
-        );
+        let mode = (PassiveMode::Explicit, h);
+        if !accel_derivatives(model, ws, mode, (&qs, &vs, tau), &full) {
+            return None;
+        }
         let (d_state, d_inputs) = (
             ws.dqdd.columns(0, 2 * n),
             ws.dqdd.columns(2 * n, ws.dqdd.ncols() - 2 * n),
@@ -263,22 +283,30 @@ fn rk4(
             }
         }
     }
-    (total.rows(0, n).into_owned(), total.rows(n, n).into_owned())
+    Some((total.rows(0, n).into_owned(), total.rows(n, n).into_owned()))
 }
 
 /// The acceleration at (q, v, tau) under (mode, h) into `ws.qdd`, and its
-/// derivatives -M^-1 dR/d(columns) into `ws.dqdd`.
+/// derivatives -M^-1 dR/d(columns) into `ws.dqdd`; under the constraint
+/// model with rows at the point, by [`constrained_derivatives`]. False
+/// (nothing written to `ws.dqdd`) where those do not apply.
 fn accel_derivatives(
     model: &Model,
     ws: &mut Workspace,
     (mode, h): (PassiveMode, f64),
     (q, v, tau): (&[f64], &[f64], &[f64]),
     wrt: &Wrt,
-) {
+) -> bool {
     let n = model.nv();
     let tree = model.tree();
     acceleration(tree, &mut ws.data, (mode, h), (q, v, tau), &mut ws.qdd);
     implicit_terms(tree, (mode, h), (q, v), &mut ws.q_spring, &mut ws.extra);
+    if let Some(c) = ws.data.constrained.take() {
+        return differentiable(&c) && {
+            constrained_derivatives(model, ws, (mode, h), (q, v), &c, wrt);
+            true
+        };
+    }
     // M + diag(extra), factored once along the tree for every column.
     crba(tree, &mut ws.data, q);
     for i in 0..n {
@@ -295,16 +323,7 @@ fn accel_derivatives(
     if wrt.state {
         let (r_q, r_v) = ws.r.columns_range_pair_mut(0..n, n..2 * n);
         rnea_derivatives(tree, &ws.data, &mut ws.sweep, v, r_q, r_v);
-        // The passive force -D v - K (q_spring - springref), q_spring = q (+ h v for DART).
-        let spring_v = if mode == PassiveMode::ImplicitDampingStiffness {
-            h
-        } else {
-            0.0
-        };
-        for i in 0..n {
-            ws.r[(i, i)] += tree.stiffness[i];
-            ws.r[(i, n + i)] += tree.damping[i] + spring_v * tree.stiffness[i];
-        }
+        add_passive_partials(model, (mode, h), &mut ws.r);
     }
     for i in 0..n_tau {
         ws.r[(i, 2 * n_state + i)] = -1.0;
@@ -346,6 +365,85 @@ fn accel_derivatives(
         ltdl_solve_columns(tree, &ws.data.mass_matrix, &mut ws.inverse);
         ws.dqdd.gemm(-1.0, &ws.inverse, &ws.r, 0.0);
     }
+    true
+}
+
+/// dR/dq and dR/dv of the passive force -D v - K (q_spring - springref),
+/// q_spring = q (+ h v for DART), into the first 2n columns of `r`.
+fn add_passive_partials(model: &Model, (mode, h): (PassiveMode, f64), r: &mut DMatrix<f64>) {
+    let tree = model.tree();
+    let n = model.nv();
+    let spring_v = if mode == PassiveMode::ImplicitDampingStiffness {
+        h
+    } else {
+        0.0
+    };
+    for i in 0..n {
+        r[(i, i)] += tree.stiffness[i];
+        r[(i, n + i)] += tree.damping[i] + spring_v * tree.stiffness[i];
+    }
+}
+
+/// The derivatives of the constraint model's acceleration in the state and
+/// tau (`wrt` asks for no parameters), its rows and solution `c` at the
+/// point (`ws.data` as the step left it: M, world frames). The solver's
+/// acceleration a: da = -H^-1 dg ([`super::implicit`]); MuJoCo's implicit
+/// passive solve (M + E) qdd = M a (E = `ws.extra`) then gives
+/// (M + E) dqdd = M da + (dID(q, v, a)/dq - dID(q, v, qdd)/dq) dq.
+fn constrained_derivatives(
+    model: &Model,
+    ws: &mut Workspace,
+    (mode, h): (PassiveMode, f64),
+    (q, v): (&[f64], &[f64]),
+    c: &Constrained<f64>,
+    wrt: &Wrt,
+) {
+    let n = model.nv();
+    let tree = model.tree();
+    let a = &c.solution.qacc;
+    let mass = ws.data.mass_matrix.clone();
+    let (n_state, n_tau) = state_and_tau_columns(n, wrt);
+    let columns = 2 * n_state + n_tau;
+    reset(&mut ws.r, n, columns);
+    let implicit = ws.extra.iter().any(|e| *e != 0.0);
+    let mut id_a = None;
+    if wrt.state {
+        rnea(tree, &mut ws.data, q, v, a, &mut ws.tau);
+        let (r_q, r_v) = ws.r.columns_range_pair_mut(0..n, n..2 * n);
+        rnea_derivatives(tree, &ws.data, &mut ws.sweep, v, r_q, r_v);
+        id_a = implicit.then(|| ws.r.columns(0, n).into_owned());
+        add_passive_partials(model, (mode, h), &mut ws.r);
+        let (r_q, r_v) = ws.r.columns_range_pair_mut(0..n, n..2 * n);
+        add_row_partials(tree, &ws.data, (v, a), c, r_q, r_v);
+    }
+    for i in 0..n_tau {
+        ws.r[(i, 2 * n_state + i)] = -1.0;
+    }
+    let hessian = quadratic_hessian(&mass, &c.rows, &c.solution.zone);
+    let chol = Cholesky::new(hessian).expect("M + J^T D J is positive definite");
+    let mut da = ws.r.clone();
+    chol.solve_mut(&mut da);
+    da.neg_mut();
+    if !implicit {
+        ws.dqdd = da;
+        return;
+    }
+    let mut rhs = &mass * &da;
+    if let Some(id_a) = id_a {
+        rnea(tree, &mut ws.data, q, v, &ws.qdd, &mut ws.tau);
+        let mut id_qdd = DMatrix::zeros(n, 2 * n);
+        let (d_q, d_v) = id_qdd.columns_range_pair_mut(0..n, n..2 * n);
+        rnea_derivatives(tree, &ws.data, &mut ws.sweep, v, d_q, d_v);
+        let mut q_columns = rhs.columns_mut(0, n);
+        q_columns += id_a - id_qdd.columns(0, n);
+    }
+    let mut m = mass;
+    for i in 0..n {
+        m[(i, i)] += ws.extra[i];
+    }
+    ltdl_factor(tree, &mut m);
+    ltdl_solve_columns(tree, &m, &mut rhs);
+    ws.dqdd = rhs;
 }
 
 /// Zeros `m`, reshaped to rows x cols (allocating only when the shape changes).

@@ -54,9 +54,11 @@ pub struct CollisionPair<T: Real> {
 /// One contact at a state.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ConstraintContact<T: Real> {
-    /// Model indices of geoms 1 and 2, and of their bodies.
+    /// Model indices of geoms 1 and 2, and of their bodies; the index of
+    /// their pair in the tree's pairs.
     pub geoms: [usize; 2],
     pub bodies: [usize; 2],
+    pub pair: usize,
     pub pos: Vector3<T>,
     /// Rows: normal (from geom 1 to geom 2), first and second tangent.
     pub frame: Matrix3<T>,
@@ -266,28 +268,41 @@ pub fn out_of_reach<T: Real>(
     }
 }
 
-/// Appends the contacts of `pair` at the geoms' world poses to `out`.
+/// Appends the contacts of pair `index` of `pairs` at the geoms' world poses to `out`.
 pub fn collide<T: Real>(
-    pair: &CollisionPair<T>,
+    (pairs, index): (&[CollisionPair<T>], usize),
     geoms: [&GeomFrame<T>; 2],
     poses: [Transform<T>; 2],
     out: &mut Vec<ConstraintContact<T>>,
 ) {
+    let pair = &pairs[index];
     let [g1, g2] = geoms;
-    let (p1, p2) = (Placed::of(&poses[0]), Placed::of(&poses[1]));
-    let margin: T = lift(pair.params.margin + pair.params.gap);
-    let mut pre = Vec::with_capacity(4);
-    narrow((&g1.shape, &p1), (&g2.shape, &p2), margin, &mut pre);
-    for c in pre {
+    let reach = pair.params.margin + pair.params.gap;
+    for (pos, frame, dist) in contact_geometry([&g1.shape, &g2.shape], poses, reach) {
         out.push(ConstraintContact {
             geoms: [g1.geom, g2.geom],
             bodies: [g1.body, g2.body],
-            pos: c.pos,
-            frame: make_frame(c.normal, c.tangent),
-            dist: c.dist,
+            pair: index,
+            pos,
+            frame,
+            dist,
             params: pair.params,
         });
     }
+}
+
+/// The point, frame and distance (see [`ConstraintContact`]) of each contact
+/// of two rank-ordered shapes at their world poses, within `reach`.
+pub fn contact_geometry<T: Real>(
+    shapes: [&Shape; 2],
+    poses: [Transform<T>; 2],
+    reach: f64,
+) -> impl Iterator<Item = (Vector3<T>, Matrix3<T>, T)> {
+    let (p1, p2) = (Placed::of(&poses[0]), Placed::of(&poses[1]));
+    let mut pre = Vec::with_capacity(4);
+    narrow((shapes[0], &p1), (shapes[1], &p2), lift(reach), &mut pre);
+    pre.into_iter()
+        .map(|c| (c.pos, make_frame(c.normal, c.tangent), c.dist))
 }
 
 /// MuJoCo's contact frame from a normal and an optional tangent hint: the

@@ -102,6 +102,12 @@ pub struct Rows<T: Real> {
     pub r: Vec<T>,
     /// Dry friction bound (0 for other rows).
     pub floss: Vec<T>,
+    /// What the state derivatives read: B of aref = -B (J v) - ..., and
+    /// d aref / d dist and d ln R / d dist for the distance of the row's
+    /// constraint (a contact's or a limit's; a dry friction row has none).
+    pub damping: Vec<T>,
+    pub daref_ddist: Vec<T>,
+    pub dlog_r_ddist: Vec<T>,
     /// Per elliptic cone: mu of the regularised cone and the five friction
     /// coefficients.
     pub cone: Vec<(T, [T; 5])>,
@@ -119,6 +125,9 @@ impl<T: Real> Default for Rows<T> {
             aref: vec![],
             r: vec![],
             floss: vec![],
+            damping: vec![],
+            daref_ddist: vec![],
+            dlog_r_ddist: vec![],
             cone: vec![],
             contact_rows: vec![],
         }
@@ -272,10 +281,11 @@ pub fn point_jacobian<T: Real>(
 /// The contacts at the current state (`data.world` filled by [`world_frames`]).
 pub fn contacts<T: Real>(tree: &Tree<T>, data: &Data<T>) -> Vec<ConstraintContact<T>> {
     let mut out = vec![];
-    for pair in tree.constraint.pairs.iter().filter(|p| p.supported) {
+    let pairs = &tree.constraint.pairs;
+    for (index, pair) in pairs.iter().enumerate().filter(|(_, p)| p.supported) {
         let geoms = pair.geoms.map(|g| &tree.geoms[g]);
         let poses = geoms.map(|g| g.pose(&data.world));
-        collide(pair, geoms, poses, &mut out);
+        collide((pairs, index), geoms, poses, &mut out);
     }
     out
 }
@@ -339,6 +349,30 @@ pub fn impedance<T: Real>(solimp: &[T; 5], x: T) -> T {
     dmin + y * (dmax - dmin)
 }
 
+/// d impedance / d x (see [`impedance`]). Where the law has a kink (x = 0
+/// under a linear law, the ends of the width) it is the mean of the
+/// one-sided slopes at x = 0 (zero) and the outer side's (zero) at the ends.
+pub fn impedance_slope<T: Real>(solimp: &[T; 5], x: T) -> T {
+    let [dmin, dmax, width, mid, power] = *solimp;
+    let one = T::one();
+    if width <= lift(MINVAL) {
+        return T::zero();
+    }
+    let y = (x / width).abs();
+    if y >= one || y <= T::zero() {
+        return T::zero();
+    }
+    let dy = if power == one {
+        one
+    } else if y <= mid {
+        power * y.powf(power - one) / mid.powf(power - one)
+    } else {
+        power * (one - y).powf(power - one) / (one - mid).powf(power - one)
+    };
+    let sign = if x < T::zero() { -one } else { one };
+    (dmax - dmin) * dy * sign / width
+}
+
 /// K and B of a reference (see the module documentation).
 fn stiffness_damping<T: Real>(solref: &[T; 2], dmax: T) -> (T, T) {
     let [timeconst, ratio] = *solref;
@@ -380,6 +414,7 @@ impl<T: Real> Rows<T> {
         let sol = effective(&block.sol, &consts.solver, consts.timestep);
         let x = block.dist - lift::<T>(block.margin);
         let imp = impedance(&sol.solimp, x);
+        let slope = impedance_slope(&sol.solimp, x);
         let dmax = sol.solimp[1];
         for (k, row) in block.j.into_iter().enumerate() {
             let kind = block.kind[k];
@@ -403,8 +438,16 @@ impl<T: Real> Rows<T> {
             };
             let vel = row.iter().zip(v).fold(T::zero(), |s, (a, b)| s + *a * *b);
             let r = (T::one() - imp) * block.diag[k] / imp;
-            self.r.push(if r > lift(MINVAL) { r } else { lift(MINVAL) });
+            let clamped = r <= lift(MINVAL);
+            self.r.push(if clamped { lift(MINVAL) } else { r });
             self.aref.push(-vel * damp - x * imp * stiff);
+            self.damping.push(damp);
+            self.daref_ddist.push(-stiff * (slope * x + imp));
+            self.dlog_r_ddist.push(if clamped {
+                T::zero()
+            } else {
+                -slope / (imp * (T::one() - imp))
+            });
             self.floss.push(block.floss);
             self.kind.push(kind);
             self.j.extend(row);
@@ -518,9 +561,18 @@ fn contact_rows<T: Real>(
     frame.extend((0..dim.saturating_sub(3)).map(|k| frame_rows(&jr, k)));
     let [w1, w2] = [b1, b2].map(|b| consts.body_invweight[b]);
     let (tran, rot) = (w1[0] + w2[0], w1[1] + w2[1]);
-    let friction: [T; 5] = c.params.friction.map(|f| f.max(lift(1e-5)));
+    let friction = clamped_friction(&c.params.friction);
+    let elliptic = consts.solver.cone == Cone::Elliptic && dim > 1;
     let mut block = Block {
-        j: vec![],
+        j: mixing(dim, elliptic, &c.params.friction)
+            .iter()
+            .map(|mix| {
+                let terms = || mix.iter().zip(&frame).filter(|(m, _)| **m != T::zero());
+                (0..n)
+                    .map(|col| terms().fold(T::zero(), |s, (m, f)| s + *m * f[col]))
+                    .collect()
+            })
+            .collect(),
         kind: vec![],
         diag: vec![],
         dist: c.dist,
@@ -528,14 +580,11 @@ fn contact_rows<T: Real>(
         sol: c.params.sol,
         floss: T::zero(),
     };
-    let elliptic = consts.solver.cone == Cone::Elliptic && dim > 1;
     if dim == 1 {
-        block.j.push(frame.swap_remove(0));
         block.kind.push(RowKind::Unilateral);
         block.diag.push(tran);
     } else if elliptic {
-        for (k, row) in frame.into_iter().enumerate() {
-            block.j.push(row);
+        for k in 0..dim {
             block.kind.push(if k == 0 {
                 RowKind::Cone {
                     dim,
@@ -550,14 +599,8 @@ fn contact_rows<T: Real>(
         for k in 1..dim {
             let mu = friction[k - 1];
             let a = if k < 3 { tran } else { rot };
-            for sign in [T::one(), -T::one()] {
-                let row = (0..n)
-                    .map(|col| frame[0][col] + sign * mu * frame[k][col])
-                    .collect();
-                block.j.push(row);
-                block.kind.push(RowKind::Unilateral);
-                block.diag.push(tran + mu * mu * a);
-            }
+            block.kind.extend([RowKind::Unilateral; 2]);
+            block.diag.extend([tran + mu * mu * a; 2]);
         }
     }
     let first = rows.len();
@@ -568,6 +611,9 @@ fn contact_rows<T: Real>(
         return;
     }
     let r0 = rows.r[first];
+    // Every R of the contact is proportional to the normal's.
+    let dlog_r = rows.dlog_r_ddist[first];
+    rows.dlog_r_ddist[first..first + count].fill(dlog_r);
     let r1 = r0 / lift(consts.solver.impratio);
     let mu = friction[0] * (r1 / r0).sqrt();
     if elliptic {
@@ -582,6 +628,32 @@ fn contact_rows<T: Real>(
             *r = rpy;
         }
     }
+}
+
+/// A contact's friction coefficients as its rows use them (at least 1e-5).
+fn clamped_friction<T: Real>(friction: &[T; 5]) -> [T; 5] {
+    friction.map(|f| f.max(lift(1e-5)))
+}
+
+/// The rows of a contact of `dim` frame rows (normal, tangents, then
+/// angular) as combinations of them: row i = sum_k mix[i][k] frame_k. One
+/// row (condim 1); an elliptic cone's frame rows; else the pyramid's edges,
+/// normal + mu_k tangent_k and normal - mu_k tangent_k for k = 1..dim.
+pub fn mixing<T: Real>(dim: usize, elliptic: bool, friction: &[T; 5]) -> Vec<[T; 6]> {
+    let unit = |k: usize| std::array::from_fn(|j| if j == k { T::one() } else { T::zero() });
+    if dim == 1 || elliptic {
+        return (0..dim).map(unit).collect();
+    }
+    let friction = clamped_friction(friction);
+    let mut out = Vec::with_capacity(2 * (dim - 1));
+    for k in 1..dim {
+        for sign in [T::one(), -T::one()] {
+            let mut mix = unit(0);
+            mix[k] = sign * friction[k - 1];
+            out.push(mix);
+        }
+    }
+    out
 }
 
 /// The force of each contact from the rows' forces, in the smooth model's

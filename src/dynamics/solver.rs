@@ -253,21 +253,7 @@ fn gradient_hessian<T: Real>(
 ) -> (Vec<T>, DMatrix<T>) {
     let n = a.len();
     let grad = gradient(m, a0, rows, a, eval);
-    let mut h = m.clone();
-    for k in 0..rows.len() {
-        let row = rows.row(k);
-        if eval.zone[k] == Zone::Quadratic {
-            let d = T::one() / rows.r[k];
-            for i in 0..n {
-                if row[i] == T::zero() {
-                    continue;
-                }
-                for j in 0..n {
-                    h[(i, j)] += d * row[i] * row[j];
-                }
-            }
-        }
-    }
+    let mut h = quadratic_hessian(m, rows, &eval.zone);
     for (first, hc) in &eval.cone_hessians {
         let dim = hc.nrows();
         for p in 0..dim {
@@ -282,6 +268,28 @@ fn gradient_hessian<T: Real>(
         }
     }
     (grad, h)
+}
+
+/// M + J^T D J over the rows in their quadratic zone: the cost's Hessian
+/// when no elliptic cone is in its middle zone.
+pub fn quadratic_hessian<T: Real>(m: &DMatrix<T>, rows: &Rows<T>, zone: &[Zone]) -> DMatrix<T> {
+    let n = m.nrows();
+    let mut h = m.clone();
+    for k in 0..rows.len() {
+        let row = rows.row(k);
+        if zone[k] == Zone::Quadratic {
+            let d = T::one() / rows.r[k];
+            for i in 0..n {
+                if row[i] == T::zero() {
+                    continue;
+                }
+                for j in 0..n {
+                    h[(i, j)] += d * row[i] * row[j];
+                }
+            }
+        }
+    }
+    h
 }
 
 /// The cost along a + t dir: its Gauss part's slope at t = 0 and curvature

@@ -7,7 +7,7 @@
 //! A node carries the inertia of its body if it is the body's last joint, plus
 //! the inertia of every body welded (jointless) below that body.
 
-use nalgebra::{Matrix3, Rotation3, Vector3};
+use nalgebra::{Matrix3, Vector3};
 
 use super::collision::{collision_pairs, CollisionPair};
 use super::constraint::{invweight0, ConstraintConsts, Limit};
@@ -26,6 +26,28 @@ pub struct NodeJoint<T: Real> {
     /// q at which the joint transform is the identity.
     pub reference: T,
     pub s: Motion<T>,
+}
+
+/// The rotation by `angle` about the unit `axis` (Rodrigues' formula).
+/// Written out rather than nalgebra's `from_axis_angle`, which returns the
+/// identity at a zero angle, dropping the derivative part of a dual angle.
+fn rotation<T: Real>(axis: &Vector3<T>, angle: T) -> Matrix3<T> {
+    let (sin, cos) = angle.sin_cos();
+    let one_minus_cos = T::one() - cos;
+    let (x, y, z) = (axis.x, axis.y, axis.z);
+    let (xy, xz, yz) = (x * y * one_minus_cos, x * z * one_minus_cos, y * z * one_minus_cos);
+    let (sq_x, sq_y, sq_z) = (x * x, y * y, z * z);
+    Matrix3::new(
+        sq_x + (T::one() - sq_x) * cos,
+        xy - z * sin,
+        xz + y * sin,
+        xy + z * sin,
+        sq_y + (T::one() - sq_y) * cos,
+        yz - x * sin,
+        xz - y * sin,
+        yz + x * sin,
+        sq_z + (T::one() - sq_z) * cos,
+    )
 }
 
 impl<T: Real> NodeJoint<T> {
@@ -49,9 +71,7 @@ impl<T: Real> NodeJoint<T> {
         let angle = q - self.reference;
         match self.kind {
             JointKind::Hinge => {
-                let r =
-                    Rotation3::from_axis_angle(&nalgebra::Unit::new_unchecked(self.axis), angle)
-                        .into_inner();
+                let r = rotation(&self.axis, angle);
                 Transform::from_pose(&r, &(self.anchor - r * self.anchor))
             }
             JointKind::Slide => Transform::from_pose(&Matrix3::identity(), &(self.axis * angle)),

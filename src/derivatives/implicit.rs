@@ -1,0 +1,373 @@
+//! The constraint rows' part of the implicit derivative of the constraint
+//! model's acceleration, in the state.
+//!
+//! The solver's acceleration a zeroes the gradient of its cost
+//! ([`crate::dynamics::solver`]):
+//!   g(a; q, v, tau) = ID(q, v, a) - tau - tau_passive - J^T f(J a - aref) = 0,
+//! f = -D (J a - aref) on rows in their quadratic zone, the bound on dry
+//! friction at its bound, 0 on free rows. With the zones fixed,
+//! da = -H^-1 dg with H = M + J^T D J over the quadratic rows; this module
+//! adds the rows' part of dg/dq and dg/dv (RNEA's is in [`super::rnea`]).
+//!
+//! Conventions: motions and forces in world coordinates about the world
+//! origin; S_j the axis of dof j (`Data::world_axis`); a contact's bodies
+//! b1 (sign -1) and b2 (sign +1), geom 2's side pushed along the normal.
+//!
+//! A contact's rows are J_i x = sum_k c_ik u_k(x), u_k(x) = W(x) . E_k, with
+//! W(x) = sum_j sigma_j S_j x_j the relative motion of b2 from b1 (j over the
+//! dofs on one body's path only, sigma_j that body's sign), E_k the unit
+//! wrench of frame row k at the contact point p (k < 3: the force e_k at p,
+//! (p x e_k, e_k); k >= 3: the moment e_{k-3}) and c the cone's mixing
+//! ([`mixing`]). Its generalized force is (J^T f)_j = sigma_j S_j . F with
+//! F = sum_k phi_k E_k, phi = c^T f. A change of q_m
+//! - turns the axes below m: dS_j = S_m x S_j for m on j's path, so
+//!   dW(x) = S_m x W_m(x), W_m(x) the part of W(x) from dofs at or below m;
+//! - moves the contact's point, frame and distance with the bodies on whose
+//!   path m is: the collider's derivative along the twist S_m (dual numbers
+//!   through the collider, one per twist direction of a moving body);
+//! - moves aref = -B J v - K imp(x) x and R (proportional to (1 - imp) / imp)
+//!   with the distance ([`Rows`] records both slopes).
+//!
+//! So with df_i = D_i (dlnR_i jar_i + daref_i) ddist - D_i (d(J_i a) + B_i d(J_i v)),
+//! d(J^T f)_j = sigma_j [(S_m x S_j) . F + S_j . (sum_k psi_k E_k + phi_k dE_k)],
+//! psi = c^T df, the first term for m at or above j on j's path. A limit row
+//! (J = +-e_k, dist = +-q_k + const) has only the distance's terms; dry
+//! friction depends on q not at all. In v only aref moves: d f / dv = -D B J.
+
+use nalgebra::{DMatrixViewMut, Matrix3, Vector3};
+use num_dual::Dual64;
+
+use crate::dynamics::collision::{contact_geometry, ConstraintContact};
+use crate::dynamics::constraint::{mixing, RowKind, Rows};
+use crate::dynamics::solver::Zone;
+use crate::dynamics::{Constrained, Data, Tree};
+use crate::model::Cone;
+use crate::spatial::{Force, Motion, Transform};
+
+/// How a contact's point, frame (rows) and distance move along a unit twist
+/// of one of its bodies.
+#[derive(Clone, Copy, Debug, Default)]
+struct Slope {
+    dp: Vector3<f64>,
+    de: Matrix3<f64>,
+    ddist: f64,
+}
+
+impl Slope {
+    fn add_scaled(&mut self, other: &Slope, w: f64) {
+        self.dp += other.dp * w;
+        self.de += other.de * w;
+        self.ddist += other.ddist * w;
+    }
+}
+
+/// Per body of a contact (b1, b2): its slopes along the six unit twists
+/// (angular x, y, z, then linear), none for a body that does not move.
+type Slopes = [Option<[Slope; 6]>; 2];
+
+/// Whether the derivative of this module applies: no elliptic cone in its
+/// middle zone (that zone's Hessian is not linear in the rows).
+pub(super) fn differentiable(c: &Constrained<f64>) -> bool {
+    !c.solution.zone.contains(&Zone::Cone)
+}
+
+/// Adds the rows' part of dg/dq to `r_q` and of dg/dv to `r_v` (n x n each,
+/// column m the derivative in q_m or v_m) at the solver's acceleration `a`.
+/// `data` holds the world frames at the state of `c`.
+pub(super) fn add_row_partials(
+    tree: &Tree<f64>,
+    data: &Data<f64>,
+    (v, a): (&[f64], &[f64]),
+    c: &Constrained<f64>,
+    mut r_q: DMatrixViewMut<f64>,
+    mut r_v: DMatrixViewMut<f64>,
+) {
+    let rows = &c.rows;
+    let zone = &c.solution.zone;
+    let jar: Vec<f64> = (0..rows.len())
+        .map(|i| dot(rows.row(i), a) - rows.aref[i])
+        .collect();
+    let quadratic = |i: &usize| zone[*i] == Zone::Quadratic;
+    for i in (0..rows.len()).filter(quadratic) {
+        let w = rows.damping[i] / rows.r[i];
+        let row = rows.row(i);
+        for (p, &jp) in row.iter().enumerate().filter(|(_, x)| **x != 0.0) {
+            for (m, &jm) in row.iter().enumerate() {
+                r_v[(p, m)] += w * jp * jm;
+            }
+        }
+    }
+    let contacts_start = rows.contact_rows.first().map_or(rows.len(), |r| r.0);
+    for i in (0..contacts_start).filter(quadratic) {
+        if rows.kind[i] == RowKind::Unilateral {
+            let k = rows.row(i).iter().position(|x| *x != 0.0).expect("a limit row");
+            r_q[(k, k)] -= (rows.dlog_r_ddist[i] * jar[i] + rows.daref_ddist[i]) / rows.r[i];
+        }
+    }
+    let slopes = slopes(tree, data, &c.contacts);
+    let elliptic = tree.constraint.solver.cone == Cone::Elliptic;
+    for ((contact, &span), slopes) in c.contacts.iter().zip(&rows.contact_rows).zip(&slopes) {
+        let live = (span.0..span.0 + span.1).any(|i| zone[i] != Zone::Free);
+        if live {
+            let point = ContactPoint {
+                contact,
+                span,
+                mix: mixing(contact.params.condim, elliptic, &contact.params.friction),
+                slopes,
+            };
+            point.add_partials(tree, data, (v, a), (rows, zone, &c.solution.force, &jar), &mut r_q);
+        }
+    }
+}
+
+/// One contact and what its derivative reads.
+struct ContactPoint<'a> {
+    contact: &'a ConstraintContact<f64>,
+    /// Its first row and number of rows.
+    span: (usize, usize),
+    mix: Vec<[f64; 6]>,
+    slopes: &'a Slopes,
+}
+
+impl ContactPoint<'_> {
+    /// The unit wrench of frame row k and its change for a change (dp, de)
+    /// of the point and frame (see the module documentation).
+    fn wrench(&self, k: usize, slope: &Slope) -> (Force<f64>, Force<f64>) {
+        let (p, frame) = (&self.contact.pos, &self.contact.frame);
+        let e = |m: &Matrix3<f64>, r: usize| m.row(r).transpose();
+        if k < 3 {
+            let (ek, dek) = (e(frame, k), e(&slope.de, k));
+            (
+                Force::new(p.cross(&ek), ek),
+                Force::new(slope.dp.cross(&ek) + p.cross(&dek), dek),
+            )
+        } else {
+            let zero = Vector3::zeros();
+            (
+                Force::new(e(frame, k - 3), zero),
+                Force::new(e(&slope.de, k - 3), zero),
+            )
+        }
+    }
+
+    /// Adds the contact's part of dg/dq to `r_q` (see the module documentation).
+    fn add_partials(
+        &self,
+        tree: &Tree<f64>,
+        data: &Data<f64>,
+        (v, a): (&[f64], &[f64]),
+        (rows, zone, force, jar): (&Rows<f64>, &[Zone], &[f64], &[f64]),
+        r_q: &mut DMatrixViewMut<f64>,
+    ) {
+        let n = tree.nv();
+        let dim = self.contact.params.condim;
+        let (first, count) = self.span;
+        // Which bodies' paths each dof is on (bit 0: b1, bit 1: b2).
+        let mut on = vec![0u8; n];
+        let sign = [-1.0, 1.0];
+        // Per dof m: W_m(a), W_m(v); and W(a), W(v).
+        let (mut below_a, mut below_v) = (vec![Motion::zero(); n], vec![Motion::zero(); n]);
+        let (mut w_a, mut w_v) = (Motion::zero(), Motion::zero());
+        for side in 0..2 {
+            let (mut run_a, mut run_v) = (Motion::zero(), Motion::zero());
+            let mut k = tree.body[self.contact.bodies[side]].node;
+            while let Some(j) = k {
+                on[j] |= 1 << side;
+                let s = data.world_axis[j];
+                run_a = run_a + s * a[j];
+                run_v = run_v + s * v[j];
+                below_a[j] = below_a[j] + run_a * sign[side];
+                below_v[j] = below_v[j] + run_v * sign[side];
+                k = tree.parent[j];
+            }
+            w_a = w_a + run_a * sign[side];
+            w_v = w_v + run_v * sign[side];
+        }
+        let wrenches: Vec<Force<f64>> = (0..dim)
+            .map(|k| self.wrench(k, &Slope::default()).0)
+            .collect();
+        // phi = c^T f and F.
+        let mut phi = [0.0; 6];
+        for (i, mix) in self.mix.iter().enumerate() {
+            for k in 0..dim {
+                phi[k] += mix[k] * force[first + i];
+            }
+        }
+        let total = (0..dim).fold(Force::zero(), |s, k| s + wrenches[k] * phi[k]);
+        for m in (0..n).filter(|&m| on[m] != 0) {
+            let s_m = data.world_axis[m];
+            let twist = [
+                s_m.ang.x, s_m.ang.y, s_m.ang.z, s_m.lin.x, s_m.lin.y, s_m.lin.z,
+            ];
+            let mut moved = Slope::default();
+            for side in (0..2).filter(|side| on[m] & (1 << side) != 0) {
+                if let Some(slopes) = &self.slopes[side] {
+                    for (slope, w) in slopes.iter().zip(twist) {
+                        moved.add_scaled(slope, w);
+                    }
+                }
+            }
+            let (turn_a, turn_v) = (s_m.cross_motion(&below_a[m]), s_m.cross_motion(&below_v[m]));
+            let mut du_a = [0.0; 6];
+            let mut du_v = [0.0; 6];
+            let mut dwrench = [Force::zero(); 6];
+            for k in 0..dim {
+                let e = &wrenches[k];
+                dwrench[k] = self.wrench(k, &moved).1;
+                du_a[k] = turn_a.dot(e) + w_a.dot(&dwrench[k]);
+                du_v[k] = turn_v.dot(e) + w_v.dot(&dwrench[k]);
+            }
+            let mut psi = [0.0; 6];
+            for (i, mix) in self.mix.iter().enumerate().take(count) {
+                let row = first + i;
+                if zone[row] != Zone::Quadratic {
+                    continue;
+                }
+                let combine = |du: &[f64; 6]| (0..dim).fold(0.0, |s, k| s + mix[k] * du[k]);
+                let d = 1.0 / rows.r[row];
+                let df = d * (rows.dlog_r_ddist[row] * jar[row] + rows.daref_ddist[row])
+                    * moved.ddist
+                    - d * (combine(&du_a) + rows.damping[row] * combine(&du_v));
+                for k in 0..dim {
+                    psi[k] += mix[k] * df;
+                }
+            }
+            let dtotal = (0..dim).fold(Force::zero(), |s, k| {
+                s + wrenches[k] * psi[k] + dwrench[k] * phi[k]
+            });
+            for j in (0..n).filter(|&j| on[j] == 1 || on[j] == 2) {
+                let side = usize::from(on[j] == 2);
+                let s_j = data.world_axis[j];
+                let mut term = s_j.dot(&dtotal);
+                if on[m] & on[j] != 0 && m <= j {
+                    term += s_m.cross_motion(&s_j).dot(&total);
+                }
+                r_q[(j, m)] -= sign[side] * term;
+            }
+        }
+    }
+}
+
+/// The slopes of every contact: per pair, the collider run on dual numbers
+/// along each unit twist of each moving body, its contacts matched to the
+/// state's in order (the same branches, so the same contacts).
+fn slopes(tree: &Tree<f64>, data: &Data<f64>, contacts: &[ConstraintContact<f64>]) -> Vec<Slopes> {
+    let mut out: Vec<Slopes> = Vec::with_capacity(contacts.len());
+    let mut start = 0;
+    while start < contacts.len() {
+        let index = contacts[start].pair;
+        let end = start + contacts[start..].iter().take_while(|c| c.pair == index).count();
+        let pair = &tree.constraint.pairs[index];
+        let geoms = pair.geoms.map(|g| &tree.geoms[g]);
+        let poses = geoms.map(|g| g.pose(&data.world));
+        let shapes = geoms.map(|g| &g.shape);
+        let reach = pair.params.margin + pair.params.gap;
+        let mut group: Vec<Slopes> = vec![[None, None]; end - start];
+        for side in (0..2).filter(|&s| geoms[s].node.is_some()) {
+            let mut along = vec![[Slope::default(); 6]; end - start];
+            for t in 0..6 {
+                let dual = std::array::from_fn(|s| perturbed(&poses[s], (s == side).then_some(t)));
+                let touches = contact_geometry(shapes, dual, reach)
+                    .filter(|(_, _, dist)| dist.re < pair.params.margin);
+                for (slot, (p, e, dist)) in along.iter_mut().zip(touches) {
+                    slot[t] = Slope {
+                        dp: p.map(|x| x.eps),
+                        de: e.map(|x| x.eps),
+                        ddist: dist.eps,
+                    };
+                }
+            }
+            for (g, a) in group.iter_mut().zip(along) {
+                g[side] = Some(a);
+            }
+        }
+        out.extend(group);
+        start = end;
+    }
+    out
+}
+
+/// A pose on dual numbers, moved along unit twist `t` (angular x, y, z,
+/// then linear; world coordinates about the origin) when given.
+fn perturbed(x: &Transform<f64>, t: Option<usize>) -> Transform<Dual64> {
+    let mut twist = [0.0; 6];
+    if let Some(t) = t {
+        twist[t] = 1.0;
+    }
+    let (w, u) = (
+        Vector3::new(twist[0], twist[1], twist[2]),
+        Vector3::new(twist[3], twist[4], twist[5]),
+    );
+    let axes = x.axes();
+    let daxes = w.cross_matrix() * axes;
+    let dorigin = u + w.cross(&x.trans);
+    Transform::from_pose(
+        &Matrix3::from_fn(|r, c| Dual64::new(axes[(r, c)], daxes[(r, c)])),
+        &Vector3::from_fn(|r, _| Dual64::new(x.trans[r], dorigin[r])),
+    )
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::constrained::dual_columns;
+    use super::super::{step_jacobians, Workspace, Wrt};
+    use crate::model::{Integrator, Model};
+
+    /// The analytic state and control columns equal the dual numbers'
+    /// through the whole step, along trajectories in contact (every collider,
+    /// both cones, limits, dry friction; Euler and RK4).
+    #[test]
+    fn state_columns_equal_dual_numbers_through_the_step() {
+        let dir = env!("CARGO_MANIFEST_DIR");
+        for file in [
+            "reference_models/half_cheetah.xml",
+            "tests/data/contact_features_pyramidal.xml",
+            "tests/data/contact_features_elliptic.xml",
+        ] {
+            for integrator in [Integrator::Euler, Integrator::Rk4] {
+                let model = Model::load(format!("{dir}/{file}"))
+                    .and_then(|m| m.edited(|s| s.opt.integrator = integrator))
+                    .unwrap();
+                let n = model.nv();
+                let mut data = model.data();
+                let mut ws = Workspace::new(&model);
+                let (mut q, mut v) = (model.reference_q(), vec![0.0; n]);
+                let wrt = Wrt {
+                    state: true,
+                    control: true,
+                    params: &[],
+                };
+                let mut checked = 0;
+                for k in 0..240 {
+                    let tau: Vec<f64> = (0..n).map(|i| 0.02 * (0.3 * (k + i) as f64).sin()).collect();
+                    if k % 48 == 0 && !model.contacts(&mut data, &q, &v, &tau).unwrap().is_empty() {
+                        let x = (&q[..], &v[..], &tau[..]);
+                        let j = step_jacobians(&model, &mut ws, x, &wrt).unwrap();
+                        let (dq, dv) = dual_columns(&model, x, &wrt).unwrap();
+                        let analytic = [
+                            (&j.dq_dq, 0, &dq),
+                            (&j.dq_dv, n, &dq),
+                            (&j.dq_dtau, 2 * n, &dq),
+                            (&j.dv_dq, 0, &dv),
+                            (&j.dv_dv, n, &dv),
+                            (&j.dv_dtau, 2 * n, &dv),
+                        ];
+                        for (block, start, dual) in analytic {
+                            let dual = dual.columns(start, n);
+                            let scale = dual.amax().max(1.0);
+                            let err = (block - dual).amax() / scale;
+                            assert!(err < 1e-9, "{file} {integrator:?} step {k}: {err:e}");
+                        }
+                        checked += 1;
+                    }
+                    (q, v) = model.step(&mut data, &q, &v, &tau).unwrap();
+                }
+                assert!(checked >= 3, "{file}: {checked} states in contact");
+            }
+        }
+    }
+}
