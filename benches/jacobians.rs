@@ -1,6 +1,6 @@
 //! Step Jacobians next to the plain step and to finite differences of our own
 //! step, on the contact-free cartpole and half cheetah; and the half cheetah's
-//! step Jacobians standing on its floor (contacts and limits on).
+//! step Jacobians standing on its floor (contacts and limits on) under both contact models.
 
 mod common;
 
@@ -98,10 +98,40 @@ fn bench_contact(c: &mut Criterion) {
     });
 }
 
+/// The half cheetah standing on its floor under the constraint model (the
+/// MJCF default): the full step Jacobian (analytic implicit derivative),
+/// the torso mass's (dual numbers) and a plain step, side by side.
+fn bench_constraint(c: &mut Criterion) {
+    let model = load_with_contact("half_cheetah", ContactModel::Constraint);
+    let (q, v, tau) = settled(&model, 300);
+    let mut ws = Workspace::new(&model);
+    let mut data = model.data();
+    let torso = [model.param("body/torso/mass").unwrap()];
+    let full = Wrt {
+        state: true,
+        control: true,
+        params: &[],
+    };
+    let one_param = Wrt {
+        params: &torso,
+        ..Wrt::default()
+    };
+    c.bench_function("constraint_step/half_cheetah", |b| {
+        b.iter(|| model.step(&mut data, black_box(&q), &v, &tau).unwrap())
+    });
+    c.bench_function("constraint_jacobian_full/half_cheetah", |b| {
+        b.iter(|| step_jacobians(&model, &mut ws, (black_box(&q), &v, &tau), &full).unwrap())
+    });
+    c.bench_function("constraint_jacobian_param/half_cheetah", |b| {
+        b.iter(|| step_jacobians(&model, &mut ws, (black_box(&q), &v, &tau), &one_param).unwrap())
+    });
+}
+
 fn benches(c: &mut Criterion) {
     bench_model(c, "cartpole", "body/pole/mass");
     bench_model(c, "half_cheetah", "body/torso/mass");
     bench_contact(c);
+    bench_constraint(c);
 }
 
 criterion_group!(jacobian_benches, benches);

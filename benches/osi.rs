@@ -10,6 +10,10 @@
 //! - `osi_fit/<model>/W<W>`: one evaluation of the window's residuals and
 //!   exact Jacobian (the work of one Gauss-Newton step).
 //!
+//! And in contact, at W = 4: `osi_lm/half_cheetah_contact/W4` and
+//! `osi_lm_warm/half_cheetah_contact/W4`, the torso mass from four
+//! consecutive transitions standing on the floor (constraint contact).
+//!
 //! Divide by W for the cost per transition (`python -m harness bench` does,
 //! next to the NimblePhysics anchors). Evaluations to tolerance, LM against
 //! Adam and CMA-ES: `cargo run --release --example osi_evals`.
@@ -18,7 +22,7 @@ mod osi_problems;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use diffosi::osi::{Identifier, Lm};
-use osi_problems::{cartpole, half_cheetah, truth};
+use osi_problems::{cartpole, half_cheetah, half_cheetah_contact, truth};
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -69,12 +73,46 @@ fn bench_osi(c: &mut Criterion) {
     }
 }
 
+/// One DiffOSI update in contact: cold (from the prior) and warm (from the
+/// previous window's estimate) at W = 4.
+fn bench_osi_contact(c: &mut Criterion) {
+    let task = half_cheetah_contact();
+    let mut problem = task.problem();
+    let mu = truth(&task);
+    let window = task.standing_window(mu, 4, 4);
+    let e = Lm::default()
+        .identify(&mut problem, &window, &[task.prior])
+        .unwrap();
+    assert!((e.mu[0] - mu).abs() < 1e-6, "{}: {e:?}", task.name);
+    println!(
+        "{} W4: error {:.1e}, {} evaluations",
+        task.name,
+        (e.mu[0] - mu).abs(),
+        e.evaluations
+    );
+    let warm = [e.mu[0] * (1.0 + 1e-9)];
+    c.bench_function("osi_lm/half_cheetah_contact/W4", |b| {
+        b.iter(|| {
+            Lm::default()
+                .identify(&mut problem, black_box(&window), &[task.prior])
+                .unwrap()
+        })
+    });
+    c.bench_function("osi_lm_warm/half_cheetah_contact/W4", |b| {
+        b.iter(|| {
+            Lm::default()
+                .identify(&mut problem, black_box(&window), &warm)
+                .unwrap()
+        })
+    });
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default()
         .sample_size(30)
         .warm_up_time(Duration::from_millis(500))
         .measurement_time(Duration::from_secs(2));
-    targets = bench_osi
+    targets = bench_osi, bench_osi_contact
 }
 criterion_main!(benches);

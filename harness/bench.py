@@ -98,15 +98,15 @@ def loop_seconds(fn, args, calls):
     return time.perf_counter() - start
 
 
-def medians(jobs):
+def medians(jobs, repeats=REPEATS):
     """Seconds per call (per step for native loops) of each job {key: (fn, args, steps)}.
 
     Each repeat runs every job's loop once, in turn, so a slow spell of the
-    shared machine hits all libraries alike; the median over REPEATS is kept.
+    shared machine hits all libraries alike; the median over `repeats` is kept.
     """
     calls = {key: calls_for(fn, args) for key, (fn, args, _) in jobs.items()}
     times = {key: [] for key in jobs}
-    for _ in range(REPEATS):
+    for _ in range(repeats):
         for key, (fn, args, steps) in jobs.items():
             times[key].append(loop_seconds(fn, args, calls[key]) / (calls[key] * steps))
     return {key: float(np.median(t)) for key, t in times.items()}
@@ -172,8 +172,13 @@ def contact_jobs():
         model = mujoco.MjModel.from_xml_path(str(gym_assets_dir() / "half_cheetah.xml"))
     data = mujoco.MjData(model)
     mujoco.mj_step(model, data, SETTLE_STEPS)
+    n = 2 * model.nv + model.na
+    a, b = np.zeros((n, n)), np.zeros((n, model.nu))
     return {
         ("diffosi", "step"): (m.step, (q, v, rest[0]), 1),
+        ("diffosi", "jacobian"): (m.step_jacobians, (q, v, rest[0]), 1),
+        ("diffosi", "param"): (m.step_jacobians, (q, v, rest[0], [MODELS["half_cheetah"]]), 1),
+        ("MuJoCo", "jacobian"): (mujoco.mjd_transitionFD, (model, data, FD_EPS, False, a, b, None, None), 1),
         ("diffosi", "loop"): (m.rollout, (q, v, np.zeros((NATIVE_STEPS, m.nv))), NATIVE_STEPS),
         ("diffosi smooth", "step"): (smooth.step, (qs, vs, rest[0]), 1),
         ("diffosi smooth", "loop"): (smooth.rollout, (qs, vs, np.zeros((NATIVE_STEPS, m.nv))), NATIVE_STEPS),
@@ -252,9 +257,22 @@ def speed_table():
                                     t["loop"], mj["loop"])]:
             cells = [f"{what} ({label} model)", CONTACT, us(mine), us(criterion(bench)), versus(theirs, mine), "—"]
             lines.append("| " + " | ".join(cells) + " |")
+    for what, mine, bench, theirs in [
+            ("step Jacobian d(x')/d(x,u) (constraint model)", ours["jacobian"],
+             "constraint_jacobian_full_half_cheetah", mj["jacobian"]),
+            ("step + 1-parameter Jacobian (constraint model)", ours["param"],
+             "constraint_jacobian_param_half_cheetah", None)]:
+        cells = [what, CONTACT, us(mine), us(criterion(bench)), versus(theirs, mine), "—"]
+        lines.append("| " + " | ".join(cells) + " |")
+    param, step = (criterion(f"constraint_{b}_half_cheetah") for b in ("jacobian_param", "step"))
+    param_steps = "—" if None in (param, step) else (
+        f"{us(param)} µs, {param / step:.1f} steps of {us(step)} µs")
     target = (f"ours {us(ours['loop'])} µs per step (rollout) vs MuJoCo's {us(mj['loop'])} µs (mj_step "
               f"nstep), interleaved in one run: MuJoCo / ours = {mj['loop'] / ours['loop']:.1f}x "
-              f"(criterion, native: {us(native)} µs)")
+              f"(criterion, native: {us(native)} µs). Step Jacobian in contact (target: 10x "
+              f"faster than mjd_transitionFD): ours {us(ours['jacobian'])} µs from Python vs "
+              f"{us(mj['jacobian'])} µs, {mj['jacobian'] / ours['jacobian']:.1f}x; the torso mass's "
+              f"Jacobian alone (target: at most 3 steps; criterion, native) {param_steps}")
     return "\n".join(lines), "\n".join(overheads), target
 
 
@@ -283,6 +301,10 @@ def osi_table():
             cells = [name, str(w)] + [us(x) for x in times]
             cells += [us(nimble)] + [ratio(nimble, x) for x in [cold, warm, step]]
             lines.append("| " + " | ".join(cells) + " |")
+    cold, warm = (criterion(f"osi_lm{kind}_half_cheetah_contact_W4") for kind in ("", "_warm"))
+    lines += ["", f"In contact (the half cheetah standing on its floor, constraint model; torso mass from "
+              f"W = 4 consecutive transitions; target: well under 1 ms, the paper's update 2-3 ms): "
+              f"identification, cold {us(cold)} µs; warm update {us(warm)} µs (criterion, native)."]
     return "\n".join(lines)
 
 

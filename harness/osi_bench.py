@@ -391,12 +391,12 @@ def identify(case: Case, threads: int) -> dict:
     return out
 
 
-def bench_row(case: Case, threads: int) -> dict:
+def bench_row(case: Case, threads: int, repeats: int) -> dict:
     """Estimates and median seconds per identification of every tool, and of one compile
     of sysid's model (which it runs before every evaluation)."""
     tools = identify(case, threads)
     jobs = {tool: (fn, args, 1) for tool, (fn, args) in case.jobs(threads).items()}
-    seconds = bench.medians(jobs | {"compile": (case.spec.compile, (), 1)})
+    seconds = bench.medians(jobs | {"compile": (case.spec.compile, (), 1)}, repeats)
     for tool in tools:
         tools[tool]["seconds"] = seconds[tool]
     return {
@@ -573,6 +573,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--sysid-threads", type=int, default=1,
                         help="sysid's rollout threads (default 1: every tool on one core)")
+    parser.add_argument("--repeats", type=int, default=bench.REPEATS,
+                        help="interleaved timing repeats per case (the median is kept)")
     parser.add_argument("--out", type=Path, default=REPORTS, help="directory for osi-bench.{md,json}")
 
 
@@ -591,10 +593,10 @@ def run(args) -> int:
         raise SystemExit(f"osi-bench: unknown problem(s) {unknown}; choose from {list(PROBLEMS)}")
     windows = [int(w) for w in args.windows.split(",")]
     load = os.getloadavg()[0]
-    rows = [bench_row(case, args.sysid_threads) for case in cases(names, windows, args.seed)]
+    rows = [bench_row(case, args.sysid_threads, args.repeats) for case in cases(names, windows, args.seed)]
     versions = {p: importlib.metadata.version(p) for p in ("diffosi", "mujoco", "scipy", "numpy")}
     report = {
-        "meta": {"seed": args.seed, "windows": windows, "repeats": bench.REPEATS, "sysid_threads": args.sysid_threads,
+        "meta": {"seed": args.seed, "windows": windows, "repeats": args.repeats, "sysid_threads": args.sysid_threads,
                  "sysid_configs": SYSID_CONFIGS, "versions": versions,
                  "machine": f"{platform.machine()}, {os.cpu_count()} cores",
                  "load_average": [load, os.getloadavg()[0]],

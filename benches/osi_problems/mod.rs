@@ -7,14 +7,17 @@
 //!   4.9, truth 7.0 (the paper's task, as in shared/notes/reference-engines.md).
 //!
 //! Transitions come from our own engine at the true mu, from seeded uniform
-//! random states and generalized forces.
+//! random states and generalized forces; in contact (`half_cheetah_contact`:
+//! the torso mass of the half cheetah on its floor, MuJoCo's constraint
+//! contact) from consecutive steps standing, under seeded random forces.
 #![allow(dead_code)]
 
 #[path = "../common/mod.rs"]
 mod common;
 
-pub use common::load;
+pub use common::{load, load_with_contact, settled};
 use diffosi::derivatives::Transition;
+use diffosi::model::ContactModel;
 use diffosi::model::{Model, ParamMap};
 use diffosi::osi::Problem;
 use diffosi::tasks::{Cartpole, HalfCheetah, Task as _};
@@ -60,6 +63,15 @@ pub fn half_cheetah() -> Task {
         upper: 50.0,
         prior: 4.9,
         ranges: [0.5, 1.0, 5.0],
+    }
+}
+
+pub fn half_cheetah_contact() -> Task {
+    let model = load_with_contact("half_cheetah", ContactModel::Constraint);
+    Task {
+        name: "half_cheetah_contact",
+        model,
+        ..half_cheetah()
     }
 }
 
@@ -115,6 +127,34 @@ impl Task {
                     q_next,
                     v_next,
                 }
+            })
+            .collect()
+    }
+
+    /// `len` consecutive transitions of the model at `mu` standing on its
+    /// floor (settled from rest), under seeded random forces.
+    pub fn standing_window(&self, mu: f64, len: usize, seed: u64) -> Vec<Transition> {
+        let mut truth = self.model.clone();
+        self.map.apply(&mut truth, &[mu]).unwrap();
+        let mut rng = StdRng::seed_from_u64(seed);
+        let mut data = truth.data();
+        let (mut q, mut v, _) = settled(&truth, 300);
+        let n = truth.nv();
+        (0..len)
+            .map(|_| {
+                let tau: Vec<f64> = (0..n)
+                    .map(|_| rng.random_range(-self.ranges[2]..self.ranges[2]))
+                    .collect();
+                let (q_next, v_next) = truth.step(&mut data, &q, &v, &tau).unwrap();
+                let t = Transition {
+                    q: q.clone(),
+                    v: v.clone(),
+                    tau,
+                    q_next: q_next.clone(),
+                    v_next: v_next.clone(),
+                };
+                (q, v) = (q_next, v_next);
+                t
             })
             .collect()
     }

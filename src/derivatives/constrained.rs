@@ -11,19 +11,63 @@
 //! zones (a contact appearing, a row switching between free and active, dry
 //! friction between stick and slip) the derivative is the one-sided
 //! derivative on the side of the zones at the point itself. Cost: one dual
-//! step per column (the analytic implicit derivative is issue 18's speed work).
+//! step per column. It gives the parameters' columns, and every column where
+//! the analytic state derivative ([`super::implicit`]) does not apply; that
+//! one is tested against it.
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 use num_dual::Dual64;
 
 use super::step::Wrt;
 use crate::dynamics::{step, Data, StepError, Tree};
 use crate::model::{Model, Param};
 
-/// d q' and d v' (n rows each) with respect to the columns of `wrt`: [q, v]
-/// if the state was asked for, then tau, then the flattened parameters.
+/// The scalar a dual tree is seeded along: a parameter's component, or none.
+type Seed = Option<(Param, usize)>;
+
+/// Trees on dual numbers for one model (by its [`Model::stamp`]), each
+/// seeded along one scalar of a parameter or along none, and a workspace
+/// for them: built once per model, not per call.
+#[derive(Clone, Debug, Default)]
+pub(super) struct DualTrees {
+    stamp: u64,
+    trees: Vec<(Seed, Tree<Dual64>)>,
+    data: Option<Data<Dual64>>,
+}
+
+impl DualTrees {
+    /// The tree seeded along `seed` and the workspace.
+    fn get(
+        &mut self,
+        model: &Model,
+        seed: Option<(Param, usize)>,
+    ) -> (&Tree<Dual64>, &mut Data<Dual64>) {
+        if self.stamp != model.stamp() {
+            *self = DualTrees {
+                stamp: model.stamp(),
+                ..DualTrees::default()
+            };
+        }
+        let index = match self.trees.iter().position(|(s, _)| *s == seed) {
+            Some(i) => i,
+            None => {
+                let tree = Tree::build_with(model, |p, c, x| {
+                    Dual64::new(x, if Some((p, c)) == seed { 1.0 } else { 0.0 })
+                });
+                self.trees.push((seed, tree));
+                self.trees.len() - 1
+            }
+        };
+        let tree = &self.trees[index].1;
+        (tree, self.data.get_or_insert_with(|| Data::new(tree)))
+    }
+}
+
+/// d q' and d v' (n rows each) with respect to the columns of `wrt`: [q, v] if the state was asked for, then tau, then the
+/// flattened parameters.
 pub(super) fn dual_columns(
     model: &Model,
+    duals: &mut DualTrees,
     (q, v, tau): (&[f64], &[f64], &[f64]),
     wrt: &Wrt,
 ) -> Result<(DMatrix<f64>, DMatrix<f64>), StepError> {
@@ -46,40 +90,30 @@ pub(super) fn dual_columns(
         .filter(|(on, _)| *on)
         .flat_map(|(_, start)| start..start + n)
         .collect();
-    let plain: Tree<Dual64> = Tree::build(model);
-    let mut data = Data::new(&plain);
     for (col, &input) in seeded.iter().enumerate() {
-        let (q1, v1) = dual_step(model, &plain, &mut data, (q, v, tau), Some(input))?;
+        let (tree, data) = duals.get(model, None);
+        let (q1, v1) = dual_step(tree, model, data, (q, v, tau), Some(input))?;
         dq.set_column(col, &q1);
         dv.set_column(col, &v1);
     }
-    for (k, (param, component)) in params.into_iter().enumerate() {
-        let tree: Tree<Dual64> = Tree::build_with(model, |p, c, x| {
-            Dual64::new(
-                x,
-                if (p, c) == (param, component) {
-                    1.0
-                } else {
-                    0.0
-                },
-            )
-        });
-        let (q1, v1) = dual_step(model, &tree, &mut data, (q, v, tau), None)?;
+    for (k, seed) in params.into_iter().enumerate() {
+        let (tree, data) = duals.get(model, Some(seed));
+        let (q1, v1) = dual_step(tree, model, data, (q, v, tau), None)?;
         dq.set_column(inputs + k, &q1);
         dv.set_column(inputs + k, &v1);
     }
     Ok((dq, dv))
 }
 
-/// The derivative parts of one dual step, the input `seed` (an index into
-/// (q, v, tau)) seeded with 1.
+/// The derivative parts of one dual step, the input `seed` (an
+/// index into (q, v, tau)) seeded with 1.
 fn dual_step(
-    model: &Model,
     tree: &Tree<Dual64>,
+    model: &Model,
     data: &mut Data<Dual64>,
     (q, v, tau): (&[f64], &[f64], &[f64]),
     seed: Option<usize>,
-) -> Result<(nalgebra::DVector<f64>, nalgebra::DVector<f64>), StepError> {
+) -> Result<(DVector<f64>, DVector<f64>), StepError> {
     let n = model.nv();
     let lift = |x: &[f64], offset: usize| -> Vec<Dual64> {
         x.iter()
@@ -90,6 +124,6 @@ fn dual_step(
     let (qd, vd, td) = (lift(q, 0), lift(v, n), lift(tau, 2 * n));
     let (mut q1, mut v1) = (vec![Dual64::from(0.0); n], vec![Dual64::from(0.0); n]);
     step(tree, &model.opt, data, (&qd, &vd, &td), (&mut q1, &mut v1))?;
-    let eps = |x: &[Dual64]| nalgebra::DVector::from_iterator(n, x.iter().map(|d| d.eps));
+    let eps = |x: &[Dual64]| DVector::from_iterator(n, x.iter().map(|d| d.eps));
     Ok((eps(&q1), eps(&v1)))
 }

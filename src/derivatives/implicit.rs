@@ -34,7 +34,7 @@
 //! (J = +-e_k, dist = +-q_k + const) has only the distance's terms; dry
 //! friction depends on q not at all. In v only aref moves: d f / dv = -D B J.
 
-use nalgebra::{DMatrixViewMut, Matrix3, Vector3};
+use nalgebra::{DMatrix, DMatrixViewMut, Matrix3, Vector3};
 use num_dual::Dual64;
 
 use crate::dynamics::collision::{contact_geometry, ConstraintContact};
@@ -61,9 +61,28 @@ impl Slope {
     }
 }
 
-/// Per body of a contact (b1, b2): its slopes along the six unit twists
-/// (angular x, y, z, then linear), none for a body that does not move.
-type Slopes = [Option<[Slope; 6]>; 2];
+/// How a contact moves with one of its bodies: an orthonormal basis of the
+/// twists the body's dofs give it (6-vectors, angular then linear) and the
+/// slope along each. A planar chain spans three twists, a spatial one six:
+/// one dual run of the collider per basis twist.
+#[derive(Clone, Debug, Default)]
+struct Moves {
+    basis: Vec<[f64; 6]>,
+    slopes: Vec<Slope>,
+}
+
+impl Moves {
+    /// The slope along the twist `s` (in the span of the basis).
+    fn along(&self, s: &[f64; 6], out: &mut Slope) {
+        for (u, slope) in self.basis.iter().zip(&self.slopes) {
+            out.add_scaled(slope, dot(u, s));
+        }
+    }
+}
+
+/// Per body of a contact (b1, b2): how the contact moves with it (none for
+/// a body that does not move).
+type Slopes = [Option<Moves>; 2];
 
 /// Whether the derivative of this module applies: no elliptic cone in its
 /// middle zone (that zone's Hessian is not linear in the rows).
@@ -100,7 +119,11 @@ pub(super) fn add_row_partials(
     let contacts_start = rows.contact_rows.first().map_or(rows.len(), |r| r.0);
     for i in (0..contacts_start).filter(quadratic) {
         if rows.kind[i] == RowKind::Unilateral {
-            let k = rows.row(i).iter().position(|x| *x != 0.0).expect("a limit row");
+            let k = rows
+                .row(i)
+                .iter()
+                .position(|x| *x != 0.0)
+                .expect("a limit row");
             r_q[(k, k)] -= (rows.dlog_r_ddist[i] * jar[i] + rows.daref_ddist[i]) / rows.r[i];
         }
     }
@@ -115,7 +138,13 @@ pub(super) fn add_row_partials(
                 mix: mixing(contact.params.condim, elliptic, &contact.params.friction),
                 slopes,
             };
-            point.add_partials(tree, data, (v, a), (rows, zone, &c.solution.force, &jar), &mut r_q);
+            point.add_partials(
+                tree,
+                data,
+                (v, a),
+                (rows, zone, &c.solution.force, &jar),
+                &mut r_q,
+            );
         }
     }
 }
@@ -174,14 +203,14 @@ impl ContactPoint<'_> {
             while let Some(j) = k {
                 on[j] |= 1 << side;
                 let s = data.world_axis[j];
-                run_a = run_a + s * a[j];
-                run_v = run_v + s * v[j];
-                below_a[j] = below_a[j] + run_a * sign[side];
-                below_v[j] = below_v[j] + run_v * sign[side];
+                run_a += s * a[j];
+                run_v += s * v[j];
+                below_a[j] += run_a * sign[side];
+                below_v[j] += run_v * sign[side];
                 k = tree.parent[j];
             }
-            w_a = w_a + run_a * sign[side];
-            w_v = w_v + run_v * sign[side];
+            w_a += run_a * sign[side];
+            w_v += run_v * sign[side];
         }
         let wrenches: Vec<Force<f64>> = (0..dim)
             .map(|k| self.wrench(k, &Slope::default()).0)
@@ -201,10 +230,8 @@ impl ContactPoint<'_> {
             ];
             let mut moved = Slope::default();
             for side in (0..2).filter(|side| on[m] & (1 << side) != 0) {
-                if let Some(slopes) = &self.slopes[side] {
-                    for (slope, w) in slopes.iter().zip(twist) {
-                        moved.add_scaled(slope, w);
-                    }
+                if let Some(moves) = &self.slopes[side] {
+                    moves.along(&twist, &mut moved);
                 }
             }
             let (turn_a, turn_v) = (s_m.cross_motion(&below_a[m]), s_m.cross_motion(&below_v[m]));
@@ -225,9 +252,9 @@ impl ContactPoint<'_> {
                 }
                 let combine = |du: &[f64; 6]| (0..dim).fold(0.0, |s, k| s + mix[k] * du[k]);
                 let d = 1.0 / rows.r[row];
-                let df = d * (rows.dlog_r_ddist[row] * jar[row] + rows.daref_ddist[row])
-                    * moved.ddist
-                    - d * (combine(&du_a) + rows.damping[row] * combine(&du_v));
+                let df =
+                    d * (rows.dlog_r_ddist[row] * jar[row] + rows.daref_ddist[row]) * moved.ddist
+                        - d * (combine(&du_a) + rows.damping[row] * combine(&du_v));
                 for k in 0..dim {
                     psi[k] += mix[k] * df;
                 }
@@ -248,15 +275,19 @@ impl ContactPoint<'_> {
     }
 }
 
-/// The slopes of every contact: per pair, the collider run on dual numbers
-/// along each unit twist of each moving body, its contacts matched to the
+/// How every contact moves: per pair, the collider run on dual numbers along
+/// each basis twist of each moving body, its contacts matched to the
 /// state's in order (the same branches, so the same contacts).
 fn slopes(tree: &Tree<f64>, data: &Data<f64>, contacts: &[ConstraintContact<f64>]) -> Vec<Slopes> {
     let mut out: Vec<Slopes> = Vec::with_capacity(contacts.len());
     let mut start = 0;
     while start < contacts.len() {
         let index = contacts[start].pair;
-        let end = start + contacts[start..].iter().take_while(|c| c.pair == index).count();
+        let end = start
+            + contacts[start..]
+                .iter()
+                .take_while(|c| c.pair == index)
+                .count();
         let pair = &tree.constraint.pairs[index];
         let geoms = pair.geoms.map(|g| &tree.geoms[g]);
         let poses = geoms.map(|g| g.pose(&data.world));
@@ -264,17 +295,19 @@ fn slopes(tree: &Tree<f64>, data: &Data<f64>, contacts: &[ConstraintContact<f64>
         let reach = pair.params.margin + pair.params.gap;
         let mut group: Vec<Slopes> = vec![[None, None]; end - start];
         for side in (0..2).filter(|&s| geoms[s].node.is_some()) {
-            let mut along = vec![[Slope::default(); 6]; end - start];
-            for t in 0..6 {
-                let dual = std::array::from_fn(|s| perturbed(&poses[s], (s == side).then_some(t)));
+            let basis = twist_basis(tree, data, geoms[side].node);
+            let mut along = vec![Moves::default(); end - start];
+            for u in &basis {
+                let dual = std::array::from_fn(|s| perturbed(&poses[s], (s == side).then_some(u)));
                 let touches = contact_geometry(shapes, dual, reach)
                     .filter(|(_, _, dist)| dist.re < pair.params.margin);
-                for (slot, (p, e, dist)) in along.iter_mut().zip(touches) {
-                    slot[t] = Slope {
+                for (moves, (p, e, dist)) in along.iter_mut().zip(touches) {
+                    moves.basis.push(*u);
+                    moves.slopes.push(Slope {
                         dp: p.map(|x| x.eps),
                         de: e.map(|x| x.eps),
                         ddist: dist.eps,
-                    };
+                    });
                 }
             }
             for (g, a) in group.iter_mut().zip(along) {
@@ -287,13 +320,71 @@ fn slopes(tree: &Tree<f64>, data: &Data<f64>, contacts: &[ConstraintContact<f64>
     out
 }
 
-/// A pose on dual numbers, moved along unit twist `t` (angular x, y, z,
-/// then linear; world coordinates about the origin) when given.
-fn perturbed(x: &Transform<f64>, t: Option<usize>) -> Transform<Dual64> {
-    let mut twist = [0.0; 6];
-    if let Some(t) = t {
-        twist[t] = 1.0;
+/// The inverse of a symmetric positive definite matrix from its Cholesky
+/// factor, None if it is not positive definite. Written out: on the small
+/// dense matrices here it is several times faster than nalgebra's
+/// column-by-column solves.
+pub(super) fn spd_inverse(a: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+    let n = a.nrows();
+    // A = L L^T with L row-major in `l`; then L^-1 in `inv` (row-major, lower).
+    let mut l = vec![0.0; n * n];
+    for j in 0..n {
+        let (above, row_j) = l.split_at_mut(j * n);
+        let row_j = &mut row_j[..n];
+        for k in 0..j {
+            let row_k = &above[k * n..k * n + k + 1];
+            let s: f64 = row_k[..k].iter().zip(&row_j[..k]).map(|(x, y)| x * y).sum();
+            row_j[k] = (a[(j, k)] - s) / row_k[k];
+        }
+        let d = a[(j, j)] - row_j[..j].iter().map(|x| x * x).sum::<f64>();
+        if d.is_nan() || d <= 0.0 {
+            return None;
+        }
+        row_j[j] = d.sqrt();
     }
+    let mut inv = vec![0.0; n * n];
+    for i in 0..n {
+        let (done, row) = inv.split_at_mut(i * n);
+        let row = &mut row[..n];
+        let l_i = &l[i * n..i * n + i + 1];
+        row[i] = 1.0 / l_i[i];
+        for c in 0..i {
+            let s: f64 = (c..i).map(|k| l_i[k] * done[k * n + c]).sum();
+            row[c] = -s / l_i[i];
+        }
+    }
+    // A^-1 = L^-T L^-1: entry (r, c) = sum_k inv[k][r] inv[k][c], k >= max(r, c).
+    Some(DMatrix::from_fn(n, n, |r, c| {
+        (r.max(c)..n).map(|k| inv[k * n + r] * inv[k * n + c]).sum()
+    }))
+}
+
+/// An orthonormal basis (Gram-Schmidt) of the twists of the dofs on the
+/// path from `node` to the root, world coordinates.
+fn twist_basis(tree: &Tree<f64>, data: &Data<f64>, node: Option<usize>) -> Vec<[f64; 6]> {
+    let mut basis: Vec<[f64; 6]> = Vec::with_capacity(6);
+    let mut k = node;
+    while let Some(j) = k {
+        let s = data.world_axis[j];
+        let mut u = [s.ang.x, s.ang.y, s.ang.z, s.lin.x, s.lin.y, s.lin.z];
+        let scale = dot(&u, &u).sqrt();
+        for b in &basis {
+            let along = dot(b, &u);
+            u.iter_mut().zip(b).for_each(|(x, y)| *x -= along * y);
+        }
+        let norm = dot(&u, &u).sqrt();
+        if basis.len() < 6 && norm > 1e-9 * scale {
+            basis.push(u.map(|x| x / norm));
+        }
+        k = tree.parent[j];
+    }
+    basis
+}
+
+/// A pose on dual numbers, moved along `twist` (angular, then linear;
+/// world coordinates about the origin) when given.
+fn perturbed(x: &Transform<f64>, twist: Option<&[f64; 6]>) -> Transform<Dual64> {
+    let twist = twist.copied().unwrap_or([0.0; 6]);
     let (w, u) = (
         Vector3::new(twist[0], twist[1], twist[2]),
         Vector3::new(twist[3], twist[4], twist[5]),
@@ -343,11 +434,14 @@ mod tests {
                 };
                 let mut checked = 0;
                 for k in 0..240 {
-                    let tau: Vec<f64> = (0..n).map(|i| 0.02 * (0.3 * (k + i) as f64).sin()).collect();
+                    let tau: Vec<f64> = (0..n)
+                        .map(|i| 0.02 * (0.3 * (k + i) as f64).sin())
+                        .collect();
                     if k % 48 == 0 && !model.contacts(&mut data, &q, &v, &tau).unwrap().is_empty() {
                         let x = (&q[..], &v[..], &tau[..]);
                         let j = step_jacobians(&model, &mut ws, x, &wrt).unwrap();
-                        let (dq, dv) = dual_columns(&model, x, &wrt).unwrap();
+                        let mut duals = Default::default();
+                        let (dq, dv) = dual_columns(&model, &mut duals, x, &wrt).unwrap();
                         let analytic = [
                             (&j.dq_dq, 0, &dq),
                             (&j.dq_dv, n, &dq),

@@ -56,7 +56,7 @@ impl Sweep {
     }
 }
 
-/// Fills d_dq and d_dv (n x n, column j = derivative w.r.t. q_j or v_j) of
+/// Fills d_dq and, if given, d_dv (n x n, column j = derivative w.r.t. q_j or v_j) of
 /// ID(q, v, a); M includes the armature, which depends on neither. `data`
 /// must hold [`rnea`]'s results at (q, v, a): transforms, velocities,
 /// accelerations and subtree forces.
@@ -66,7 +66,7 @@ pub fn rnea_derivatives(
     sweep: &mut Sweep,
     v: &[f64],
     mut d_dq: DMatrixViewMut<f64>,
-    mut d_dv: DMatrixViewMut<f64>,
+    mut d_dv: Option<DMatrixViewMut<f64>>,
 ) {
     for i in 0..tree.nv() {
         sweep.momentum[i] = tree.inertia[i].mul_motion(&data.vel[i]);
@@ -81,10 +81,12 @@ pub fn rnea_derivatives(
         } else {
             position_column(tree, data, sweep, v, j, d_dq.column_mut(j));
         }
-        // Velocity of j.
-        let da = data.vel[j].cross_motion(&s);
-        propagate(tree, data, sweep, v, j, (s, da), Force::zero());
-        d_dv.column_mut(j).copy_from_slice(&sweep.tau);
+        if let Some(d_dv) = &mut d_dv {
+            // Velocity of j.
+            let da = data.vel[j].cross_motion(&s);
+            propagate(tree, data, sweep, v, j, (s, da), Force::zero());
+            d_dv.column_mut(j).copy_from_slice(&sweep.tau);
+        }
     }
 }
 

@@ -2,19 +2,19 @@
 //! analytic through the articulated dynamics and the smooth model, by dual
 //! numbers through the constraint model ([`super::constrained`]).
 
-use nalgebra::{Cholesky, DMatrix};
+use nalgebra::DMatrix;
 
-use super::constrained::dual_columns;
-use super::implicit::{add_row_partials, differentiable};
+use super::constrained::{dual_columns, DualTrees};
+use super::implicit::{add_row_partials, differentiable, spd_inverse};
 use super::params::residual_derivative;
 use super::rnea::{rnea_derivatives, Sweep};
 use super::soft::{subtract_soft_derivatives, Columns};
 use super::window::WindowScratch;
+use crate::dynamics::solver::quadratic_hessian;
 use crate::dynamics::{
     acceleration, check_inputs, crba, implicit_terms, integrate_euler, ltdl_factor,
-    ltdl_solve_columns, rnea, step,
+    ltdl_solve_columns, rnea, rnea_with_transforms, step,
 };
-use crate::dynamics::solver::quadratic_hessian;
 use crate::dynamics::{Constrained, Data, StepError};
 use crate::model::{Integrator, Model, Param, PassiveMode};
 
@@ -64,6 +64,8 @@ pub struct Workspace {
     inverse: DMatrix<f64>,
     /// What the window evaluation keeps between transitions.
     pub(super) window: WindowScratch,
+    /// The constraint model's dual-number trees, per model.
+    duals: DualTrees,
 }
 
 impl Workspace {
@@ -80,6 +82,7 @@ impl Workspace {
             r: DMatrix::zeros(n, 0),
             inverse: DMatrix::zeros(n, n),
             window: WindowScratch::new(n),
+            duals: DualTrees::default(),
         }
     }
 
@@ -112,6 +115,7 @@ pub fn step_jacobians(
         ..*wrt
     };
     let analytic = match model.opt.integrator {
+        _ if constrained && !wrt.state && !wrt.control => None,
         Integrator::Euler => {
             let h = model.opt.timestep;
             let mode = (model.opt.passive, h);
@@ -136,14 +140,16 @@ pub fn step_jacobians(
                 params: wrt.params,
                 ..Wrt::default()
             };
-            (blocks[3], blocks[7]) = dual_columns(model, (q, v, tau), &params)?;
+            (blocks[3], blocks[7]) = dual_columns(model, &mut ws.duals, (q, v, tau), &params)?;
             blocks
         }
         Some(blocks) => blocks,
         None => {
+            // The value from the plain step: the dual steps' agrees to rounding only
+            // (nalgebra's products sum f64 and dual numbers in different orders).
             let next = (&mut q_next[..], &mut v_next[..]);
             step(tree, &model.opt, &mut ws.data, (q, v, tau), next)?;
-            let (dq, dv) = dual_columns(model, (q, v, tau), wrt)?;
+            let (dq, dv) = dual_columns(model, &mut ws.duals, (q, v, tau), wrt)?;
             let (dq_dq, dq_dv, dq_dtau, dq_dp) = split(&dq, n, wrt);
             let (dv_dq, dv_dv, dv_dtau, dv_dp) = split(&dv, n, wrt);
             [dq_dq, dq_dv, dq_dtau, dq_dp, dv_dq, dv_dv, dv_dtau, dv_dp]
@@ -303,7 +309,7 @@ fn accel_derivatives(
     implicit_terms(tree, (mode, h), (q, v), &mut ws.q_spring, &mut ws.extra);
     if let Some(c) = ws.data.constrained.take() {
         return differentiable(&c) && {
-            constrained_derivatives(model, ws, (mode, h), (q, v), &c, wrt);
+            constrained_derivatives(model, ws, (mode, h), v, &c, wrt);
             true
         };
     }
@@ -322,7 +328,7 @@ fn accel_derivatives(
     reset(&mut ws.r, n, columns);
     if wrt.state {
         let (r_q, r_v) = ws.r.columns_range_pair_mut(0..n, n..2 * n);
-        rnea_derivatives(tree, &ws.data, &mut ws.sweep, v, r_q, r_v);
+        rnea_derivatives(tree, &ws.data, &mut ws.sweep, v, r_q, Some(r_v));
         add_passive_partials(model, (mode, h), &mut ws.r);
     }
     for i in 0..n_tau {
@@ -394,7 +400,7 @@ fn constrained_derivatives(
     model: &Model,
     ws: &mut Workspace,
     (mode, h): (PassiveMode, f64),
-    (q, v): (&[f64], &[f64]),
+    v: &[f64],
     c: &Constrained<f64>,
     wrt: &Wrt,
 ) {
@@ -408,9 +414,9 @@ fn constrained_derivatives(
     let implicit = ws.extra.iter().any(|e| *e != 0.0);
     let mut id_a = None;
     if wrt.state {
-        rnea(tree, &mut ws.data, q, v, a, &mut ws.tau);
+        rnea_with_transforms(tree, &mut ws.data, v, a, &mut ws.tau);
         let (r_q, r_v) = ws.r.columns_range_pair_mut(0..n, n..2 * n);
-        rnea_derivatives(tree, &ws.data, &mut ws.sweep, v, r_q, r_v);
+        rnea_derivatives(tree, &ws.data, &mut ws.sweep, v, r_q, Some(r_v));
         id_a = implicit.then(|| ws.r.columns(0, n).into_owned());
         add_passive_partials(model, (mode, h), &mut ws.r);
         let (r_q, r_v) = ws.r.columns_range_pair_mut(0..n, n..2 * n);
@@ -420,30 +426,41 @@ fn constrained_derivatives(
         ws.r[(i, 2 * n_state + i)] = -1.0;
     }
     let hessian = quadratic_hessian(&mass, &c.rows, &c.solution.zone);
-    let chol = Cholesky::new(hessian).expect("M + J^T D J is positive definite");
-    let mut da = ws.r.clone();
-    chol.solve_mut(&mut da);
-    da.neg_mut();
+    let h_inverse = spd_inverse(&hessian).expect("M + J^T D J is positive definite");
+    reset(&mut ws.dqdd, n, columns);
     if !implicit {
-        ws.dqdd = da;
+        ws.dqdd.gemm(-1.0, &h_inverse, &ws.r, 0.0);
         return;
     }
-    let mut rhs = &mass * &da;
-    if let Some(id_a) = id_a {
-        rnea(tree, &mut ws.data, q, v, &ws.qdd, &mut ws.tau);
-        let mut id_qdd = DMatrix::zeros(n, 2 * n);
-        let (d_q, d_v) = id_qdd.columns_range_pair_mut(0..n, n..2 * n);
-        rnea_derivatives(tree, &ws.data, &mut ws.sweep, v, d_q, d_v);
-        let mut q_columns = rhs.columns_mut(0, n);
-        q_columns += id_a - id_qdd.columns(0, n);
-    }
+    // dqdd = -(M + E)^-1 M H^-1 R + (M + E)^-1 (dID(a)/dq - dID(qdd)/dq) on the
+    // q columns, with (M + E)^-1 M = I - (M + E)^-1 E.
     let mut m = mass;
     for i in 0..n {
         m[(i, i)] += ws.extra[i];
     }
-    ltdl_factor(tree, &mut m);
-    ltdl_solve_columns(tree, &m, &mut rhs);
-    ws.dqdd = rhs;
+    let m_inverse = spd_inverse(&m).expect("M + E is positive definite");
+    let mut gain = h_inverse.clone();
+    let mut e_h = h_inverse;
+    for (i, mut row) in e_h.row_iter_mut().enumerate() {
+        row *= ws.extra[i];
+    }
+    gain.gemm(-1.0, &m_inverse, &e_h, 1.0);
+    ws.dqdd.gemm(-1.0, &gain, &ws.r, 0.0);
+    if let Some(mut id_change) = id_a {
+        rnea_with_transforms(tree, &mut ws.data, v, &ws.qdd, &mut ws.tau);
+        reset(&mut ws.inverse, n, n);
+        rnea_derivatives(
+            tree,
+            &ws.data,
+            &mut ws.sweep,
+            v,
+            ws.inverse.columns_mut(0, n),
+            None,
+        );
+        id_change -= &ws.inverse;
+        let mut q_columns = ws.dqdd.columns_mut(0, n);
+        q_columns.gemm(1.0, &m_inverse, &id_change, 1.0);
+    }
 }
 
 /// Zeros `m`, reshaped to rows x cols (allocating only when the shape changes).

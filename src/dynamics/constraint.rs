@@ -135,6 +135,23 @@ impl<T: Real> Default for Rows<T> {
 }
 
 impl<T: Real> Rows<T> {
+    /// Empty rows for `nv` dofs with room for `rows` rows.
+    fn with_capacity(nv: usize, rows: usize) -> Self {
+        Rows {
+            j: Vec::with_capacity(rows * nv),
+            nv,
+            kind: Vec::with_capacity(rows),
+            aref: Vec::with_capacity(rows),
+            r: Vec::with_capacity(rows),
+            floss: Vec::with_capacity(rows),
+            damping: Vec::with_capacity(rows),
+            daref_ddist: Vec::with_capacity(rows),
+            dlog_r_ddist: Vec::with_capacity(rows),
+            cone: vec![],
+            contact_rows: vec![],
+        }
+    }
+
     pub fn row(&self, i: usize) -> &[T] {
         &self.j[i * self.nv..(i + 1) * self.nv]
     }
@@ -392,7 +409,8 @@ fn stiffness_damping<T: Real>(solref: &[T; 2], dmax: T) -> (T, T) {
 
 /// One constraint (a block of rows sharing impedance) before it joins the rows.
 struct Block<T: Real> {
-    j: Vec<Vec<T>>,
+    /// Its rows of J, row-major.
+    j: Vec<T>,
     kind: Vec<RowKind>,
     /// A_ii per row.
     diag: Vec<T>,
@@ -416,7 +434,7 @@ impl<T: Real> Rows<T> {
         let imp = impedance(&sol.solimp, x);
         let slope = impedance_slope(&sol.solimp, x);
         let dmax = sol.solimp[1];
-        for (k, row) in block.j.into_iter().enumerate() {
+        for (k, row) in block.j.chunks_exact(self.nv).enumerate() {
             let kind = block.kind[k];
             let elliptic_friction = matches!(kind, RowKind::ConeRest);
             let solref = match friction_ref {
@@ -450,7 +468,7 @@ impl<T: Real> Rows<T> {
             });
             self.floss.push(block.floss);
             self.kind.push(kind);
-            self.j.extend(row);
+            self.j.extend_from_slice(row);
         }
     }
 }
@@ -463,10 +481,19 @@ pub fn rows<T: Real>(
 ) -> (Rows<T>, Vec<ConstraintContact<T>>) {
     let consts = &tree.constraint;
     let n = tree.nv();
-    let mut rows = Rows {
-        nv: n,
-        ..Rows::default()
+    let contacts: Vec<ConstraintContact<T>> = contacts(tree, data)
+        .into_iter()
+        .filter(|c| c.dist < lift(c.params.margin))
+        .collect();
+    let per_contact = |c: &ConstraintContact<T>| match c.params.condim {
+        1 => 1,
+        dim if consts.solver.cone == Cone::Elliptic => dim,
+        dim => 2 * (dim - 1),
     };
+    let capacity = consts.frictionloss.len()
+        + consts.limits.iter().flatten().count()
+        + contacts.iter().map(per_contact).sum::<usize>();
+    let mut rows = Rows::with_capacity(n, capacity);
     let unit = |i: usize, sign: T| {
         let mut row = vec![T::zero(); n];
         row[i] = sign;
@@ -476,7 +503,7 @@ pub fn rows<T: Real>(
         let (floss, sol) = consts.frictionloss[i];
         if floss > T::zero() {
             let block = Block {
-                j: vec![unit(i, T::one())],
+                j: unit(i, T::one()),
                 kind: vec![RowKind::Friction],
                 diag: vec![consts.dof_invweight[i]],
                 dist: T::zero(),
@@ -502,7 +529,7 @@ pub fn rows<T: Real>(
         ] {
             if dist < lift(margin) {
                 let block = Block {
-                    j: vec![unit(i, sign)],
+                    j: unit(i, sign),
                     kind: vec![RowKind::Unilateral],
                     diag: vec![consts.dof_invweight[i]],
                     dist,
@@ -514,10 +541,6 @@ pub fn rows<T: Real>(
             }
         }
     }
-    let contacts: Vec<ConstraintContact<T>> = contacts(tree, data)
-        .into_iter()
-        .filter(|c| c.dist < lift(c.params.margin))
-        .collect();
     for c in &contacts {
         contact_rows(tree, data, c, v, &mut rows);
     }
@@ -552,27 +575,30 @@ fn contact_rows<T: Real>(
         return;
     }
     let dim = c.params.condim;
-    let frame_rows = |jac: &[Vector3<T>], k: usize| -> Vec<T> {
-        let axis = c.frame.row(k).transpose();
-        jac.iter().map(|x| axis.dot(x)).collect()
-    };
-    // The condim rows in the contact frame: normal, tangents, then angular.
-    let mut frame: Vec<Vec<T>> = (0..dim.min(3)).map(|k| frame_rows(&jp, k)).collect();
-    frame.extend((0..dim.saturating_sub(3)).map(|k| frame_rows(&jr, k)));
+    // The condim rows in the contact frame (normal, tangents, then angular),
+    // row-major, and the contact's rows as their combinations.
+    let mut frame = Vec::with_capacity(dim * n);
+    for k in 0..dim {
+        let (jac, axis) = if k < 3 { (&jp, k) } else { (&jr, k - 3) };
+        let axis = c.frame.row(axis).transpose();
+        frame.extend(jac.iter().map(|x| axis.dot(x)));
+    }
     let [w1, w2] = [b1, b2].map(|b| consts.body_invweight[b]);
     let (tran, rot) = (w1[0] + w2[0], w1[1] + w2[1]);
     let friction = clamped_friction(&c.params.friction);
     let elliptic = consts.solver.cone == Cone::Elliptic && dim > 1;
+    let mixes = mixing(dim, elliptic, &c.params.friction);
+    let mut j = Vec::with_capacity(mixes.len() * n);
+    for mix in &mixes {
+        let terms = || {
+            mix.iter()
+                .zip(frame.chunks_exact(n))
+                .filter(|(m, _)| **m != T::zero())
+        };
+        j.extend((0..n).map(|col| terms().fold(T::zero(), |s, (m, f)| s + *m * f[col])));
+    }
     let mut block = Block {
-        j: mixing(dim, elliptic, &c.params.friction)
-            .iter()
-            .map(|mix| {
-                let terms = || mix.iter().zip(&frame).filter(|(m, _)| **m != T::zero());
-                (0..n)
-                    .map(|col| terms().fold(T::zero(), |s, (m, f)| s + *m * f[col]))
-                    .collect()
-            })
-            .collect(),
+        j,
         kind: vec![],
         diag: vec![],
         dist: c.dist,
@@ -604,7 +630,7 @@ fn contact_rows<T: Real>(
         }
     }
     let first = rows.len();
-    let count = block.j.len();
+    let count = block.kind.len();
     rows.contact_rows.push((first, count));
     rows.push(block, v, consts, Some(c.params.solreffriction));
     if dim == 1 {

@@ -6,6 +6,11 @@ use crate::spatial::Real;
 /// Fills `data.mass_matrix` with M(q), armature included on the diagonal.
 pub fn crba<T: Real>(tree: &Tree<T>, data: &mut Data<T>, q: &[T]) {
     update_transforms(tree, data, q);
+    crba_with_transforms(tree, data);
+}
+
+/// [`crba`] with `data.x_up` already at q.
+pub fn crba_with_transforms<T: Real>(tree: &Tree<T>, data: &mut Data<T>) {
     data.composite.copy_from_slice(&tree.inertia);
     // Entries between dofs on different branches stay zero.
     data.mass_matrix.fill(T::zero());

@@ -30,11 +30,11 @@ mod tree;
 
 pub use aba::{aba, aba_with_transforms};
 pub use contact::{add_soft_forces, add_soft_forces_with_transforms, body_contact_forces, Contact};
-pub use crba::crba;
+pub use crba::{crba, crba_with_transforms};
 pub use kinematics::{body_poses, update_transforms};
 pub use ltdl::{ltdl_factor, ltdl_solve, ltdl_solve_columns};
 pub use passive::passive_forces;
-pub use rnea::{bias_forces, rnea};
+pub use rnea::{bias_forces, bias_forces_with_transforms, rnea, rnea_with_transforms};
 pub use step::{
     acceleration, check_inputs, implicit_terms, integrate_euler, step, Constrained, StepError,
 };

@@ -5,23 +5,44 @@ use crate::spatial::{Motion, Real};
 
 /// tau = M(q) a + c(q, v) (M with armature; no passive forces).
 pub fn rnea<T: Real>(tree: &Tree<T>, data: &mut Data<T>, q: &[T], v: &[T], a: &[T], tau: &mut [T]) {
-    newton_euler(tree, data, q, v, |i| a[i], tau);
+    update_transforms(tree, data, q);
+    newton_euler(tree, data, v, |i| a[i], tau);
+}
+
+/// [`rnea`] with `data.x_up` already at q.
+pub fn rnea_with_transforms<T: Real>(
+    tree: &Tree<T>,
+    data: &mut Data<T>,
+    v: &[T],
+    a: &[T],
+    tau: &mut [T],
+) {
+    newton_euler(tree, data, v, |i| a[i], tau);
 }
 
 /// c(q, v): Coriolis, centrifugal and gravity forces (RNEA at zero acceleration).
 pub fn bias_forces<T: Real>(tree: &Tree<T>, data: &mut Data<T>, q: &[T], v: &[T], c: &mut [T]) {
-    newton_euler(tree, data, q, v, |_| T::zero(), c);
+    update_transforms(tree, data, q);
+    bias_forces_with_transforms(tree, data, v, c);
+}
+
+/// [`bias_forces`] with `data.x_up` already at q.
+pub fn bias_forces_with_transforms<T: Real>(
+    tree: &Tree<T>,
+    data: &mut Data<T>,
+    v: &[T],
+    c: &mut [T],
+) {
+    newton_euler(tree, data, v, |_| T::zero(), c);
 }
 
 fn newton_euler<T: Real>(
     tree: &Tree<T>,
     data: &mut Data<T>,
-    q: &[T],
     v: &[T],
     a: impl Fn(usize) -> T,
     tau: &mut [T],
 ) {
-    update_transforms(tree, data, q);
     // Gravity as a fictitious upward acceleration of the world.
     let a_world = Motion::new(nalgebra::Vector3::zeros(), -tree.gravity);
     for i in 0..tree.nv() {

@@ -6,8 +6,8 @@ use super::collision::ConstraintContact;
 use super::constraint::{rows, unreachable_pair, world_frames, Rows};
 use super::solver::{solve, Solution};
 use super::{
-    aba_with_transforms, add_soft_forces_with_transforms, bias_forces, crba, ltdl_factor,
-    ltdl_solve, passive_forces, update_transforms, Data, Tree,
+    aba_with_transforms, add_soft_forces_with_transforms, bias_forces_with_transforms,
+    crba_with_transforms, ltdl_factor, ltdl_solve, passive_forces, update_transforms, Data, Tree,
 };
 use crate::model::{ContactModel, Integrator, Options, PassiveMode};
 use crate::spatial::{lift, Real};
@@ -139,7 +139,7 @@ pub fn acceleration<T: Real>(
         world_frames(tree, data, v);
         let (rows, contacts) = rows(tree, data, (q, v));
         if !rows.is_empty() {
-            constrained(tree, data, (q, v), force, implicit, (rows, contacts), qdd);
+            constrained(tree, data, v, force, implicit, (rows, contacts), qdd);
             data.scratch = scratch;
             return;
         }
@@ -168,11 +168,11 @@ pub struct Constrained<T: Real> {
 ///    solved again with them: (M + diag(extra)) qdd = tau + tau_passive - c
 ///    + J^T f; otherwise qdd is the solver's.
 ///
-/// `force` holds tau + tau_passive on entry.
+/// `force` holds tau + tau_passive on entry; `data.x_up` is at q.
 fn constrained<T: Real>(
     tree: &Tree<T>,
     data: &mut Data<T>,
-    (q, v): (&[T], &[T]),
+    v: &[T],
     force: &mut [T],
     implicit: Option<&[T]>,
     (rows, contacts): (Rows<T>, Vec<ConstraintContact<T>>),
@@ -180,11 +180,11 @@ fn constrained<T: Real>(
 ) {
     let n = tree.nv();
     let mut bias = vec![T::zero(); n];
-    bias_forces(tree, data, q, v, &mut bias);
+    bias_forces_with_transforms(tree, data, v, &mut bias);
     for i in 0..n {
         force[i] -= bias[i];
     }
-    crba(tree, data, q);
+    crba_with_transforms(tree, data);
     let mass = data.mass_matrix.clone();
     let mut factored = mass.clone();
     ltdl_factor(tree, &mut factored);

@@ -35,7 +35,11 @@ fn rotation<T: Real>(axis: &Vector3<T>, angle: T) -> Matrix3<T> {
     let (sin, cos) = angle.sin_cos();
     let one_minus_cos = T::one() - cos;
     let (x, y, z) = (axis.x, axis.y, axis.z);
-    let (xy, xz, yz) = (x * y * one_minus_cos, x * z * one_minus_cos, y * z * one_minus_cos);
+    let (xy, xz, yz) = (
+        x * y * one_minus_cos,
+        x * z * one_minus_cos,
+        y * z * one_minus_cos,
+    );
     let (sq_x, sq_y, sq_z) = (x * x, y * y, z * z);
     Matrix3::new(
         sq_x + (T::one() - sq_x) * cos,

@@ -355,6 +355,14 @@ pub struct Spec {
 pub struct Model {
     spec: Spec,
     tree: Tree<f64>,
+    /// Distinct for every built or edited model (see [`Model::stamp`]).
+    stamp: u64,
+}
+
+/// Stamps start at 1, so a cache's 0 matches no model.
+fn next_stamp() -> u64 {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+    NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
 }
 
 impl std::ops::Deref for Model {
@@ -390,7 +398,22 @@ impl Model {
         spec.validate()?;
         let tree = Tree::build(&spec);
         check_tree_inertia(&spec, &tree, 1..spec.bodies.len())?;
-        Ok(Model { spec, tree })
+        Ok(Model {
+            spec,
+            tree,
+            stamp: next_stamp(),
+        })
+    }
+
+    /// A number that changes whenever the model does (built, or edited in
+    /// place); clones share it. Caches of derived data key on it.
+    pub fn stamp(&self) -> u64 {
+        self.stamp
+    }
+
+    /// Marks the model as changed (see [`Model::stamp`]).
+    fn restamp(&mut self) {
+        self.stamp = next_stamp();
     }
 
     /// A copy of this model with `edit` applied to its description.

@@ -430,6 +430,7 @@ impl Model {
             let s = &mut self.tree.soft;
             (s.stiffness, s.damping, s.friction) = (soft.stiffness, soft.damping, soft.friction);
         }
+        self.restamp();
         Ok(())
     }
 
