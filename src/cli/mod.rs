@@ -21,7 +21,7 @@ pub struct ModelFile {
     pub model: PathBuf,
     /// Contact, limit and dry-friction law: constraint (MuJoCo's soft
     /// constraints, the default for MJCF) or smooth (the penalty model, the
-    /// default for URDF; the one step Jacobians run through today).
+    /// default for URDF).
     #[arg(long, value_enum)]
     pub contact_model: Option<ContactLaw>,
 }

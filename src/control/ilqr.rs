@@ -955,6 +955,57 @@ mod tests {
         );
     }
 
+    /// On the half cheetah standing on its floor under MuJoCo's constraint
+    /// contact: the control step's Jacobians (five substeps of exact
+    /// implicit derivatives) equal central differences, and a plan lowers the
+    /// cost of its warm start.
+    #[test]
+    fn plans_through_constraint_contact() {
+        use crate::model::ContactModel;
+        use crate::tasks::HalfCheetah;
+        let model = HalfCheetah::new()
+            .model()
+            .edited(|s| s.opt.contact_model = ContactModel::Constraint)
+            .unwrap();
+        let task = HalfCheetah::with_model(model).unwrap();
+        let mut planner = Ilqr::new(&task, &[6.25], IlqrOptions::default()).unwrap();
+        let n = task.model().nv();
+        let mut x = (task.model().reference_q(), vec![0.0; n]);
+        for _ in 0..60 {
+            x = planner.control_step(&x, &[0.0; 6]).unwrap();
+        }
+        let contacts = task
+            .model()
+            .contacts(&mut task.model().data(), &x.0, &x.1, &[0.0; 9]);
+        assert!(!contacts.unwrap().is_empty(), "standing on the floor");
+        let u = vec![0.1, -0.2, 0.3, -0.1, 0.2, 0.05];
+        let (a, b) = planner.linearise(&x, &u).unwrap();
+        let h = 1e-7;
+        let mut worst: f64 = 0.0;
+        for col in 0..2 * n + 6 {
+            let (mut xp, mut xm, mut up, mut um) = (x.clone(), x.clone(), u.clone(), u.clone());
+            match col {
+                c if c < n => (xp.0[c] += h, xm.0[c] -= h),
+                c if c < 2 * n => (xp.1[c - n] += h, xm.1[c - n] -= h),
+                c => (up[c - 2 * n] += h, um[c - 2 * n] -= h),
+            };
+            let fp = flat(&planner.control_step(&xp, &up).unwrap());
+            let fm = flat(&planner.control_step(&xm, &um).unwrap());
+            for row in 0..2 * n {
+                let fd = (fp[row] - fm[row]) / (2.0 * h);
+                let exact = if col < 2 * n {
+                    a[(row, col)]
+                } else {
+                    b[(row, col - 2 * n)]
+                };
+                worst = worst.max((fd - exact).abs() / (1.0 + exact.abs()));
+            }
+        }
+        assert!(worst < 1e-5, "{worst:e}");
+        let (plan, log) = planner.plan(&x, vec![vec![0.0; 6]; 10]).unwrap();
+        assert!(plan.cost < log.costs[0], "{:?}", log.costs);
+    }
+
     #[test]
     fn box_qp_matches_a_grid_search() {
         let h = DMatrix::from_row_slice(2, 2, &[2.0, 0.8, 0.8, 1.0]);

@@ -53,14 +53,6 @@ struct Slope {
     ddist: f64,
 }
 
-impl Slope {
-    fn add_scaled(&mut self, other: &Slope, w: f64) {
-        self.dp += other.dp * w;
-        self.de += other.de * w;
-        self.ddist += other.ddist * w;
-    }
-}
-
 /// How a contact moves with one of its bodies: an orthonormal basis of the
 /// twists the body's dofs give it (6-vectors, angular then linear) and the
 /// slope along each. A planar chain spans three twists, a spatial one six:
@@ -69,15 +61,6 @@ impl Slope {
 struct Moves {
     basis: Vec<[f64; 6]>,
     slopes: Vec<Slope>,
-}
-
-impl Moves {
-    /// The slope along the twist `s` (in the span of the basis).
-    fn along(&self, s: &[f64; 6], out: &mut Slope) {
-        for (u, slope) in self.basis.iter().zip(&self.slopes) {
-            out.add_scaled(slope, dot(u, s));
-        }
-    }
 }
 
 /// Per body of a contact (b1, b2): how the contact moves with it (none for
@@ -128,6 +111,7 @@ pub(super) fn add_row_partials(
         }
     }
     let slopes = slopes(tree, data, &c.contacts);
+    let mut scratch = Scratch::default();
     let elliptic = tree.constraint.solver.cone == Cone::Elliptic;
     for ((contact, &span), slopes) in c.contacts.iter().zip(&rows.contact_rows).zip(&slopes) {
         let live = (span.0..span.0 + span.1).any(|i| zone[i] != Zone::Free);
@@ -138,13 +122,8 @@ pub(super) fn add_row_partials(
                 mix: mixing(contact.params.condim, elliptic, &contact.params.friction),
                 slopes,
             };
-            point.add_partials(
-                tree,
-                data,
-                (v, a),
-                (rows, zone, &c.solution.force, &jar),
-                &mut r_q,
-            );
+            let point_rows = (rows, &zone[..], &c.solution.force[..], &jar[..]);
+            point.add_partials(tree, data, (v, a), point_rows, (&mut scratch, &mut r_q));
         }
     }
 }
@@ -180,22 +159,34 @@ impl ContactPoint<'_> {
     }
 
     /// Adds the contact's part of dg/dq to `r_q` (see the module documentation).
+    /// A change of q_m moves the contact along the twist S_m, a combination
+    /// c_t = u_t . S_m of the basis twists of the bodies m moves: whatever is
+    /// linear in the motion is formed once per basis twist.
     fn add_partials(
         &self,
         tree: &Tree<f64>,
         data: &Data<f64>,
         (v, a): (&[f64], &[f64]),
         (rows, zone, force, jar): (&Rows<f64>, &[Zone], &[f64], &[f64]),
-        r_q: &mut DMatrixViewMut<f64>,
+        (scratch, r_q): (&mut Scratch, &mut DMatrixViewMut<f64>),
     ) {
         let n = tree.nv();
         let dim = self.contact.params.condim;
         let (first, count) = self.span;
-        // Which bodies' paths each dof is on (bit 0: b1, bit 1: b2).
-        let mut on = vec![0u8; n];
         let sign = [-1.0, 1.0];
-        // Per dof m: W_m(a), W_m(v); and W(a), W(v).
-        let (mut below_a, mut below_v) = (vec![Motion::zero(); n], vec![Motion::zero(); n]);
+        let Scratch {
+            on,
+            below_a,
+            below_v,
+        } = scratch;
+        on.clear();
+        on.resize(n, 0);
+        below_a.clear();
+        below_a.resize(n, Motion::zero());
+        below_v.clear();
+        below_v.resize(n, Motion::zero());
+        // Which bodies' paths each dof is on (bit 0: b1, bit 1: b2); per dof m
+        // W_m(a) and W_m(v); W(a) and W(v).
         let (mut w_a, mut w_v) = (Motion::zero(), Motion::zero());
         for side in 0..2 {
             let (mut run_a, mut run_v) = (Motion::zero(), Motion::zero());
@@ -212,9 +203,10 @@ impl ContactPoint<'_> {
             w_a += run_a * sign[side];
             w_v += run_v * sign[side];
         }
-        let wrenches: Vec<Force<f64>> = (0..dim)
-            .map(|k| self.wrench(k, &Slope::default()).0)
-            .collect();
+        let mut wrenches = [Force::zero(); 6];
+        for (k, e) in wrenches.iter_mut().enumerate().take(dim) {
+            *e = self.wrench(k, &Slope::default()).0;
+        }
         // phi = c^T f and F.
         let mut phi = [0.0; 6];
         for (i, mix) in self.mix.iter().enumerate() {
@@ -223,26 +215,59 @@ impl ContactPoint<'_> {
             }
         }
         let total = (0..dim).fold(Force::zero(), |s, k| s + wrenches[k] * phi[k]);
+        // Per basis twist (side, u): the distance's slope, W(a) . dE_k, W(v) . dE_k
+        // and sum_k phi_k dE_k.
+        let along: Vec<Along> = (0..2)
+            .filter_map(|side| self.slopes[side].as_ref().map(|moves| (side, moves)))
+            .flat_map(|(side, moves)| {
+                moves
+                    .basis
+                    .iter()
+                    .zip(&moves.slopes)
+                    .map(move |m| (side, m))
+            })
+            .map(|(side, (u, slope))| {
+                let mut a_de = [0.0; 6];
+                let mut v_de = [0.0; 6];
+                let mut phi_de = Force::zero();
+                for k in 0..dim {
+                    let de = self.wrench(k, slope).1;
+                    a_de[k] = w_a.dot(&de);
+                    v_de[k] = w_v.dot(&de);
+                    phi_de += de * phi[k];
+                }
+                Along {
+                    side,
+                    twist: *u,
+                    ddist: slope.ddist,
+                    a_de,
+                    v_de,
+                    phi_de,
+                }
+            })
+            .collect();
         for m in (0..n).filter(|&m| on[m] != 0) {
             let s_m = data.world_axis[m];
             let twist = [
                 s_m.ang.x, s_m.ang.y, s_m.ang.z, s_m.lin.x, s_m.lin.y, s_m.lin.z,
             ];
-            let mut moved = Slope::default();
-            for side in (0..2).filter(|side| on[m] & (1 << side) != 0) {
-                if let Some(moves) = &self.slopes[side] {
-                    moves.along(&twist, &mut moved);
-                }
-            }
             let (turn_a, turn_v) = (s_m.cross_motion(&below_a[m]), s_m.cross_motion(&below_v[m]));
             let mut du_a = [0.0; 6];
             let mut du_v = [0.0; 6];
-            let mut dwrench = [Force::zero(); 6];
             for k in 0..dim {
-                let e = &wrenches[k];
-                dwrench[k] = self.wrench(k, &moved).1;
-                du_a[k] = turn_a.dot(e) + w_a.dot(&dwrench[k]);
-                du_v[k] = turn_v.dot(e) + w_v.dot(&dwrench[k]);
+                du_a[k] = turn_a.dot(&wrenches[k]);
+                du_v[k] = turn_v.dot(&wrenches[k]);
+            }
+            let mut ddist = 0.0;
+            let mut dtotal = Force::zero();
+            for t in along.iter().filter(|t| on[m] & (1 << t.side) != 0) {
+                let c = dot(&t.twist, &twist);
+                ddist += c * t.ddist;
+                for k in 0..dim {
+                    du_a[k] += c * t.a_de[k];
+                    du_v[k] += c * t.v_de[k];
+                }
+                dtotal += t.phi_de * c;
             }
             let mut psi = [0.0; 6];
             for (i, mix) in self.mix.iter().enumerate().take(count) {
@@ -252,16 +277,15 @@ impl ContactPoint<'_> {
                 }
                 let combine = |du: &[f64; 6]| (0..dim).fold(0.0, |s, k| s + mix[k] * du[k]);
                 let d = 1.0 / rows.r[row];
-                let df =
-                    d * (rows.dlog_r_ddist[row] * jar[row] + rows.daref_ddist[row]) * moved.ddist
-                        - d * (combine(&du_a) + rows.damping[row] * combine(&du_v));
+                let df = d * (rows.dlog_r_ddist[row] * jar[row] + rows.daref_ddist[row]) * ddist
+                    - d * (combine(&du_a) + rows.damping[row] * combine(&du_v));
                 for k in 0..dim {
                     psi[k] += mix[k] * df;
                 }
             }
-            let dtotal = (0..dim).fold(Force::zero(), |s, k| {
-                s + wrenches[k] * psi[k] + dwrench[k] * phi[k]
-            });
+            for k in 0..dim {
+                dtotal += wrenches[k] * psi[k];
+            }
             for j in (0..n).filter(|&j| on[j] == 1 || on[j] == 2) {
                 let side = usize::from(on[j] == 2);
                 let s_j = data.world_axis[j];
@@ -273,6 +297,26 @@ impl ContactPoint<'_> {
             }
         }
     }
+}
+
+/// What a contact's derivative forms once per basis twist u of a body
+/// (`side`): the distance's slope along u, W(a) . dE_k and W(v) . dE_k, and
+/// sum_k phi_k dE_k, for the change dE_k of the unit wrenches along u.
+struct Along {
+    side: usize,
+    twist: [f64; 6],
+    ddist: f64,
+    a_de: [f64; 6],
+    v_de: [f64; 6],
+    phi_de: Force<f64>,
+}
+
+/// Per-dof buffers of [`ContactPoint::add_partials`], reused across contacts.
+#[derive(Default)]
+struct Scratch {
+    on: Vec<u8>,
+    below_a: Vec<Motion<f64>>,
+    below_v: Vec<Motion<f64>>,
 }
 
 /// How every contact moves: per pair, the collider run on dual numbers along

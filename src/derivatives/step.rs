@@ -308,10 +308,7 @@ fn accel_derivatives(
     acceleration(tree, &mut ws.data, (mode, h), (q, v, tau), &mut ws.qdd);
     implicit_terms(tree, (mode, h), (q, v), &mut ws.q_spring, &mut ws.extra);
     if let Some(c) = ws.data.constrained.take() {
-        return differentiable(&c) && {
-            constrained_derivatives(model, ws, (mode, h), v, &c, wrt);
-            true
-        };
+        return differentiable(&c) && constrained_derivatives(model, ws, (mode, h), v, &c, wrt);
     }
     // M + diag(extra), factored once along the tree for every column.
     crba(tree, &mut ws.data, q);
@@ -396,6 +393,8 @@ fn add_passive_partials(model: &Model, (mode, h): (PassiveMode, f64), r: &mut DM
 /// acceleration a: da = -H^-1 dg ([`super::implicit`]); MuJoCo's implicit
 /// passive solve (M + E) qdd = M a (E = `ws.extra`) then gives
 /// (M + E) dqdd = M da + (dID(q, v, a)/dq - dID(q, v, qdd)/dq) dq.
+/// False where H or M + E is not numerically positive definite (extreme
+/// inputs): the dual numbers take over there.
 fn constrained_derivatives(
     model: &Model,
     ws: &mut Workspace,
@@ -403,7 +402,7 @@ fn constrained_derivatives(
     v: &[f64],
     c: &Constrained<f64>,
     wrt: &Wrt,
-) {
+) -> bool {
     let n = model.nv();
     let tree = model.tree();
     let a = &c.solution.qacc;
@@ -426,11 +425,13 @@ fn constrained_derivatives(
         ws.r[(i, 2 * n_state + i)] = -1.0;
     }
     let hessian = quadratic_hessian(&mass, &c.rows, &c.solution.zone);
-    let h_inverse = spd_inverse(&hessian).expect("M + J^T D J is positive definite");
+    let Some(h_inverse) = spd_inverse(&hessian) else {
+        return false;
+    };
     reset(&mut ws.dqdd, n, columns);
     if !implicit {
         ws.dqdd.gemm(-1.0, &h_inverse, &ws.r, 0.0);
-        return;
+        return true;
     }
     // dqdd = -(M + E)^-1 M H^-1 R + (M + E)^-1 (dID(a)/dq - dID(qdd)/dq) on the
     // q columns, with (M + E)^-1 M = I - (M + E)^-1 E.
@@ -438,7 +439,9 @@ fn constrained_derivatives(
     for i in 0..n {
         m[(i, i)] += ws.extra[i];
     }
-    let m_inverse = spd_inverse(&m).expect("M + E is positive definite");
+    let Some(m_inverse) = spd_inverse(&m) else {
+        return false;
+    };
     let mut gain = h_inverse.clone();
     let mut e_h = h_inverse;
     for (i, mut row) in e_h.row_iter_mut().enumerate() {
@@ -461,6 +464,7 @@ fn constrained_derivatives(
         let mut q_columns = ws.dqdd.columns_mut(0, n);
         q_columns.gemm(1.0, &m_inverse, &id_change, 1.0);
     }
+    true
 }
 
 /// Zeros `m`, reshaped to rows x cols (allocating only when the shape changes).
