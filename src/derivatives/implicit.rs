@@ -370,37 +370,51 @@ fn slopes(tree: &Tree<f64>, data: &Data<f64>, contacts: &[ConstraintContact<f64>
 /// column-by-column solves.
 pub(super) fn spd_inverse(a: &DMatrix<f64>) -> Option<DMatrix<f64>> {
     let n = a.nrows();
-    // A = L L^T with L row-major in `l`; then L^-1 in `inv` (row-major, lower).
+    let a = a.as_slice();
+    // A = L L^T, L row-major in `l` (A is symmetric: its column-major entry
+    // (j, k) at j + k n reads as well).
     let mut l = vec![0.0; n * n];
     for j in 0..n {
-        let (above, row_j) = l.split_at_mut(j * n);
-        let row_j = &mut row_j[..n];
-        for k in 0..j {
-            let row_k = &above[k * n..k * n + k + 1];
-            let s: f64 = row_k[..k].iter().zip(&row_j[..k]).map(|(x, y)| x * y).sum();
-            row_j[k] = (a[(j, k)] - s) / row_k[k];
+        for k in 0..=j {
+            let mut s = a[j + k * n];
+            for p in 0..k {
+                s -= l[j * n + p] * l[k * n + p];
+            }
+            if k < j {
+                l[j * n + k] = s / l[k * n + k];
+            } else if s.is_nan() || s <= 0.0 {
+                return None;
+            } else {
+                l[j * n + j] = s.sqrt();
+            }
         }
-        let d = a[(j, j)] - row_j[..j].iter().map(|x| x * x).sum::<f64>();
-        if d.is_nan() || d <= 0.0 {
-            return None;
-        }
-        row_j[j] = d.sqrt();
     }
+    // L^-1, row-major lower triangular.
     let mut inv = vec![0.0; n * n];
     for i in 0..n {
-        let (done, row) = inv.split_at_mut(i * n);
-        let row = &mut row[..n];
-        let l_i = &l[i * n..i * n + i + 1];
-        row[i] = 1.0 / l_i[i];
+        inv[i * n + i] = 1.0 / l[i * n + i];
         for c in 0..i {
-            let s: f64 = (c..i).map(|k| l_i[k] * done[k * n + c]).sum();
-            row[c] = -s / l_i[i];
+            let mut s = 0.0;
+            for k in c..i {
+                s += l[i * n + k] * inv[k * n + c];
+            }
+            inv[i * n + c] = -s / l[i * n + i];
         }
     }
-    // A^-1 = L^-T L^-1: entry (r, c) = sum_k inv[k][r] inv[k][c], k >= max(r, c).
-    Some(DMatrix::from_fn(n, n, |r, c| {
-        (r.max(c)..n).map(|k| inv[k * n + r] * inv[k * n + c]).sum()
-    }))
+    // A^-1 = L^-T L^-1: entry (r, c) = sum over k >= max(r, c) of inv[k][r] inv[k][c].
+    let mut out = DMatrix::zeros(n, n);
+    let o = out.as_mut_slice();
+    for r in 0..n {
+        for c in 0..=r {
+            let mut s = 0.0;
+            for k in r..n {
+                s += inv[k * n + r] * inv[k * n + c];
+            }
+            o[r + c * n] = s;
+            o[c + r * n] = s;
+        }
+    }
+    Some(out)
 }
 
 /// An orthonormal basis (Gram-Schmidt) of the twists of the dofs on the

@@ -7,7 +7,7 @@ use nalgebra::DMatrix;
 use super::constrained::{dual_columns, DualTrees};
 use super::implicit::{add_row_partials, differentiable, spd_inverse};
 use super::params::residual_derivative;
-use super::rnea::{rnea_derivatives, Sweep};
+use super::rnea::{mass_derivative, rnea_derivatives, Sweep};
 use super::soft::{subtract_soft_derivatives, Columns};
 use super::window::WindowScratch;
 use crate::dynamics::solver::quadratic_hessian;
@@ -392,7 +392,7 @@ fn add_passive_partials(model: &Model, (mode, h): (PassiveMode, f64), r: &mut DM
 /// point (`ws.data` as the step left it: M, world frames). The solver's
 /// acceleration a: da = -H^-1 dg ([`super::implicit`]); MuJoCo's implicit
 /// passive solve (M + E) qdd = M a (E = `ws.extra`) then gives
-/// (M + E) dqdd = M da + (dID(q, v, a)/dq - dID(q, v, qdd)/dq) dq.
+/// (M + E) dqdd = M da + d(M (a - qdd))/dq dq.
 /// False where H or M + E is not numerically positive definite (extreme
 /// inputs): the dual numbers take over there.
 fn constrained_derivatives(
@@ -411,12 +411,10 @@ fn constrained_derivatives(
     let columns = 2 * n_state + n_tau;
     reset(&mut ws.r, n, columns);
     let implicit = ws.extra.iter().any(|e| *e != 0.0);
-    let mut id_a = None;
     if wrt.state {
         rnea_with_transforms(tree, &mut ws.data, v, a, &mut ws.tau);
         let (r_q, r_v) = ws.r.columns_range_pair_mut(0..n, n..2 * n);
         rnea_derivatives(tree, &ws.data, &mut ws.sweep, v, r_q, Some(r_v));
-        id_a = implicit.then(|| ws.r.columns(0, n).into_owned());
         add_passive_partials(model, (mode, h), &mut ws.r);
         let (r_q, r_v) = ws.r.columns_range_pair_mut(0..n, n..2 * n);
         add_row_partials(tree, &ws.data, (v, a), c, r_q, r_v);
@@ -433,8 +431,8 @@ fn constrained_derivatives(
         ws.dqdd.gemm(-1.0, &h_inverse, &ws.r, 0.0);
         return true;
     }
-    // dqdd = -(M + E)^-1 M H^-1 R + (M + E)^-1 (dID(a)/dq - dID(qdd)/dq) on the
-    // q columns, with (M + E)^-1 M = I - (M + E)^-1 E.
+    // dqdd = -(M + E)^-1 M H^-1 R + (M + E)^-1 d(M (a - qdd))/dq on the q
+    // columns, with (M + E)^-1 M = I - (M + E)^-1 E.
     let mut m = mass;
     for i in 0..n {
         m[(i, i)] += ws.extra[i];
@@ -449,20 +447,19 @@ fn constrained_derivatives(
     }
     gain.gemm(-1.0, &m_inverse, &e_h, 1.0);
     ws.dqdd.gemm(-1.0, &gain, &ws.r, 0.0);
-    if let Some(mut id_change) = id_a {
-        rnea_with_transforms(tree, &mut ws.data, v, &ws.qdd, &mut ws.tau);
+    if wrt.state {
+        // (M + E)^-1 d(M y)/dq for y = a - qdd, on the q columns.
+        let y: Vec<f64> = a.iter().zip(&ws.qdd).map(|(a, b)| a - b).collect();
         reset(&mut ws.inverse, n, n);
-        rnea_derivatives(
+        mass_derivative(
             tree,
             &ws.data,
             &mut ws.sweep,
-            v,
+            &y,
             ws.inverse.columns_mut(0, n),
-            None,
         );
-        id_change -= &ws.inverse;
         let mut q_columns = ws.dqdd.columns_mut(0, n);
-        q_columns.gemm(1.0, &m_inverse, &id_change, 1.0);
+        q_columns.gemm(1.0, &m_inverse, &ws.inverse, 1.0);
     }
     true
 }
