@@ -33,7 +33,12 @@ pub(super) struct DualTrees {
     stamp: u64,
     trees: Vec<(Seed, Tree<Dual64>)>,
     data: Option<Data<Dual64>>,
+    invweights: Vec<(Seed, InvweightSlopes)>,
 }
+
+/// How MuJoCo's invweight0 constants move with one scalar of a parameter:
+/// per body (translation, rotation), per dof.
+pub(super) type InvweightSlopes = (Vec<[f64; 2]>, Vec<f64>);
 
 impl DualTrees {
     /// The tree seeded along `seed` and the workspace.
@@ -60,6 +65,27 @@ impl DualTrees {
         };
         let tree = &self.trees[index].1;
         (tree, self.data.get_or_insert_with(|| Data::new(tree)))
+    }
+
+    /// The slopes of invweight0 along one scalar of a parameter (the dual
+    /// parts of the seeded tree's constants).
+    pub(super) fn invweight_slopes(
+        &mut self,
+        model: &Model,
+        seed: (Param, usize),
+    ) -> &InvweightSlopes {
+        let seed = Some(seed);
+        if self.stamp != model.stamp() || !self.invweights.iter().any(|(s, _)| *s == seed) {
+            let (tree, _) = self.get(model, seed);
+            let c = &tree.constraint;
+            let slopes = (
+                c.body_invweight.iter().map(|w| w.map(|x| x.eps)).collect(),
+                c.dof_invweight.iter().map(|x| x.eps).collect(),
+            );
+            self.invweights.push((seed, slopes));
+        }
+        let index = self.invweights.iter().position(|(s, _)| *s == seed);
+        &self.invweights[index.expect("just added")].1
     }
 }
 

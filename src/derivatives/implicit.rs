@@ -37,7 +37,7 @@
 use nalgebra::{DMatrix, DMatrixViewMut, Matrix3, Vector3};
 use num_dual::Dual64;
 
-use crate::dynamics::collision::{contact_geometry, ConstraintContact};
+use crate::dynamics::collision::{contact_geometry, ConstraintContact, MINVAL};
 use crate::dynamics::constraint::{mixing, RowKind, Rows};
 use crate::dynamics::solver::Zone;
 use crate::dynamics::{Constrained, Data, Tree};
@@ -124,6 +124,46 @@ pub(super) fn add_row_partials(
             };
             let point_rows = (rows, &zone[..], &c.solution.force[..], &jar[..]);
             point.add_partials(tree, data, (v, a), point_rows, (&mut scratch, &mut r_q));
+        }
+    }
+}
+
+/// Adds the rows' part of dg/dp to `column` for a parameter that moves only
+/// MuJoCo's invweight0 constants among the rows' data (a body's mass, COM or
+/// inertia, a joint's armature), along `slopes`: every R is proportional to
+/// its invweight0 constant (a dry friction's or a limit's dof, a contact's
+/// two bodies' translational ones, R_i at its floor excepted), so with
+/// f = -D jar on the quadratic rows, -J^T df = sum_i J_i^T f_i dlnR_i.
+pub(super) fn add_invweight_partials(
+    tree: &Tree<f64>,
+    c: &Constrained<f64>,
+    (d_body, d_dof): (&[[f64; 2]], &[f64]),
+    column: &mut [f64],
+) {
+    let rows = &c.rows;
+    let consts = &tree.constraint;
+    let log_slope = |w: f64, dw: f64| if w > 0.0 { dw / w } else { 0.0 };
+    let mut dlog_r = vec![0.0; rows.len()];
+    let contacts_start = rows.contact_rows.first().map_or(rows.len(), |r| r.0);
+    for (i, d) in dlog_r.iter_mut().enumerate().take(contacts_start) {
+        let k = rows
+            .row(i)
+            .iter()
+            .position(|x| *x != 0.0)
+            .expect("a dof's row");
+        *d = log_slope(consts.dof_invweight[k], d_dof[k]);
+    }
+    for (contact, &(first, count)) in c.contacts.iter().zip(&rows.contact_rows) {
+        let [b1, b2] = contact.bodies;
+        let tran = consts.body_invweight[b1][0] + consts.body_invweight[b2][0];
+        dlog_r[first..first + count].fill(log_slope(tran, d_body[b1][0] + d_body[b2][0]));
+    }
+    for (i, d) in dlog_r.iter().enumerate() {
+        if c.solution.zone[i] == Zone::Quadratic && rows.r[i] > MINVAL && *d != 0.0 {
+            let w = c.solution.force[i] * d;
+            for (x, j) in column.iter_mut().zip(rows.row(i)) {
+                *x += j * w;
+            }
         }
     }
 }
@@ -464,11 +504,12 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 mod tests {
     use super::super::constrained::dual_columns;
     use super::super::{step_jacobians, Workspace, Wrt};
-    use crate::model::{Integrator, Model};
+    use crate::model::{Integrator, Model, Param};
 
-    /// The analytic state and control columns equal the dual numbers'
-    /// through the whole step, along trajectories in contact (every collider,
-    /// both cones, limits, dry friction; Euler and RK4).
+    /// The analytic state, control and parameter columns (every body and
+    /// joint parameter) equal the dual numbers' through the whole step, along
+    /// trajectories in contact (every collider, both cones, limits, dry
+    /// friction; Euler and RK4).
     #[test]
     fn state_columns_equal_dual_numbers_through_the_step() {
         let dir = env!("CARGO_MANIFEST_DIR");
@@ -485,10 +526,20 @@ mod tests {
                 let mut data = model.data();
                 let mut ws = Workspace::new(&model);
                 let (mut q, mut v) = (model.reference_q(), vec![0.0; n]);
+                // The last body's and joint's parameters of every kind.
+                let mut params: Vec<Param> = vec![];
+                for p in Param::all(&model).into_iter().rev() {
+                    let kind = std::mem::discriminant(&p);
+                    if !p.is_constraint()
+                        && !params.iter().any(|q| std::mem::discriminant(q) == kind)
+                    {
+                        params.push(p);
+                    }
+                }
                 let wrt = Wrt {
                     state: true,
                     control: true,
-                    params: &[],
+                    params: &params,
                 };
                 let mut checked = 0;
                 for k in 0..240 {
@@ -504,12 +555,14 @@ mod tests {
                             (&j.dq_dq, 0, &dq),
                             (&j.dq_dv, n, &dq),
                             (&j.dq_dtau, 2 * n, &dq),
+                            (&j.dq_dp, 3 * n, &dq),
                             (&j.dv_dq, 0, &dv),
                             (&j.dv_dv, n, &dv),
                             (&j.dv_dtau, 2 * n, &dv),
+                            (&j.dv_dp, 3 * n, &dv),
                         ];
                         for (block, start, dual) in analytic {
-                            let dual = dual.columns(start, n);
+                            let dual = dual.columns(start, block.ncols());
                             let scale = dual.amax().max(1.0);
                             let err = (block - dual).amax() / scale;
                             assert!(err < 1e-9, "{file} {integrator:?} step {k}: {err:e}");

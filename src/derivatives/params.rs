@@ -50,6 +50,44 @@ pub fn residual_derivative(
     }
 }
 
+/// Adds d(M(q) y)/d(param component) to `out`, `accelerations` the node
+/// accelerations of M(q) y ([`crate::derivatives::Sweep::mass_product`]):
+/// a body parameter's inertia change felt at its node, an armature on its
+/// own diagonal entry; other parameters leave M alone.
+pub fn mass_product_derivative(
+    model: &Model,
+    x_up: &[crate::spatial::Transform<f64>],
+    (accelerations, y): (&[crate::spatial::Motion<f64>], &[f64]),
+    (param, component): (Param, usize),
+    out: &mut [f64],
+) {
+    let unit = |c: usize| if c == component { 1.0 } else { 0.0 };
+    match param {
+        Param::Mass(b) | Param::Com(b) | Param::Inertia(b) => {
+            if let Some((node, di)) = node_inertia_derivative(model, b, param, unit) {
+                let df = di.mul_motion(&accelerations[node]);
+                body_force_to_joints(model.tree(), x_up, node, df, out);
+            }
+        }
+        Param::Armature(i) => out[i] += y[i],
+        _ => {}
+    }
+}
+
+/// The change of a semi-implicit Euler step's implicit diagonal (see
+/// [`crate::dynamics::implicit_terms`]) with a joint parameter: (dof, value).
+pub fn implicit_diagonal_derivative(
+    (mode, h): (PassiveMode, f64),
+    param: Param,
+) -> Option<(usize, f64)> {
+    match (mode, param) {
+        (PassiveMode::Explicit, _) => None,
+        (_, Param::Damping(i)) => Some((i, h)),
+        (PassiveMode::ImplicitDampingStiffness, Param::Stiffness(i)) => Some((i, h * h)),
+        _ => None,
+    }
+}
+
 /// dR_i / d(joint parameter) for the joint i it belongs to: (i, value).
 /// Panics on a body parameter.
 pub fn joint_derivative(

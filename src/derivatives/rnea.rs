@@ -46,6 +46,31 @@ pub struct Sweep {
 }
 
 impl Sweep {
+    /// The node accelerations and subtree forces of M(q) y (no velocity, no
+    /// gravity), `data.x_up` at q; the accelerations read back by
+    /// [`Sweep::mass_product_accelerations`].
+    pub fn mass_product(&mut self, tree: &Tree<f64>, data: &Data<f64>, y: &[f64]) {
+        let n = tree.nv();
+        for i in 0..n {
+            let parent = tree.parent[i].map_or(Motion::zero(), |p| {
+                data.x_up[i].apply_motion(&self.acc_y[p])
+            });
+            self.acc_y[i] = parent + tree.joint[i].s * y[i];
+            self.force_y[i] = tree.inertia[i].mul_motion(&self.acc_y[i]);
+        }
+        for i in (0..n).rev() {
+            if let Some(p) = tree.parent[i] {
+                let up = data.x_up[i].inverse_apply_force(&self.force_y[i]);
+                self.force_y[p] += up;
+            }
+        }
+    }
+
+    /// The node accelerations of the last [`Sweep::mass_product`].
+    pub fn mass_product_accelerations(&self) -> &[Motion<f64>] {
+        &self.acc_y
+    }
+
     pub fn new(n: usize) -> Self {
         Sweep {
             dv: vec![Motion::zero(); n],
@@ -107,19 +132,7 @@ pub fn mass_derivative(
     mut d_dq: DMatrixViewMut<f64>,
 ) {
     let n = tree.nv();
-    for i in 0..n {
-        let parent = tree.parent[i].map_or(Motion::zero(), |p| {
-            data.x_up[i].apply_motion(&sweep.acc_y[p])
-        });
-        sweep.acc_y[i] = parent + tree.joint[i].s * y[i];
-        sweep.force_y[i] = tree.inertia[i].mul_motion(&sweep.acc_y[i]);
-    }
-    for i in (0..n).rev() {
-        if let Some(p) = tree.parent[i] {
-            let up = data.x_up[i].inverse_apply_force(&sweep.force_y[i]);
-            sweep.force_y[p] += up;
-        }
-    }
+    sweep.mass_product(tree, data, y);
     for j in 0..n {
         let s = tree.joint[j].s;
         let translational = tree.joint[j].kind == JointKind::Slide

@@ -5,8 +5,8 @@
 use nalgebra::DMatrix;
 
 use super::constrained::{dual_columns, DualTrees};
-use super::implicit::{add_row_partials, differentiable, spd_inverse};
-use super::params::residual_derivative;
+use super::implicit::{add_invweight_partials, add_row_partials, differentiable, spd_inverse};
+use super::params::{implicit_diagonal_derivative, mass_product_derivative, residual_derivative};
 use super::rnea::{mass_derivative, rnea_derivatives, Sweep};
 use super::soft::{subtract_soft_derivatives, Columns};
 use super::window::WindowScratch;
@@ -106,16 +106,17 @@ pub fn step_jacobians(
     check_inputs(n, (q, v, tau))?;
     ws.size_for(model);
     let (mut q_next, mut v_next) = (vec![0.0; n], vec![0.0; n]);
-    // Under the constraint model the state's columns are analytic and the
-    // parameters' dual; where the zones defeat the analytic derivative (an
-    // elliptic cone in its middle zone), every column is dual.
-    let constrained = tree.has_constraints();
+    // Under the constraint model the columns are analytic but the contact
+    // parameters' (friction, solref, solimp, dry friction), which are dual;
+    // where the zones defeat the analytic derivative (an elliptic cone in its
+    // middle zone), every column is dual.
+    let dual_params = tree.has_constraints() && wrt.params.iter().any(|p| p.is_constraint());
     let analytic_wrt = Wrt {
-        params: if constrained { &[] } else { wrt.params },
+        params: if dual_params { &[] } else { wrt.params },
         ..*wrt
     };
     let analytic = match model.opt.integrator {
-        _ if constrained && !wrt.state && !wrt.control => None,
+        _ if dual_params && !wrt.state && !wrt.control => None,
         Integrator::Euler => {
             let h = model.opt.timestep;
             let mode = (model.opt.passive, h);
@@ -135,7 +136,7 @@ pub fn step_jacobians(
         }
     };
     let blocks = match analytic {
-        Some(mut blocks) if constrained && !wrt.params.is_empty() => {
+        Some(mut blocks) if dual_params => {
             let params = Wrt {
                 params: wrt.params,
                 ..Wrt::default()
@@ -408,11 +409,12 @@ fn constrained_derivatives(
     let a = &c.solution.qacc;
     let mass = ws.data.mass_matrix.clone();
     let (n_state, n_tau) = state_and_tau_columns(n, wrt);
-    let columns = 2 * n_state + n_tau;
+    let n_p: usize = wrt.params.iter().map(|p| p.size()).sum();
+    let columns = 2 * n_state + n_tau + n_p;
     reset(&mut ws.r, n, columns);
-    let implicit = ws.extra.iter().any(|e| *e != 0.0);
+    let implicit = mode != PassiveMode::Explicit;
+    rnea_with_transforms(tree, &mut ws.data, v, a, &mut ws.tau);
     if wrt.state {
-        rnea_with_transforms(tree, &mut ws.data, v, a, &mut ws.tau);
         let (r_q, r_v) = ws.r.columns_range_pair_mut(0..n, n..2 * n);
         rnea_derivatives(tree, &ws.data, &mut ws.sweep, v, r_q, Some(r_v));
         add_passive_partials(model, (mode, h), &mut ws.r);
@@ -421,6 +423,35 @@ fn constrained_derivatives(
     }
     for i in 0..n_tau {
         ws.r[(i, 2 * n_state + i)] = -1.0;
+    }
+    // The parameters' columns: RNEA's body force or the joint's entry at a
+    // (the solver's passive forces are explicit), and the rows' R through
+    // invweight0.
+    let param_columns: Vec<(Param, usize)> = wrt
+        .params
+        .iter()
+        .flat_map(|p| (0..p.size()).map(move |k| (*p, k)))
+        .collect();
+    for (k, &(param, component)) in param_columns.iter().enumerate() {
+        let point = (&ws.q_spring[..], v, &a[..]);
+        let explicit = (PassiveMode::Explicit, h);
+        residual_derivative(
+            model,
+            &ws.data,
+            explicit,
+            point,
+            (param, component),
+            &mut ws.tau,
+        );
+        if matches!(
+            param,
+            Param::Mass(_) | Param::Com(_) | Param::Inertia(_) | Param::Armature(_)
+        ) {
+            let (d_body, d_dof) = ws.duals.invweight_slopes(model, (param, component));
+            add_invweight_partials(tree, c, (d_body, d_dof), &mut ws.tau);
+        }
+        ws.r.column_mut(2 * n_state + n_tau + k)
+            .copy_from_slice(&ws.tau);
     }
     let hessian = quadratic_hessian(&mass, &c.rows, &c.solution.zone);
     let Some(h_inverse) = spd_inverse(&hessian) else {
@@ -447,9 +478,10 @@ fn constrained_derivatives(
     }
     gain.gemm(-1.0, &m_inverse, &e_h, 1.0);
     ws.dqdd.gemm(-1.0, &gain, &ws.r, 0.0);
+    // (M + E)^-1 d(M y)/dq for y = a - qdd on the q columns, and
+    // (M + E)^-1 (dM/dp y - dE/dp qdd) on the parameters'.
+    let y: Vec<f64> = a.iter().zip(&ws.qdd).map(|(a, b)| a - b).collect();
     if wrt.state {
-        // (M + E)^-1 d(M y)/dq for y = a - qdd, on the q columns.
-        let y: Vec<f64> = a.iter().zip(&ws.qdd).map(|(a, b)| a - b).collect();
         reset(&mut ws.inverse, n, n);
         mass_derivative(
             tree,
@@ -460,6 +492,30 @@ fn constrained_derivatives(
         );
         let mut q_columns = ws.dqdd.columns_mut(0, n);
         q_columns.gemm(1.0, &m_inverse, &ws.inverse, 1.0);
+    }
+    if !param_columns.is_empty() {
+        ws.sweep.mass_product(tree, &ws.data, &y);
+        let mut change = DMatrix::zeros(n, param_columns.len());
+        for (k, &(param, component)) in param_columns.iter().enumerate() {
+            ws.tau.fill(0.0);
+            let accelerations = ws.sweep.mass_product_accelerations();
+            let product = (accelerations, &y[..]);
+            mass_product_derivative(
+                model,
+                &ws.data.x_up,
+                product,
+                (param, component),
+                &mut ws.tau,
+            );
+            if let Some((i, de)) = implicit_diagonal_derivative((mode, h), param) {
+                ws.tau[i] -= de * ws.qdd[i];
+            }
+            change.column_mut(k).copy_from_slice(&ws.tau);
+        }
+        let mut p_columns = ws
+            .dqdd
+            .columns_mut(columns - param_columns.len(), param_columns.len());
+        p_columns.gemm(1.0, &m_inverse, &change, 1.0);
     }
     true
 }
