@@ -11,9 +11,9 @@
 //! zones (a contact appearing, a row switching between free and active, dry
 //! friction between stick and slip) the derivative is the one-sided
 //! derivative on the side of the zones at the point itself. Cost: one dual
-//! step per column. It gives the parameters' columns, and every column where
-//! the analytic state derivative ([`super::implicit`]) does not apply; that
-//! one is tested against it.
+//! step per column. It gives the contact parameters' columns, and every
+//! column where the analytic derivative ([`super::implicit`]) does not
+//! apply; that one is tested against it.
 
 use nalgebra::{DMatrix, DVector};
 use num_dual::Dual64;

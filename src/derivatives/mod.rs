@@ -14,9 +14,11 @@
 //! The integrator's chain rule (Euler or RK4) then gives d(q', v').
 //! Contact and joint-limit forces add -tau_soft(q, v; k, c, mu) to R; their
 //! derivatives come from dual numbers through the scalar-generic force code
-//! (module `soft`), exact as the rest. Under the constraint model the step
-//! is differentiated by dual numbers end to end (module `constrained`):
-//! exact for the solver's converged zones, one-sided where they switch.
+//! (module `soft`), exact as the rest. Under the constraint model the
+//! solver's acceleration is differentiated implicitly (module `implicit`:
+//! state, tau, body and joint parameters), the contact parameters by dual
+//! numbers through the whole step (module `constrained`): exact for the
+//! solver's converged zones, one-sided where they switch.
 //! No finite differences anywhere: they exist only in the tests.
 
 // Node-indexed sweeps read several per-node arrays at the node's index.

@@ -1,6 +1,7 @@
 //! Step Jacobians: d(q', v') / d(q, v), d(q', v') / d tau and d(q', v') / d p:
-//! analytic through the articulated dynamics and the smooth model, by dual
-//! numbers through the constraint model ([`super::constrained`]).
+//! analytic through the articulated dynamics, the smooth model and the
+//! constraint model's solver ([`super::implicit`]); by dual numbers for the
+//! constraint model's contact parameters ([`super::constrained`]).
 
 use nalgebra::DMatrix;
 
