@@ -17,7 +17,9 @@
 //! Where joint j and all its ancestors are slides, q_j only translates the
 //! subtree under uniform gravity and every slide above reads only linear
 //! forces: column j of dID/dq is zero and is not swept (a floating base's
-//! slide joints, as the half cheetah's root).
+//! slide joints, as the half cheetah's root). So is column j of dID/dv: qd_j
+//! adds a uniform velocity to a subtree whose frames do not turn, a Galilean
+//! boost that no force notices.
 
 use nalgebra::{DMatrixViewMut, DVectorViewMut};
 
@@ -108,9 +110,12 @@ pub fn rnea_derivatives(
         sweep.translational[j] = translational;
         if translational {
             d_dq.column_mut(j).fill(0.0);
-        } else {
-            position_column(tree, data, sweep, v, j, d_dq.column_mut(j));
+            if let Some(d_dv) = &mut d_dv {
+                d_dv.column_mut(j).fill(0.0);
+            }
+            continue;
         }
+        position_column(tree, data, sweep, v, j, d_dq.column_mut(j));
         if let Some(d_dv) = &mut d_dv {
             // Velocity of j.
             let da = data.vel[j].cross_motion(&s);
