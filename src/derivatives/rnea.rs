@@ -17,9 +17,7 @@
 //! Where joint j and all its ancestors are slides, q_j only translates the
 //! subtree under uniform gravity and every slide above reads only linear
 //! forces: column j of dID/dq is zero and is not swept (a floating base's
-//! slide joints, as the half cheetah's root). So is column j of dID/dv: qd_j
-//! adds a uniform velocity to a subtree whose frames do not turn, a Galilean
-//! boost that no force notices.
+//! slide joints, as the half cheetah's root).
 
 use nalgebra::{DMatrixViewMut, DVectorViewMut};
 
@@ -110,12 +108,9 @@ pub fn rnea_derivatives(
         sweep.translational[j] = translational;
         if translational {
             d_dq.column_mut(j).fill(0.0);
-            if let Some(d_dv) = &mut d_dv {
-                d_dv.column_mut(j).fill(0.0);
-            }
-            continue;
+        } else {
+            position_column(tree, data, sweep, v, j, d_dq.column_mut(j));
         }
-        position_column(tree, data, sweep, v, j, d_dq.column_mut(j));
         if let Some(d_dv) = &mut d_dv {
             // Velocity of j.
             let da = data.vel[j].cross_motion(&s);
