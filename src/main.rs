@@ -215,11 +215,6 @@ enum Command {
         #[arg(long, default_value = "reports")]
         reports: PathBuf,
     },
-    /// Reproduce the paper's experiments on the shipped controllers and UC-MLP
-    /// weights: for cartpole, Tables 1 and 4 and the context-window study
-    /// (reports/{table1,table4}-cartpole.{md,json}, reports/window-cartpole.{json,svg});
-    /// for cheetah, Table 2 and its window study (reports/table2-half_cheetah.{md,json},
-    /// reports/window-half_cheetah.{json,svg}). Prints the tables. `all` runs both.
     /// One episode of the wiping task (a KUKA iiwa pressing a compliant
     /// tool on a table with 3 N while it strokes back and forth) as CSV:
     /// t, q, v, tau per dof, the sensed normal force and the admittance
@@ -263,6 +258,13 @@ enum Command {
         #[arg(long)]
         threads: Option<usize>,
     },
+    /// Reproduce the paper's experiments on the shipped controllers and UC-MLP
+    /// weights: for cartpole, Tables 1 and 4 and the context-window study
+    /// (reports/{table1,table4}-cartpole.{md,json}, reports/window-cartpole.{json,svg});
+    /// for cheetah, Table 2 and its window study (reports/table2-half_cheetah.{md,json},
+    /// reports/window-half_cheetah.{json,svg}); for wiping, Table 3; for
+    /// wiping-dims, the higher-dimension study. Prints the tables. `all` runs
+    /// every one.
     Reproduce {
         /// cartpole, cheetah, wiping (Table 3), wiping-dims (the higher-dimension study) or all.
         #[arg(default_value = "all")]

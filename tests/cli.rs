@@ -208,3 +208,36 @@ fn jacobian_explains_bad_input() {
     let (ok, _, err) = run_cli(&["jacobian", "reference_models/cartpole.xml", "--q", "0,inf"]);
     assert!(!ok && err.contains("q[1] is not finite"), "{err}");
 }
+
+/// Every command of `diffosi --help` has its own description.
+#[test]
+fn help_describes_every_command() {
+    let (ok, out, err) = run_cli(&["--help"]);
+    assert!(ok, "{err}");
+    let described = |command: &str, words: &str| {
+        out.lines()
+            .any(|l| l.trim_start().starts_with(command) && l.contains(words))
+    };
+    assert!(
+        described("reproduce", "Reproduce the paper's experiments"),
+        "{out}"
+    );
+    assert!(
+        described("wipe ", "One episode of the wiping task"),
+        "{out}"
+    );
+    assert!(!described("wipe ", "Reproduce"), "{out}");
+    for line in out
+        .lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+    {
+        if line.trim().is_empty() {
+            break;
+        }
+        assert!(
+            line.split_whitespace().count() > 1,
+            "no description: {line}"
+        );
+    }
+}
