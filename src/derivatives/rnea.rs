@@ -66,6 +66,15 @@ impl Sweep {
         }
     }
 
+    /// Whether dof j and all its ancestors are slides (see the module
+    /// documentation), recorded for j's children: parents come first.
+    fn mark_translational(&mut self, tree: &Tree<f64>, j: usize) -> bool {
+        let translational = tree.joint[j].kind == JointKind::Slide
+            && tree.parent[j].is_none_or(|p| self.translational[p]);
+        self.translational[j] = translational;
+        translational
+    }
+
     /// The node accelerations of the last [`Sweep::mass_product`].
     pub fn mass_product_accelerations(&self) -> &[Motion<f64>] {
         &self.acc_y
@@ -103,10 +112,7 @@ pub fn rnea_derivatives(
     }
     for j in 0..tree.nv() {
         let s = tree.joint[j].s;
-        let translational = tree.joint[j].kind == JointKind::Slide
-            && tree.parent[j].is_none_or(|p| sweep.translational[p]);
-        sweep.translational[j] = translational;
-        if translational {
+        if sweep.mark_translational(tree, j) {
             d_dq.column_mut(j).fill(0.0);
         } else {
             position_column(tree, data, sweep, v, j, d_dq.column_mut(j));
@@ -135,10 +141,7 @@ pub fn mass_derivative(
     sweep.mass_product(tree, data, y);
     for j in 0..n {
         let s = tree.joint[j].s;
-        let translational = tree.joint[j].kind == JointKind::Slide
-            && tree.parent[j].is_none_or(|p| sweep.translational[p]);
-        sweep.translational[j] = translational;
-        if translational {
+        if sweep.mark_translational(tree, j) {
             d_dq.column_mut(j).fill(0.0);
             continue;
         }
