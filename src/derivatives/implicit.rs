@@ -511,7 +511,7 @@ mod tests {
     /// trajectories in contact (every collider, both cones, limits, dry
     /// friction; Euler and RK4).
     #[test]
-    fn state_columns_equal_dual_numbers_through_the_step() {
+    fn analytic_columns_equal_dual_numbers_through_the_step() {
         let dir = env!("CARGO_MANIFEST_DIR");
         for file in [
             "reference_models/half_cheetah.xml",

@@ -108,16 +108,28 @@ pub fn step_jacobians(
     ws.size_for(model);
     let (mut q_next, mut v_next) = (vec![0.0; n], vec![0.0; n]);
     // Under the constraint model the columns are analytic but the contact
-    // parameters' (friction, solref, solimp, dry friction), which are dual;
-    // where the zones defeat the analytic derivative (an elliptic cone in its
-    // middle zone), every column is dual.
-    let dual_params = tree.has_constraints() && wrt.params.iter().any(|p| p.is_constraint());
-    let analytic_wrt = Wrt {
-        params: if dual_params { &[] } else { wrt.params },
-        ..*wrt
+    // parameters' (friction, solref, solimp, dry friction), which are dual
+    // and interleaved back in order; where the zones defeat the analytic
+    // derivative (an elliptic cone in its middle zone), every column is dual.
+    let is_dual = |p: Param| tree.has_constraints() && p.is_constraint();
+    let dual_params: Vec<Param> = wrt.params.iter().copied().filter(|p| is_dual(*p)).collect();
+    let analytic_params: Vec<Param>;
+    let analytic_wrt = if dual_params.is_empty() {
+        *wrt
+    } else {
+        analytic_params = wrt
+            .params
+            .iter()
+            .copied()
+            .filter(|p| !is_dual(*p))
+            .collect();
+        Wrt {
+            params: &analytic_params,
+            ..*wrt
+        }
     };
     let analytic = match model.opt.integrator {
-        _ if dual_params && !wrt.state && !wrt.control => None,
+        _ if !wrt.state && !wrt.control && analytic_wrt.params.is_empty() => None,
         Integrator::Euler => {
             let h = model.opt.timestep;
             let mode = (model.opt.passive, h);
@@ -137,12 +149,14 @@ pub fn step_jacobians(
         }
     };
     let blocks = match analytic {
-        Some(mut blocks) if dual_params => {
+        Some(mut blocks) if !dual_params.is_empty() => {
             let params = Wrt {
-                params: wrt.params,
+                params: &dual_params,
                 ..Wrt::default()
             };
-            (blocks[3], blocks[7]) = dual_columns(model, &mut ws.duals, (q, v, tau), &params)?;
+            let (dq, dv) = dual_columns(model, &mut ws.duals, (q, v, tau), &params)?;
+            blocks[3] = interleave(wrt.params, (&blocks[3], &dq), is_dual);
+            blocks[7] = interleave(wrt.params, (&blocks[7], &dv), is_dual);
             blocks
         }
         Some(blocks) => blocks,
@@ -179,6 +193,29 @@ pub fn step_jacobians(
         dq_dp,
         dv_dp,
     })
+}
+
+/// The parameter columns in the order of `params` from the columns of the
+/// analytic ones and of the dual ones (`is_dual` tells which a parameter is).
+fn interleave(
+    params: &[Param],
+    (analytic, dual): (&DMatrix<f64>, &DMatrix<f64>),
+    is_dual: impl Fn(Param) -> bool,
+) -> DMatrix<f64> {
+    let mut out = DMatrix::zeros(analytic.nrows(), analytic.ncols() + dual.ncols());
+    let (mut a, mut d, mut col) = (0, 0, 0);
+    for &p in params {
+        let (from, next) = if is_dual(p) {
+            (dual, &mut d)
+        } else {
+            (analytic, &mut a)
+        };
+        for _ in 0..p.size() {
+            out.set_column(col, &from.column(*next));
+            (col, *next) = (col + 1, *next + 1);
+        }
+    }
+    out
 }
 
 /// Columns of each state block (q or v) and of the tau block.
