@@ -76,6 +76,11 @@ macro_rules! vector_ops {
                 }
             }
         }
+        impl<T: Real> Default for $t<T> {
+            fn default() -> Self {
+                $t::zero()
+            }
+        }
         impl<T: Real> Add for $t<T> {
             type Output = Self;
             #[inline]
@@ -257,6 +262,19 @@ impl<T: Real> Inertia<T> {
         )
     }
 
+    /// The rate of change of this inertia while its body moves with the twist
+    /// v = (w, u): v x* I - I v x, itself an inertia of zero mass, with
+    /// h' = m u + w x h and I_O' = [w] I_O - I_O [w] - [u] [h] - [h] [u].
+    pub fn rate(&self, v: &Motion<T>) -> Inertia<T> {
+        let (w, u) = (skew(&v.ang), skew(&v.lin));
+        let h = skew(&self.h);
+        Inertia {
+            mass: T::zero(),
+            h: v.lin * self.mass + v.ang.cross(&self.h),
+            rot: w * self.rot - self.rot * w - u * h - h * u,
+        }
+    }
+
     /// X^T I X: this inertia, given in the target frame of `x`, expressed in
     /// its source frame.
     pub fn to_source(&self, x: &Transform<T>) -> Inertia<T> {
@@ -393,6 +411,15 @@ mod tests {
             &Matrix3::new(0.3, 0.01, 0.02, 0.01, 0.4, 0.03, 0.02, 0.03, 0.5),
         );
         (x, m, f, i)
+    }
+
+    #[test]
+    fn inertia_rate_is_the_commutator_with_the_motion() {
+        let (_, v, _, i) = sample();
+        let m = Motion::new(Vector3::new(0.7, -0.4, 1.1), Vector3::new(-0.3, 0.9, 0.2));
+        let expected = v.cross_force(&i.mul_motion(&m)) - i.mul_motion(&v.cross_motion(&m));
+        let got = i.rate(&v).mul_motion(&m);
+        assert!((got - expected).ang.norm() + (got - expected).lin.norm() < 1e-12);
     }
 
     #[test]

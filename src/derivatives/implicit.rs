@@ -39,7 +39,7 @@ use num_dual::Dual64;
 
 use crate::dynamics::collision::{contact_geometry, ConstraintContact, MINVAL};
 use crate::dynamics::constraint::{mixing, RowKind, Rows};
-use crate::dynamics::solver::Zone;
+use crate::dynamics::solver::{add_outer, Zone};
 use crate::dynamics::{Constrained, Data, Tree};
 use crate::model::Cone;
 use crate::spatial::{Force, Motion, Transform};
@@ -54,13 +54,20 @@ struct Slope {
 }
 
 /// How a contact moves with one of its bodies: an orthonormal basis of the
-/// twists the body's dofs give it (6-vectors, angular then linear) and the
-/// slope along each. A planar chain spans three twists, a spatial one six:
-/// one dual run of the collider per basis twist.
-#[derive(Clone, Debug, Default)]
+/// twists the body's dofs give it (the first `len` 6-vectors, angular then
+/// linear) and the slope along each. A planar chain spans three twists, a
+/// spatial one six: one dual run of the collider per basis twist.
+#[derive(Clone, Copy, Debug, Default)]
 struct Moves {
-    basis: Vec<[f64; 6]>,
-    slopes: Vec<Slope>,
+    len: usize,
+    basis: [[f64; 6]; 6],
+    slopes: [Slope; 6],
+}
+
+impl Moves {
+    fn along(&self) -> impl Iterator<Item = (&[f64; 6], &Slope)> {
+        self.basis[..self.len].iter().zip(&self.slopes[..self.len])
+    }
 }
 
 /// Per body of a contact (b1, b2): how the contact moves with it (none for
@@ -81,23 +88,17 @@ pub(super) fn add_row_partials(
     data: &Data<f64>,
     (v, a): (&[f64], &[f64]),
     c: &Constrained<f64>,
-    mut r_q: DMatrixViewMut<f64>,
-    mut r_v: DMatrixViewMut<f64>,
+    (mut r_q, mut r_v): (DMatrixViewMut<f64>, DMatrixViewMut<f64>),
+    scratch: &mut Scratch,
 ) {
     let rows = &c.rows;
     let zone = &c.solution.zone;
-    let jar: Vec<f64> = (0..rows.len())
-        .map(|i| dot(rows.row(i), a) - rows.aref[i])
-        .collect();
+    let mut jar = std::mem::take(&mut scratch.jar);
+    jar.clear();
+    jar.extend((0..rows.len()).map(|i| dot(rows.row(i), a) - rows.aref[i]));
     let quadratic = |i: &usize| zone[*i] == Zone::Quadratic;
     for i in (0..rows.len()).filter(quadratic) {
-        let w = rows.damping[i] / rows.r[i];
-        let row = rows.row(i);
-        for (p, &jp) in row.iter().enumerate().filter(|(_, x)| **x != 0.0) {
-            for (m, &jm) in row.iter().enumerate() {
-                r_v[(p, m)] += w * jp * jm;
-            }
-        }
+        add_outer(r_v.as_view_mut(), rows.damping[i] / rows.r[i], rows.row(i));
     }
     let contacts_start = rows.contact_rows.first().map_or(rows.len(), |r| r.0);
     for i in (0..contacts_start).filter(quadratic) {
@@ -110,8 +111,8 @@ pub(super) fn add_row_partials(
             r_q[(k, k)] -= (rows.dlog_r_ddist[i] * jar[i] + rows.daref_ddist[i]) / rows.r[i];
         }
     }
-    let slopes = slopes(tree, data, &c.contacts);
-    let mut scratch = Scratch::default();
+    let mut slopes = std::mem::take(&mut scratch.slopes);
+    find_slopes(tree, data, &c.contacts, &mut slopes);
     let elliptic = tree.constraint.solver.cone == Cone::Elliptic;
     for ((contact, &span), slopes) in c.contacts.iter().zip(&rows.contact_rows).zip(&slopes) {
         let live = (span.0..span.0 + span.1).any(|i| zone[i] != Zone::Free);
@@ -123,9 +124,10 @@ pub(super) fn add_row_partials(
                 slopes,
             };
             let point_rows = (rows, &zone[..], &c.solution.force[..], &jar[..]);
-            point.add_partials(tree, data, (v, a), point_rows, (&mut scratch, &mut r_q));
+            point.add_partials(tree, data, (v, a), point_rows, (scratch, &mut r_q));
         }
     }
+    (scratch.jar, scratch.slopes) = (jar, slopes);
 }
 
 /// Adds the rows' part of dg/dp to `column` for a parameter that moves only
@@ -218,6 +220,7 @@ impl ContactPoint<'_> {
             on,
             below_a,
             below_v,
+            ..
         } = scratch;
         on.clear();
         on.resize(n, 0);
@@ -257,35 +260,32 @@ impl ContactPoint<'_> {
         let total = (0..dim).fold(Force::zero(), |s, k| s + wrenches[k] * phi[k]);
         // Per basis twist (side, u): the distance's slope, W(a) . dE_k, W(v) . dE_k
         // and sum_k phi_k dE_k.
-        let along: Vec<Along> = (0..2)
+        let mut along = [Along::default(); 12];
+        let mut n_along = 0;
+        let twists = (0..2)
             .filter_map(|side| self.slopes[side].as_ref().map(|moves| (side, moves)))
-            .flat_map(|(side, moves)| {
-                moves
-                    .basis
-                    .iter()
-                    .zip(&moves.slopes)
-                    .map(move |m| (side, m))
-            })
-            .map(|(side, (u, slope))| {
-                let mut a_de = [0.0; 6];
-                let mut v_de = [0.0; 6];
-                let mut phi_de = Force::zero();
-                for k in 0..dim {
-                    let de = self.wrench(k, slope).1;
-                    a_de[k] = w_a.dot(&de);
-                    v_de[k] = w_v.dot(&de);
-                    phi_de += de * phi[k];
-                }
-                Along {
-                    side,
-                    twist: *u,
-                    ddist: slope.ddist,
-                    a_de,
-                    v_de,
-                    phi_de,
-                }
-            })
-            .collect();
+            .flat_map(|(side, moves)| moves.along().map(move |m| (side, m)));
+        for (side, (u, slope)) in twists {
+            let mut a_de = [0.0; 6];
+            let mut v_de = [0.0; 6];
+            let mut phi_de = Force::zero();
+            for k in 0..dim {
+                let de = self.wrench(k, slope).1;
+                a_de[k] = w_a.dot(&de);
+                v_de[k] = w_v.dot(&de);
+                phi_de += de * phi[k];
+            }
+            along[n_along] = Along {
+                side,
+                twist: *u,
+                ddist: slope.ddist,
+                a_de,
+                v_de,
+                phi_de,
+            };
+            n_along += 1;
+        }
+        let along = &along[..n_along];
         for m in (0..n).filter(|&m| on[m] != 0) {
             let s_m = data.world_axis[m];
             let twist = [
@@ -342,6 +342,7 @@ impl ContactPoint<'_> {
 /// What a contact's derivative forms once per basis twist u of a body
 /// (`side`): the distance's slope along u, W(a) . dE_k and W(v) . dE_k, and
 /// sum_k phi_k dE_k, for the change dE_k of the unit wrenches along u.
+#[derive(Clone, Copy, Default)]
 struct Along {
     side: usize,
     twist: [f64; 6],
@@ -351,19 +352,28 @@ struct Along {
     phi_de: Force<f64>,
 }
 
-/// Per-dof buffers of [`ContactPoint::add_partials`], reused across contacts.
-#[derive(Default)]
-struct Scratch {
+/// The buffers of [`add_row_partials`], kept across calls: the rows'
+/// residuals, every contact's slopes, and [`ContactPoint::add_partials`]'s
+/// per-dof buffers, reused across contacts.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Scratch {
+    jar: Vec<f64>,
+    slopes: Vec<Slopes>,
     on: Vec<u8>,
     below_a: Vec<Motion<f64>>,
     below_v: Vec<Motion<f64>>,
 }
 
-/// How every contact moves: per pair, the collider run on dual numbers along
-/// each basis twist of each moving body, its contacts matched to the
-/// state's in order (the same branches, so the same contacts).
-fn slopes(tree: &Tree<f64>, data: &Data<f64>, contacts: &[ConstraintContact<f64>]) -> Vec<Slopes> {
-    let mut out: Vec<Slopes> = Vec::with_capacity(contacts.len());
+/// How every contact moves, into `out`: per pair, the collider run on dual
+/// numbers along each basis twist of each moving body, its contacts matched
+/// to the state's in order (the same branches, so the same contacts).
+fn find_slopes(
+    tree: &Tree<f64>,
+    data: &Data<f64>,
+    contacts: &[ConstraintContact<f64>],
+    out: &mut Vec<Slopes>,
+) {
+    out.clear();
     let mut start = 0;
     while start < contacts.len() {
         let index = contacts[start].pair;
@@ -377,106 +387,106 @@ fn slopes(tree: &Tree<f64>, data: &Data<f64>, contacts: &[ConstraintContact<f64>
         let poses = geoms.map(|g| g.pose(&data.world));
         let shapes = geoms.map(|g| &g.shape);
         let reach = pair.params.margin + pair.params.gap;
-        let mut group: Vec<Slopes> = vec![[None, None]; end - start];
+        out.resize(end, [None, None]);
         for side in (0..2).filter(|&s| geoms[s].node.is_some()) {
             let basis = twist_basis(tree, data, geoms[side].node);
-            let mut along = vec![Moves::default(); end - start];
-            for u in &basis {
+            for slopes in &mut out[start..end] {
+                slopes[side] = Some(Moves {
+                    slopes: [Slope::default(); 6],
+                    ..basis
+                });
+            }
+            for (t, u) in basis.basis[..basis.len].iter().enumerate() {
                 let dual = std::array::from_fn(|s| perturbed(&poses[s], (s == side).then_some(u)));
                 let touches = contact_geometry(shapes, dual, reach)
                     .filter(|(_, _, dist)| dist.re < pair.params.margin);
-                for (moves, (p, e, dist)) in along.iter_mut().zip(touches) {
-                    moves.basis.push(*u);
-                    moves.slopes.push(Slope {
+                for (slopes, (p, e, dist)) in out[start..end].iter_mut().zip(touches) {
+                    let moves = slopes[side].as_mut().expect("set above");
+                    moves.slopes[t] = Slope {
                         dp: p.map(|x| x.eps),
                         de: e.map(|x| x.eps),
                         ddist: dist.eps,
-                    });
+                    };
                 }
             }
-            for (g, a) in group.iter_mut().zip(along) {
-                g[side] = Some(a);
-            }
         }
-        out.extend(group);
         start = end;
     }
-    out
 }
 
-/// The inverse of a symmetric positive definite matrix from its Cholesky
-/// factor, None if it is not positive definite. Written out: on the small
-/// dense matrices here it is several times faster than nalgebra's
-/// column-by-column solves.
-pub(super) fn spd_inverse(a: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+/// The inverse of the symmetric positive definite `a` into `out` through
+/// its Cholesky factor, computed in place in `a` (which it overwrites);
+/// false if `a` is not numerically positive definite. Written out: on the
+/// small dense matrices here it is several times faster than nalgebra's
+/// column-by-column solves, and it allocates nothing.
+pub(super) fn spd_inverse(a: &mut DMatrix<f64>, out: &mut DMatrix<f64>) -> bool {
     let n = a.nrows();
-    let a = a.as_slice();
-    // A = L L^T, L row-major in `l` (A is symmetric: its column-major entry
-    // (j, k) at j + k n reads as well).
-    let mut l = vec![0.0; n * n];
+    // A = L L^T, L in the lower triangle (A's own lower triangle read first).
     for j in 0..n {
         for k in 0..=j {
-            let mut s = a[j + k * n];
+            let mut s = a[(j, k)];
             for p in 0..k {
-                s -= l[j * n + p] * l[k * n + p];
+                s -= a[(j, p)] * a[(k, p)];
             }
             if k < j {
-                l[j * n + k] = s / l[k * n + k];
+                a[(j, k)] = s / a[(k, k)];
             } else if s.is_nan() || s <= 0.0 {
-                return None;
+                return false;
             } else {
-                l[j * n + j] = s.sqrt();
+                a[(j, j)] = s.sqrt();
             }
         }
     }
-    // L^-1, row-major lower triangular.
-    let mut inv = vec![0.0; n * n];
+    // L^-1 in place, row by row: entry (i, c) reads L's (i, k >= c), not yet
+    // overwritten, and the rows of L^-1 above.
     for i in 0..n {
-        inv[i * n + i] = 1.0 / l[i * n + i];
+        a[(i, i)] = 1.0 / a[(i, i)];
         for c in 0..i {
             let mut s = 0.0;
             for k in c..i {
-                s += l[i * n + k] * inv[k * n + c];
+                s += a[(i, k)] * a[(k, c)];
             }
-            inv[i * n + c] = -s / l[i * n + i];
+            a[(i, c)] = -s * a[(i, i)];
         }
     }
-    // A^-1 = L^-T L^-1: entry (r, c) = sum over k >= max(r, c) of inv[k][r] inv[k][c].
-    let mut out = DMatrix::zeros(n, n);
-    let o = out.as_mut_slice();
+    // A^-1 = L^-T L^-1: entry (r, c) = sum over k >= max(r, c) of L^-1 (k, r) L^-1 (k, c).
+    if out.shape() != (n, n) {
+        *out = DMatrix::zeros(n, n);
+    }
     for r in 0..n {
         for c in 0..=r {
             let mut s = 0.0;
             for k in r..n {
-                s += inv[k * n + r] * inv[k * n + c];
+                s += a[(k, r)] * a[(k, c)];
             }
-            o[r + c * n] = s;
-            o[c + r * n] = s;
+            out[(r, c)] = s;
+            out[(c, r)] = s;
         }
     }
-    Some(out)
+    true
 }
 
 /// An orthonormal basis (Gram-Schmidt) of the twists of the dofs on the
-/// path from `node` to the root, world coordinates.
-fn twist_basis(tree: &Tree<f64>, data: &Data<f64>, node: Option<usize>) -> Vec<[f64; 6]> {
-    let mut basis: Vec<[f64; 6]> = Vec::with_capacity(6);
+/// path from `node` to the root, world coordinates (slopes not yet known).
+fn twist_basis(tree: &Tree<f64>, data: &Data<f64>, node: Option<usize>) -> Moves {
+    let mut out = Moves::default();
     let mut k = node;
     while let Some(j) = k {
         let s = data.world_axis[j];
         let mut u = [s.ang.x, s.ang.y, s.ang.z, s.lin.x, s.lin.y, s.lin.z];
         let scale = dot(&u, &u).sqrt();
-        for b in &basis {
+        for b in &out.basis[..out.len] {
             let along = dot(b, &u);
             u.iter_mut().zip(b).for_each(|(x, y)| *x -= along * y);
         }
         let norm = dot(&u, &u).sqrt();
-        if basis.len() < 6 && norm > 1e-9 * scale {
-            basis.push(u.map(|x| x / norm));
+        if out.len < 6 && norm > 1e-9 * scale {
+            out.basis[out.len] = u.map(|x| x / norm);
+            out.len += 1;
         }
         k = tree.parent[j];
     }
-    basis
+    out
 }
 
 /// A pose on dual numbers, moved along `twist` (angular, then linear;

@@ -32,6 +32,6 @@ mod soft;
 mod step;
 mod window;
 
-pub use rnea::{mass_derivative, rnea_derivatives, Sweep};
+pub use rnea::{rnea_derivatives, Sweep};
 pub use step::{step_jacobians, StepJacobians, Workspace, Wrt};
 pub use window::{window_residuals, window_residuals_into, Transition, WindowError, WindowFit};

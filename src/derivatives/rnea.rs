@@ -1,54 +1,97 @@
-//! Analytic derivatives of inverse dynamics ID(q, v, a) = M(q) a + c(q, v) with
-//! respect to q and v, by forward propagation of one dof's perturbation
-//! through its subtree (in the spirit of Carpentier & Mansard 2018).
+//! Analytic derivatives of inverse dynamics ID(q, v, a) = M(q) a + c(q, v)
+//! with respect to q and v, and of M(q) y with respect to q for a fixed y:
+//! one forward and one backward sweep over the tree, then one product per
+//! pair of dofs on a common path (in the spirit of Carpentier & Mansard 2018).
 //!
-//! In node frames, a change of q_j moves node j's frame (and everything below
-//! it) relative to its parent: a vector fixed in the parent, seen from j,
-//! changes at the rate -S_j x (.) for motions and -S_j x* (.) for forces. So:
-//! - d v_j / d q_j = -S_j x v_j, d a_j / d q_j = -S_j x (X_j a_parent) + (d v_j) x S_j qd_j;
-//! - below j, d v_i = X_i d v_parent, d a_i = X_i d a_parent + d v_i x S_i qd_i;
-//! - d f_i = I_i d a_i + d v_i x* I_i v_i + v_i x* I_i d v_i;
-//! - forces pass to the parent through X_j^T, whose own change adds
-//!   X_j^T (S_j x* F_j) at the joint j itself;
-//! - d ID_k = S_k . d F_k for every node k on j's subtree and ancestor path.
+//! Conventions: world coordinates about the world origin; S_i the axis of
+//! dof i (one dof per node), v_i, a_i node i's velocity and acceleration (a
+//! with gravity as an upward acceleration of the world), I_i its inertia,
+//! h_i = I_i v_i, F_i the force on i's subtree, so ID_i = S_i . F_i (+ the
+//! armature's term, constant in q and v); a superscript C sums over a
+//! subtree; p the parent of j (v_p = 0, a_p = (0, -g) at the root).
 //!
-//! A change of qd_j starts with d v_j = S_j, d a_j = v_j x S_j instead.
-//!
-//! Where joint j and all its ancestors are slides, q_j only translates the
-//! subtree under uniform gravity and every slide above reads only linear
-//! forces: column j of dID/dq is zero and is not swept (a floating base's
-//! slide joints, as the half cheetah's root).
+//! A change of q_j turns j's subtree about S_j. Were the subtree's motion
+//! turned with it, every S_i and F_i of the subtree would turn alike and
+//! their products would not change; what does not turn is the motion the
+//! subtree inherits from above j. The rest of the change, the same for every
+//! body b of the subtree, is
+//!   dv_b = dv = -S_j x v_p,   da_b = c + dv x v_b,   c = -S_j x a_p - dv x v_p,
+//! so body b's force changes by I_b c + Phi_b(dv), with
+//!   Phi_b(x) = I_b (x x v_b) + x x* h_b + v_b x* I_b x = Idot_b x + x x* h_b,
+//! Idot_b the rate of I_b under b's own motion ([`Inertia::rate`]). Hence
+//!   dID_i/dq_j = S_i . (I^C_i c + Phi^C_i(dv)) = sigma_i . c + rho_i . dv
+//!       for i in j's subtree, sigma_i = I^C_i S_i, rho_i = Idot^C_i S_i - S_i x* h^C_i;
+//!   dID_i/dq_j = S_i . G_j,  G_j = S_j x* F_j + I^C_j c + Phi^C_j(dv)
+//!       for i above j (where the subtree's whole force turns).
+//! A change of v_j turns nothing: dv = S_j, c = 2 v_p x S_j, and G_j has no
+//! S_j x* F_j. d(M y)/dq_j is the q-derivative of ID with no velocity and
+//! no gravity, accelerations y: c = -S_j x ay_p, dv = 0.
 
-use nalgebra::{DMatrixViewMut, DVectorViewMut};
+use nalgebra::DMatrixViewMut;
 
 #[cfg(doc)]
 use crate::dynamics::rnea;
 use crate::dynamics::{Data, Tree};
-use crate::model::JointKind;
-use crate::spatial::{Force, Motion};
+use crate::spatial::{Force, Inertia, Motion, Transform};
 
-/// Per-direction scratch of the sweeps.
+/// The sweeps' per-node scratch (world coordinates unless noted).
 #[derive(Clone, Debug)]
 pub struct Sweep {
-    dv: Vec<Motion<f64>>,
-    da: Vec<Motion<f64>>,
-    df: Vec<Force<f64>>,
-    /// I_i v_i at the point.
+    /// From the world to node i's frame.
+    world: Vec<Transform<f64>>,
+    axis: Vec<Motion<f64>>,
+    vel: Vec<Motion<f64>>,
+    acc: Vec<Motion<f64>>,
+    /// F_i, read from [`rnea`]'s subtree forces.
+    force: Vec<Force<f64>>,
+    /// I_i, then I^C_i; Idot^C_i; h^C_i.
+    inertia: Vec<Inertia<f64>>,
+    composite: Vec<Inertia<f64>>,
+    rate: Vec<Inertia<f64>>,
     momentum: Vec<Force<f64>>,
-    below: Vec<bool>,
-    /// Node and all its ancestors are slides.
-    translational: Vec<bool>,
-    /// d ID of the current direction.
-    tau: Vec<f64>,
-    /// [`mass_derivative`]'s accelerations and subtree forces of M(q) y.
+    /// sigma_i and rho_i of the module documentation.
+    sigma: Vec<Force<f64>>,
+    rho: Vec<Force<f64>>,
+    /// Per dof j, for q_j, v_j and (M y)'s q_j: (c, dv) and G_j.
+    position: Vec<(Motion<f64>, Motion<f64>, Force<f64>)>,
+    velocity: Vec<(Motion<f64>, Force<f64>)>,
+    mass: Vec<(Motion<f64>, Force<f64>)>,
+    /// M(q) y's accelerations and subtree forces: world coordinates for
+    /// [`rnea_derivatives`], node coordinates for [`Sweep::mass_product`].
+    world_acc_y: Vec<Motion<f64>>,
+    world_force_y: Vec<Force<f64>>,
     acc_y: Vec<Motion<f64>>,
     force_y: Vec<Force<f64>>,
 }
 
 impl Sweep {
+    pub fn new(n: usize) -> Self {
+        let zero = (Motion::zero(), Force::zero());
+        Sweep {
+            world: vec![Transform::identity(); n],
+            axis: vec![Motion::zero(); n],
+            vel: vec![Motion::zero(); n],
+            acc: vec![Motion::zero(); n],
+            force: vec![Force::zero(); n],
+            inertia: vec![Inertia::zero(); n],
+            composite: vec![Inertia::zero(); n],
+            rate: vec![Inertia::zero(); n],
+            momentum: vec![Force::zero(); n],
+            sigma: vec![Force::zero(); n],
+            rho: vec![Force::zero(); n],
+            position: vec![(Motion::zero(), Motion::zero(), Force::zero()); n],
+            velocity: vec![zero; n],
+            mass: vec![zero; n],
+            world_acc_y: vec![Motion::zero(); n],
+            world_force_y: vec![Force::zero(); n],
+            acc_y: vec![Motion::zero(); n],
+            force_y: vec![Force::zero(); n],
+        }
+    }
+
     /// The node accelerations and subtree forces of M(q) y (no velocity, no
-    /// gravity), `data.x_up` at q; the accelerations read back by
-    /// [`Sweep::mass_product_accelerations`].
+    /// gravity) in node coordinates, `data.x_up` at q; the accelerations read
+    /// back by [`Sweep::mass_product_accelerations`].
     pub fn mass_product(&mut self, tree: &Tree<f64>, data: &Data<f64>, y: &[f64]) {
         let n = tree.nv();
         for i in 0..n {
@@ -66,185 +109,157 @@ impl Sweep {
         }
     }
 
-    /// Whether dof j and all its ancestors are slides (see the module
-    /// documentation), recorded for j's children: parents come first.
-    fn mark_translational(&mut self, tree: &Tree<f64>, j: usize) -> bool {
-        let translational = tree.joint[j].kind == JointKind::Slide
-            && tree.parent[j].is_none_or(|p| self.translational[p]);
-        self.translational[j] = translational;
-        translational
-    }
-
     /// The node accelerations of the last [`Sweep::mass_product`].
     pub fn mass_product_accelerations(&self) -> &[Motion<f64>] {
         &self.acc_y
     }
 
-    pub fn new(n: usize) -> Self {
-        Sweep {
-            dv: vec![Motion::zero(); n],
-            da: vec![Motion::zero(); n],
-            df: vec![Force::zero(); n],
-            momentum: vec![Force::zero(); n],
-            below: vec![false; n],
-            translational: vec![false; n],
-            tau: vec![0.0; n],
-            acc_y: vec![Motion::zero(); n],
-            force_y: vec![Force::zero(); n],
+    /// World frames, axes, motion and forces of every node, then the
+    /// subtree sums and sigma, rho.
+    fn sweep(&mut self, tree: &Tree<f64>, data: &Data<f64>) {
+        let n = tree.nv();
+        for i in 0..n {
+            let up = &data.x_up[i];
+            self.world[i] = tree.parent[i].map_or(*up, |p| up.compose(&self.world[p]));
+            let w = &self.world[i];
+            self.axis[i] = w.inverse_apply_motion(&tree.joint[i].s);
+            self.vel[i] = w.inverse_apply_motion(&data.vel[i]);
+            self.acc[i] = w.inverse_apply_motion(&data.acc[i]);
+            self.force[i] = w.inverse_apply_force(&data.force[i]);
+            self.inertia[i] = tree.inertia[i].to_source(w);
+            self.composite[i] = self.inertia[i];
+            self.rate[i] = self.inertia[i].rate(&self.vel[i]);
+            self.momentum[i] = self.inertia[i].mul_motion(&self.vel[i]);
+        }
+        for i in (0..n).rev() {
+            if let Some(p) = tree.parent[i] {
+                let (composite, rate, momentum) =
+                    (self.composite[i], self.rate[i], self.momentum[i]);
+                self.composite[p] += composite;
+                self.rate[p] += rate;
+                self.momentum[p] += momentum;
+            }
+            let s = &self.axis[i];
+            self.sigma[i] = self.composite[i].mul_motion(s);
+            self.rho[i] = self.rate[i].mul_motion(s) - s.cross_force(&self.momentum[i]);
+        }
+    }
+
+    /// Phi^C_j(x) of the module documentation.
+    fn phi(&self, j: usize, x: &Motion<f64>) -> Force<f64> {
+        self.rate[j].mul_motion(x) + x.cross_force(&self.momentum[j])
+    }
+
+    /// The per-dof terms (c, dv, G) of q_j's and v_j's columns.
+    fn dof_terms(&mut self, tree: &Tree<f64>) {
+        let gravity = Motion::new(nalgebra::Vector3::zeros(), -tree.gravity);
+        for j in 0..tree.nv() {
+            let (v_p, a_p) =
+                tree.parent[j].map_or((Motion::zero(), gravity), |p| (self.vel[p], self.acc[p]));
+            let s = self.axis[j];
+            let dv = v_p.cross_motion(&s);
+            let c = -s.cross_motion(&a_p) - dv.cross_motion(&v_p);
+            let turn = s.cross_force(&self.force[j]);
+            let g = turn + self.composite[j].mul_motion(&c) + self.phi(j, &dv);
+            self.position[j] = (c, dv, g);
+            let c = (v_p * 2.0).cross_motion(&s);
+            let g = self.composite[j].mul_motion(&c) + self.phi(j, &s);
+            self.velocity[j] = (c, g);
+        }
+    }
+
+    /// M(q) y's world accelerations and subtree forces, and the per-dof
+    /// terms (c, G) of its q_j columns.
+    fn mass_terms(&mut self, tree: &Tree<f64>, y: &[f64]) {
+        let n = tree.nv();
+        for i in 0..n {
+            let parent = tree.parent[i].map_or(Motion::zero(), |p| self.world_acc_y[p]);
+            self.world_acc_y[i] = parent + self.axis[i] * y[i];
+            self.world_force_y[i] = self.inertia[i].mul_motion(&self.world_acc_y[i]);
+        }
+        for i in (0..n).rev() {
+            if let Some(p) = tree.parent[i] {
+                let up = self.world_force_y[i];
+                self.world_force_y[p] += up;
+            }
+        }
+        for j in 0..n {
+            let a_p = tree.parent[j].map_or(Motion::zero(), |p| self.world_acc_y[p]);
+            let s = self.axis[j];
+            let c = -s.cross_motion(&a_p);
+            let g = s.cross_force(&self.world_force_y[j]) + self.composite[j].mul_motion(&c);
+            self.mass[j] = (c, g);
         }
     }
 }
 
-/// Fills d_dq and, if given, d_dv (n x n, column j = derivative w.r.t. q_j or v_j) of
-/// ID(q, v, a); M includes the armature, which depends on neither. `data`
-/// must hold [`rnea`]'s results at (q, v, a): transforms, velocities,
-/// accelerations and subtree forces.
+/// Fills d_dq and d_dv (n x n, column j = derivative w.r.t. q_j or v_j) of
+/// ID(q, v, a), and with `mass = Some((y, d_my))` d_my with d(M(q) y)/dq.
+/// M includes the armature, which depends on neither. `data` must hold
+/// [`rnea`]'s results at (q, v, a): transforms, velocities, accelerations
+/// and subtree forces.
 pub fn rnea_derivatives(
     tree: &Tree<f64>,
     data: &Data<f64>,
     sweep: &mut Sweep,
-    v: &[f64],
-    mut d_dq: DMatrixViewMut<f64>,
-    mut d_dv: Option<DMatrixViewMut<f64>>,
+    (mut d_dq, mut d_dv): (DMatrixViewMut<f64>, DMatrixViewMut<f64>),
+    mass: Option<(&[f64], DMatrixViewMut<f64>)>,
 ) {
+    sweep.sweep(tree, data);
+    sweep.dof_terms(tree);
+    zero(&mut d_dq);
+    zero(&mut d_dv);
+    let mut mass = mass.map(|(y, mut d_my)| {
+        sweep.mass_terms(tree, y);
+        zero(&mut d_my);
+        d_my
+    });
+    // Entry (i, k) for every k on i's path (i in k's subtree), and (k, i)
+    // for k above i.
     for i in 0..tree.nv() {
-        sweep.momentum[i] = tree.inertia[i].mul_motion(&data.vel[i]);
-    }
-    for j in 0..tree.nv() {
-        let s = tree.joint[j].s;
-        if sweep.mark_translational(tree, j) {
-            d_dq.column_mut(j).fill(0.0);
-        } else {
-            position_column(tree, data, sweep, v, j, d_dq.column_mut(j));
-        }
-        if let Some(d_dv) = &mut d_dv {
-            // Velocity of j.
-            let da = data.vel[j].cross_motion(&s);
-            propagate(tree, data, sweep, v, j, (s, da), Force::zero());
-            d_dv.column_mut(j).copy_from_slice(&sweep.tau);
+        let (sigma, rho) = (&sweep.sigma[i], &sweep.rho[i]);
+        let mut k = Some(i);
+        while let Some(j) = k {
+            let (c, dv, _) = &sweep.position[j];
+            d_dq[(i, j)] = c.dot(sigma) + dv.dot(rho);
+            let (cv, _) = &sweep.velocity[j];
+            d_dv[(i, j)] = cv.dot(sigma) + sweep.axis[j].dot(rho);
+            if let Some(d_my) = &mut mass {
+                d_my[(i, j)] = sweep.mass[j].0.dot(sigma);
+            }
+            if j != i {
+                let s = &sweep.axis[j];
+                d_dq[(j, i)] = s.dot(&sweep.position[i].2);
+                d_dv[(j, i)] = s.dot(&sweep.velocity[i].1);
+                if let Some(d_my) = &mut mass {
+                    d_my[(j, i)] = s.dot(&sweep.mass[i].1);
+                }
+            }
+            k = tree.parent[j];
         }
     }
 }
 
-/// Fills d_dq (n x n) with d(M(q) y)/dq for a fixed y, `data.x_up` at q:
-/// the position columns of [`rnea_derivatives`] for the accelerations of y
-/// alone (no velocity, no gravity), one forward and one backward pass for
-/// M(q) y itself, then one propagation per dof.
-pub fn mass_derivative(
-    tree: &Tree<f64>,
-    data: &Data<f64>,
-    sweep: &mut Sweep,
-    y: &[f64],
-    mut d_dq: DMatrixViewMut<f64>,
-) {
-    let n = tree.nv();
-    sweep.mass_product(tree, data, y);
-    for j in 0..n {
-        let s = tree.joint[j].s;
-        if sweep.mark_translational(tree, j) {
-            d_dq.column_mut(j).fill(0.0);
-            continue;
-        }
-        let parent_acc = tree.parent[j].map_or(Motion::zero(), |p| sweep.acc_y[p]);
-        let da = -s.cross_motion(&data.x_up[j].apply_motion(&parent_acc));
-        let turn = s.cross_force(&sweep.force_y[j]);
-        // With no velocity perturbation the velocity terms vanish whatever v.
-        propagate(tree, data, sweep, y, j, (Motion::zero(), da), turn);
-        d_dq.column_mut(j).copy_from_slice(&sweep.tau);
-    }
-}
-
-/// Column j of dID/dq: q_j turns node j's frame relative to its parent.
-fn position_column(
-    tree: &Tree<f64>,
-    data: &Data<f64>,
-    sweep: &mut Sweep,
-    v: &[f64],
-    j: usize,
-    mut column: DVectorViewMut<f64>,
-) {
-    let s = tree.joint[j].s;
-    let parent_acc = match tree.parent[j] {
-        Some(p) => data.acc[p],
-        None => Motion::new(nalgebra::Vector3::zeros(), -tree.gravity),
-    };
-    let dv = -s.cross_motion(&data.vel[j]);
-    let da =
-        -s.cross_motion(&data.x_up[j].apply_motion(&parent_acc)) + dv.cross_motion(&(s * v[j]));
-    let turn = s.cross_force(&data.force[j]);
-    propagate(tree, data, sweep, v, j, (dv, da), turn);
-    column.copy_from_slice(&sweep.tau);
-}
-
-/// Pushes a perturbation (dv_j, da_j) of node j through its subtree and the
-/// resulting force change up to the root; writes d ID into `sweep.tau`.
-/// `turn` is the extra force change X_j^T (turn) passed to j's parent.
-fn propagate(
-    tree: &Tree<f64>,
-    data: &Data<f64>,
-    sweep: &mut Sweep,
-    v: &[f64],
-    j: usize,
-    (dv_j, da_j): (Motion<f64>, Motion<f64>),
-    turn: Force<f64>,
-) {
-    let n = tree.nv();
-    sweep.tau.fill(0.0);
-    for i in j..n {
-        let below = i == j || tree.parent[i].is_some_and(|p| p > j && sweep.below[p] || p == j);
-        sweep.below[i] = below;
-        if !below {
-            continue;
-        }
-        let (dv, da) = if i == j {
-            (dv_j, da_j)
-        } else {
-            let p = tree.parent[i].expect("below j has a parent");
-            let x = &data.x_up[i];
-            let dv = x.apply_motion(&sweep.dv[p]);
-            (
-                dv,
-                x.apply_motion(&sweep.da[p]) + dv.cross_motion(&(tree.joint[i].s * v[i])),
-            )
-        };
-        let inertia = &tree.inertia[i];
-        let vel = &data.vel[i];
-        sweep.dv[i] = dv;
-        sweep.da[i] = da;
-        sweep.df[i] = inertia.mul_motion(&da)
-            + dv.cross_force(&sweep.momentum[i])
-            + vel.cross_force(&inertia.mul_motion(&dv));
-    }
-    for i in (j + 1..n).rev() {
-        if sweep.below[i] {
-            sweep.tau[i] = tree.joint[i].s.dot(&sweep.df[i]);
-            let p = tree.parent[i].expect("below j has a parent");
-            let up = data.x_up[i].inverse_apply_force(&sweep.df[i]);
-            sweep.df[p] += up;
-        }
-    }
-    sweep.tau[j] = tree.joint[j].s.dot(&sweep.df[j]);
-    let mut df = data.x_up[j].inverse_apply_force(&(sweep.df[j] + turn));
-    let mut k = j;
-    while let Some(p) = tree.parent[k] {
-        sweep.tau[p] = tree.joint[p].s.dot(&df);
-        k = p;
-        if tree.parent[k].is_some() {
-            df = data.x_up[k].inverse_apply_force(&df);
-        }
+/// Zeros a view column by column (nalgebra's `fill` on a view walks it
+/// entry by entry).
+fn zero(m: &mut DMatrixViewMut<f64>) {
+    for j in 0..m.ncols() {
+        m.column_mut(j).as_mut_slice().fill(0.0);
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dynamics::crba;
+    use crate::dynamics::{crba, rnea};
     use crate::Model;
-    use nalgebra::DMatrix;
+    use nalgebra::{DMatrix, DVector};
 
-    /// d(M(q) y)/dq equals central differences of the mass matrix times y.
+    /// dID/dq, dID/dv and d(M(q) y)/dq equal central differences of RNEA
+    /// and of the mass matrix times y, on a branched tree with slides and
+    /// hinges, away from any special pose.
     #[test]
-    fn mass_derivative_matches_finite_differences() {
+    fn derivatives_match_finite_differences() {
         let model = Model::load(concat!(
             env!("CARGO_MANIFEST_DIR"),
             "/reference_models/half_cheetah.xml"
@@ -252,24 +267,60 @@ mod tests {
         .unwrap();
         let tree = model.tree();
         let n = model.nv();
-        let q: Vec<f64> = (0..n).map(|i| 0.3 * (i as f64 + 1.0).sin()).collect();
-        let y: Vec<f64> = (0..n).map(|i| (i as f64 + 2.0).cos()).collect();
+        let wave = |k: f64, phase: f64| -> Vec<f64> {
+            (0..n).map(|i| k * (i as f64 + phase).sin()).collect()
+        };
+        let (q, v, a, y) = (
+            wave(0.3, 1.0),
+            wave(1.5, 2.0),
+            wave(4.0, 3.0),
+            wave(1.0, 4.0),
+        );
         let mut data = model.data();
-        crba(tree, &mut data, &q);
+        let mut tau = vec![0.0; n];
+        rnea(tree, &mut data, &q, &v, &a, &mut tau);
         let mut sweep = Sweep::new(n);
-        let mut exact = DMatrix::zeros(n, n);
-        mass_derivative(tree, &data, &mut sweep, &y, exact.columns_mut(0, n));
-        let my = |q: &[f64], data: &mut Data<f64>| {
-            crba(tree, data, q);
-            &data.mass_matrix * nalgebra::DVector::from_column_slice(&y)
+        let (mut d_dq, mut d_dv, mut d_my) = (
+            DMatrix::zeros(n, n),
+            DMatrix::zeros(n, n),
+            DMatrix::zeros(n, n),
+        );
+        let columns = (d_dq.columns_mut(0, n), d_dv.columns_mut(0, n));
+        rnea_derivatives(
+            tree,
+            &data,
+            &mut sweep,
+            columns,
+            Some((&y, d_my.columns_mut(0, n))),
+        );
+
+        let mut id = |q: &[f64], v: &[f64]| {
+            rnea(tree, &mut data, q, v, &a, &mut tau);
+            DVector::from_column_slice(&tau)
         };
         let h = 1e-6;
+        let shifted = |x: &[f64], j: usize, by: f64| {
+            let mut x = x.to_vec();
+            x[j] += by;
+            x
+        };
         for j in 0..n {
-            let (mut qp, mut qm) = (q.clone(), q.clone());
-            qp[j] += h;
-            qm[j] -= h;
-            let fd = (my(&qp, &mut data) - my(&qm, &mut data)) / (2.0 * h);
-            let err = (fd - exact.column(j)).amax();
+            let fd_q = (id(&shifted(&q, j, h), &v) - id(&shifted(&q, j, -h), &v)) / (2.0 * h);
+            let fd_v = (id(&q, &shifted(&v, j, h)) - id(&q, &shifted(&v, j, -h))) / (2.0 * h);
+            let err_q = (fd_q - d_dq.column(j)).amax();
+            let err_v = (fd_v - d_dv.column(j)).amax();
+            assert!(
+                err_q < 1e-6 && err_v < 1e-6,
+                "column {j}: {err_q:e} {err_v:e}"
+            );
+        }
+        let mut my = |q: &[f64]| {
+            crba(tree, &mut data, q);
+            &data.mass_matrix * DVector::from_column_slice(&y)
+        };
+        for j in 0..n {
+            let fd = (my(&shifted(&q, j, h)) - my(&shifted(&q, j, -h))) / (2.0 * h);
+            let err = (fd - d_my.column(j)).amax();
             assert!(err < 1e-7, "column {j}: {err:e}");
         }
     }

@@ -3,15 +3,17 @@
 //! constraint model's solver ([`super::implicit`]); by dual numbers for the
 //! constraint model's contact parameters ([`super::constrained`]).
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DMatrixView, DMatrixViewMut};
 
 use super::constrained::{dual_columns, DualTrees};
-use super::implicit::{add_invweight_partials, add_row_partials, differentiable, spd_inverse};
+use super::implicit::{
+    add_invweight_partials, add_row_partials, differentiable, spd_inverse, Scratch,
+};
 use super::params::{implicit_diagonal_derivative, mass_product_derivative, residual_derivative};
-use super::rnea::{mass_derivative, rnea_derivatives, Sweep};
+use super::rnea::{rnea_derivatives, Sweep};
 use super::soft::{subtract_soft_derivatives, Columns};
 use super::window::WindowScratch;
-use crate::dynamics::solver::quadratic_hessian;
+use crate::dynamics::solver::add_quadratic_rows;
 use crate::dynamics::{
     acceleration, check_inputs, crba, implicit_terms, integrate_euler, ltdl_factor,
     ltdl_solve_columns, rnea, rnea_with_transforms, step,
@@ -63,6 +65,13 @@ pub struct Workspace {
     /// dR/d(columns) before the solve, and M^-1 for wide solves.
     r: DMatrix<f64>,
     inverse: DMatrix<f64>,
+    /// The constraint model's gain G and an n x n scratch.
+    gain: DMatrix<f64>,
+    matrix: DMatrix<f64>,
+    /// The constraint rows' derivative's buffers.
+    rows: Scratch,
+    /// The constraint model's d(M y) - dE qdd columns (implicit passive forces).
+    dmy: DMatrix<f64>,
     /// What the window evaluation keeps between transitions.
     pub(super) window: WindowScratch,
     /// The constraint model's dual-number trees, per model.
@@ -82,6 +91,10 @@ impl Workspace {
             dqdd: DMatrix::zeros(n, 0),
             r: DMatrix::zeros(n, 0),
             inverse: DMatrix::zeros(n, n),
+            dmy: DMatrix::zeros(n, n),
+            gain: DMatrix::zeros(n, n),
+            matrix: DMatrix::zeros(n, n),
+            rows: Scratch::default(),
             window: WindowScratch::new(n),
             duals: DualTrees::default(),
         }
@@ -363,8 +376,8 @@ fn accel_derivatives(
     let columns = 2 * n_state + n_tau + n_p;
     reset(&mut ws.r, n, columns);
     if wrt.state {
-        let (r_q, r_v) = ws.r.columns_range_pair_mut(0..n, n..2 * n);
-        rnea_derivatives(tree, &ws.data, &mut ws.sweep, v, r_q, Some(r_v));
+        let r_qv = ws.r.columns_range_pair_mut(0..n, n..2 * n);
+        rnea_derivatives(tree, &ws.data, &mut ws.sweep, r_qv, None);
         add_passive_partials(model, (mode, h), &mut ws.r);
     }
     for i in 0..n_tau {
@@ -431,7 +444,9 @@ fn add_passive_partials(model: &Model, (mode, h): (PassiveMode, f64), r: &mut DM
 /// point (`ws.data` as the step left it: M, world frames). The solver's
 /// acceleration a: da = -H^-1 dg ([`super::implicit`]); MuJoCo's implicit
 /// passive solve (M + E) qdd = M a (E = `ws.extra`) then gives
-/// (M + E) dqdd = M da + d(M (a - qdd))/dq dq.
+/// (M + E) dqdd = M da + d(M y) with y = a - qdd, so
+/// dqdd = -G dg + (M + E)^-1 d(M y), G = (M + E)^-1 M H^-1 = H^-1 - (M + E)^-1 E H^-1
+/// (G = H^-1 without implicit passive forces); dg/dtau = -I.
 /// False where H or M + E is not numerically positive definite (extreme
 /// inputs): the dual numbers take over there.
 fn constrained_derivatives(
@@ -445,31 +460,122 @@ fn constrained_derivatives(
     let n = model.nv();
     let tree = model.tree();
     let a = &c.solution.qacc;
-    let mass = ws.data.mass_matrix.clone();
+    let implicit = mode != PassiveMode::Explicit;
+    // G into ws.gain; (M + E)^-1 into ws.inverse.
+    ws.matrix.copy_from(&ws.data.mass_matrix);
+    add_quadratic_rows(&mut ws.matrix, &c.rows, &c.solution.zone);
+    if !spd_inverse(&mut ws.matrix, &mut ws.gain) {
+        return false;
+    }
+    if implicit {
+        ws.matrix.copy_from(&ws.data.mass_matrix);
+        for i in 0..n {
+            ws.matrix[(i, i)] += ws.extra[i];
+        }
+        if !spd_inverse(&mut ws.matrix, &mut ws.inverse) {
+            return false;
+        }
+        for j in 0..n {
+            for i in 0..n {
+                ws.matrix[(i, j)] = ws.extra[i] * ws.gain[(i, j)];
+            }
+        }
+        product(
+            ws.gain.columns_mut(0, n),
+            -1.0,
+            &ws.inverse,
+            ws.matrix.columns(0, n),
+            1.0,
+        );
+    }
+    let y: Vec<f64> = a.iter().zip(&ws.qdd).map(|(a, b)| a - b).collect();
     let (n_state, n_tau) = state_and_tau_columns(n, wrt);
     let n_p: usize = wrt.params.iter().map(|p| p.size()).sum();
     let columns = 2 * n_state + n_tau + n_p;
     reset(&mut ws.r, n, columns);
-    let implicit = mode != PassiveMode::Explicit;
+    reset(&mut ws.dqdd, n, columns);
     rnea_with_transforms(tree, &mut ws.data, v, a, &mut ws.tau);
     if wrt.state {
-        let (r_q, r_v) = ws.r.columns_range_pair_mut(0..n, n..2 * n);
-        rnea_derivatives(tree, &ws.data, &mut ws.sweep, v, r_q, Some(r_v));
+        // dg/d(q, v), and d(M y)/dq for the implicit passive forces.
+        let r_qv = ws.r.columns_range_pair_mut(0..n, n..2 * n);
+        reset(&mut ws.dmy, n, n);
+        let mass = implicit.then(|| (&y[..], ws.dmy.columns_mut(0, n)));
+        rnea_derivatives(tree, &ws.data, &mut ws.sweep, r_qv, mass);
         add_passive_partials(model, (mode, h), &mut ws.r);
         let (r_q, r_v) = ws.r.columns_range_pair_mut(0..n, n..2 * n);
-        add_row_partials(tree, &ws.data, (v, a), c, r_q, r_v);
+        add_row_partials(tree, &ws.data, (v, a), c, (r_q, r_v), &mut ws.rows);
+        let state = ws.dqdd.columns_mut(0, 2 * n);
+        product(state, -1.0, &ws.gain, ws.r.columns(0, 2 * n), 0.0);
+        if implicit {
+            let q_columns = ws.dqdd.columns_mut(0, n);
+            product(q_columns, 1.0, &ws.inverse, ws.dmy.columns(0, n), 1.0);
+        }
     }
-    for i in 0..n_tau {
-        ws.r[(i, 2 * n_state + i)] = -1.0;
+    if wrt.control {
+        ws.dqdd.columns_mut(2 * n_state, n).copy_from(&ws.gain);
     }
-    // The parameters' columns: RNEA's body force or the joint's entry at a
-    // (the solver's passive forces are explicit), and the rows' R through
-    // invweight0.
+    if n_p > 0 {
+        parameter_derivatives(model, ws, (mode, h), (v, &y), c, wrt);
+        let start = columns - n_p;
+        let p_columns = ws.dqdd.columns_mut(start, n_p);
+        product(p_columns, -1.0, &ws.gain, ws.r.columns(start, n_p), 0.0);
+        if implicit {
+            let p_columns = ws.dqdd.columns_mut(start, n_p);
+            product(p_columns, 1.0, &ws.inverse, ws.dmy.columns(0, n_p), 1.0);
+        }
+    }
+    true
+}
+
+/// out = alpha a b + beta out, column by column over a's contiguous
+/// columns, skipping b's zeros (nalgebra's gemm goes through
+/// matrixmultiply, whose packing allocates: slower on matrices this small).
+fn product(
+    mut out: DMatrixViewMut<f64>,
+    alpha: f64,
+    a: &DMatrix<f64>,
+    b: DMatrixView<f64>,
+    beta: f64,
+) {
+    let n = a.nrows();
+    for (mut column, b) in out.column_iter_mut().zip(b.column_iter()) {
+        let column = column.as_mut_slice();
+        if beta == 0.0 {
+            column.fill(0.0);
+        } else if beta != 1.0 {
+            column.iter_mut().for_each(|x| *x *= beta);
+        }
+        for (a, &bk) in a.as_slice().chunks_exact(n).zip(b.iter()) {
+            if bk != 0.0 {
+                let s = alpha * bk;
+                column.iter_mut().zip(a).for_each(|(x, a)| *x += s * a);
+            }
+        }
+    }
+}
+
+/// The parameters' columns of dg into the last columns of `ws.r`: RNEA's
+/// body force or the joint's entry at a (the solver's passive forces are
+/// explicit), and the rows' R through invweight0; and, for the implicit
+/// passive forces, dM/dp y - dE/dp qdd into `ws.dmy` (`ws.data` holds RNEA
+/// at the solver's acceleration a).
+fn parameter_derivatives(
+    model: &Model,
+    ws: &mut Workspace,
+    (mode, h): (PassiveMode, f64),
+    (v, y): (&[f64], &[f64]),
+    c: &Constrained<f64>,
+    wrt: &Wrt,
+) {
+    let tree = model.tree();
+    let n = model.nv();
+    let a = &c.solution.qacc;
     let param_columns: Vec<(Param, usize)> = wrt
         .params
         .iter()
         .flat_map(|p| (0..p.size()).map(move |k| (*p, k)))
         .collect();
+    let start = ws.r.ncols() - param_columns.len();
     for (k, &(param, component)) in param_columns.iter().enumerate() {
         let point = (&ws.q_spring[..], v, &a[..]);
         let explicit = (PassiveMode::Explicit, h);
@@ -488,80 +594,35 @@ fn constrained_derivatives(
             let (d_body, d_dof) = ws.duals.invweight_slopes(model, (param, component));
             add_invweight_partials(tree, c, (d_body, d_dof), &mut ws.tau);
         }
-        ws.r.column_mut(2 * n_state + n_tau + k)
-            .copy_from_slice(&ws.tau);
+        ws.r.column_mut(start + k).copy_from_slice(&ws.tau);
     }
-    let hessian = quadratic_hessian(&mass, &c.rows, &c.solution.zone);
-    let Some(h_inverse) = spd_inverse(&hessian) else {
-        return false;
-    };
-    reset(&mut ws.dqdd, n, columns);
-    if !implicit {
-        ws.dqdd.gemm(-1.0, &h_inverse, &ws.r, 0.0);
-        return true;
+    if mode == PassiveMode::Explicit {
+        return;
     }
-    // dqdd = -(M + E)^-1 M H^-1 R + (M + E)^-1 d(M (a - qdd))/dq on the q
-    // columns, with (M + E)^-1 M = I - (M + E)^-1 E.
-    let mut m = mass;
-    for i in 0..n {
-        m[(i, i)] += ws.extra[i];
-    }
-    let Some(m_inverse) = spd_inverse(&m) else {
-        return false;
-    };
-    let mut gain = h_inverse.clone();
-    let mut e_h = h_inverse;
-    for (i, mut row) in e_h.row_iter_mut().enumerate() {
-        row *= ws.extra[i];
-    }
-    gain.gemm(-1.0, &m_inverse, &e_h, 1.0);
-    ws.dqdd.gemm(-1.0, &gain, &ws.r, 0.0);
-    // (M + E)^-1 d(M y)/dq for y = a - qdd on the q columns, and
-    // (M + E)^-1 (dM/dp y - dE/dp qdd) on the parameters'.
-    let y: Vec<f64> = a.iter().zip(&ws.qdd).map(|(a, b)| a - b).collect();
-    if wrt.state {
-        reset(&mut ws.inverse, n, n);
-        mass_derivative(
-            tree,
-            &ws.data,
-            &mut ws.sweep,
-            &y,
-            ws.inverse.columns_mut(0, n),
+    reset(&mut ws.dmy, n, param_columns.len());
+    ws.sweep.mass_product(tree, &ws.data, y);
+    for (k, &(param, component)) in param_columns.iter().enumerate() {
+        ws.tau.fill(0.0);
+        let accelerations = ws.sweep.mass_product_accelerations();
+        let product = (accelerations, y);
+        mass_product_derivative(
+            model,
+            &ws.data.x_up,
+            product,
+            (param, component),
+            &mut ws.tau,
         );
-        let mut q_columns = ws.dqdd.columns_mut(0, n);
-        q_columns.gemm(1.0, &m_inverse, &ws.inverse, 1.0);
-    }
-    if !param_columns.is_empty() {
-        ws.sweep.mass_product(tree, &ws.data, &y);
-        let mut change = DMatrix::zeros(n, param_columns.len());
-        for (k, &(param, component)) in param_columns.iter().enumerate() {
-            ws.tau.fill(0.0);
-            let accelerations = ws.sweep.mass_product_accelerations();
-            let product = (accelerations, &y[..]);
-            mass_product_derivative(
-                model,
-                &ws.data.x_up,
-                product,
-                (param, component),
-                &mut ws.tau,
-            );
-            if let Some((i, de)) = implicit_diagonal_derivative((mode, h), param) {
-                ws.tau[i] -= de * ws.qdd[i];
-            }
-            change.column_mut(k).copy_from_slice(&ws.tau);
+        if let Some((i, de)) = implicit_diagonal_derivative((mode, h), param) {
+            ws.tau[i] -= de * ws.qdd[i];
         }
-        let mut p_columns = ws
-            .dqdd
-            .columns_mut(columns - param_columns.len(), param_columns.len());
-        p_columns.gemm(1.0, &m_inverse, &change, 1.0);
+        ws.dmy.column_mut(k).copy_from_slice(&ws.tau);
     }
-    true
 }
 
 /// Zeros `m`, reshaped to rows x cols (allocating only when the shape changes).
 fn reset(m: &mut DMatrix<f64>, rows: usize, cols: usize) {
     if m.shape() == (rows, cols) {
-        m.fill(0.0);
+        m.as_mut_slice().fill(0.0);
     } else {
         *m = DMatrix::zeros(rows, cols);
     }

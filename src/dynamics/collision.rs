@@ -299,7 +299,7 @@ pub fn contact_geometry<T: Real>(
     reach: f64,
 ) -> impl Iterator<Item = (Vector3<T>, Matrix3<T>, T)> {
     let (p1, p2) = (Placed::of(&poses[0]), Placed::of(&poses[1]));
-    let mut pre = Vec::with_capacity(4);
+    let mut pre = Vec::new();
     narrow((shapes[0], &p1), (shapes[1], &p2), lift(reach), &mut pre);
     pre.into_iter()
         .map(|c| (c.pos, make_frame(c.normal, c.tangent), c.dist))

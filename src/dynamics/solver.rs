@@ -25,7 +25,7 @@
 //! a bracket). With a cone in the middle zone the iteration stops when a step
 //! changes nothing.
 
-use nalgebra::{Cholesky, DMatrix, DVector};
+use nalgebra::{Cholesky, DMatrix, DMatrixViewMut, DVector};
 
 use super::constraint::{RowKind, Rows};
 use crate::spatial::{lift, Real};
@@ -253,7 +253,8 @@ fn gradient_hessian<T: Real>(
 ) -> (Vec<T>, DMatrix<T>) {
     let n = a.len();
     let grad = gradient(m, a0, rows, a, eval);
-    let mut h = quadratic_hessian(m, rows, &eval.zone);
+    let mut h = m.clone();
+    add_quadratic_rows(&mut h, rows, &eval.zone);
     for (first, hc) in &eval.cone_hessians {
         let dim = hc.nrows();
         for p in 0..dim {
@@ -270,26 +271,25 @@ fn gradient_hessian<T: Real>(
     (grad, h)
 }
 
-/// M + J^T D J over the rows in their quadratic zone: the cost's Hessian
-/// when no elliptic cone is in its middle zone.
-pub fn quadratic_hessian<T: Real>(m: &DMatrix<T>, rows: &Rows<T>, zone: &[Zone]) -> DMatrix<T> {
-    let n = m.nrows();
-    let mut h = m.clone();
-    for k in 0..rows.len() {
-        let row = rows.row(k);
-        if zone[k] == Zone::Quadratic {
-            let d = T::one() / rows.r[k];
-            for i in 0..n {
-                if row[i] == T::zero() {
-                    continue;
-                }
-                for j in 0..n {
-                    h[(i, j)] += d * row[i] * row[j];
-                }
+/// Adds J^T D J over the rows in their quadratic zone to `h` (n x n): from
+/// h = M, the cost's Hessian when no elliptic cone is in its middle zone.
+pub fn add_quadratic_rows<T: Real>(h: &mut DMatrix<T>, rows: &Rows<T>, zone: &[Zone]) {
+    for k in (0..rows.len()).filter(|&k| zone[k] == Zone::Quadratic) {
+        add_outer(h.as_view_mut(), T::one() / rows.r[k], rows.row(k));
+    }
+}
+
+/// h += w row^T row, column by column (h column-major), over row's nonzeros.
+pub fn add_outer<T: Real>(mut h: DMatrixViewMut<T>, w: T, row: &[T]) {
+    for (j, &x) in row.iter().enumerate() {
+        if x != T::zero() {
+            let wx = w * x;
+            let mut column = h.column_mut(j);
+            for (h, &y) in column.as_mut_slice().iter_mut().zip(row) {
+                *h += wx * y;
             }
         }
     }
-    h
 }
 
 /// The cost along a + t dir: its Gauss part's slope at t = 0 and curvature
