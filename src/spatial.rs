@@ -264,14 +264,17 @@ impl<T: Real> Inertia<T> {
 
     /// The rate of change of this inertia while its body moves with the twist
     /// v = (w, u): v x* I - I v x, itself an inertia of zero mass, with
-    /// h' = m u + w x h and I_O' = [w] I_O - I_O [w] - [u] [h] - [h] [u].
+    /// h' = m u + w x h and I_O' = [w] I_O - I_O [w] - [u] [h] - [h] [u],
+    /// formed as A + A^T - (u h^T + h u^T) + 2 (u . h) 1 with A = [w] I_O
+    /// (I_O symmetric, [a] [b] = b a^T - (a . b) 1).
     pub fn rate(&self, v: &Motion<T>) -> Inertia<T> {
-        let (w, u) = (skew(&v.ang), skew(&v.lin));
-        let h = skew(&self.h);
+        let a = skew(&v.ang) * self.rot;
+        let uh = v.lin * self.h.transpose();
+        let two_dot = v.lin.dot(&self.h) * lift(2.0);
         Inertia {
             mass: T::zero(),
             h: v.lin * self.mass + v.ang.cross(&self.h),
-            rot: w * self.rot - self.rot * w - u * h - h * u,
+            rot: a + a.transpose() - uh - uh.transpose() + Matrix3::from_diagonal_element(two_dot),
         }
     }
 

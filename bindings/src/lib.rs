@@ -21,8 +21,8 @@ use engine::osi::{
     HUBER_THRESHOLD,
 };
 use engine::{Model, ModelError};
-use numpy::ndarray::Array2;
-use numpy::{PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
+use numpy::ndarray::{Array2, ArrayView2, ShapeBuilder};
+use numpy::{PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods, ToPyArray};
 use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
@@ -204,7 +204,7 @@ impl PyModel {
                 shape(value.shape())
             )));
         }
-        let value: Vec<f64> = value.readonly().as_array().iter().copied().collect();
+        let value = entries(&value);
         self.model.set_param(name, &value).map_err(param_error)?;
         self.data = self.model.data();
         self.ws = Workspace::new(&self.model);
@@ -297,8 +297,7 @@ impl PyModel {
             ("dq_dp", &j.dq_dp),
             ("dv_dp", &j.dv_dp),
         ] {
-            let a = Array2::from_shape_fn(m.shape(), |(r, c)| m[(r, c)]);
-            out.set_item(key, PyArray2::from_owned_array(py, a))?;
+            out.set_item(key, to_numpy(py, m.shape(), m.as_slice()))?;
         }
         Ok(out)
     }
@@ -957,6 +956,29 @@ pub(crate) fn float_array<'py>(
         .map_err(|e| fail(format!("cannot convert to a float64 array ({e})")))
 }
 
+/// The entries of `array` in logical (row-major) order: copied straight
+/// from a C-contiguous buffer (no borrow bookkeeping), else read through a
+/// borrow of the array.
+fn entries(array: &Bound<'_, PyArrayDyn<f64>>) -> Vec<f64> {
+    if array.is_c_contiguous() {
+        if let Ok(values) = array.to_vec() {
+            return values;
+        }
+    }
+    array.readonly().as_array().iter().copied().collect()
+}
+
+/// A numpy array of a matrix's `shape` from its column-major entries, copied
+/// in one block into a Fortran-ordered array.
+fn to_numpy<'py>(
+    py: Python<'py>,
+    shape: (usize, usize),
+    entries: &[f64],
+) -> Bound<'py, PyArray2<f64>> {
+    let view = ArrayView2::from_shape(shape.f(), entries).expect("shape matches the entries");
+    view.to_pyarray(py)
+}
+
 /// A 1-D array of length `n` with finite entries.
 pub(crate) fn vector(
     obj: &Bound<'_, PyAny>,
@@ -971,7 +993,7 @@ pub(crate) fn vector(
             shape(array.shape())
         )));
     }
-    let values: Vec<f64> = array.readonly().as_array().iter().copied().collect();
+    let values = entries(&array);
     check_finite(name, &values, |i| format!("[{i}]"))?;
     Ok(values)
 }
@@ -991,7 +1013,7 @@ pub(crate) fn matrix(
             shape(&dims)
         )));
     }
-    let values: Vec<f64> = array.readonly().as_array().iter().copied().collect();
+    let values = entries(&array);
     check_finite(name, &values, |i| format!("[{}, {}]", i / n, i % n))?;
     Ok(Array2::from_shape_vec((dims[0], n), values).expect("shape checked above"))
 }

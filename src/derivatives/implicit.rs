@@ -421,46 +421,41 @@ fn find_slopes(
 /// column-by-column solves, and it allocates nothing.
 pub(super) fn spd_inverse(a: &mut DMatrix<f64>, out: &mut DMatrix<f64>) -> bool {
     let n = a.nrows();
-    // A = L L^T, L in the lower triangle (A's own lower triangle read first).
-    for j in 0..n {
-        for k in 0..=j {
-            let mut s = a[(j, k)];
-            for p in 0..k {
-                s -= a[(j, p)] * a[(k, p)];
-            }
-            if k < j {
-                a[(j, k)] = s / a[(k, k)];
-            } else if s.is_nan() || s <= 0.0 {
-                return false;
-            } else {
-                a[(j, j)] = s.sqrt();
-            }
-        }
-    }
-    // L^-1 in place, row by row: entry (i, c) reads L's (i, k >= c), not yet
-    // overwritten, and the rows of L^-1 above.
-    for i in 0..n {
-        a[(i, i)] = 1.0 / a[(i, i)];
-        for c in 0..i {
-            let mut s = 0.0;
-            for k in c..i {
-                s += a[(i, k)] * a[(k, c)];
-            }
-            a[(i, c)] = -s * a[(i, i)];
-        }
-    }
-    // A^-1 = L^-T L^-1: entry (r, c) = sum over k >= max(r, c) of L^-1 (k, r) L^-1 (k, c).
     if out.shape() != (n, n) {
         *out = DMatrix::zeros(n, n);
     }
-    for r in 0..n {
-        for c in 0..=r {
-            let mut s = 0.0;
-            for k in r..n {
-                s += a[(k, r)] * a[(k, c)];
+    let (a, out) = (a.as_mut_slice(), out.as_mut_slice());
+    // A = L L^T with row j of L in column j of `a` (A's upper triangle, read
+    // first): contiguous rows for the dot products.
+    for j in 0..n {
+        for k in 0..=j {
+            let dot: f64 = (0..k).map(|p| a[j * n + p] * a[k * n + p]).sum();
+            let s = a[j * n + k] - dot;
+            if k < j {
+                a[j * n + k] = s / a[k * n + k];
+            } else if s.is_nan() || s <= 0.0 {
+                return false;
+            } else {
+                a[j * n + j] = s.sqrt();
             }
-            out[(r, c)] = s;
-            out[(c, r)] = s;
+        }
+    }
+    // W = L^-1 in place, row i in column i: entry (i, c) reads L's (i, k >= c),
+    // not yet overwritten, and the rows of W above.
+    for i in 0..n {
+        a[i * n + i] = 1.0 / a[i * n + i];
+        for c in 0..i {
+            let s: f64 = (c..i).map(|k| a[i * n + k] * a[k * n + c]).sum();
+            a[i * n + c] = -s * a[i * n + i];
+        }
+    }
+    // A^-1 = W^T W = sum over k of w_k w_k^T, w_k row k of W.
+    out.fill(0.0);
+    for k in 0..n {
+        let w = &a[k * n..k * n + k + 1];
+        for (c, &wc) in w.iter().enumerate() {
+            let column = &mut out[c * n..c * n + k + 1];
+            column.iter_mut().zip(w).for_each(|(o, wr)| *o += wr * wc);
         }
     }
     true

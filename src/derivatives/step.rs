@@ -190,7 +190,8 @@ pub fn step_jacobians(
     const NAMES: [&str; 8] = [
         "dq_dq", "dq_dv", "dq_dtau", "dq_dp", "dv_dq", "dv_dv", "dv_dtau", "dv_dp",
     ];
-    if let Some(k) = blocks.iter().position(|m| !m.iter().all(|x| x.is_finite())) {
+    let finite = |m: &DMatrix<f64>| m.as_slice().iter().all(|x| x.is_finite());
+    if let Some(k) = blocks.iter().position(|m| !finite(m)) {
         return Err(StepError::JacobianNotFinite { block: NAMES[k] });
     }
     let [dq_dq, dq_dv, dq_dtau, dq_dp, dv_dq, dv_dv, dv_dtau, dv_dp] = blocks;
@@ -266,9 +267,15 @@ fn split(
 /// (+ I on v) and d q' = h d v' (+ I on q). Returns the eight blocks
 /// [dq_dq, dq_dv, dq_dtau, dq_dp, dv_dq, dv_dv, dv_dtau, dv_dp].
 fn euler_blocks(dqdd: &DMatrix<f64>, h: f64, n: usize, wrt: &Wrt) -> [DMatrix<f64>; 8] {
+    // Scaled over contiguous slices: nalgebra's scalar products of views
+    // walk them entry by entry.
+    let scaled =
+        |m: &[f64], len: usize, by: f64| DMatrix::from_iterator(n, len, m.iter().map(|x| x * by));
     let columns = block_columns(n, dqdd.ncols(), wrt);
-    let dv = columns.map(|(start, len)| dqdd.columns(start, len) * h);
-    let [mut dq_dq, mut dq_dv, dq_dtau, dq_dp] = dv.each_ref().map(|m| m * h);
+    let dv =
+        columns.map(|(start, len)| scaled(&dqdd.as_slice()[start * n..(start + len) * n], len, h));
+    let [mut dq_dq, mut dq_dv, dq_dtau, dq_dp] =
+        dv.each_ref().map(|m| scaled(m.as_slice(), m.ncols(), h));
     let [dv_dq, mut dv_dv, dv_dtau, dv_dp] = dv;
     if wrt.state {
         for i in 0..n {

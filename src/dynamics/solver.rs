@@ -279,14 +279,14 @@ pub fn add_quadratic_rows<T: Real>(h: &mut DMatrix<T>, rows: &Rows<T>, zone: &[Z
     }
 }
 
-/// h += w row^T row, column by column (h column-major), over row's nonzeros.
+/// h += w row^T row over row's nonzero entries, column by column (h is
+/// column-major); entry (i, j) adds (w row_i) row_j.
 pub fn add_outer<T: Real>(mut h: DMatrixViewMut<T>, w: T, row: &[T]) {
     for (j, &x) in row.iter().enumerate() {
-        if x != T::zero() {
-            let wx = w * x;
-            let mut column = h.column_mut(j);
-            for (h, &y) in column.as_mut_slice().iter_mut().zip(row) {
-                *h += wx * y;
+        let mut column = h.column_mut(j);
+        for (h, &y) in column.as_mut_slice().iter_mut().zip(row) {
+            if y != T::zero() {
+                *h += w * y * x;
             }
         }
     }
