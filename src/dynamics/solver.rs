@@ -282,12 +282,12 @@ pub fn add_quadratic_rows<T: Real>(h: &mut DMatrix<T>, rows: &Rows<T>, zone: &[Z
 /// h += w row^T row over row's nonzero entries, column by column (h is
 /// column-major); entry (i, j) adds (w row_i) row_j.
 pub fn add_outer<T: Real>(mut h: DMatrixViewMut<T>, w: T, row: &[T]) {
-    for (j, &x) in row.iter().enumerate() {
+    let nonzero = row.iter().enumerate().filter(|(_, x)| **x != T::zero());
+    for (j, &x) in nonzero.clone() {
         let mut column = h.column_mut(j);
-        for (h, &y) in column.as_mut_slice().iter_mut().zip(row) {
-            if y != T::zero() {
-                *h += w * y * x;
-            }
+        let column = column.as_mut_slice();
+        for (i, &y) in nonzero.clone() {
+            column[i] += w * y * x;
         }
     }
 }
