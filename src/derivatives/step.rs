@@ -62,7 +62,8 @@ pub struct Workspace {
     /// columns [q, v] if the state was asked for, then tau, then parameters.
     pub(super) qdd: Vec<f64>,
     dqdd: DMatrix<f64>,
-    /// dR/d(columns) before the solve, and M^-1 for wide solves.
+    /// dR/d(columns) before the solve, and M^-1 for wide solves ((M + E)^-1
+    /// under the constraint model).
     r: DMatrix<f64>,
     inverse: DMatrix<f64>,
     /// The constraint model's gain G and an n x n scratch.
