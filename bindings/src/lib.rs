@@ -24,6 +24,7 @@ use engine::{Model, ModelError};
 use numpy::ndarray::{Array2, ArrayView2, ShapeBuilder};
 use numpy::{PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods, ToPyArray};
 use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyValueError};
+use pyo3::intern;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
 
@@ -287,15 +288,16 @@ impl PyModel {
         let j = step_jacobians(&self.model, &mut self.ws, (&q, &v, &tau), &wrt)
             .map_err(|e| PyValueError::new_err(format!("step_jacobians: {e}")))?;
         let out = PyDict::new(py);
+        // Interned keys: a hot call, and the eight strings are the same every time.
         for (key, m) in [
-            ("dq_dq", &j.dq_dq),
-            ("dq_dv", &j.dq_dv),
-            ("dq_dtau", &j.dq_dtau),
-            ("dv_dq", &j.dv_dq),
-            ("dv_dv", &j.dv_dv),
-            ("dv_dtau", &j.dv_dtau),
-            ("dq_dp", &j.dq_dp),
-            ("dv_dp", &j.dv_dp),
+            (intern!(py, "dq_dq"), &j.dq_dq),
+            (intern!(py, "dq_dv"), &j.dq_dv),
+            (intern!(py, "dq_dtau"), &j.dq_dtau),
+            (intern!(py, "dv_dq"), &j.dv_dq),
+            (intern!(py, "dv_dv"), &j.dv_dv),
+            (intern!(py, "dv_dtau"), &j.dv_dtau),
+            (intern!(py, "dq_dp"), &j.dq_dp),
+            (intern!(py, "dv_dp"), &j.dv_dp),
         ] {
             out.set_item(key, to_numpy(py, m.shape(), m.as_slice()))?;
         }

@@ -37,8 +37,8 @@
 use nalgebra::{DMatrix, DMatrixViewMut, Matrix3, Vector3};
 use num_dual::Dual64;
 
-use crate::dynamics::collision::{contact_geometry, ConstraintContact, MINVAL};
-use crate::dynamics::constraint::{mixing, RowKind, Rows};
+use crate::dynamics::collision::{contact_geometry, ConstraintContact, Pre, MINVAL};
+use crate::dynamics::constraint::{mixing, Mixing, RowKind, Rows};
 use crate::dynamics::solver::{add_outer, Zone};
 use crate::dynamics::{Constrained, Data, Tree};
 use crate::model::Cone;
@@ -112,7 +112,7 @@ pub(super) fn add_row_partials(
         }
     }
     let mut slopes = std::mem::take(&mut scratch.slopes);
-    find_slopes(tree, data, &c.contacts, &mut slopes);
+    find_slopes(tree, data, &c.contacts, (&mut slopes, &mut scratch.pre));
     let elliptic = tree.constraint.solver.cone == Cone::Elliptic;
     for ((contact, &span), slopes) in c.contacts.iter().zip(&rows.contact_rows).zip(&slopes) {
         let live = (span.0..span.0 + span.1).any(|i| zone[i] != Zone::Free);
@@ -175,7 +175,7 @@ struct ContactPoint<'a> {
     contact: &'a ConstraintContact<f64>,
     /// Its first row and number of rows.
     span: (usize, usize),
-    mix: Vec<[f64; 6]>,
+    mix: Mixing<f64>,
     slopes: &'a Slopes,
 }
 
@@ -359,6 +359,7 @@ struct Along {
 pub(super) struct Scratch {
     jar: Vec<f64>,
     slopes: Vec<Slopes>,
+    pre: Vec<Pre<Dual64>>,
     on: Vec<u8>,
     below_a: Vec<Motion<f64>>,
     below_v: Vec<Motion<f64>>,
@@ -371,7 +372,7 @@ fn find_slopes(
     tree: &Tree<f64>,
     data: &Data<f64>,
     contacts: &[ConstraintContact<f64>],
-    out: &mut Vec<Slopes>,
+    (out, pre): (&mut Vec<Slopes>, &mut Vec<Pre<Dual64>>),
 ) {
     out.clear();
     let mut start = 0;
@@ -398,7 +399,7 @@ fn find_slopes(
             }
             for (t, u) in basis.basis[..basis.len].iter().enumerate() {
                 let dual = std::array::from_fn(|s| perturbed(&poses[s], (s == side).then_some(u)));
-                let touches = contact_geometry(shapes, dual, reach)
+                let touches = contact_geometry(shapes, dual, reach, pre)
                     .filter(|(_, _, dist)| dist.re < pair.params.margin);
                 for (slopes, (p, e, dist)) in out[start..end].iter_mut().zip(touches) {
                     let moves = slopes[side].as_mut().expect("set above");

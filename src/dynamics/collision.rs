@@ -245,7 +245,8 @@ impl<T: Real> Placed<T> {
 }
 
 /// A contact before its frame is complete: the tangent is a hint (zero for none).
-pub(super) struct Pre<T: Real> {
+#[derive(Clone, Debug)]
+pub struct Pre<T: Real> {
     pub dist: T,
     pub pos: Vector3<T>,
     pub normal: Vector3<T>,
@@ -268,17 +269,18 @@ pub fn out_of_reach<T: Real>(
     }
 }
 
-/// Appends the contacts of pair `index` of `pairs` at the geoms' world poses to `out`.
+/// Appends the contacts of pair `index` of `pairs` at the geoms' world poses
+/// to `out` (`pre`: [`contact_geometry`]'s scratch).
 pub fn collide<T: Real>(
     (pairs, index): (&[CollisionPair<T>], usize),
     geoms: [&GeomFrame<T>; 2],
     poses: [Transform<T>; 2],
-    out: &mut Vec<ConstraintContact<T>>,
+    (out, pre): (&mut Vec<ConstraintContact<T>>, &mut Vec<Pre<T>>),
 ) {
     let pair = &pairs[index];
     let [g1, g2] = geoms;
     let reach = pair.params.margin + pair.params.gap;
-    for (pos, frame, dist) in contact_geometry([&g1.shape, &g2.shape], poses, reach) {
+    for (pos, frame, dist) in contact_geometry([&g1.shape, &g2.shape], poses, reach, pre) {
         out.push(ConstraintContact {
             geoms: [g1.geom, g2.geom],
             bodies: [g1.body, g2.body],
@@ -292,16 +294,18 @@ pub fn collide<T: Real>(
 }
 
 /// The point, frame and distance (see [`ConstraintContact`]) of each contact
-/// of two rank-ordered shapes at their world poses, within `reach`.
-pub fn contact_geometry<T: Real>(
+/// of two rank-ordered shapes at their world poses, within `reach`; `pre` is
+/// scratch, kept by the caller so that repeated calls do not allocate.
+pub fn contact_geometry<'a, T: Real>(
     shapes: [&Shape; 2],
     poses: [Transform<T>; 2],
     reach: f64,
-) -> impl Iterator<Item = (Vector3<T>, Matrix3<T>, T)> {
+    pre: &'a mut Vec<Pre<T>>,
+) -> impl Iterator<Item = (Vector3<T>, Matrix3<T>, T)> + 'a {
     let (p1, p2) = (Placed::of(&poses[0]), Placed::of(&poses[1]));
-    let mut pre = Vec::new();
-    narrow((shapes[0], &p1), (shapes[1], &p2), lift(reach), &mut pre);
-    pre.into_iter()
+    pre.clear();
+    narrow((shapes[0], &p1), (shapes[1], &p2), lift(reach), pre);
+    pre.drain(..)
         .map(|c| (c.pos, make_frame(c.normal, c.tangent), c.dist))
 }
 

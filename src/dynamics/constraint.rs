@@ -297,12 +297,12 @@ pub fn point_jacobian<T: Real>(
 
 /// The contacts at the current state (`data.world` filled by [`world_frames`]).
 pub fn contacts<T: Real>(tree: &Tree<T>, data: &Data<T>) -> Vec<ConstraintContact<T>> {
-    let mut out = vec![];
+    let (mut out, mut pre) = (vec![], vec![]);
     let pairs = &tree.constraint.pairs;
     for (index, pair) in pairs.iter().enumerate().filter(|(_, p)| p.supported) {
         let geoms = pair.geoms.map(|g| &tree.geoms[g]);
         let poses = geoms.map(|g| g.pose(&data.world));
-        collide((pairs, index), geoms, poses, &mut out);
+        collide((pairs, index), geoms, poses, (&mut out, &mut pre));
     }
     out
 }
@@ -589,7 +589,7 @@ fn contact_rows<T: Real>(
     let elliptic = consts.solver.cone == Cone::Elliptic && dim > 1;
     let mixes = mixing(dim, elliptic, &c.params.friction);
     let mut j = Vec::with_capacity(mixes.len() * n);
-    for mix in &mixes {
+    for mix in mixes.iter() {
         let terms = || {
             mix.iter()
                 .zip(frame.chunks_exact(n))
@@ -665,21 +665,44 @@ fn clamped_friction<T: Real>(friction: &[T; 5]) -> [T; 5] {
 /// angular) as combinations of them: row i = sum_k mix[i][k] frame_k. One
 /// row (condim 1); an elliptic cone's frame rows; else the pyramid's edges,
 /// normal + mu_k tangent_k and normal - mu_k tangent_k for k = 1..dim.
-pub fn mixing<T: Real>(dim: usize, elliptic: bool, friction: &[T; 5]) -> Vec<[T; 6]> {
+pub fn mixing<T: Real>(dim: usize, elliptic: bool, friction: &[T; 5]) -> Mixing<T> {
     let unit = |k: usize| std::array::from_fn(|j| if j == k { T::one() } else { T::zero() });
+    let mut out = Mixing {
+        rows: [[T::zero(); 6]; 10],
+        len: 0,
+    };
+    let mut push = |mix: [T; 6]| {
+        out.rows[out.len] = mix;
+        out.len += 1;
+    };
     if dim == 1 || elliptic {
-        return (0..dim).map(unit).collect();
+        (0..dim).map(unit).for_each(push);
+        return out;
     }
     let friction = clamped_friction(friction);
-    let mut out = Vec::with_capacity(2 * (dim - 1));
     for k in 1..dim {
         for sign in [T::one(), -T::one()] {
             let mut mix = unit(0);
             mix[k] = sign * friction[k - 1];
-            out.push(mix);
+            push(mix);
         }
     }
     out
+}
+
+/// A contact's rows as [`mixing`] gives them (at most 10: a pyramid of
+/// condim 6), without allocating; derefs to the rows.
+#[derive(Clone, Copy, Debug)]
+pub struct Mixing<T: Real> {
+    rows: [[T; 6]; 10],
+    len: usize,
+}
+
+impl<T: Real> std::ops::Deref for Mixing<T> {
+    type Target = [[T; 6]];
+    fn deref(&self) -> &Self::Target {
+        &self.rows[..self.len]
+    }
 }
 
 /// The force of each contact from the rows' forces, in the smooth model's
