@@ -34,7 +34,7 @@
 //! (J = +-e_k, dist = +-q_k + const) has only the distance's terms; dry
 //! friction depends on q not at all. In v only aref moves: d f / dv = -D B J.
 
-use nalgebra::{DMatrix, DMatrixViewMut, Matrix3, Vector3};
+use nalgebra::{Matrix3, Vector3};
 use num_dual::Dual64;
 
 use crate::dynamics::collision::{contact_geometry, ConstraintContact, Pre, MINVAL};
@@ -81,14 +81,15 @@ pub(super) fn differentiable(c: &Constrained<f64>) -> bool {
 }
 
 /// Adds the rows' part of dg/dq to `r_q` and of dg/dv to `r_v` (n x n each,
-/// column m the derivative in q_m or v_m) at the solver's acceleration `a`.
+/// column-major, column m the derivative in q_m or v_m) at the solver's
+/// acceleration `a`.
 /// `data` holds the world frames at the state of `c`.
 pub(super) fn add_row_partials(
     tree: &Tree<f64>,
     data: &Data<f64>,
     (v, a): (&[f64], &[f64]),
     c: &Constrained<f64>,
-    (mut r_q, mut r_v): (DMatrixViewMut<f64>, DMatrixViewMut<f64>),
+    (r_q, r_v): (&mut [f64], &mut [f64]),
     scratch: &mut Scratch,
 ) {
     let rows = &c.rows;
@@ -98,7 +99,7 @@ pub(super) fn add_row_partials(
     jar.extend((0..rows.len()).map(|i| dot(rows.row(i), a) - rows.aref[i]));
     let quadratic = |i: &usize| zone[*i] == Zone::Quadratic;
     for i in (0..rows.len()).filter(quadratic) {
-        add_outer(r_v.as_view_mut(), rows.damping[i] / rows.r[i], rows.row(i));
+        add_outer(r_v, rows.damping[i] / rows.r[i], rows.row(i));
     }
     let contacts_start = rows.contact_rows.first().map_or(rows.len(), |r| r.0);
     for i in (0..contacts_start).filter(quadratic) {
@@ -108,7 +109,8 @@ pub(super) fn add_row_partials(
                 .iter()
                 .position(|x| *x != 0.0)
                 .expect("a limit row");
-            r_q[(k, k)] -= (rows.dlog_r_ddist[i] * jar[i] + rows.daref_ddist[i]) / rows.r[i];
+            r_q[k * tree.nv() + k] -=
+                (rows.dlog_r_ddist[i] * jar[i] + rows.daref_ddist[i]) / rows.r[i];
         }
     }
     let mut slopes = std::mem::take(&mut scratch.slopes);
@@ -124,7 +126,7 @@ pub(super) fn add_row_partials(
                 slopes,
             };
             let point_rows = (rows, &zone[..], &c.solution.force[..], &jar[..]);
-            point.add_partials(tree, data, (v, a), point_rows, (scratch, &mut r_q));
+            point.add_partials(tree, data, (v, a), point_rows, (scratch, r_q));
         }
     }
     (scratch.jar, scratch.slopes) = (jar, slopes);
@@ -210,7 +212,7 @@ impl ContactPoint<'_> {
         data: &Data<f64>,
         (v, a): (&[f64], &[f64]),
         (rows, zone, force, jar): (&Rows<f64>, &[Zone], &[f64], &[f64]),
-        (scratch, r_q): (&mut Scratch, &mut DMatrixViewMut<f64>),
+        (scratch, r_q): (&mut Scratch, &mut [f64]),
     ) {
         let n = tree.nv();
         let dim = self.contact.params.condim;
@@ -333,7 +335,7 @@ impl ContactPoint<'_> {
                 if on[m] & on[j] != 0 && m <= j {
                     term += s_m.cross_motion(&s_j).dot(&total);
                 }
-                r_q[(j, m)] -= sign[side] * term;
+                r_q[m * n + j] -= sign[side] * term;
             }
         }
     }
@@ -413,53 +415,6 @@ fn find_slopes(
         }
         start = end;
     }
-}
-
-/// The inverse of the symmetric positive definite `a` into `out` through
-/// its Cholesky factor, computed in place in `a` (which it overwrites);
-/// false if `a` is not numerically positive definite. Written out: on the
-/// small dense matrices here it is several times faster than nalgebra's
-/// column-by-column solves, and it allocates nothing.
-pub(super) fn spd_inverse(a: &mut DMatrix<f64>, out: &mut DMatrix<f64>) -> bool {
-    let n = a.nrows();
-    if out.shape() != (n, n) {
-        *out = DMatrix::zeros(n, n);
-    }
-    let (a, out) = (a.as_mut_slice(), out.as_mut_slice());
-    // A = L L^T with row j of L in column j of `a` (A's upper triangle, read
-    // first): contiguous rows for the dot products.
-    for j in 0..n {
-        for k in 0..=j {
-            let dot: f64 = (0..k).map(|p| a[j * n + p] * a[k * n + p]).sum();
-            let s = a[j * n + k] - dot;
-            if k < j {
-                a[j * n + k] = s / a[k * n + k];
-            } else if s.is_nan() || s <= 0.0 {
-                return false;
-            } else {
-                a[j * n + j] = s.sqrt();
-            }
-        }
-    }
-    // W = L^-1 in place, row i in column i: entry (i, c) reads L's (i, k >= c),
-    // not yet overwritten, and the rows of W above.
-    for i in 0..n {
-        a[i * n + i] = 1.0 / a[i * n + i];
-        for c in 0..i {
-            let s: f64 = (c..i).map(|k| a[i * n + k] * a[k * n + c]).sum();
-            a[i * n + c] = -s * a[i * n + i];
-        }
-    }
-    // A^-1 = W^T W = sum over k of w_k w_k^T, w_k row k of W.
-    out.fill(0.0);
-    for k in 0..n {
-        let w = &a[k * n..k * n + k + 1];
-        for (c, &wc) in w.iter().enumerate() {
-            let column = &mut out[c * n..c * n + k + 1];
-            column.iter_mut().zip(w).for_each(|(o, wr)| *o += wr * wc);
-        }
-    }
-    true
 }
 
 /// An orthonormal basis (Gram-Schmidt) of the twists of the dofs on the

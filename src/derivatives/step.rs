@@ -6,13 +6,12 @@
 use nalgebra::{DMatrix, DMatrixView, DMatrixViewMut};
 
 use super::constrained::{dual_columns, DualTrees};
-use super::implicit::{
-    add_invweight_partials, add_row_partials, differentiable, spd_inverse, Scratch,
-};
+use super::implicit::{add_invweight_partials, add_row_partials, differentiable, Scratch};
 use super::params::{implicit_diagonal_derivative, mass_product_derivative, residual_derivative};
 use super::rnea::{rnea_derivatives, Sweep};
 use super::soft::{subtract_soft_derivatives, Columns};
 use super::window::WindowScratch;
+use crate::dynamics::cholesky;
 use crate::dynamics::solver::add_quadratic_rows;
 use crate::dynamics::{
     acceleration, check_inputs, crba, implicit_terms, integrate_euler, ltdl_factor,
@@ -368,7 +367,9 @@ fn accel_derivatives(
     acceleration(tree, &mut ws.data, (mode, h), (q, v, tau), &mut ws.qdd);
     implicit_terms(tree, (mode, h), (q, v), &mut ws.q_spring, &mut ws.extra);
     if let Some(c) = ws.data.constrained.take() {
-        return differentiable(&c) && constrained_derivatives(model, ws, (mode, h), v, &c, wrt);
+        let done = differentiable(&c) && constrained_derivatives(model, ws, (mode, h), v, &c, wrt);
+        ws.data.constrained = Some(c);
+        return done;
     }
     // M + diag(extra), factored once along the tree for every column.
     crba(tree, &mut ws.data, q);
@@ -469,18 +470,25 @@ fn constrained_derivatives(
     let tree = model.tree();
     let a = &c.solution.qacc;
     let implicit = mode != PassiveMode::Explicit;
-    // G into ws.gain; (M + E)^-1 into ws.inverse.
-    ws.matrix.copy_from(&ws.data.mass_matrix);
-    add_quadratic_rows(&mut ws.matrix, &c.rows, &c.solution.zone);
-    if !spd_inverse(&mut ws.matrix, &mut ws.gain) {
-        return false;
+    // G into ws.gain (H^-1 from the solver's factor of H, when it is on the
+    // final zones); (M + E)^-1 into ws.inverse.
+    let factor = ws.matrix.as_mut_slice();
+    if c.solution.factored {
+        factor.copy_from_slice(&c.solution.hessian);
+    } else {
+        factor.copy_from_slice(ws.data.mass_matrix.as_slice());
+        add_quadratic_rows(factor, &c.rows, &c.solution.zone);
+        if !cholesky::factor(factor, n) {
+            return false;
+        }
     }
+    cholesky::inverse(factor, n, ws.gain.as_mut_slice());
     if implicit {
         ws.matrix.copy_from(&ws.data.mass_matrix);
         for i in 0..n {
             ws.matrix[(i, i)] += ws.extra[i];
         }
-        if !spd_inverse(&mut ws.matrix, &mut ws.inverse) {
+        if !cholesky::spd_inverse(ws.matrix.as_mut_slice(), n, ws.inverse.as_mut_slice()) {
             return false;
         }
         for j in 0..n {
@@ -510,7 +518,7 @@ fn constrained_derivatives(
         let mass = implicit.then(|| (&y[..], ws.dmy.columns_mut(0, n)));
         rnea_derivatives(tree, &ws.data, &mut ws.sweep, r_qv, mass);
         add_passive_partials(model, (mode, h), &mut ws.r);
-        let (r_q, r_v) = ws.r.columns_range_pair_mut(0..n, n..2 * n);
+        let (r_q, r_v) = ws.r.as_mut_slice()[..2 * n * n].split_at_mut(n * n);
         add_row_partials(tree, &ws.data, (v, a), c, (r_q, r_v), &mut ws.rows);
         let state = ws.dqdd.columns_mut(0, 2 * n);
         product(state, -1.0, &ws.gain, ws.r.columns(0, 2 * n), 0.0);

@@ -27,7 +27,7 @@
 
 use nalgebra::{DMatrix, Matrix3, Vector3};
 
-use super::collision::{collide, out_of_reach, CollisionPair, ConstraintContact, MINVAL};
+use super::collision::{collide, out_of_reach, CollisionPair, ConstraintContact, Pre, MINVAL};
 use super::{crba, ltdl_factor, ltdl_solve, Contact, Data, Tree};
 use crate::model::{Cone, JointKind, Param, SolParams, SolverOptions, Spec};
 use crate::spatial::{lift, Real};
@@ -135,21 +135,19 @@ impl<T: Real> Default for Rows<T> {
 }
 
 impl<T: Real> Rows<T> {
-    /// Empty rows for `nv` dofs with room for `rows` rows.
-    fn with_capacity(nv: usize, rows: usize) -> Self {
-        Rows {
-            j: Vec::with_capacity(rows * nv),
-            nv,
-            kind: Vec::with_capacity(rows),
-            aref: Vec::with_capacity(rows),
-            r: Vec::with_capacity(rows),
-            floss: Vec::with_capacity(rows),
-            damping: Vec::with_capacity(rows),
-            daref_ddist: Vec::with_capacity(rows),
-            dlog_r_ddist: Vec::with_capacity(rows),
-            cone: vec![],
-            contact_rows: vec![],
-        }
+    /// Empties the rows (keeping their memory) for `nv` dofs.
+    fn clear(&mut self, nv: usize) {
+        self.nv = nv;
+        self.j.clear();
+        self.kind.clear();
+        self.aref.clear();
+        self.r.clear();
+        self.floss.clear();
+        self.damping.clear();
+        self.daref_ddist.clear();
+        self.dlog_r_ddist.clear();
+        self.cone.clear();
+        self.contact_rows.clear();
     }
 
     pub fn row(&self, i: usize) -> &[T] {
@@ -295,16 +293,20 @@ pub fn point_jacobian<T: Real>(
     (jp, jr)
 }
 
-/// The contacts at the current state (`data.world` filled by [`world_frames`]).
-pub fn contacts<T: Real>(tree: &Tree<T>, data: &Data<T>) -> Vec<ConstraintContact<T>> {
-    let (mut out, mut pre) = (vec![], vec![]);
+/// The contacts at the current state into `out` (`data.world` filled by
+/// [`world_frames`]; `pre`: the colliders' scratch).
+pub fn contacts<T: Real>(
+    tree: &Tree<T>,
+    data: &Data<T>,
+    (out, pre): (&mut Vec<ConstraintContact<T>>, &mut Vec<Pre<T>>),
+) {
+    out.clear();
     let pairs = &tree.constraint.pairs;
     for (index, pair) in pairs.iter().enumerate().filter(|(_, p)| p.supported) {
         let geoms = pair.geoms.map(|g| &tree.geoms[g]);
         let poses = geoms.map(|g| g.pose(&data.world));
-        collide((pairs, index), geoms, poses, (&mut out, &mut pre));
+        collide((pairs, index), geoms, poses, (&mut *out, &mut *pre));
     }
-    out
 }
 
 /// Solver parameters as MuJoCo uses them: solref with its time constant at
@@ -407,13 +409,11 @@ fn stiffness_damping<T: Real>(solref: &[T; 2], dmax: T) -> (T, T) {
     (k, b)
 }
 
-/// One constraint (a block of rows sharing impedance) before it joins the rows.
-struct Block<T: Real> {
-    /// Its rows of J, row-major.
-    j: Vec<T>,
-    kind: Vec<RowKind>,
+/// One constraint (a block of rows sharing impedance) joining the rows.
+struct Block<'a, T: Real> {
+    kind: &'a [RowKind],
     /// A_ii per row.
-    diag: Vec<T>,
+    diag: &'a [T],
     dist: T,
     margin: f64,
     sol: SolParams<T>,
@@ -421,7 +421,8 @@ struct Block<T: Real> {
 }
 
 impl<T: Real> Rows<T> {
-    /// Appends a block: impedance, R (before a contact's adjustment), aref.
+    /// Appends a block whose rows of J were just appended to `j`:
+    /// impedance, R (before a contact's adjustment), aref.
     fn push(
         &mut self,
         block: Block<T>,
@@ -434,8 +435,10 @@ impl<T: Real> Rows<T> {
         let imp = impedance(&sol.solimp, x);
         let slope = impedance_slope(&sol.solimp, x);
         let dmax = sol.solimp[1];
-        for (k, row) in block.j.chunks_exact(self.nv).enumerate() {
-            let kind = block.kind[k];
+        let first = self.len();
+        for (k, &kind) in block.kind.iter().enumerate() {
+            let row = self.row(first + k);
+            let vel = row.iter().zip(v).fold(T::zero(), |s, (a, b)| s + *a * *b);
             let elliptic_friction = matches!(kind, RowKind::ConeRest);
             let solref = match friction_ref {
                 Some(r) if elliptic_friction && r != [T::zero(); 2] => {
@@ -454,7 +457,6 @@ impl<T: Real> Rows<T> {
             } else {
                 stiff
             };
-            let vel = row.iter().zip(v).fold(T::zero(), |s, (a, b)| s + *a * *b);
             let r = (T::one() - imp) * block.diag[k] / imp;
             let clamped = r <= lift(MINVAL);
             self.r.push(if clamped { lift(MINVAL) } else { r });
@@ -468,44 +470,38 @@ impl<T: Real> Rows<T> {
             });
             self.floss.push(block.floss);
             self.kind.push(kind);
-            self.j.extend_from_slice(row);
         }
     }
 }
 
-/// The rows at (q, v): `data.x_up` at q and [`world_frames`] filled.
+/// The contacts and rows at (q, v) into `contacts` and `rows`: `data.x_up`
+/// at q and [`world_frames`] filled (`pre`: the colliders' scratch).
 pub fn rows<T: Real>(
     tree: &Tree<T>,
     data: &Data<T>,
     (q, v): (&[T], &[T]),
-) -> (Rows<T>, Vec<ConstraintContact<T>>) {
+    (contacts_out, rows, pre): (
+        &mut Vec<ConstraintContact<T>>,
+        &mut Rows<T>,
+        &mut Vec<Pre<T>>,
+    ),
+) {
     let consts = &tree.constraint;
     let n = tree.nv();
-    let contacts: Vec<ConstraintContact<T>> = contacts(tree, data)
-        .into_iter()
-        .filter(|c| c.dist < lift(c.params.margin))
-        .collect();
-    let per_contact = |c: &ConstraintContact<T>| match c.params.condim {
-        1 => 1,
-        dim if consts.solver.cone == Cone::Elliptic => dim,
-        dim => 2 * (dim - 1),
-    };
-    let capacity = consts.frictionloss.len()
-        + consts.limits.iter().flatten().count()
-        + contacts.iter().map(per_contact).sum::<usize>();
-    let mut rows = Rows::with_capacity(n, capacity);
-    let unit = |i: usize, sign: T| {
-        let mut row = vec![T::zero(); n];
-        row[i] = sign;
-        row
+    contacts(tree, data, (&mut *contacts_out, pre));
+    contacts_out.retain(|c| c.dist < lift(c.params.margin));
+    rows.clear(n);
+    let unit = |rows: &mut Rows<T>, i: usize, sign: T| {
+        rows.j
+            .extend((0..n).map(|k| if k == i { sign } else { T::zero() }));
     };
     for i in 0..n {
         let (floss, sol) = consts.frictionloss[i];
         if floss > T::zero() {
+            unit(rows, i, T::one());
             let block = Block {
-                j: unit(i, T::one()),
-                kind: vec![RowKind::Friction],
-                diag: vec![consts.dof_invweight[i]],
+                kind: &[RowKind::Friction],
+                diag: &[consts.dof_invweight[i]],
                 dist: T::zero(),
                 margin: 0.0,
                 sol,
@@ -528,10 +524,10 @@ pub fn rows<T: Real>(
             (lift::<T>(hi) - q[i], -T::one()),
         ] {
             if dist < lift(margin) {
+                unit(rows, i, sign);
                 let block = Block {
-                    j: unit(i, sign),
-                    kind: vec![RowKind::Unilateral],
-                    diag: vec![consts.dof_invweight[i]],
+                    kind: &[RowKind::Unilateral],
+                    diag: &[consts.dof_invweight[i]],
                     dist,
                     margin,
                     sol,
@@ -541,10 +537,9 @@ pub fn rows<T: Real>(
             }
         }
     }
-    for c in &contacts {
-        contact_rows(tree, data, c, v, &mut rows);
+    for c in contacts_out.iter() {
+        contact_rows(tree, data, c, v, rows);
     }
-    (rows, contacts)
 }
 
 /// Appends the rows of contact `c` at velocity `v`.
@@ -558,79 +553,74 @@ fn contact_rows<T: Real>(
     let consts = &tree.constraint;
     let n = tree.nv();
     let [b1, b2] = c.bodies;
-    // J(body 2) - J(body 1) at the contact point, per dof: translation, rotation.
-    let (mut jp, mut jr) = (vec![Vector3::zeros(); n], vec![Vector3::zeros(); n]);
+    let first = rows.len();
+    if tree.body[b1].node == tree.body[b2].node {
+        // Both bodies on the same dofs: the contact moves none.
+        rows.contact_rows.push((first, 0));
+        return;
+    }
+    let dim = c.params.condim;
+    let elliptic = consts.solver.cone == Cone::Elliptic && dim > 1;
+    let mixes = mixing(dim, elliptic, &c.params.friction);
+    // J(body 2) - J(body 1) at the contact point projected on the frame rows
+    // (normal, tangents, then angular) per dof, and the contact's rows as
+    // their combinations; a dof on both paths adds opposite terms.
+    let start = rows.j.len();
+    rows.j.resize(start + mixes.len() * n, T::zero());
+    let j = &mut rows.j[start..];
     for (body, sign) in [(b2, T::one()), (b1, -T::one())] {
         let mut k = tree.body[body].node;
         while let Some(i) = k {
             let s = &data.world_axis[i];
-            jp[i] += (s.lin + s.ang.cross(&c.pos)) * sign;
-            jr[i] += s.ang * sign;
+            let (jp, jr) = ((s.lin + s.ang.cross(&c.pos)) * sign, s.ang * sign);
+            let mut frame = [T::zero(); 6];
+            for (m, f) in frame.iter_mut().enumerate().take(dim) {
+                let (jac, axis) = if m < 3 { (&jp, m) } else { (&jr, m - 3) };
+                *f = c.frame.row(axis).transpose().dot(jac);
+            }
+            for (row, mix) in j.chunks_exact_mut(n).zip(mixes.iter()) {
+                let terms = mix.iter().zip(&frame).filter(|(m, _)| **m != T::zero());
+                row[i] += terms.fold(T::zero(), |s, (m, f)| s + *m * *f);
+            }
             k = tree.parent[i];
         }
-    }
-    let zero = Vector3::zeros();
-    if jp.iter().chain(&jr).all(|x| *x == zero) {
-        rows.contact_rows.push((rows.len(), 0));
-        return;
-    }
-    let dim = c.params.condim;
-    // The condim rows in the contact frame (normal, tangents, then angular),
-    // row-major, and the contact's rows as their combinations.
-    let mut frame = Vec::with_capacity(dim * n);
-    for k in 0..dim {
-        let (jac, axis) = if k < 3 { (&jp, k) } else { (&jr, k - 3) };
-        let axis = c.frame.row(axis).transpose();
-        frame.extend(jac.iter().map(|x| axis.dot(x)));
     }
     let [w1, w2] = [b1, b2].map(|b| consts.body_invweight[b]);
     let (tran, rot) = (w1[0] + w2[0], w1[1] + w2[1]);
     let friction = clamped_friction(&c.params.friction);
-    let elliptic = consts.solver.cone == Cone::Elliptic && dim > 1;
-    let mixes = mixing(dim, elliptic, &c.params.friction);
-    let mut j = Vec::with_capacity(mixes.len() * n);
-    for mix in mixes.iter() {
-        let terms = || {
-            mix.iter()
-                .zip(frame.chunks_exact(n))
-                .filter(|(m, _)| **m != T::zero())
-        };
-        j.extend((0..n).map(|col| terms().fold(T::zero(), |s, (m, f)| s + *m * f[col])));
-    }
-    let mut block = Block {
-        j,
-        kind: vec![],
-        diag: vec![],
-        dist: c.dist,
-        margin: c.params.margin,
-        sol: c.params.sol,
-        floss: T::zero(),
-    };
+    let mut kind = [RowKind::Unilateral; 10];
+    let mut diag = [T::zero(); 10];
+    let count = mixes.len();
     if dim == 1 {
-        block.kind.push(RowKind::Unilateral);
-        block.diag.push(tran);
+        diag[0] = tran;
     } else if elliptic {
         for k in 0..dim {
-            block.kind.push(if k == 0 {
+            kind[k] = if k == 0 {
                 RowKind::Cone {
                     dim,
                     cone: rows.cone.len(),
                 }
             } else {
                 RowKind::ConeRest
-            });
-            block.diag.push(if k < 3 { tran } else { rot });
+            };
+            diag[k] = if k < 3 { tran } else { rot };
         }
     } else {
         for k in 1..dim {
             let mu = friction[k - 1];
             let a = if k < 3 { tran } else { rot };
-            block.kind.extend([RowKind::Unilateral; 2]);
-            block.diag.extend([tran + mu * mu * a; 2]);
+            diag[2 * k - 2] = tran + mu * mu * a;
+            diag[2 * k - 1] = tran + mu * mu * a;
         }
     }
-    let first = rows.len();
-    let count = block.kind.len();
+    let block = Block {
+        kind: &kind[..count],
+        diag: &diag[..count],
+        dist: c.dist,
+        margin: c.params.margin,
+        sol: c.params.sol,
+        floss: T::zero(),
+    };
     rows.contact_rows.push((first, count));
     rows.push(block, v, consts, Some(c.params.solreffriction));
     if dim == 1 {

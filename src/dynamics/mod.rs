@@ -16,6 +16,7 @@
 mod aba;
 mod box_box;
 mod capsule_box;
+pub mod cholesky;
 pub mod collision;
 pub mod constraint;
 pub mod contact;
@@ -76,6 +77,8 @@ pub struct Data<T: Real> {
     /// Scratch vectors of length nv: the acceleration's, and RK4's stages.
     scratch: [Vec<T>; 3],
     stage: [Vec<T>; 3],
+    /// The constraint model's buffers.
+    reuse: step::Reuse<T>,
 }
 
 impl<T: Real> Data<T> {
@@ -102,6 +105,7 @@ impl<T: Real> Data<T> {
             constrained: None,
             scratch: std::array::from_fn(|_| vec![T::zero(); n]),
             stage: std::array::from_fn(|_| vec![T::zero(); n]),
+            reuse: step::Reuse::new(n),
         }
     }
 }

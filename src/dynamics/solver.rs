@@ -25,8 +25,9 @@
 //! a bracket). With a cone in the middle zone the iteration stops when a step
 //! changes nothing.
 
-use nalgebra::{Cholesky, DMatrix, DMatrixViewMut, DVector};
+use nalgebra::DMatrix;
 
+use super::cholesky;
 use super::constraint::{RowKind, Rows};
 use crate::spatial::{lift, Real};
 
@@ -44,7 +45,7 @@ pub enum Zone {
     Cone,
 }
 
-/// The solver's answer.
+/// The solver's answer. Its buffers are reused by the next solve.
 #[derive(Clone, Debug)]
 pub struct Solution<T: Real> {
     pub qacc: Vec<T>,
@@ -54,21 +55,96 @@ pub struct Solution<T: Real> {
     pub iterations: usize,
     /// False if the iteration limit stopped the solver first.
     pub converged: bool,
+    /// The Cholesky factor ([`cholesky`], nv x nv) of the cost's Hessian
+    /// M + J^T D J over the quadratic rows of `zone`, valid when `factored`:
+    /// the solver's last factor was on the final zones, no cone in its middle.
+    pub hessian: Vec<T>,
+    pub factored: bool,
 }
 
-/// Forces, zones and (optionally) the Hessian of the row costs at jar.
+impl<T: Real> Default for Solution<T> {
+    fn default() -> Self {
+        Solution {
+            qacc: vec![],
+            force: vec![],
+            zone: vec![],
+            iterations: 0,
+            converged: false,
+            hessian: vec![],
+            factored: false,
+        }
+    }
+}
+
+/// An elliptic cone in its middle zone: its first row, its dimension and
+/// its Hessian (the first `dim` rows and columns).
+type ConeHessian<T> = (usize, usize, [[T; 6]; 6]);
+
+/// Forces, zones and (optionally) the cones' Hessians of the row costs at
+/// one residual.
+#[derive(Clone, Debug)]
 struct Eval<T: Real> {
     force: Vec<T>,
     zone: Vec<Zone>,
-    /// Per elliptic cone in its middle zone: first row and its Hessian.
-    cone_hessians: Vec<(usize, DMatrix<T>)>,
+    cones: Vec<ConeHessian<T>>,
 }
 
-fn evaluate<T: Real>(rows: &Rows<T>, jar: &[T], hessians: bool) -> Eval<T> {
+impl<T: Real> Default for Eval<T> {
+    fn default() -> Self {
+        Eval {
+            force: vec![],
+            zone: vec![],
+            cones: vec![],
+        }
+    }
+}
+
+/// The solver's buffers, kept across solves so that solving allocates nothing.
+#[derive(Clone, Debug)]
+pub struct Scratch<T: Real> {
+    /// At the current point, and at a trial point or along the line search.
+    eval: Eval<T>,
+    trial_eval: Eval<T>,
+    /// Residuals J a - aref at the current point and J dir (or a trial's).
+    jar: Vec<T>,
+    jd: Vec<T>,
+    grad: Vec<T>,
+    dir: Vec<T>,
+    trial: Vec<T>,
+    md: Vec<T>,
+}
+
+impl<T: Real> Default for Scratch<T> {
+    fn default() -> Self {
+        Scratch {
+            eval: Eval::default(),
+            trial_eval: Eval::default(),
+            jar: vec![],
+            jd: vec![],
+            grad: vec![],
+            dir: vec![],
+            trial: vec![],
+            md: vec![],
+        }
+    }
+}
+
+/// The forces and zones at residual `jar` into `force` and `zone`, and the
+/// Hessians of the cones in their middle zone into `cones` when given.
+fn evaluate<T: Real>(
+    rows: &Rows<T>,
+    jar: &[T],
+    (force, zone): (&mut Vec<T>, &mut Vec<Zone>),
+    mut cones: Option<&mut Vec<ConeHessian<T>>>,
+) {
     let n = rows.len();
-    let mut force = vec![T::zero(); n];
-    let mut zone = vec![Zone::Free; n];
-    let mut cone_hessians = vec![];
+    force.clear();
+    force.resize(n, T::zero());
+    zone.clear();
+    zone.resize(n, Zone::Free);
+    if let Some(cones) = cones.as_mut() {
+        cones.clear();
+    }
     let mut i = 0;
     while i < n {
         let d = T::one() / rows.r[i];
@@ -90,22 +166,18 @@ fn evaluate<T: Real>(rows: &Rows<T>, jar: &[T], hessians: bool) -> Eval<T> {
             }
             RowKind::Cone { dim, cone } => {
                 let (mu, friction) = rows.cone[cone];
-                let z = cone_zone(rows, i, dim, (mu, &friction), jar, &mut force, hessians);
-                if let Some(h) = z.1 {
-                    cone_hessians.push((i, h));
+                let hessian = cones.is_some();
+                let (z, h) = cone_zone(rows, i, dim, (mu, &friction), jar, force, hessian);
+                if let (Some(cones), Some(h)) = (cones.as_mut(), h) {
+                    cones.push((i, dim, h));
                 }
-                zone[i..i + dim].fill(z.0);
+                zone[i..i + dim].fill(z);
                 i += dim;
                 continue;
             }
             RowKind::ConeRest => unreachable!("cone rows follow their first row"),
         }
         i += 1;
-    }
-    Eval {
-        force,
-        zone,
-        cone_hessians,
     }
 }
 
@@ -118,12 +190,15 @@ fn cone_zone<T: Real>(
     (mu, friction): (T, &[T; 5]),
     jar: &[T],
     force: &mut [T],
-    hessians: bool,
-) -> (Zone, Option<DMatrix<T>>) {
+    hessian: bool,
+) -> (Zone, Option<[[T; 6]; 6]>) {
     let scale = |k: usize| if k == 0 { mu } else { friction[k - 1] };
-    let u: Vec<T> = (0..dim).map(|k| jar[i + k] * scale(k)).collect();
+    let mut u = [T::zero(); 6];
+    for k in 0..dim {
+        u[k] = jar[i + k] * scale(k);
+    }
     let normal = u[0];
-    let tangent = u[1..].iter().fold(T::zero(), |s, x| s + *x * *x).sqrt();
+    let tangent = u[1..dim].iter().fold(T::zero(), |s, x| s + *x * *x).sqrt();
     let zero = T::zero();
     if normal >= mu * tangent || (tangent <= zero && normal >= zero) {
         return (Zone::Free, None);
@@ -141,22 +216,22 @@ fn cone_zone<T: Real>(
     for k in 1..dim {
         force[i + k] = -force[i] / tangent * u[k] * friction[k - 1];
     }
-    if !hessians {
+    if !hessian {
         return (Zone::Cone, None);
     }
-    let mut h = DMatrix::zeros(dim, dim);
-    h[(0, 0)] = T::one();
+    let mut h = [[T::zero(); 6]; 6];
+    h[0][0] = T::one();
     for k in 1..dim {
-        h[(0, k)] = -mu / tangent * u[k];
-        h[(k, 0)] = h[(0, k)];
+        h[0][k] = -mu / tangent * u[k];
+        h[k][0] = h[0][k];
         for j in 1..dim {
-            h[(k, j)] = mu * normal / (tangent * tangent * tangent) * u[j] * u[k];
+            h[k][j] = mu * normal / (tangent * tangent * tangent) * u[j] * u[k];
         }
-        h[(k, k)] += mu * mu - mu * normal / tangent;
+        h[k][k] += mu * mu - mu * normal / tangent;
     }
     for k in 0..dim {
         for j in 0..dim {
-            h[(k, j)] *= dm * scale(k) * scale(j);
+            h[k][j] *= dm * scale(k) * scale(j);
         }
     }
     (Zone::Cone, Some(h))
@@ -166,192 +241,230 @@ fn dot<T: Real>(a: &[T], b: &[T]) -> T {
     a.iter().zip(b).fold(T::zero(), |s, (x, y)| s + *x * *y)
 }
 
-/// J a - aref.
-fn residual<T: Real>(rows: &Rows<T>, a: &[T]) -> Vec<T> {
-    (0..rows.len())
-        .map(|i| dot(rows.row(i), a) - rows.aref[i])
-        .collect()
+/// J x - offset into `out` (offset: aref for the residual, none for J dir).
+fn apply_rows<T: Real>(rows: &Rows<T>, x: &[T], offset: Option<&[T]>, out: &mut Vec<T>) {
+    out.clear();
+    out.extend((0..rows.len()).map(|i| {
+        let jx = dot(rows.row(i), x);
+        offset.map_or(jx, |o| jx - o[i])
+    }));
+}
+
+/// out = M x (M symmetric, column-major).
+fn mass_product<T: Real>(m: &DMatrix<T>, x: &[T], out: &mut Vec<T>) {
+    let n = x.len();
+    out.clear();
+    out.resize(n, T::zero());
+    for (column, &xj) in m.as_slice().chunks_exact(n).zip(x) {
+        out.iter_mut()
+            .zip(column)
+            .for_each(|(o, mij)| *o += *mij * xj);
+    }
 }
 
 /// Minimises the constrained cost (see the module documentation) for the
-/// mass matrix `m`, the unconstrained acceleration `a0` and the rows;
-/// `iterations` bounds the Newton steps.
-pub fn solve<T: Real>(m: &DMatrix<T>, a0: &[T], rows: &Rows<T>, iterations: usize) -> Solution<T> {
-    let mut a = a0.to_vec();
-    let mut converged = false;
-    let mut iteration = 0;
-    while iteration < iterations {
-        iteration += 1;
-        let jar = residual(rows, &a);
-        let eval = evaluate(rows, &jar, true);
-        let (grad, hessian) = gradient_hessian(m, a0, rows, &a, &eval);
-        let Some(chol) = Cholesky::new(hessian) else {
-            break;
-        };
-        let dir = -chol.solve(&DVector::from_column_slice(&grad));
-        let dir = dir.as_slice();
-        if eval.cone_hessians.is_empty() {
-            // The full step minimises the cost with these zones; if the zones hold
-            // there, the cost's gradient vanishes there too: it is the minimiser.
-            let trial: Vec<T> = a.iter().zip(dir).map(|(x, d)| *x + *d).collect();
-            let again = evaluate(rows, &residual(rows, &trial), false);
-            if again.zone == eval.zone {
-                // One more step from there on the same factor: its gradient is at
-                // rounding level, so the correction removes the rounding the large
-                // first step left (ill-conditioned H, many stiff rows).
-                let grad = gradient(m, a0, rows, &trial, &again);
-                let fix = chol.solve(&DVector::from_column_slice(&grad));
-                a = trial.iter().zip(fix.iter()).map(|(x, d)| *x - *d).collect();
-                converged = true;
-                break;
-            }
-        }
-        if dir.iter().all(|d| *d == T::zero()) {
-            converged = true;
-            break;
-        }
-        let alpha = line_search(m, a0, rows, &a, dir);
-        let before = a.clone();
-        for (x, d) in a.iter_mut().zip(dir) {
-            *x += alpha * *d;
-        }
-        if a == before {
-            converged = true;
-            break;
-        }
-    }
-    let jar = residual(rows, &a);
-    let eval = evaluate(rows, &jar, false);
-    Solution {
-        qacc: a,
-        force: eval.force,
-        zone: eval.zone,
-        iterations: iteration,
-        converged,
-    }
-}
-
-/// The cost's gradient M (a - a0) - J^T f.
-fn gradient<T: Real>(m: &DMatrix<T>, a0: &[T], rows: &Rows<T>, a: &[T], eval: &Eval<T>) -> Vec<T> {
-    let delta: Vec<T> = a.iter().zip(a0).map(|(x, y)| *x - *y).collect();
-    let mut grad: Vec<T> = (m * DVector::from_column_slice(&delta)).data.into();
-    for k in 0..rows.len() {
-        for (g, j) in grad.iter_mut().zip(rows.row(k)) {
-            *g -= *j * eval.force[k];
-        }
-    }
-    grad
-}
-
-/// The cost's gradient and Hessian M + J^T (d^2 s) J.
-fn gradient_hessian<T: Real>(
+/// mass matrix `m`, the unconstrained acceleration `a0` and the rows into
+/// `out`; `iterations` bounds the Newton steps.
+pub fn solve<T: Real>(
     m: &DMatrix<T>,
     a0: &[T],
     rows: &Rows<T>,
-    a: &[T],
-    eval: &Eval<T>,
-) -> (Vec<T>, DMatrix<T>) {
-    let n = a.len();
-    let grad = gradient(m, a0, rows, a, eval);
-    let mut h = m.clone();
-    add_quadratic_rows(&mut h, rows, &eval.zone);
-    for (first, hc) in &eval.cone_hessians {
-        let dim = hc.nrows();
-        for p in 0..dim {
-            for q in 0..dim {
+    iterations: usize,
+    (out, s): (&mut Solution<T>, &mut Scratch<T>),
+) {
+    let n = a0.len();
+    let a = &mut out.qacc;
+    a.clear();
+    a.extend_from_slice(a0);
+    out.hessian.resize(n * n, T::zero());
+    out.converged = false;
+    let mut factored = false;
+    let mut iteration = 0;
+    while iteration < iterations {
+        iteration += 1;
+        apply_rows(rows, a, Some(&rows.aref), &mut s.jar);
+        evaluate(
+            rows,
+            &s.jar,
+            (&mut s.eval.force, &mut s.eval.zone),
+            Some(&mut s.eval.cones),
+        );
+        gradient(m, a0, rows, (a, &s.eval.force), (&mut s.grad, &mut s.md));
+        hessian(m, rows, &s.eval, &mut out.hessian);
+        factored = cholesky::factor(&mut out.hessian, n);
+        if !factored {
+            break;
+        }
+        s.dir.clone_from(&s.grad);
+        cholesky::solve(&out.hessian, n, &mut s.dir);
+        s.dir.iter_mut().for_each(|d| *d = -*d);
+        if s.eval.cones.is_empty() {
+            // The full step minimises the cost with these zones; if the zones hold
+            // there, the cost's gradient vanishes there too: it is the minimiser.
+            s.trial.clear();
+            s.trial.extend(a.iter().zip(&s.dir).map(|(x, d)| *x + *d));
+            let again = &mut s.trial_eval;
+            apply_rows(rows, &s.trial, Some(&rows.aref), &mut s.jd);
+            evaluate(rows, &s.jd, (&mut again.force, &mut again.zone), None);
+            if again.zone == s.eval.zone {
+                // One more step from there on the same factor: its gradient is at
+                // rounding level, so the correction removes the rounding the large
+                // first step left (ill-conditioned H, many stiff rows).
+                gradient(
+                    m,
+                    a0,
+                    rows,
+                    (&s.trial, &again.force),
+                    (&mut s.grad, &mut s.md),
+                );
+                cholesky::solve(&out.hessian, n, &mut s.grad);
+                a.clear();
+                a.extend(s.trial.iter().zip(&s.grad).map(|(x, d)| *x - *d));
+                out.converged = true;
+                break;
+            }
+        }
+        if s.dir.iter().all(|d| *d == T::zero()) {
+            out.converged = true;
+            break;
+        }
+        let alpha = line_search(m, a0, rows, a, s);
+        let mut moved = false;
+        for (x, d) in a.iter_mut().zip(&s.dir) {
+            let next = *x + alpha * *d;
+            moved |= next != *x;
+            *x = next;
+        }
+        if !moved {
+            out.converged = true;
+            break;
+        }
+    }
+    apply_rows(rows, a, Some(&rows.aref), &mut s.jar);
+    evaluate(rows, &s.jar, (&mut out.force, &mut out.zone), None);
+    out.iterations = iteration;
+    out.factored = factored && s.eval.cones.is_empty() && s.eval.zone == out.zone;
+}
+
+/// The cost's gradient M (a - a0) - J^T f into `grad` (`delta`: scratch).
+fn gradient<T: Real>(
+    m: &DMatrix<T>,
+    a0: &[T],
+    rows: &Rows<T>,
+    (a, force): (&[T], &[T]),
+    (grad, delta): (&mut Vec<T>, &mut Vec<T>),
+) {
+    delta.clear();
+    delta.extend(a.iter().zip(a0).map(|(x, y)| *x - *y));
+    mass_product(m, delta, grad);
+    for k in 0..rows.len() {
+        for (g, j) in grad.iter_mut().zip(rows.row(k)) {
+            *g -= *j * force[k];
+        }
+    }
+}
+
+/// The cost's Hessian M + J^T (d^2 s) J at `eval` into `h` (column-major).
+fn hessian<T: Real>(m: &DMatrix<T>, rows: &Rows<T>, eval: &Eval<T>, h: &mut [T]) {
+    let n = m.nrows();
+    h.copy_from_slice(m.as_slice());
+    add_quadratic_rows(h, rows, &eval.zone);
+    for (first, dim, hc) in &eval.cones {
+        for p in 0..*dim {
+            for q in 0..*dim {
                 let (jp, jq) = (rows.row(first + p), rows.row(first + q));
-                for i in 0..n {
-                    for j in 0..n {
-                        h[(i, j)] += hc[(p, q)] * jp[i] * jq[j];
+                for j in 0..n {
+                    for i in 0..n {
+                        h[j * n + i] += hc[p][q] * jp[i] * jq[j];
                     }
                 }
             }
         }
     }
-    (grad, h)
 }
 
-/// Adds J^T D J over the rows in their quadratic zone to `h` (n x n): from
-/// h = M, the cost's Hessian when no elliptic cone is in its middle zone.
-pub fn add_quadratic_rows<T: Real>(h: &mut DMatrix<T>, rows: &Rows<T>, zone: &[Zone]) {
+/// Adds J^T D J over the rows in their quadratic zone to `h` (nv x nv,
+/// column-major): from h = M, the cost's Hessian when no elliptic cone is
+/// in its middle zone.
+pub fn add_quadratic_rows<T: Real>(h: &mut [T], rows: &Rows<T>, zone: &[Zone]) {
     for k in (0..rows.len()).filter(|&k| zone[k] == Zone::Quadratic) {
-        add_outer(h.as_view_mut(), T::one() / rows.r[k], rows.row(k));
+        add_outer(h, T::one() / rows.r[k], rows.row(k));
     }
 }
 
-/// h += w row^T row over row's nonzero entries, column by column (h is
-/// column-major); entry (i, j) adds (w row_i) row_j.
-pub fn add_outer<T: Real>(mut h: DMatrixViewMut<T>, w: T, row: &[T]) {
-    let nonzero = row.iter().enumerate().filter(|(_, x)| **x != T::zero());
-    for (j, &x) in nonzero.clone() {
-        let mut column = h.column_mut(j);
-        let column = column.as_mut_slice();
-        for (i, &y) in nonzero.clone() {
-            column[i] += w * y * x;
+/// h += w row^T row (h: n x n column-major, n = row's length) over row's
+/// nonzero entries; entry (i, j) adds (w row_i) row_j.
+pub fn add_outer<T: Real>(h: &mut [T], w: T, row: &[T]) {
+    let n = row.len();
+    let zero = T::zero();
+    for (j, &x) in row.iter().enumerate().filter(|(_, x)| **x != zero) {
+        let column = &mut h[j * n..(j + 1) * n];
+        for (hij, &y) in column.iter_mut().zip(row).filter(|(_, y)| **y != zero) {
+            *hij += w * y * x;
         }
     }
 }
 
 /// The cost along a + t dir: its Gauss part's slope at t = 0 and curvature
-/// ((a - a0)^T M dir, dir^T M dir), the residual at t = 0 and its rate J dir.
-struct Line<T: Real> {
-    gauss: (T, T),
-    jar: Vec<T>,
-    jd: Vec<T>,
-}
-
-impl<T: Real> Line<T> {
-    fn new(m: &DMatrix<T>, a0: &[T], rows: &Rows<T>, (a, dir): (&[T], &[T])) -> Self {
-        let md: Vec<T> = (m * DVector::from_column_slice(dir)).data.into();
-        let delta: Vec<T> = a.iter().zip(a0).map(|(x, y)| *x - *y).collect();
-        Line {
-            gauss: (dot(&md, &delta), dot(&md, dir)),
-            jar: residual(rows, a),
-            jd: (0..rows.len()).map(|i| dot(rows.row(i), dir)).collect(),
+/// ((a - a0)^T M dir, dir^T M dir), with the residual at t = 0 and its rate
+/// J dir in the scratch's `jar` and `jd`.
+fn slope<T: Real>(rows: &Rows<T>, gauss: (T, T), s: &mut Scratch<T>, t: T) -> (T, T) {
+    s.trial.clear();
+    s.trial
+        .extend(s.jar.iter().zip(&s.jd).map(|(r, d)| *r + t * *d));
+    let eval = &mut s.trial_eval;
+    evaluate(
+        rows,
+        &s.trial,
+        (&mut eval.force, &mut eval.zone),
+        Some(&mut eval.cones),
+    );
+    let (g1, g2) = gauss;
+    let jd = &s.jd;
+    let first = g1 + t * g2 - dot(&eval.force, jd);
+    let mut second = g2;
+    for (k, z) in eval.zone.iter().enumerate() {
+        if *z == Zone::Quadratic {
+            second += jd[k] * jd[k] / rows.r[k];
         }
     }
-
-    /// The cost's first and second derivatives in t at t.
-    fn slope(&self, rows: &Rows<T>, t: T) -> (T, T) {
-        let jar: Vec<T> = self
-            .jar
-            .iter()
-            .zip(&self.jd)
-            .map(|(r, d)| *r + t * *d)
-            .collect();
-        let eval = evaluate(rows, &jar, true);
-        let (g1, g2) = self.gauss;
-        let jd = &self.jd;
-        let first = g1 + t * g2 - dot(&eval.force, jd);
-        let mut second = g2;
-        for (k, z) in eval.zone.iter().enumerate() {
-            if *z == Zone::Quadratic {
-                second += jd[k] * jd[k] / rows.r[k];
+    for (i, dim, hc) in &eval.cones {
+        for p in 0..*dim {
+            for q in 0..*dim {
+                second += hc[p][q] * jd[i + p] * jd[i + q];
             }
         }
-        for (i, hc) in &eval.cone_hessians {
-            let dim = hc.nrows();
-            for p in 0..dim {
-                for q in 0..dim {
-                    second += hc[(p, q)] * jd[i + p] * jd[i + q];
-                }
-            }
-        }
-        (first, second)
     }
+    (first, second)
 }
 
-/// The step t > 0 where the cost's derivative along `dir` vanishes: a
+/// The step t > 0 where the cost's derivative along `s.dir` vanishes: a
 /// bracket from t = 0 (a descent direction) to the first doubling of t = 1
 /// with a non-negative derivative, then Newton steps kept inside the bracket
-/// (bisection otherwise) until t stops changing.
-fn line_search<T: Real>(m: &DMatrix<T>, a0: &[T], rows: &Rows<T>, a: &[T], dir: &[T]) -> T {
-    let line = Line::new(m, a0, rows, (a, dir));
-    let slope = |t: T| line.slope(rows, t);
+/// (bisection otherwise) until t stops changing. `s.jar` holds the residual at a.
+fn line_search<T: Real>(
+    m: &DMatrix<T>,
+    a0: &[T],
+    rows: &Rows<T>,
+    a: &[T],
+    s: &mut Scratch<T>,
+) -> T {
+    mass_product(m, &s.dir, &mut s.md);
+    let gauss = (
+        a.iter()
+            .zip(a0)
+            .zip(&s.md)
+            .fold(T::zero(), |acc, ((x, y), md)| acc + *md * (*x - *y)),
+        dot(&s.md, &s.dir),
+    );
+    let dir = std::mem::take(&mut s.dir);
+    apply_rows(rows, &dir, None, &mut s.jd);
+    s.dir = dir;
+    let mut at = |t: T| slope(rows, gauss, s, t);
     let (mut lo, mut hi) = (T::zero(), T::one());
     let two: T = lift(2.0);
     for _ in 0..60 {
-        if slope(hi).0 >= T::zero() {
+        if at(hi).0 >= T::zero() {
             break;
         }
         lo = hi;
@@ -359,7 +472,7 @@ fn line_search<T: Real>(m: &DMatrix<T>, a0: &[T], rows: &Rows<T>, a: &[T], dir: 
     }
     let mut t = hi;
     for _ in 0..100 {
-        let (g, h) = slope(t);
+        let (g, h) = at(t);
         if g == T::zero() {
             return t;
         }
@@ -385,6 +498,12 @@ fn line_search<T: Real>(m: &DMatrix<T>, a0: &[T], rows: &Rows<T>, a: &[T], dir: 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn solve(m: &DMatrix<f64>, a0: &[f64], rows: &Rows<f64>, iterations: usize) -> Solution<f64> {
+        let mut out = Solution::default();
+        super::solve(m, a0, rows, iterations, (&mut out, &mut Scratch::default()));
+        out
+    }
 
     /// One dof of mass m with one row J = 1 of regulariser R: a unilateral row
     /// is active when a0 - aref < 0, and then a = (m a0 + aref / R) / (m + 1 / R).

@@ -2,9 +2,9 @@
 
 use nalgebra::DMatrix;
 
-use super::collision::ConstraintContact;
+use super::collision::{ConstraintContact, Pre};
 use super::constraint::{rows, unreachable_pair, world_frames, Rows};
-use super::solver::{solve, Solution};
+use super::solver::{solve, Scratch, Solution};
 use super::{
     aba_with_transforms, add_soft_forces_with_transforms, bias_forces_with_transforms,
     crba_with_transforms, ltdl_factor, ltdl_solve, passive_forces, update_transforms, Data, Tree,
@@ -134,15 +134,23 @@ pub fn acceleration<T: Real>(
     }
     let implicit = (mode != PassiveMode::Explicit).then_some(&extra[..]);
     update_transforms(tree, data, q);
-    data.constrained = None;
+    let previous = data.constrained.take();
     if tree.contact_model == ContactModel::Constraint && tree.has_constraints() {
         world_frames(tree, data, v);
-        let (rows, contacts) = rows(tree, data, (q, v));
-        if !rows.is_empty() {
-            constrained(tree, data, v, force, implicit, (rows, contacts), qdd);
+        // The last evaluation's buffers, refilled.
+        let mut c = previous
+            .or_else(|| data.reuse.spare.take())
+            .unwrap_or_default();
+        let mut pre = std::mem::take(&mut data.reuse.pre);
+        rows(tree, data, (q, v), (&mut c.contacts, &mut c.rows, &mut pre));
+        data.reuse.pre = pre;
+        if !c.rows.is_empty() {
+            constrained(tree, data, v, force, implicit, &mut c, qdd);
+            data.constrained = Some(c);
             data.scratch = scratch;
             return;
         }
+        data.reuse.spare = Some(c);
     } else {
         add_soft_forces_with_transforms(tree, data, (q, v), force);
     }
@@ -158,6 +166,41 @@ pub struct Constrained<T: Real> {
     pub solution: Solution<T>,
 }
 
+impl<T: Real> Default for Constrained<T> {
+    fn default() -> Self {
+        Constrained {
+            contacts: vec![],
+            rows: Rows::default(),
+            solution: Solution::default(),
+        }
+    }
+}
+
+/// The constraint model's buffers, kept in [`Data`] so that a step allocates
+/// nothing once they have grown: a last evaluation without rows (whose
+/// vectors the next one refills), the colliders' and the solver's scratch,
+/// a factored mass matrix and a vector of length nv.
+#[derive(Clone, Debug)]
+pub struct Reuse<T: Real> {
+    spare: Option<Constrained<T>>,
+    pre: Vec<Pre<T>>,
+    solver: Scratch<T>,
+    factor: DMatrix<T>,
+    a0: Vec<T>,
+}
+
+impl<T: Real> Reuse<T> {
+    pub fn new(nv: usize) -> Self {
+        Reuse {
+            spare: None,
+            pre: vec![],
+            solver: Scratch::default(),
+            factor: DMatrix::zeros(nv, nv),
+            a0: vec![T::zero(); nv],
+        }
+    }
+}
+
 /// The acceleration under the constraint model, as MuJoCo's forward pass
 /// computes it:
 /// 1. collision and constraint rows at (q, v) ([`super::constraint`]; with
@@ -168,56 +211,54 @@ pub struct Constrained<T: Real> {
 ///    solved again with them: (M + diag(extra)) qdd = tau + tau_passive - c
 ///    + J^T f; otherwise qdd is the solver's.
 ///
-/// `force` holds tau + tau_passive on entry; `data.x_up` is at q.
+/// `force` holds tau + tau_passive on entry; `data.x_up` is at q; `c` holds
+/// the contacts and rows, and receives the solution.
 fn constrained<T: Real>(
     tree: &Tree<T>,
     data: &mut Data<T>,
     v: &[T],
     force: &mut [T],
     implicit: Option<&[T]>,
-    (rows, contacts): (Rows<T>, Vec<ConstraintContact<T>>),
+    c: &mut Constrained<T>,
     qdd: &mut [T],
 ) {
     let n = tree.nv();
-    let mut bias = vec![T::zero(); n];
-    bias_forces_with_transforms(tree, data, v, &mut bias);
+    // c into qdd, then subtracted.
+    bias_forces_with_transforms(tree, data, v, qdd);
     for i in 0..n {
-        force[i] -= bias[i];
+        force[i] -= qdd[i];
     }
     crba_with_transforms(tree, data);
-    let mass = data.mass_matrix.clone();
-    let mut factored = mass.clone();
-    ltdl_factor(tree, &mut factored);
-    let mut a0 = force.to_vec();
-    ltdl_solve(tree, &factored, &mut a0);
-    let solution = solve(&mass, &a0, &rows, tree.constraint.solver.iterations);
+    let (mass, r) = (&data.mass_matrix, &mut data.reuse);
+    r.factor.copy_from(mass);
+    ltdl_factor(tree, &mut r.factor);
+    r.a0.copy_from_slice(force);
+    ltdl_solve(tree, &r.factor, &mut r.a0);
+    let iterations = tree.constraint.solver.iterations;
+    solve(
+        mass,
+        &r.a0,
+        &c.rows,
+        iterations,
+        (&mut c.solution, &mut r.solver),
+    );
     match implicit {
-        None => qdd.copy_from_slice(&solution.qacc),
+        None => qdd.copy_from_slice(&c.solution.qacc),
         Some(extra) => {
             qdd.copy_from_slice(force);
-            for (row, f) in rows.j.chunks_exact(n).zip(&solution.force) {
+            for (row, f) in c.rows.j.chunks_exact(n).zip(&c.solution.force) {
                 for i in 0..n {
                     qdd[i] += row[i] * *f;
                 }
             }
-            let mut m = mass;
+            r.factor.copy_from(mass);
             for i in 0..n {
-                m[(i, i)] += extra[i];
+                r.factor[(i, i)] += extra[i];
             }
-            solve_dense(tree, m, qdd);
+            ltdl_factor(tree, &mut r.factor);
+            ltdl_solve(tree, &r.factor, qdd);
         }
     }
-    data.constrained = Some(Constrained {
-        contacts,
-        rows,
-        solution,
-    });
-}
-
-/// Solves m x = b in place (m a mass matrix of the tree's sparsity).
-fn solve_dense<T: Real>(tree: &Tree<T>, mut m: DMatrix<T>, b: &mut [T]) {
-    ltdl_factor(tree, &mut m);
-    ltdl_solve(tree, &m, b);
 }
 
 /// For a semi-implicit Euler step: the position at which the spring acts, and

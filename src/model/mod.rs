@@ -712,7 +712,6 @@ impl Model {
             dynamics::add_soft_forces(&self.tree, data, (q, v), &mut out);
             return Ok(data.contacts.clone());
         }
-        data.constrained = None;
         let mut qdd = vec![0.0; self.nv()];
         let mode = (self.opt.passive, self.opt.timestep);
         dynamics::acceleration(&self.tree, data, mode, (q, v, tau), &mut qdd);
