@@ -25,8 +25,9 @@ Our calls restart from that state; MuJoCo's state advances with its steps
 
 - step: ours `Model.step`; MuJoCo `mj_step`; Pinocchio `aba` (the acceleration
   only, no integration: a lower bound for a step);
-- step Jacobian d(x')/d(x, u): ours `Model.step_jacobians` (exact); MuJoCo
-  `mjd_transitionFD` (forward finite differences, eps 1e-6); Pinocchio
+- step Jacobian d(x')/d(x, u): ours `Model.transition_jacobians` (exact; the A and B of
+  MuJoCo's layout, like for like; `step_jacobians` returns the same blocks as a dict of
+  eight arrays); MuJoCo `mjd_transitionFD` (forward finite differences, eps 1e-6); Pinocchio
   `computeABADerivatives` (analytic derivatives of the acceleration, no step);
 - step + one-parameter Jacobian: ours only (pole mass, torso mass). The paper's
   engine, NimblePhysics, needed 52 µs (cartpole) and 395 µs (half cheetah) per
@@ -126,7 +127,7 @@ def ours_jobs(name):
         "overhead": (getattr, (m, "nv"), 1),
         "step": (m.step, (q, v, tau), 1),
         "loop": (m.rollout, (q, v, taus), NATIVE_STEPS),
-        "jacobian": (m.step_jacobians, (q, v, tau), 1),
+        "jacobian": (m.transition_jacobians, (q, v, tau), 1),
         "param": (m.step_jacobians, (q, v, tau, [MODELS[name]]), 1),
     }
 
@@ -176,7 +177,7 @@ def contact_jobs():
     a, b = np.zeros((n, n)), np.zeros((n, model.nu))
     return {
         ("diffosi", "step"): (m.step, (q, v, rest[0]), 1),
-        ("diffosi", "jacobian"): (m.step_jacobians, (q, v, rest[0]), 1),
+        ("diffosi", "jacobian"): (m.transition_jacobians, (q, v, rest[0]), 1),
         ("diffosi", "param"): (m.step_jacobians, (q, v, rest[0], [MODELS["half_cheetah"]]), 1),
         ("MuJoCo", "jacobian"): (mujoco.mjd_transitionFD, (model, data, FD_EPS, False, a, b, None, None), 1),
         ("diffosi", "loop"): (m.rollout, (q, v, np.zeros((NATIVE_STEPS, m.nv))), NATIVE_STEPS),

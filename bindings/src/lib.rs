@@ -21,8 +21,11 @@ use engine::osi::{
     HUBER_THRESHOLD,
 };
 use engine::{Model, ModelError};
+use nalgebra::DMatrix;
 use numpy::ndarray::{Array2, ArrayView2, ShapeBuilder};
-use numpy::{PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods, ToPyArray};
+use numpy::{
+    IntoPyArray, PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods, ToPyArray,
+};
 use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyValueError};
 use pyo3::intern;
 use pyo3::prelude::*;
@@ -302,6 +305,29 @@ impl PyModel {
             out.set_item(key, to_numpy(py, m.shape(), m.as_slice()))?;
         }
         Ok(out)
+    }
+
+    /// One step's Jacobians in MuJoCo's layout (mjd_transitionFD's A and B,
+    /// here exact): A = d(q', v')/d(q, v), 2 nv x 2 nv, rows q' then v',
+    /// columns q then v; B = d(q', v')/d tau, 2 nv x nv. Two float64 arrays.
+    fn transition_jacobians<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        v: &Bound<'py, PyAny>,
+        tau: &Bound<'py, PyAny>,
+    ) -> PyResult<MatrixPair<'py>> {
+        let (q, v, tau) = self.state(q, v, tau)?;
+        let wrt = Wrt {
+            state: true,
+            control: true,
+            params: &[],
+        };
+        let j = step_jacobians(&self.model, &mut self.ws, (&q, &v, &tau), &wrt)
+            .map_err(|e| PyValueError::new_err(format!("transition_jacobians: {e}")))?;
+        let a = stacked(py, &[&[&j.dq_dq, &j.dv_dq], &[&j.dq_dv, &j.dv_dv]]);
+        let b = stacked(py, &[&[&j.dq_dtau, &j.dv_dtau]]);
+        Ok((a, b))
     }
 
     /// The contacts at (q, v), with the forces a step from (q, v) under the
@@ -979,6 +1005,28 @@ fn to_numpy<'py>(
 ) -> Bound<'py, PyArray2<f64>> {
     let view = ArrayView2::from_shape(shape.f(), entries).expect("shape matches the entries");
     view.to_pyarray(py)
+}
+
+/// Two matrices returned together, as a tuple.
+type MatrixPair<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
+
+/// A numpy array of the block matrix whose block columns are `columns`
+/// (each a column of matrices of equal width, every column as high), copied
+/// column by column into a Fortran-ordered array.
+fn stacked<'py>(py: Python<'py>, columns: &[&[&DMatrix<f64>]]) -> Bound<'py, PyArray2<f64>> {
+    let height = columns[0].iter().map(|m| m.nrows()).sum();
+    let width = columns.iter().map(|column| column[0].ncols()).sum();
+    let mut entries = Vec::with_capacity(height * width);
+    for column in columns {
+        for c in 0..column[0].ncols() {
+            for m in column.iter() {
+                entries.extend_from_slice(&m.as_slice()[c * m.nrows()..(c + 1) * m.nrows()]);
+            }
+        }
+    }
+    Array2::from_shape_vec((height, width).f(), entries)
+        .expect("blocks of matching shapes")
+        .into_pyarray(py)
 }
 
 /// A 1-D array of length `n` with finite entries.

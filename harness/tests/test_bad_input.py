@@ -69,6 +69,7 @@ def model_calls(r):
         lambda: m.rollout(arbitrary(r, n), arbitrary(r, n), arbitrary_rows(r, int(r.integers(0, 30)), n)),
         lambda: m.step_jacobians(arbitrary(r, n), arbitrary(r, n), arbitrary(r, n),
                                  params=[name(r, names) for _ in range(int(r.integers(3)))]),
+        lambda: m.transition_jacobians(arbitrary(r, n), arbitrary(r, n), arbitrary(r, n)),
         lambda: m.set_param(p := name(r, names), arbitrary(r, size(p))),
         lambda: m.get_param(name(r, names)),
         lambda: m.with_options(timestep=[0.01, 0.0, -1.0, np.nan, np.inf, 1e300, "x"][r.integers(7)],

@@ -232,6 +232,22 @@ def test_jacobians_against_finite_differences(path):
         np.testing.assert_allclose(exact, fd, rtol=1e-5, atol=1e-6)
 
 
+def test_transition_jacobians_are_the_blocks_in_mujocos_layout():
+    # Standing on the floor under the constraint model: rows in contact.
+    m = diffosi.Model.load(CHEETAH)
+    Q, V = m.rollout(np.zeros(m.nq), np.zeros(m.nv), np.zeros((300, m.nv)))
+    x = (Q[-1], V[-1], 0.1 * RNG.standard_normal(m.nv))
+    assert m.contacts(*x), "the cheetah stands on its floor"
+    A, B = m.transition_jacobians(*x)
+    J = m.step_jacobians(*x)
+    n = m.nv
+    assert A.shape == (2 * n, 2 * n) and B.shape == (2 * n, n)
+    np.testing.assert_array_equal(A, np.block([[J["dq_dq"], J["dq_dv"]], [J["dv_dq"], J["dv_dv"]]]))
+    np.testing.assert_array_equal(B, np.vstack([J["dq_dtau"], J["dv_dtau"]]))
+    with pytest.raises(ValueError, match="tau"):
+        m.transition_jacobians(x[0], x[1], np.full(n, np.nan))
+
+
 def param_fd(m, name, x, eps=1e-6):
     base = m.get_param(name)
 

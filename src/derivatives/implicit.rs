@@ -328,13 +328,12 @@ impl ContactPoint<'_> {
             for k in 0..dim {
                 dtotal += wrenches[k] * psi[k];
             }
+            // (S_m x S_j) . F = -S_j . (S_m x* F): one force per m for every j.
+            let turned = dtotal - s_m.cross_force(&total);
             for j in (0..n).filter(|&j| on[j] == 1 || on[j] == 2) {
                 let side = usize::from(on[j] == 2);
-                let s_j = data.world_axis[j];
-                let mut term = s_j.dot(&dtotal);
-                if on[m] & on[j] != 0 && m <= j {
-                    term += s_m.cross_motion(&s_j).dot(&total);
-                }
+                let below = on[m] & on[j] != 0 && m <= j;
+                let term = data.world_axis[j].dot(if below { &turned } else { &dtotal });
                 r_q[m * n + j] -= sign[side] * term;
             }
         }
