@@ -13,7 +13,7 @@
 mod task;
 mod wiping;
 
-use engine::derivatives::{step_jacobians, Transition, Workspace, Wrt};
+use engine::derivatives::{step_jacobians, StepJacobians, Transition, Workspace, Wrt};
 use engine::dynamics::{body_contact_forces, Contact, Data};
 use engine::model::{ContactModel, Integrator, MapEntry, Param, ParamError, ParamMap, PassiveMode};
 use engine::osi::{
@@ -281,15 +281,8 @@ impl PyModel {
         tau: &Bound<'py, PyAny>,
         params: Option<Vec<String>>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let (q, v, tau) = self.state(q, v, tau)?;
         let params = self.params(params.as_deref().unwrap_or_default())?;
-        let wrt = Wrt {
-            state: true,
-            control: true,
-            params: &params,
-        };
-        let j = step_jacobians(&self.model, &mut self.ws, (&q, &v, &tau), &wrt)
-            .map_err(|e| PyValueError::new_err(format!("step_jacobians: {e}")))?;
+        let j = self.jacobians((q, v, tau), &params, "step_jacobians")?;
         let out = PyDict::new(py);
         // Interned keys: a hot call, and the eight strings are the same every time.
         for (key, m) in [
@@ -317,14 +310,7 @@ impl PyModel {
         v: &Bound<'py, PyAny>,
         tau: &Bound<'py, PyAny>,
     ) -> PyResult<MatrixPair<'py>> {
-        let (q, v, tau) = self.state(q, v, tau)?;
-        let wrt = Wrt {
-            state: true,
-            control: true,
-            params: &[],
-        };
-        let j = step_jacobians(&self.model, &mut self.ws, (&q, &v, &tau), &wrt)
-            .map_err(|e| PyValueError::new_err(format!("transition_jacobians: {e}")))?;
+        let j = self.jacobians((q, v, tau), &[], "transition_jacobians")?;
         let a = stacked(py, &[&[&j.dq_dq, &j.dv_dq], &[&j.dq_dv, &j.dv_dv]]);
         let b = stacked(py, &[&[&j.dq_dtau, &j.dv_dtau]]);
         Ok((a, b))
@@ -438,6 +424,24 @@ impl PyModel {
             ));
         }
         Ok(contacts)
+    }
+
+    /// The step Jacobians in the state, tau and `params` at (q, v, tau),
+    /// converted and checked; errors name the Python method `call`.
+    fn jacobians(
+        &mut self,
+        (q, v, tau): (&Bound<'_, PyAny>, &Bound<'_, PyAny>, &Bound<'_, PyAny>),
+        params: &[Param],
+        call: &str,
+    ) -> PyResult<StepJacobians> {
+        let (q, v, tau) = self.state(q, v, tau)?;
+        let wrt = Wrt {
+            state: true,
+            control: true,
+            params,
+        };
+        step_jacobians(&self.model, &mut self.ws, (&q, &v, &tau), &wrt)
+            .map_err(|e| PyValueError::new_err(format!("{call}: {e}")))
     }
 
     /// Converts and checks (q, v, tau).
