@@ -23,8 +23,9 @@
 //! - turns the axes below m: dS_j = S_m x S_j for m on j's path, so
 //!   dW(x) = S_m x W_m(x), W_m(x) the part of W(x) from dofs at or below m;
 //! - moves the contact's point, frame and distance with the bodies on whose
-//!   path m is: the collider's derivative along the twist S_m (dual numbers
-//!   through the collider, one per twist direction of a moving body);
+//!   path m is: the collider's derivative along the twist S_m (in closed
+//!   form against a static plane, else dual numbers through the collider,
+//!   one run per direction of a basis of a moving body's twists);
 //! - moves aref = -B J v - K imp(x) x and R (proportional to (1 - imp) / imp)
 //!   with the distance ([`Rows`] records both slopes).
 //!
@@ -41,7 +42,7 @@ use crate::dynamics::collision::{contact_geometry, ConstraintContact, Pre, MINVA
 use crate::dynamics::constraint::{mixing, Mixing, RowKind, Rows};
 use crate::dynamics::solver::{add_outer, Zone};
 use crate::dynamics::{Constrained, Data, Tree};
-use crate::model::Cone;
+use crate::model::{Cone, Shape};
 use crate::spatial::{Force, Motion, Transform};
 
 /// How a contact's point, frame (rows) and distance move along a unit twist
@@ -53,26 +54,29 @@ struct Slope {
     ddist: f64,
 }
 
-/// How a contact moves with one of its bodies: an orthonormal basis of the
-/// twists the body's dofs give it (the first `len` 6-vectors, angular then
-/// linear) and the slope along each. A planar chain spans three twists, a
-/// spatial one six: one dual run of the collider per basis twist.
+/// How a contact moves with one of its bodies.
+// Inline, not boxed: the slopes live in a buffer reused across calls.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, Default)]
-struct Moves {
-    len: usize,
-    basis: [[f64; 6]; 6],
-    slopes: [Slope; 6],
+enum Moves {
+    /// The body does not move.
+    #[default]
+    Still,
+    /// The slopes along an orthonormal basis of the twists the body's dofs
+    /// give it (the first `len` 6-vectors, angular then linear), one dual
+    /// run of the collider per basis twist: a planar chain spans three
+    /// twists, a spatial one six.
+    Basis {
+        len: usize,
+        basis: [[f64; 6]; 6],
+        slopes: [Slope; 6],
+    },
+    /// In closed form along any twist: against a static plane.
+    Plane(OnPlane),
 }
 
-impl Moves {
-    fn along(&self) -> impl Iterator<Item = (&[f64; 6], &Slope)> {
-        self.basis[..self.len].iter().zip(&self.slopes[..self.len])
-    }
-}
-
-/// Per body of a contact (b1, b2): how the contact moves with it (none for
-/// a body that does not move).
-type Slopes = [Option<Moves>; 2];
+/// Per body of a contact (b1, b2): how the contact moves with it.
+type Slopes = [Moves; 2];
 
 /// Whether the derivative of this module applies: no elliptic cone in its
 /// middle zone (that zone's Hessian is not linear in the rows).
@@ -182,30 +186,52 @@ struct ContactPoint<'a> {
 }
 
 impl ContactPoint<'_> {
-    /// The unit wrench of frame row k and its change for a change (dp, de)
-    /// of the point and frame (see the module documentation).
-    fn wrench(&self, k: usize, slope: &Slope) -> (Force<f64>, Force<f64>) {
+    /// The unit wrench of frame row k (see the module documentation).
+    fn wrench(&self, k: usize) -> Force<f64> {
         let (p, frame) = (&self.contact.pos, &self.contact.frame);
-        let e = |m: &Matrix3<f64>, r: usize| m.row(r).transpose();
+        let e = |r: usize| frame.row(r).transpose();
         if k < 3 {
-            let (ek, dek) = (e(frame, k), e(&slope.de, k));
-            (
-                Force::new(p.cross(&ek), ek),
-                Force::new(slope.dp.cross(&ek) + p.cross(&dek), dek),
-            )
+            Force::new(p.cross(&e(k)), e(k))
         } else {
-            let zero = Vector3::zeros();
-            (
-                Force::new(e(frame, k - 3), zero),
-                Force::new(e(&slope.de, k - 3), zero),
-            )
+            Force::new(e(k - 3), Vector3::zeros())
         }
     }
 
+    /// The terms of `slope` (see [`Along`]). With E_k = (p x e_k, e_k) for
+    /// a force row and (e_{k-3}, 0) for a moment row, a motion W = (w, u)
+    /// gives W . dE_k = dp . (e_k x w) + de_k . (u + w x p), resp.
+    /// w . de_{k-3}; and sum_k phi_k dE_k = (dp x f + p x df + dm, df) with
+    /// f = sum_{k<3} phi_k e_k, df = sum_{k<3} phi_k de_k and
+    /// dm = sum_{k>=3} phi_k de_{k-3}.
+    fn along(&self, slope: &Slope, at: &AtPoint) -> Along {
+        let de = |r: usize| slope.de.row(r).transpose();
+        let mut out = Along {
+            ddist: slope.ddist,
+            ..Along::default()
+        };
+        let (mut df, mut dm) = (Vector3::zeros(), Vector3::zeros());
+        for k in 0..at.dim {
+            let de_k = de(k % 3);
+            if k < 3 {
+                out.a_de[k] = slope.dp.dot(&at.e_cross[0][k]) + de_k.dot(&at.point[0]);
+                out.v_de[k] = slope.dp.dot(&at.e_cross[1][k]) + de_k.dot(&at.point[1]);
+                df += de_k * at.phi[k];
+            } else {
+                out.a_de[k] = at.w[0].ang.dot(&de_k);
+                out.v_de[k] = at.w[1].ang.dot(&de_k);
+                dm += de_k * at.phi[k];
+            }
+        }
+        let p = &self.contact.pos;
+        out.phi_de = Force::new(slope.dp.cross(&at.f) + p.cross(&df) + dm, df);
+        out
+    }
+
     /// Adds the contact's part of dg/dq to `r_q` (see the module documentation).
-    /// A change of q_m moves the contact along the twist S_m, a combination
-    /// c_t = u_t . S_m of the basis twists of the bodies m moves: whatever is
-    /// linear in the motion is formed once per basis twist.
+    /// A change of q_m moves the contact along the twist S_m: in closed form
+    /// against a static plane, else as the combination c_t = u_t . S_m of
+    /// the basis twists of the bodies m moves, whatever is linear in the
+    /// motion formed once per basis twist.
     fn add_partials(
         &self,
         tree: &Tree<f64>,
@@ -250,7 +276,7 @@ impl ContactPoint<'_> {
         }
         let mut wrenches = [Force::zero(); 6];
         for (k, e) in wrenches.iter_mut().enumerate().take(dim) {
-            *e = self.wrench(k, &Slope::default()).0;
+            *e = self.wrench(k);
         }
         // phi = c^T f and F.
         let mut phi = [0.0; 6];
@@ -260,32 +286,26 @@ impl ContactPoint<'_> {
             }
         }
         let total = (0..dim).fold(Force::zero(), |s, k| s + wrenches[k] * phi[k]);
-        // Per basis twist (side, u): the distance's slope, W(a) . dE_k, W(v) . dE_k
-        // and sum_k phi_k dE_k.
-        let mut along = [Along::default(); 12];
+        let (p, frame) = (&self.contact.pos, &self.contact.frame);
+        let e = |k: usize| frame.row(k).transpose();
+        let at = AtPoint {
+            dim,
+            w: [w_a, w_v],
+            e_cross: [w_a, w_v].map(|w| [0, 1, 2].map(|k| e(k).cross(&w.ang))),
+            point: [w_a, w_v].map(|w| w.lin + w.ang.cross(p)),
+            phi,
+            f: (0..dim.min(3)).fold(Vector3::zeros(), |f, k| f + e(k) * phi[k]),
+        };
+        // Per basis twist (side, u) the slopes' terms, combined per dof below.
+        let mut along = [(0, [0.0; 6], Along::default()); 12];
         let mut n_along = 0;
-        let twists = (0..2)
-            .filter_map(|side| self.slopes[side].as_ref().map(|moves| (side, moves)))
-            .flat_map(|(side, moves)| moves.along().map(move |m| (side, m)));
-        for (side, (u, slope)) in twists {
-            let mut a_de = [0.0; 6];
-            let mut v_de = [0.0; 6];
-            let mut phi_de = Force::zero();
-            for k in 0..dim {
-                let de = self.wrench(k, slope).1;
-                a_de[k] = w_a.dot(&de);
-                v_de[k] = w_v.dot(&de);
-                phi_de += de * phi[k];
+        for (side, moves) in self.slopes.iter().enumerate() {
+            if let Moves::Basis { len, basis, slopes } = moves {
+                for (u, slope) in basis.iter().zip(slopes).take(*len) {
+                    along[n_along] = (side, *u, self.along(slope, &at));
+                    n_along += 1;
+                }
             }
-            along[n_along] = Along {
-                side,
-                twist: *u,
-                ddist: slope.ddist,
-                a_de,
-                v_de,
-                phi_de,
-            };
-            n_along += 1;
         }
         let along = &along[..n_along];
         for m in (0..n).filter(|&m| on[m] != 0) {
@@ -293,24 +313,24 @@ impl ContactPoint<'_> {
             let twist = [
                 s_m.ang.x, s_m.ang.y, s_m.ang.z, s_m.lin.x, s_m.lin.y, s_m.lin.z,
             ];
+            let mut slope = Along::default();
+            for (_, u, t) in along.iter().filter(|(side, ..)| on[m] & (1 << side) != 0) {
+                slope.add(t, dot(u, &twist));
+            }
+            for (side, moves) in self.slopes.iter().enumerate() {
+                if let (Moves::Plane(on_plane), true) = (moves, on[m] & (1 << side) != 0) {
+                    let closed = on_plane.slope(&self.contact.frame, &twist);
+                    slope.add(&self.along(&closed, &at), 1.0);
+                }
+            }
             let (turn_a, turn_v) = (s_m.cross_motion(&below_a[m]), s_m.cross_motion(&below_v[m]));
             let mut du_a = [0.0; 6];
             let mut du_v = [0.0; 6];
             for k in 0..dim {
-                du_a[k] = turn_a.dot(&wrenches[k]);
-                du_v[k] = turn_v.dot(&wrenches[k]);
+                du_a[k] = slope.a_de[k] + turn_a.dot(&wrenches[k]);
+                du_v[k] = slope.v_de[k] + turn_v.dot(&wrenches[k]);
             }
-            let mut ddist = 0.0;
-            let mut dtotal = Force::zero();
-            for t in along.iter().filter(|t| on[m] & (1 << t.side) != 0) {
-                let c = dot(&t.twist, &twist);
-                ddist += c * t.ddist;
-                for k in 0..dim {
-                    du_a[k] += c * t.a_de[k];
-                    du_v[k] += c * t.v_de[k];
-                }
-                dtotal += t.phi_de * c;
-            }
+            let (ddist, mut dtotal) = (slope.ddist, slope.phi_de);
             let mut psi = [0.0; 6];
             for (i, mix) in self.mix.iter().enumerate().take(count) {
                 let row = first + i;
@@ -340,17 +360,40 @@ impl ContactPoint<'_> {
     }
 }
 
-/// What a contact's derivative forms once per basis twist u of a body
-/// (`side`): the distance's slope along u, W(a) . dE_k and W(v) . dE_k, and
-/// sum_k phi_k dE_k, for the change dE_k of the unit wrenches along u.
+/// What a contact's derivative forms from its slope along a twist: the
+/// distance's slope, W(a) . dE_k and W(v) . dE_k, and sum_k phi_k dE_k, for
+/// the change dE_k of the unit wrenches along the twist; linear in the twist.
 #[derive(Clone, Copy, Default)]
 struct Along {
-    side: usize,
-    twist: [f64; 6],
     ddist: f64,
     a_de: [f64; 6],
     v_de: [f64; 6],
     phi_de: Force<f64>,
+}
+
+impl Along {
+    /// self += c other
+    fn add(&mut self, other: &Along, c: f64) {
+        self.ddist += c * other.ddist;
+        for k in 0..6 {
+            self.a_de[k] += c * other.a_de[k];
+            self.v_de[k] += c * other.v_de[k];
+        }
+        self.phi_de += other.phi_de * c;
+    }
+}
+
+/// What [`ContactPoint::along`] reads of a contact: the motions W(a) and
+/// W(v), for each the cross products e_k x w (k < 3) and the linear motion
+/// at the contact's point u + w x p; the rows' multipliers phi = c^T f and
+/// their force f = sum_{k<3} phi_k e_k.
+struct AtPoint {
+    dim: usize,
+    w: [Motion<f64>; 2],
+    e_cross: [[Vector3<f64>; 3]; 2],
+    point: [Vector3<f64>; 2],
+    phi: [f64; 6],
+    f: Vector3<f64>,
 }
 
 /// The buffers of [`add_row_partials`], kept across calls: the rows'
@@ -366,7 +409,8 @@ pub(super) struct Scratch {
     below_v: Vec<Motion<f64>>,
 }
 
-/// How every contact moves, into `out`: per pair, the collider run on dual
+/// How every contact moves, into `out`: against a static plane in closed
+/// form ([`OnPlane`]); else per pair the collider run on dual
 /// numbers along each basis twist of each moving body, its contacts matched
 /// to the state's in order (the same branches, so the same contacts).
 fn find_slopes(
@@ -376,6 +420,7 @@ fn find_slopes(
     (out, pre): (&mut Vec<Slopes>, &mut Vec<Pre<Dual64>>),
 ) {
     out.clear();
+    out.resize(contacts.len(), Slopes::default());
     let mut start = 0;
     while start < contacts.len() {
         let index = contacts[start].pair;
@@ -389,26 +434,35 @@ fn find_slopes(
         let poses = geoms.map(|g| g.pose(&data.world));
         let shapes = geoms.map(|g| &g.shape);
         let reach = pair.params.margin + pair.params.gap;
-        out.resize(end, [None, None]);
-        for side in (0..2).filter(|&s| geoms[s].node.is_some()) {
-            let basis = twist_basis(tree, data, geoms[side].node);
-            for slopes in &mut out[start..end] {
-                slopes[side] = Some(Moves {
-                    slopes: [Slope::default(); 6],
-                    ..basis
-                });
+        let static_plane = geoms[0].node.is_none() && *shapes[0] == Shape::Plane;
+        if let Some(sphere) = static_plane
+            .then(|| fixed_sphere(shapes[1], &poses[1]))
+            .flatten()
+        {
+            for (moves, c) in out[start..end].iter_mut().zip(&contacts[start..end]) {
+                moves[1] = Moves::Plane(OnPlane::new(c, sphere));
             }
-            for (t, u) in basis.basis[..basis.len].iter().enumerate() {
+            start = end;
+            continue;
+        }
+        for side in (0..2).filter(|&s| geoms[s].node.is_some()) {
+            let (len, basis) = twist_basis(tree, data, geoms[side].node);
+            let slopes = [Slope::default(); 6];
+            for moves in &mut out[start..end] {
+                moves[side] = Moves::Basis { len, basis, slopes };
+            }
+            for (t, u) in basis[..len].iter().enumerate() {
                 let dual = std::array::from_fn(|s| perturbed(&poses[s], (s == side).then_some(u)));
                 let touches = contact_geometry(shapes, dual, reach, pre)
                     .filter(|(_, _, dist)| dist.re < pair.params.margin);
-                for (slopes, (p, e, dist)) in out[start..end].iter_mut().zip(touches) {
-                    let moves = slopes[side].as_mut().expect("set above");
-                    moves.slopes[t] = Slope {
-                        dp: p.map(|x| x.eps),
-                        de: e.map(|x| x.eps),
-                        ddist: dist.eps,
-                    };
+                for (moves, (p, e, dist)) in out[start..end].iter_mut().zip(touches) {
+                    if let Moves::Basis { slopes, .. } = &mut moves[side] {
+                        slopes[t] = Slope {
+                            dp: p.map(|x| x.eps),
+                            de: e.map(|x| x.eps),
+                            ddist: dist.eps,
+                        };
+                    }
                 }
             }
         }
@@ -416,27 +470,92 @@ fn find_slopes(
     }
 }
 
+/// A contact of a static plane (normal n, the frame's first row) with a
+/// sphere, a capsule or a box: the point nearest the plane of a sphere of
+/// radius r fixed on the moving body (the sphere itself, a capsule's end
+/// sphere, a box's corner with r = 0), whose centre is c = pos + n (dist / 2 + r).
+/// The frame is the plane's but for a capsule, whose tangent hint h is
+/// its axis: the frame's second row is y = P h / |P h|, P = I - n n^T.
+#[derive(Clone, Copy, Debug)]
+struct OnPlane {
+    centre: Vector3<f64>,
+    /// h and 1 / |P h| (zero without a hint, or with h along n).
+    hint: Vector3<f64>,
+    scale: f64,
+}
+
+impl OnPlane {
+    /// The contact `c` with the sphere of radius r and hint h of [`fixed_sphere`].
+    fn new(c: &ConstraintContact<f64>, (radius, hint): (f64, Vector3<f64>)) -> Self {
+        let n: Vector3<f64> = c.frame.row(0).transpose();
+        let length = (hint - n * n.dot(&hint)).norm();
+        OnPlane {
+            centre: c.pos + n * (c.dist / 2.0 + radius),
+            hint,
+            scale: if length >= MINVAL { 1.0 / length } else { 0.0 },
+        }
+    }
+
+    /// The slope along the twist (w, u): dc = u + w x c, ddist = n . dc,
+    /// dp = dc - n ddist / 2; with dh = w x h, dy = (I - y y^T) P dh / |P h|
+    /// and d(n x y) = n x dy.
+    fn slope(&self, frame: &Matrix3<f64>, twist: &[f64; 6]) -> Slope {
+        let w = Vector3::new(twist[0], twist[1], twist[2]);
+        let u = Vector3::new(twist[3], twist[4], twist[5]);
+        let (n, y): (Vector3<f64>, Vector3<f64>) =
+            (frame.row(0).transpose(), frame.row(1).transpose());
+        let dc = u + w.cross(&self.centre);
+        let ddist = n.dot(&dc);
+        let mut de = Matrix3::zeros();
+        if self.scale != 0.0 {
+            let dh = w.cross(&self.hint);
+            let flat = dh - n * n.dot(&dh);
+            let dy = (flat - y * y.dot(&flat)) * self.scale;
+            de.set_row(1, &dy.transpose());
+            de.set_row(2, &n.cross(&dy).transpose());
+        }
+        Slope {
+            dp: dc - n * (ddist / 2.0),
+            de,
+            ddist,
+        }
+    }
+}
+
+/// The radius r and the hint h (zero for none) of [`OnPlane`] for a sphere,
+/// a capsule or a box at `pose`; None for other shapes.
+fn fixed_sphere(shape: &Shape, pose: &Transform<f64>) -> Option<(f64, Vector3<f64>)> {
+    match *shape {
+        Shape::Sphere { radius } => Some((radius, Vector3::zeros())),
+        Shape::Capsule { radius, .. } => Some((radius, pose.axes().column(2).into())),
+        Shape::Box { .. } => Some((0.0, Vector3::zeros())),
+        _ => None,
+    }
+}
+
 /// An orthonormal basis (Gram-Schmidt) of the twists of the dofs on the
-/// path from `node` to the root, world coordinates (slopes not yet known).
-fn twist_basis(tree: &Tree<f64>, data: &Data<f64>, node: Option<usize>) -> Moves {
-    let mut out = Moves::default();
+/// path from `node` to the root, world coordinates: its size and vectors.
+fn twist_basis(tree: &Tree<f64>, data: &Data<f64>, node: Option<usize>) -> (usize, [[f64; 6]; 6]) {
+    let (mut len, mut basis) = (0, [[0.0; 6]; 6]);
     let mut k = node;
     while let Some(j) = k {
         let s = data.world_axis[j];
         let mut u = [s.ang.x, s.ang.y, s.ang.z, s.lin.x, s.lin.y, s.lin.z];
-        let scale = dot(&u, &u).sqrt();
-        for b in &out.basis[..out.len] {
+        let scale = dot(&u, &u);
+        for b in &basis[..len] {
             let along = dot(b, &u);
             u.iter_mut().zip(b).for_each(|(x, y)| *x -= along * y);
         }
-        let norm = dot(&u, &u).sqrt();
-        if out.len < 6 && norm > 1e-9 * scale {
-            out.basis[out.len] = u.map(|x| x / norm);
-            out.len += 1;
+        // Kept when longer than 1e-9 of its length before the projection.
+        let norm = dot(&u, &u);
+        if len < 6 && norm > 1e-18 * scale {
+            let inverse = norm.sqrt().recip();
+            basis[len] = u.map(|x| x * inverse);
+            len += 1;
         }
         k = tree.parent[j];
     }
-    out
+    (len, basis)
 }
 
 /// A pose on dual numbers, moved along `twist` (angular, then linear;
