@@ -6,7 +6,9 @@ mod common;
 
 use common::{load, load_with_contact, settled, state};
 use criterion::{criterion_group, criterion_main, Criterion};
-use diffosi::derivatives::{step_jacobians, Workspace, Wrt};
+use diffosi::derivatives::{
+    step_jacobians, transition_jacobians, TransitionJacobians, Workspace, Wrt,
+};
 use diffosi::model::ContactModel;
 use diffosi::Model;
 use std::hint::black_box;
@@ -41,11 +43,6 @@ fn bench_model(c: &mut Criterion, name: &str, param: &str) {
     let mut ws = Workspace::new(&model);
     let mut data = model.data();
     let one = [model.param(param).unwrap()];
-    let full = Wrt {
-        state: true,
-        control: true,
-        params: &[],
-    };
     let one_param = Wrt {
         params: &one,
         ..Wrt::default()
@@ -53,8 +50,12 @@ fn bench_model(c: &mut Criterion, name: &str, param: &str) {
     c.bench_function(&format!("jacobian_step/{name}"), |b| {
         b.iter(|| model.step(&mut data, black_box(&q), &v, &tau).unwrap())
     });
+    let mut transition = TransitionJacobians::new(model.nv());
     c.bench_function(&format!("jacobian_full/{name}"), |b| {
-        b.iter(|| step_jacobians(&model, &mut ws, (black_box(&q), &v, &tau), &full).unwrap())
+        b.iter(|| {
+            let x = (black_box(&q[..]), &v[..], &tau[..]);
+            transition_jacobians(&model, &mut ws, x, &mut transition).unwrap()
+        })
     });
     c.bench_function(&format!("jacobian_param/{name}"), |b| {
         b.iter(|| step_jacobians(&model, &mut ws, (black_box(&q), &v, &tau), &one_param).unwrap())
@@ -99,7 +100,8 @@ fn bench_contact(c: &mut Criterion) {
 }
 
 /// The half cheetah standing on its floor under the constraint model (the
-/// MJCF default): the full step Jacobian (analytic implicit derivative),
+/// MJCF default): the full step Jacobian (analytic implicit derivative, in
+/// MuJoCo's layout as `harness bench` calls it from Python),
 /// the torso mass's (dual numbers) and a plain step, side by side.
 fn bench_constraint(c: &mut Criterion) {
     let model = load_with_contact("half_cheetah", ContactModel::Constraint);
@@ -107,11 +109,6 @@ fn bench_constraint(c: &mut Criterion) {
     let mut ws = Workspace::new(&model);
     let mut data = model.data();
     let torso = [model.param("body/torso/mass").unwrap()];
-    let full = Wrt {
-        state: true,
-        control: true,
-        params: &[],
-    };
     let one_param = Wrt {
         params: &torso,
         ..Wrt::default()
@@ -119,8 +116,12 @@ fn bench_constraint(c: &mut Criterion) {
     c.bench_function("constraint_step/half_cheetah", |b| {
         b.iter(|| model.step(&mut data, black_box(&q), &v, &tau).unwrap())
     });
+    let mut transition = TransitionJacobians::new(model.nv());
     c.bench_function("constraint_jacobian_full/half_cheetah", |b| {
-        b.iter(|| step_jacobians(&model, &mut ws, (black_box(&q), &v, &tau), &full).unwrap())
+        b.iter(|| {
+            let x = (black_box(&q[..]), &v[..], &tau[..]);
+            transition_jacobians(&model, &mut ws, x, &mut transition).unwrap()
+        })
     });
     c.bench_function("constraint_jacobian_param/half_cheetah", |b| {
         b.iter(|| step_jacobians(&model, &mut ws, (black_box(&q), &v, &tau), &one_param).unwrap())

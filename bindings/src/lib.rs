@@ -13,7 +13,9 @@
 mod task;
 mod wiping;
 
-use engine::derivatives::{step_jacobians, StepJacobians, Transition, Workspace, Wrt};
+use engine::derivatives::{
+    step_jacobians, transition_jacobians, Transition, TransitionJacobians, Workspace, Wrt,
+};
 use engine::dynamics::{body_contact_forces, Contact, Data};
 use engine::model::{ContactModel, Integrator, MapEntry, Param, ParamError, ParamMap, PassiveMode};
 use engine::osi::{
@@ -21,11 +23,8 @@ use engine::osi::{
     HUBER_THRESHOLD,
 };
 use engine::{Model, ModelError};
-use nalgebra::DMatrix;
 use numpy::ndarray::{Array2, ArrayView2, ShapeBuilder};
-use numpy::{
-    IntoPyArray, PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods, ToPyArray,
-};
+use numpy::{PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods, ToPyArray};
 use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyValueError};
 use pyo3::intern;
 use pyo3::prelude::*;
@@ -43,13 +42,21 @@ pub(crate) struct PyModel {
     data: Data<f64>,
     /// Scratch for `step_jacobians`; rebuilt whenever the model changes.
     ws: Workspace,
+    /// `transition_jacobians`' result, reused.
+    transition: TransitionJacobians,
 }
 
 impl PyModel {
     pub(crate) fn new(model: Model) -> Self {
         let data = model.data();
         let ws = Workspace::new(&model);
-        PyModel { model, data, ws }
+        let transition = TransitionJacobians::new(model.nv());
+        PyModel {
+            model,
+            data,
+            ws,
+            transition,
+        }
     }
 
     /// Resolves parameter names, failing on the first unknown one.
@@ -282,7 +289,14 @@ impl PyModel {
         params: Option<Vec<String>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let params = self.params(params.as_deref().unwrap_or_default())?;
-        let j = self.jacobians((q, v, tau), &params, "step_jacobians")?;
+        let (q, v, tau) = self.state(q, v, tau)?;
+        let wrt = Wrt {
+            state: true,
+            control: true,
+            params: &params,
+        };
+        let j = step_jacobians(&self.model, &mut self.ws, (&q, &v, &tau), &wrt)
+            .map_err(|e| PyValueError::new_err(format!("step_jacobians: {e}")))?;
         let out = PyDict::new(py);
         // Interned keys: a hot call, and the eight strings are the same every time.
         for (key, m) in [
@@ -310,10 +324,15 @@ impl PyModel {
         v: &Bound<'py, PyAny>,
         tau: &Bound<'py, PyAny>,
     ) -> PyResult<MatrixPair<'py>> {
-        let j = self.jacobians((q, v, tau), &[], "transition_jacobians")?;
-        let a = stacked(py, &[&[&j.dq_dq, &j.dv_dq], &[&j.dq_dv, &j.dv_dv]]);
-        let b = stacked(py, &[&[&j.dq_dtau, &j.dv_dtau]]);
-        Ok((a, b))
+        let (q, v, tau) = self.state(q, v, tau)?;
+        let x = (&q[..], &v[..], &tau[..]);
+        transition_jacobians(&self.model, &mut self.ws, x, &mut self.transition)
+            .map_err(|e| PyValueError::new_err(format!("transition_jacobians: {e}")))?;
+        let (a, b) = (&self.transition.a, &self.transition.b);
+        Ok((
+            to_numpy(py, a.shape(), a.as_slice()),
+            to_numpy(py, b.shape(), b.as_slice()),
+        ))
     }
 
     /// The contacts at (q, v), with the forces a step from (q, v) under the
@@ -424,24 +443,6 @@ impl PyModel {
             ));
         }
         Ok(contacts)
-    }
-
-    /// The step Jacobians in the state, tau and `params` at (q, v, tau),
-    /// converted and checked; errors name the Python method `call`.
-    fn jacobians(
-        &mut self,
-        (q, v, tau): (&Bound<'_, PyAny>, &Bound<'_, PyAny>, &Bound<'_, PyAny>),
-        params: &[Param],
-        call: &str,
-    ) -> PyResult<StepJacobians> {
-        let (q, v, tau) = self.state(q, v, tau)?;
-        let wrt = Wrt {
-            state: true,
-            control: true,
-            params,
-        };
-        step_jacobians(&self.model, &mut self.ws, (&q, &v, &tau), &wrt)
-            .map_err(|e| PyValueError::new_err(format!("{call}: {e}")))
     }
 
     /// Converts and checks (q, v, tau).
@@ -1013,25 +1014,6 @@ fn to_numpy<'py>(
 
 /// Two matrices returned together, as a tuple.
 type MatrixPair<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
-
-/// A numpy array of the block matrix whose block columns are `columns`
-/// (each a column of matrices of equal width, every column as high), copied
-/// column by column into a Fortran-ordered array.
-fn stacked<'py>(py: Python<'py>, columns: &[&[&DMatrix<f64>]]) -> Bound<'py, PyArray2<f64>> {
-    let height = columns[0].iter().map(|m| m.nrows()).sum();
-    let width = columns.iter().map(|column| column[0].ncols()).sum();
-    let mut entries = Vec::with_capacity(height * width);
-    for column in columns {
-        for c in 0..column[0].ncols() {
-            for m in column.iter() {
-                entries.extend_from_slice(&m.as_slice()[c * m.nrows()..(c + 1) * m.nrows()]);
-            }
-        }
-    }
-    Array2::from_shape_vec((height, width).f(), entries)
-        .expect("blocks of matching shapes")
-        .into_pyarray(py)
-}
 
 /// A 1-D array of length `n` with finite entries.
 pub(crate) fn vector(

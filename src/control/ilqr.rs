@@ -8,7 +8,7 @@
 //!   a control u is a task action, each component in [-1, 1].
 //! - One control step is [`Task::substeps`] physics steps with the forces
 //!   `Task::forces(u)` held. Its Jacobians A = dx'/dx and B = dx'/du chain the
-//!   engine's exact step Jacobians ([`step_jacobians`]) through the substeps;
+//!   engine's exact step Jacobians ([`transition_jacobians`]) through the substeps;
 //!   dtau/du is the secant of `Task::forces` over [0, 1] per component, exact
 //!   because a task's forces are affine in the action inside [-1, 1]
 //!   (checked when the planner is built).
@@ -54,7 +54,7 @@ use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 
 use super::ControlError;
-use crate::derivatives::{step_jacobians, Workspace, Wrt};
+use crate::derivatives::{transition_jacobians, TransitionJacobians, Workspace};
 use crate::dynamics::{Data, StepError};
 use crate::model::{Model, State};
 use crate::tasks::{Env, Task};
@@ -312,27 +312,16 @@ impl<'a> Ilqr<'a> {
     ) -> Result<(DMatrix<f64>, DMatrix<f64>), StepError> {
         let n = self.model.nv();
         let tau = self.task.forces(action);
-        let wrt = Wrt {
-            state: true,
-            control: true,
-            params: &[],
-        };
         let mut a = DMatrix::identity(2 * n, 2 * n);
         let mut b_tau = DMatrix::zeros(2 * n, n);
         let (mut q, mut v) = (q.clone(), v.clone());
+        let mut step = TransitionJacobians::new(n);
         for _ in 0..self.task.substeps() {
-            let j = step_jacobians(&self.model, &mut self.ws, (&q, &v, &tau), &wrt)?;
-            let mut a_k = DMatrix::zeros(2 * n, 2 * n);
-            a_k.view_mut((0, 0), (n, n)).copy_from(&j.dq_dq);
-            a_k.view_mut((0, n), (n, n)).copy_from(&j.dq_dv);
-            a_k.view_mut((n, 0), (n, n)).copy_from(&j.dv_dq);
-            a_k.view_mut((n, n), (n, n)).copy_from(&j.dv_dv);
-            let mut b_k = DMatrix::zeros(2 * n, n);
-            b_k.view_mut((0, 0), (n, n)).copy_from(&j.dq_dtau);
-            b_k.view_mut((n, 0), (n, n)).copy_from(&j.dv_dtau);
-            a = &a_k * a;
-            b_tau = &a_k * b_tau + b_k;
-            (q, v) = (j.q_next, j.v_next);
+            transition_jacobians(&self.model, &mut self.ws, (&q, &v, &tau), &mut step)?;
+            a = &step.a * a;
+            b_tau = &step.a * b_tau + &step.b;
+            q.copy_from_slice(&step.q_next);
+            v.copy_from_slice(&step.v_next);
         }
         Ok((a, b_tau * &self.dtau_du))
     }

@@ -30,8 +30,10 @@ mod params;
 mod rnea;
 mod soft;
 mod step;
+mod transition;
 mod window;
 
 pub use rnea::{rnea_derivatives, Sweep};
 pub use step::{step_jacobians, StepJacobians, Workspace, Wrt};
+pub use transition::{transition_jacobians, TransitionJacobians};
 pub use window::{window_residuals, window_residuals_into, Transition, WindowError, WindowFit};

@@ -60,7 +60,7 @@ pub struct Workspace {
     /// The acceleration at the last point, and its derivatives: n x (columns),
     /// columns [q, v] if the state was asked for, then tau, then parameters.
     pub(super) qdd: Vec<f64>,
-    dqdd: DMatrix<f64>,
+    pub(super) dqdd: DMatrix<f64>,
     /// dR/d(columns) before the solve, and M^-1 for wide solves ((M + E)^-1
     /// under the constraint model).
     r: DMatrix<f64>,
@@ -355,7 +355,7 @@ fn rk4(
 /// derivatives -M^-1 dR/d(columns) into `ws.dqdd`; under the constraint
 /// model with rows at the point, by [`constrained_derivatives`]. False
 /// (nothing written to `ws.dqdd`) where those do not apply.
-fn accel_derivatives(
+pub(super) fn accel_derivatives(
     model: &Model,
     ws: &mut Workspace,
     (mode, h): (PassiveMode, f64),

@@ -1,0 +1,164 @@
+//! A step's Jacobians in MuJoCo's layout (mjd_transitionFD's A and B), exact:
+//! with x = (q, v), A = dx'/dx (2n x 2n) and B = dx'/dtau (2n x n),
+//! column-major, q' above v' in the rows and q before v in A's columns.
+//!
+//! Under semi-implicit Euler with the analytic derivatives they are written
+//! straight from d qdd (v' = v + h qdd, q' = q + h v': dv' = h dqdd + I on v,
+//! dq' = h dv' + I on q); otherwise assembled from [`step_jacobians`]'
+//! blocks. Either way the same numbers as those blocks, bit for bit.
+
+use nalgebra::DMatrix;
+
+use super::step::{accel_derivatives, step_jacobians, Workspace, Wrt};
+use crate::dynamics::{check_inputs, integrate_euler, StepError};
+use crate::model::{Integrator, Model};
+
+/// The next state and A, B of the module documentation; reused across
+/// calls (resized when the model's size changes).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TransitionJacobians {
+    pub q_next: Vec<f64>,
+    pub v_next: Vec<f64>,
+    pub a: DMatrix<f64>,
+    pub b: DMatrix<f64>,
+}
+
+impl TransitionJacobians {
+    /// Sized for n dofs.
+    pub fn new(n: usize) -> Self {
+        TransitionJacobians {
+            q_next: vec![0.0; n],
+            v_next: vec![0.0; n],
+            a: DMatrix::zeros(2 * n, 2 * n),
+            b: DMatrix::zeros(2 * n, n),
+        }
+    }
+}
+
+/// One step of `model` from (q, v) under tau into `out`, with A and B.
+pub fn transition_jacobians(
+    model: &Model,
+    ws: &mut Workspace,
+    (q, v, tau): (&[f64], &[f64], &[f64]),
+    out: &mut TransitionJacobians,
+) -> Result<(), StepError> {
+    let n = model.nv();
+    check_inputs(n, (q, v, tau))?;
+    ws.size_for(model);
+    if out.q_next.len() != n {
+        *out = TransitionJacobians::new(n);
+    }
+    let wrt = Wrt {
+        state: true,
+        control: true,
+        params: &[],
+    };
+    let h = model.opt.timestep;
+    let mode = (model.opt.passive, h);
+    if model.opt.integrator == Integrator::Euler
+        && accel_derivatives(model, ws, mode, (q, v, tau), &wrt)
+    {
+        integrate_euler(h, (q, v, &ws.qdd), (&mut out.q_next, &mut out.v_next));
+        euler(ws.dqdd.as_slice(), h, n, out);
+    } else {
+        let j = step_jacobians(model, ws, (q, v, tau), &wrt)?;
+        let blocks = [(0, 0, &j.dq_dq), (0, n, &j.dq_dv), (n, 0, &j.dv_dq)];
+        for (row, col, block) in blocks.into_iter().chain([(n, n, &j.dv_dv)]) {
+            out.a.view_mut((row, col), (n, n)).copy_from(block);
+        }
+        out.b.view_mut((0, 0), (n, n)).copy_from(&j.dq_dtau);
+        out.b.view_mut((n, 0), (n, n)).copy_from(&j.dv_dtau);
+        out.q_next.copy_from_slice(&j.q_next);
+        out.v_next.copy_from_slice(&j.v_next);
+    }
+    let finite = |x: &[f64]| x.iter().all(|x| x.is_finite());
+    if !finite(&out.q_next) || !finite(&out.v_next) {
+        return Err(StepError::Diverged);
+    }
+    for (block, m) in [("A", &out.a), ("B", &out.b)] {
+        if !finite(m.as_slice()) {
+            return Err(StepError::JacobianNotFinite { block });
+        }
+    }
+    Ok(())
+}
+
+/// A and B from d qdd (n x 3n column-major: q, v, tau columns) under Euler,
+/// in the order of operations of the Euler blocks of [`step_jacobians`].
+fn euler(dqdd: &[f64], h: f64, n: usize, out: &mut TransitionJacobians) {
+    let targets = out.a.as_mut_slice().chunks_exact_mut(2 * n);
+    let targets = targets.chain(out.b.as_mut_slice().chunks_exact_mut(2 * n));
+    for (column, (target, source)) in targets.zip(dqdd.chunks_exact(n)).enumerate() {
+        let (dq, dv) = target.split_at_mut(n);
+        for i in 0..n {
+            dv[i] = source[i] * h;
+            dq[i] = dv[i] * h;
+        }
+        if column < n {
+            dq[column] += 1.0;
+        } else if column < 2 * n {
+            dv[column - n] += 1.0;
+            dq[column - n] += h;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Integrator;
+
+    /// A and B hold step_jacobians' blocks bit for bit, on the fast path
+    /// (Euler, in contact) and on the assembled one (RK4), without and with
+    /// contact; bad input is an error, not garbage.
+    #[test]
+    fn equals_the_step_jacobians_blocks() {
+        let dir = env!("CARGO_MANIFEST_DIR");
+        for (file, integrator) in [
+            ("half_cheetah.xml", Integrator::Euler),
+            ("half_cheetah.xml", Integrator::Rk4),
+            ("cartpole.xml", Integrator::Euler),
+        ] {
+            let model = Model::load(format!("{dir}/reference_models/{file}"))
+                .and_then(|m| m.edited(|s| s.opt.integrator = integrator))
+                .unwrap();
+            let n = model.nv();
+            let mut data = model.data();
+            let (mut q, mut v) = (model.reference_q(), vec![0.0; n]);
+            let tau: Vec<f64> = (0..n).map(|i| 0.1 * (i as f64).sin()).collect();
+            for _ in 0..200 {
+                (q, v) = model.step(&mut data, &q, &v, &tau).unwrap();
+            }
+            let touching = !model.contacts(&mut data, &q, &v, &tau).unwrap().is_empty();
+            assert_eq!(touching, file == "half_cheetah.xml");
+            let wrt = Wrt {
+                state: true,
+                control: true,
+                params: &[],
+            };
+            let mut ws = Workspace::new(&model);
+            let j = step_jacobians(&model, &mut ws, (&q, &v, &tau), &wrt).unwrap();
+            let mut t = TransitionJacobians::default();
+            transition_jacobians(&model, &mut ws, (&q, &v, &tau), &mut t).unwrap();
+            let blocks = [
+                (t.a.view((0, 0), (n, n)), &j.dq_dq),
+                (t.a.view((0, n), (n, n)), &j.dq_dv),
+                (t.a.view((n, 0), (n, n)), &j.dv_dq),
+                (t.a.view((n, n), (n, n)), &j.dv_dv),
+                (t.b.view((0, 0), (n, n)), &j.dq_dtau),
+                (t.b.view((n, 0), (n, n)), &j.dv_dtau),
+            ];
+            for (k, (ours, theirs)) in blocks.into_iter().enumerate() {
+                assert_eq!(
+                    ours,
+                    theirs.view((0, 0), (n, n)),
+                    "{file} {integrator:?} block {k}"
+                );
+            }
+            assert_eq!((&t.q_next, &t.v_next), (&j.q_next, &j.v_next));
+            let mut bad = q.clone();
+            bad[0] = f64::NAN;
+            assert!(transition_jacobians(&model, &mut ws, (&bad, &v, &tau), &mut t).is_err());
+        }
+    }
+}
