@@ -279,17 +279,21 @@ impl<T: Real> Inertia<T> {
     }
 
     /// X^T I X: this inertia, given in the target frame of `x`, expressed in
-    /// its source frame.
+    /// its source frame. With E^T h = h', E^T I_O E = R' and r the target's
+    /// origin: h = h' + m r and I = R' - [r][h'] - [h'][r] - m [r][r],
+    /// formed as R' - (h' r^T + r h'^T) + 2 (r . h') 1 - m (r r^T - (r . r) 1).
     pub fn to_source(&self, x: &Transform<T>) -> Inertia<T> {
         let e = &x.rot;
+        let (r, m) = (&x.trans, self.mass);
         let h = e.tr_mul(&self.h);
-        let rot = e.tr_mul(&(self.rot * e));
-        let r = skew(&x.trans);
-        let hx = skew(&h);
+        let hr = h * r.transpose();
+        let rr = r * r.transpose() * m;
+        let diagonal = r.dot(&h) * lift(2.0) + r.dot(r) * m;
         Inertia {
-            mass: self.mass,
-            h: h + x.trans * self.mass,
-            rot: rot - r * hx - hx * r - r * r * self.mass,
+            mass: m,
+            h: h + r * m,
+            rot: e.tr_mul(&(self.rot * e)) - hr - hr.transpose() - rr
+                + Matrix3::from_diagonal_element(diagonal),
         }
     }
 }

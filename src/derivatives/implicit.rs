@@ -296,6 +296,16 @@ impl ContactPoint<'_> {
             phi,
             f: (0..dim.min(3)).fold(Vector3::zeros(), |f, k| f + e(k) * phi[k]),
         };
+        // Per row, df = D (dlnR jar + daref) ddist - D d(J a) - D B d(J v)'s
+        // coefficients; zero off the quadratic zone.
+        let mut row_slopes = [[0.0; 3]; 10];
+        for (row, out) in (first..first + count).zip(&mut row_slopes) {
+            if zone[row] == Zone::Quadratic {
+                let d = 1.0 / rows.r[row];
+                let by_dist = d * (rows.dlog_r_ddist[row] * jar[row] + rows.daref_ddist[row]);
+                *out = [by_dist, d, d * rows.damping[row]];
+            }
+        }
         // Per basis twist (side, u) the slopes' terms, combined per dof below.
         let mut along = [(0, [0.0; 6], Along::default()); 12];
         let mut n_along = 0;
@@ -332,15 +342,9 @@ impl ContactPoint<'_> {
             }
             let (ddist, mut dtotal) = (slope.ddist, slope.phi_de);
             let mut psi = [0.0; 6];
-            for (i, mix) in self.mix.iter().enumerate().take(count) {
-                let row = first + i;
-                if zone[row] != Zone::Quadratic {
-                    continue;
-                }
+            for (mix, [by_dist, by_a, by_v]) in self.mix.iter().zip(&row_slopes).take(count) {
                 let combine = |du: &[f64; 6]| (0..dim).fold(0.0, |s, k| s + mix[k] * du[k]);
-                let d = 1.0 / rows.r[row];
-                let df = d * (rows.dlog_r_ddist[row] * jar[row] + rows.daref_ddist[row]) * ddist
-                    - d * (combine(&du_a) + rows.damping[row] * combine(&du_v));
+                let df = by_dist * ddist - by_a * combine(&du_a) - by_v * combine(&du_v);
                 for k in 0..dim {
                     psi[k] += mix[k] * df;
                 }

@@ -57,6 +57,8 @@ pub struct Workspace {
     pub(super) tau: Vec<f64>,
     pub(super) q_spring: Vec<f64>,
     pub(super) extra: Vec<f64>,
+    /// The constraint model's a - qdd (solver's minus implicit acceleration).
+    y: Vec<f64>,
     /// The acceleration at the last point, and its derivatives: n x (columns),
     /// columns [q, v] if the state was asked for, then tau, then parameters.
     pub(super) qdd: Vec<f64>,
@@ -87,6 +89,7 @@ impl Workspace {
             tau: vec![0.0; n],
             q_spring: vec![0.0; n],
             extra: vec![0.0; n],
+            y: vec![0.0; n],
             qdd: vec![0.0; n],
             dqdd: DMatrix::zeros(n, 0),
             r: DMatrix::zeros(n, 0),
@@ -504,7 +507,9 @@ fn constrained_derivatives(
             1.0,
         );
     }
-    let y: Vec<f64> = a.iter().zip(&ws.qdd).map(|(a, b)| a - b).collect();
+    ws.y.clear();
+    ws.y.extend(a.iter().zip(&ws.qdd).map(|(a, b)| a - b));
+    let y = std::mem::take(&mut ws.y);
     let (n_state, n_tau) = state_and_tau_columns(n, wrt);
     let n_p: usize = wrt.params.iter().map(|p| p.size()).sum();
     let columns = 2 * n_state + n_tau + n_p;
@@ -540,6 +545,7 @@ fn constrained_derivatives(
             product(p_columns, 1.0, &ws.inverse, ws.dmy.columns(0, n_p), 1.0);
         }
     }
+    ws.y = y;
     true
 }
 
