@@ -59,8 +59,20 @@ pub fn transition_jacobians(
         && accel_derivatives(model, ws, mode, (q, v, tau), &wrt)
     {
         integrate_euler(h, (q, v, &ws.qdd), (&mut out.q_next, &mut out.v_next));
+        let finite = |x: &[f64]| x.iter().all(|x| x.is_finite());
+        if !finite(&out.q_next) || !finite(&out.v_next) {
+            return Err(StepError::Diverged);
+        }
+        // A's columns come from d qdd's first 2n, B's from the rest.
+        let (to_a, to_b) = ws.dqdd.as_slice().split_at(2 * n * n);
+        for (block, part) in [("A", to_a), ("B", to_b)] {
+            if !finite(part) {
+                return Err(StepError::JacobianNotFinite { block });
+            }
+        }
         euler(ws.dqdd.as_slice(), h, n, out);
     } else {
+        // Checked as step_jacobians checks its blocks.
         let j = step_jacobians(model, ws, (q, v, tau), &wrt)?;
         let blocks = [(0, 0, &j.dq_dq), (0, n, &j.dq_dv), (n, 0, &j.dv_dq)];
         for (row, col, block) in blocks.into_iter().chain([(n, n, &j.dv_dv)]) {
@@ -70,15 +82,6 @@ pub fn transition_jacobians(
         out.b.view_mut((n, 0), (n, n)).copy_from(&j.dv_dtau);
         out.q_next.copy_from_slice(&j.q_next);
         out.v_next.copy_from_slice(&j.v_next);
-    }
-    let finite = |x: &[f64]| x.iter().all(|x| x.is_finite());
-    if !finite(&out.q_next) || !finite(&out.v_next) {
-        return Err(StepError::Diverged);
-    }
-    for (block, m) in [("A", &out.a), ("B", &out.b)] {
-        if !finite(m.as_slice()) {
-            return Err(StepError::JacobianNotFinite { block });
-        }
     }
     Ok(())
 }
