@@ -579,8 +579,10 @@ fn contact_rows<T: Real>(
                 *f = c.frame.row(axis).transpose().dot(jac);
             }
             for (row, mix) in j.chunks_exact_mut(n).zip(mixes.iter()) {
-                let terms = mix.iter().zip(&frame).filter(|(m, _)| **m != T::zero());
-                row[i] += terms.fold(T::zero(), |s, (m, f)| s + *m * *f);
+                row[i] += mix
+                    .iter()
+                    .zip(&frame)
+                    .fold(T::zero(), |s, (m, f)| s + *m * *f);
             }
             k = tree.parent[i];
         }

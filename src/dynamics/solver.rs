@@ -392,14 +392,13 @@ pub fn add_quadratic_rows<T: Real>(h: &mut [T], rows: &Rows<T>, zone: &[Zone]) {
     }
 }
 
-/// h += w row^T row (h: n x n column-major, n = row's length) over row's
-/// nonzero entries; entry (i, j) adds (w row_i) row_j.
+/// h += w row^T row (h: n x n column-major, n = row's length), the columns
+/// of row's nonzero entries; entry (i, j) adds (w row_i) row_j.
 pub fn add_outer<T: Real>(h: &mut [T], w: T, row: &[T]) {
     let n = row.len();
-    let zero = T::zero();
-    for (j, &x) in row.iter().enumerate().filter(|(_, x)| **x != zero) {
+    for (j, &x) in row.iter().enumerate().filter(|(_, x)| **x != T::zero()) {
         let column = &mut h[j * n..(j + 1) * n];
-        for (hij, &y) in column.iter_mut().zip(row).filter(|(_, y)| **y != zero) {
+        for (hij, &y) in column.iter_mut().zip(row) {
             *hij += w * y * x;
         }
     }
