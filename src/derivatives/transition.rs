@@ -59,7 +59,8 @@ pub fn transition_jacobians(
         && accel_derivatives(model, ws, mode, (q, v, tau), &wrt)
     {
         integrate_euler(h, (q, v, &ws.qdd), (&mut out.q_next, &mut out.v_next));
-        let finite = |x: &[f64]| x.iter().all(|x| x.is_finite());
+        // Without short-circuit: a loop the compiler vectorises.
+        let finite = |x: &[f64]| x.iter().fold(true, |all, x| all & x.is_finite());
         if !finite(&out.q_next) || !finite(&out.v_next) {
             return Err(StepError::Diverged);
         }
