@@ -42,7 +42,7 @@ pub struct Sweep {
     axis: Vec<Motion<f64>>,
     vel: Vec<Motion<f64>>,
     acc: Vec<Motion<f64>>,
-    /// F_i, read from [`rnea`]'s subtree forces.
+    /// F_i: [`rnea`]'s subtree forces, in world coordinates.
     force: Vec<Force<f64>>,
     /// I_i, then I^C_i; Idot^C_i; h^C_i.
     inertia: Vec<Inertia<f64>>,
@@ -114,30 +114,43 @@ impl Sweep {
         &self.acc_y
     }
 
-    /// World frames, axes, motion and forces of every node, then the
-    /// subtree sums and sigma, rho.
-    fn sweep(&mut self, tree: &Tree<f64>, data: &Data<f64>) {
+    /// World frames and axes of every node, and RNEA at (v, a) in world
+    /// coordinates (motions, inertias, forces); then the subtree sums and
+    /// sigma, rho.
+    fn sweep(&mut self, tree: &Tree<f64>, data: &Data<f64>, (v, a): (&[f64], &[f64])) {
         let n = tree.nv();
+        let gravity = Motion::new(nalgebra::Vector3::zeros(), -tree.gravity);
         for i in 0..n {
             let up = &data.x_up[i];
             self.world[i] = tree.parent[i].map_or(*up, |p| up.compose(&self.world[p]));
             let w = &self.world[i];
-            self.axis[i] = w.inverse_apply_motion(&tree.joint[i].s);
-            self.vel[i] = w.inverse_apply_motion(&data.vel[i]);
-            self.acc[i] = w.inverse_apply_motion(&data.acc[i]);
-            self.force[i] = w.inverse_apply_force(&data.force[i]);
-            self.inertia[i] = tree.inertia[i].to_source(w);
-            self.composite[i] = self.inertia[i];
-            self.rate[i] = self.inertia[i].rate(&self.vel[i]);
-            self.momentum[i] = self.inertia[i].mul_motion(&self.vel[i]);
+            let s = w.inverse_apply_motion(&tree.joint[i].s);
+            let (v_p, a_p) =
+                tree.parent[i].map_or((Motion::zero(), gravity), |p| (self.vel[p], self.acc[p]));
+            let (vel, joint) = (v_p + s * v[i], s * v[i]);
+            let acc = a_p + s * a[i] + vel.cross_motion(&joint);
+            let inertia = tree.inertia[i].to_source(w);
+            let momentum = inertia.mul_motion(&vel);
+            self.axis[i] = s;
+            (self.vel[i], self.acc[i]) = (vel, acc);
+            self.force[i] = inertia.mul_motion(&acc) + vel.cross_force(&momentum);
+            self.inertia[i] = inertia;
+            self.composite[i] = inertia;
+            self.rate[i] = inertia.rate(&vel);
+            self.momentum[i] = momentum;
         }
         for i in (0..n).rev() {
             if let Some(p) = tree.parent[i] {
-                let (composite, rate, momentum) =
-                    (self.composite[i], self.rate[i], self.momentum[i]);
+                let (composite, rate, momentum, force) = (
+                    self.composite[i],
+                    self.rate[i],
+                    self.momentum[i],
+                    self.force[i],
+                );
                 self.composite[p] += composite;
                 self.rate[p] += rate;
                 self.momentum[p] += momentum;
+                self.force[p] += force;
             }
             let s = &self.axis[i];
             self.sigma[i] = self.composite[i].mul_motion(s);
@@ -196,16 +209,16 @@ impl Sweep {
 /// Fills d_dq and d_dv (n x n, column j = derivative w.r.t. q_j or v_j) of
 /// ID(q, v, a), and with `mass = Some((y, d_my))` d_my with d(M(q) y)/dq.
 /// M includes the armature, which depends on neither. `data` must hold
-/// [`rnea`]'s results at (q, v, a): transforms, velocities, accelerations
-/// and subtree forces.
+/// the transforms at q (`x_up`).
 pub fn rnea_derivatives(
     tree: &Tree<f64>,
     data: &Data<f64>,
     sweep: &mut Sweep,
+    (v, a): (&[f64], &[f64]),
     (mut d_dq, mut d_dv): (DMatrixViewMut<f64>, DMatrixViewMut<f64>),
     mass: Option<(&[f64], DMatrixViewMut<f64>)>,
 ) {
-    sweep.sweep(tree, data);
+    sweep.sweep(tree, data, (v, a));
     sweep.dof_terms(tree);
     zero(&mut d_dq);
     zero(&mut d_dv);
@@ -290,6 +303,7 @@ mod tests {
             tree,
             &data,
             &mut sweep,
+            (&v, &a),
             columns,
             Some((&y, d_my.columns_mut(0, n))),
         );

@@ -389,7 +389,8 @@ pub(super) fn accel_derivatives(
     reset(&mut ws.r, n, columns);
     if wrt.state {
         let r_qv = ws.r.columns_range_pair_mut(0..n, n..2 * n);
-        rnea_derivatives(tree, &ws.data, &mut ws.sweep, r_qv, None);
+        let at = (v, &ws.qdd[..]);
+        rnea_derivatives(tree, &ws.data, &mut ws.sweep, at, r_qv, None);
         add_passive_partials(model, (mode, h), &mut ws.r);
     }
     for i in 0..n_tau {
@@ -515,13 +516,12 @@ fn constrained_derivatives(
     let columns = 2 * n_state + n_tau + n_p;
     reset(&mut ws.r, n, columns);
     reset(&mut ws.dqdd, n, columns);
-    rnea_with_transforms(tree, &mut ws.data, v, a, &mut ws.tau);
     if wrt.state {
         // dg/d(q, v), and d(M y)/dq for the implicit passive forces.
         let r_qv = ws.r.columns_range_pair_mut(0..n, n..2 * n);
         reset(&mut ws.dmy, n, n);
         let mass = implicit.then(|| (&y[..], ws.dmy.columns_mut(0, n)));
-        rnea_derivatives(tree, &ws.data, &mut ws.sweep, r_qv, mass);
+        rnea_derivatives(tree, &ws.data, &mut ws.sweep, (v, a), r_qv, mass);
         add_passive_partials(model, (mode, h), &mut ws.r);
         let (r_q, r_v) = ws.r.as_mut_slice()[..2 * n * n].split_at_mut(n * n);
         add_row_partials(tree, &ws.data, (v, a), c, (r_q, r_v), &mut ws.rows);
@@ -536,6 +536,8 @@ fn constrained_derivatives(
         ws.dqdd.columns_mut(2 * n_state, n).copy_from(&ws.gain);
     }
     if n_p > 0 {
+        // The parameters' derivatives read RNEA at a (node frames).
+        rnea_with_transforms(tree, &mut ws.data, v, a, &mut ws.tau);
         parameter_derivatives(model, ws, (mode, h), (v, &y), c, wrt);
         let start = columns - n_p;
         let p_columns = ws.dqdd.columns_mut(start, n_p);
