@@ -132,12 +132,15 @@ enum Command {
         /// Learning-curve CSV (default: the output path with extension .curve.csv).
         #[arg(long)]
         curve: Option<PathBuf>,
-        /// How a uc or dr policy learns: ppo, or imitation of the iLQR MPC
-        /// expert (DAgger; its --steps is ignored).
+        /// How a uc or dr policy learns: ppo, imitation of the iLQR MPC
+        /// expert (DAgger; its --steps is ignored), or apg, analytic policy
+        /// gradients through the engine refining the --init policy (--steps
+        /// sets the rollout steps; the shipped cartpole UCs are imitation,
+        /// then apg).
         #[arg(long, value_enum, default_value = "ppo")]
         method: cli::train::Method,
-        /// PPO only: start from this policy's network and input normalisation
-        /// (e.g. one made by imitation) instead of a random network.
+        /// ppo: start from this policy's network and input normalisation
+        /// instead of a random network; apg: the policy to refine (required).
         #[arg(long)]
         init: Option<PathBuf>,
     },

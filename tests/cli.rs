@@ -241,3 +241,27 @@ fn help_describes_every_command() {
         );
     }
 }
+
+#[test]
+fn train_refines_a_policy_by_analytic_gradients() {
+    let out = temp_path("cli", "apg.json");
+    let out_s = out.to_str().unwrap();
+    let base = [
+        "train", "--task", "cartpole", "--policy", "uc", "--method", "apg", "--seed", "3",
+        "--steps", "5000", "-o", out_s,
+    ];
+    let (ok, _, err) = run_cli(&base);
+    assert!(!ok && err.contains("--init"), "{err}");
+    let init = ["--init", "policies/cartpole/uc-seed0.json"];
+    let (ok, stdout, err) = run_cli(&[&base[..], &init[..]].concat());
+    assert!(ok, "{err}");
+    assert!(stdout.contains("analytic policy gradients"), "{stdout}");
+    let policy = diffosi::rl::Policy::load(&out).unwrap();
+    assert_eq!(policy.kind, diffosi::rl::PolicyKind::Uc);
+    let curve = std::fs::read_to_string(out.with_extension("curve.csv")).unwrap();
+    // 5000 steps of 32 rollouts of 80 control steps: two iterations.
+    assert_eq!(curve.lines().count(), 3, "{curve}");
+    let dr = ["--init", "policies/cartpole/dr-seed0.json"];
+    let (ok, _, err) = run_cli(&[&base[..], &dr[..]].concat());
+    assert!(!ok && err.contains("--init"), "{err}");
+}

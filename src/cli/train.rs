@@ -4,7 +4,9 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use diffosi::osi::mlp::{self, MlpConfig};
-use diffosi::rl::{self, CurveRow, DaggerConfig, Policy, PolicyKind, PpoConfig, RoundRow};
+use diffosi::rl::{
+    self, ApgConfig, ApgRow, CurveRow, DaggerConfig, Policy, PolicyKind, PpoConfig, RoundRow,
+};
 use diffosi::tasks::{self, Task};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -28,6 +30,8 @@ pub enum Method {
     Ppo,
     /// DAgger on the iLQR MPC expert ([`rl::train_dagger`]).
     Imitation,
+    /// Analytic policy gradients through the engine, from --init ([`rl::train_apg`]).
+    Apg,
 }
 
 pub struct Request<'a> {
@@ -50,20 +54,40 @@ pub fn train(request: Request) -> Result<(), String> {
         Target::Mlp | Target::MlpNarrow => return train_mlp(request),
     };
     let task = tasks::by_name(request.task)?;
-    if request.method == Method::Imitation {
-        return imitate(task.as_ref(), kind, &request);
+    let init = request
+        .init
+        .as_deref()
+        .map(|path| load_init(path, kind, task.as_ref()))
+        .transpose()?;
+    match (request.method, init) {
+        (Method::Imitation, _) => imitate(task.as_ref(), kind, &request),
+        (Method::Apg, Some(init)) => refine(task.as_ref(), &init, &request),
+        (Method::Apg, None) => Err("--method apg refines a policy: give it with --init".into()),
+        (Method::Ppo, init) => ppo(task.as_ref(), kind, init, &request),
     }
-    let init = request.init.as_deref().map(Policy::load).transpose()?;
-    if let Some(policy) = &init {
-        if policy.kind != kind || policy.task != task.name() {
-            return Err(format!(
-                "--init: a {:?} policy for '{}', not {kind:?} for '{}'",
-                policy.kind,
-                policy.task,
-                task.name()
-            ));
-        }
+}
+
+/// The --init policy, checked to be of `kind` for `task`.
+fn load_init(path: &Path, kind: PolicyKind, task: &dyn Task) -> Result<Policy, String> {
+    let policy = Policy::load(path)?;
+    if policy.kind != kind || policy.task != task.name() {
+        return Err(format!(
+            "--init: a {:?} policy for '{}', not {kind:?} for '{}'",
+            policy.kind,
+            policy.task,
+            task.name()
+        ));
     }
+    Ok(policy)
+}
+
+/// `diffosi train --method ppo`.
+fn ppo(
+    task: &dyn Task,
+    kind: PolicyKind,
+    init: Option<Policy>,
+    request: &Request,
+) -> Result<(), String> {
     let mut config = PpoConfig {
         seed: request.seed,
         // A given network meets a value function trained first.
@@ -73,13 +97,13 @@ pub fn train(request: Request) -> Result<(), String> {
     if let Some(steps) = request.steps {
         config.total_steps = steps;
     }
-    let curve_path = curve_path(&request);
+    let curve_path = curve_path(request);
     let batch = config.num_envs * config.rollout_len;
     let bar = ProgressBar::new(config.total_steps.div_ceil(batch) as u64).with_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} iterations {elapsed}<{eta} {msg}")
             .expect("valid template"),
     );
-    let trained = rl::train_from(task.as_ref(), kind, &config, init.as_ref(), |row| {
+    let trained = rl::train_from(task, kind, &config, init.as_ref(), |row| {
         bar.set_message(format!("metric {:.1}", row.mean_metric));
         bar.inc(1);
     })
@@ -151,6 +175,55 @@ fn imitate(task: &dyn Task, kind: PolicyKind, request: &Request) -> Result<(), S
     println!(
         "{} {kind:?} seed {} by imitation: {} labelled states in {:.1} s, mean task metric of the last round {:.1}; wrote {}, {} and {}",
         task.name(),
+        request.seed,
+        info.env_steps,
+        info.wall_seconds,
+        info.final_metric.unwrap_or(f64::NAN),
+        request.output.display(),
+        path.display(),
+        plot_path.display()
+    );
+    Ok(())
+}
+
+/// `diffosi train --method apg`: analytic policy gradients from --init.
+fn refine(task: &dyn Task, init: &Policy, request: &Request) -> Result<(), String> {
+    let mut config = ApgConfig {
+        seed: request.seed,
+        ..ApgConfig::default()
+    };
+    if let Some(steps) = request.steps {
+        config.iterations = steps.div_ceil(config.batch * config.horizon);
+    }
+    let bar = ProgressBar::new(config.iterations as u64).with_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} iterations {elapsed}<{eta} {msg}")
+            .expect("valid template"),
+    );
+    let mut last = None;
+    let (policy, curve) = rl::train_apg(task, init, &config, |row| {
+        last = row.validation.or(last);
+        bar.set_message(format!(
+            "cost {:.3}, validation {}",
+            row.mean_cost,
+            last.map_or("-".into(), |v: f64| format!("{v:.1}"))
+        ));
+        bar.inc(1);
+    })
+    .map_err(|e| e.to_string())?;
+    bar.finish_and_clear();
+    policy.save(request.output)?;
+    let rows: Vec<String> = curve.iter().map(ApgRow::csv).collect();
+    let points: Vec<(f64, f64)> = curve
+        .iter()
+        .filter_map(|r| Some((r.env_steps as f64, r.validation?)))
+        .collect();
+    let path = curve_path(request);
+    let plot_path = write_curve(&path, ApgRow::CSV_HEADER, &rows, &points)?;
+    let info = policy.training.as_ref().expect("set by training");
+    println!(
+        "{} {:?} seed {} by analytic policy gradients: {} env steps in {:.1} s, best validation score {:.1}; wrote {}, {} and {}",
+        task.name(),
+        policy.kind,
         request.seed,
         info.env_steps,
         info.wall_seconds,

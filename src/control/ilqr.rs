@@ -304,12 +304,13 @@ impl<'a> Ilqr<'a> {
         cost.is_finite().then_some((states, actions, cost))
     }
 
-    /// A = dx'/dx and B = dx'/du of one control step, by the exact step Jacobians.
+    /// A = dx'/dx and B = dx'/du of one control step, by the exact step
+    /// Jacobians, and the state it reaches.
     fn linearise(
         &mut self,
         (q, v): &State,
         action: &[f64],
-    ) -> Result<(DMatrix<f64>, DMatrix<f64>), StepError> {
+    ) -> Result<(DMatrix<f64>, DMatrix<f64>, State), StepError> {
         let n = self.model.nv();
         let tau = self.task.forces(action);
         let mut a = DMatrix::identity(2 * n, 2 * n);
@@ -323,7 +324,70 @@ impl<'a> Ilqr<'a> {
             q.copy_from_slice(&step.q_next);
             v.copy_from_slice(&step.v_next);
         }
-        Ok((a, b_tau * &self.dtau_du))
+        Ok((a, b_tau * &self.dtau_du, (q, v)))
+    }
+
+    /// One control step from `x` under the action `u` and its derivatives:
+    /// the next state, A = dx'/dx and B = dx'/du (exact), the step's cost and
+    /// its gradient in (x, u) through x' = f(x, u) (what a gradient of a
+    /// closed-loop rollout's cost needs: [`crate::rl::train_apg`]).
+    pub fn differentiate(&mut self, x: &State, u: &[f64]) -> Result<StepDerivatives, ControlError> {
+        let (a, b, next) = self.linearise(x, u).map_err(step_error)?;
+        let mut point = CostPoint {
+            state: x.clone(),
+            action: u.to_vec(),
+            next,
+        };
+        let cost = point.cost(self.task, &self.mu);
+        let gradient = self.chain_rule(&a, &b).transpose() * self.cost_gradient(&mut point);
+        let n2 = a.nrows();
+        Ok(StepDerivatives {
+            next: point.next,
+            cost,
+            l_x: gradient.rows(0, n2).into_owned(),
+            l_u: gradient.rows(n2, b.ncols()).into_owned(),
+            a,
+            b,
+        })
+    }
+
+    /// Z, the rows dz_i / d(x, u) of the coordinates the cost depends on.
+    fn chain_rule(&self, a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
+        let (n2, m) = (a.nrows(), b.ncols());
+        let mut z = DMatrix::zeros(self.cost_coords.len(), n2 + m);
+        for (row, &i) in self.cost_coords.iter().enumerate() {
+            if i < n2 + m {
+                z[(row, i)] = 1.0;
+            } else {
+                let k = i - n2 - m;
+                z.view_mut((row, 0), (1, n2)).copy_from(&a.row(k));
+                z.view_mut((row, n2), (1, m)).copy_from(&b.row(k));
+            }
+        }
+        z
+    }
+
+    /// The cost's difference steps, one per used coordinate of z.
+    fn cost_steps(&self, point: &mut CostPoint) -> Vec<f64> {
+        self.cost_coords
+            .iter()
+            .map(|&i| point.slot(i).abs().max(1.0))
+            .collect()
+    }
+
+    /// The cost's gradient in the used coordinates of z (central differences).
+    fn cost_gradient(&self, point: &mut CostPoint) -> DVector<f64> {
+        let steps = self.cost_steps(point);
+        let (task, mu) = (self.task, &self.mu[..]);
+        DVector::from_iterator(
+            steps.len(),
+            self.cost_coords.iter().zip(&steps).map(|(&i, &step)| {
+                let s = GRADIENT_STEP * step;
+                let plus = point.moved(task, mu, (i, s), (i, 0.0));
+                let minus = point.moved(task, mu, (i, -s), (i, 0.0));
+                (plus - minus) / (2.0 * s)
+            }),
+        )
     }
 
     /// Gradient and Hessian of the step cost l in (x, u), through x' = f(x, u)
@@ -334,33 +398,15 @@ impl<'a> Ilqr<'a> {
         a: &DMatrix<f64>,
         b: &DMatrix<f64>,
     ) -> (DVector<f64>, DMatrix<f64>) {
-        let (n2, m) = (a.nrows(), b.ncols());
         let coords = &self.cost_coords;
         let d = coords.len();
-        // Z: rows dz_i / d(x, u) for the used coordinates.
-        let mut z = DMatrix::zeros(d, n2 + m);
-        for (row, &i) in coords.iter().enumerate() {
-            if i < n2 + m {
-                z[(row, i)] = 1.0;
-            } else {
-                let k = i - n2 - m;
-                z.view_mut((row, 0), (1, n2)).copy_from(&a.row(k));
-                z.view_mut((row, n2), (1, m)).copy_from(&b.row(k));
-            }
-        }
-        let steps: Vec<f64> = coords
-            .iter()
-            .map(|&i| point.slot(i).abs().max(1.0))
-            .collect();
+        let z = self.chain_rule(a, b);
+        let steps = self.cost_steps(point);
         let (task, mu) = (self.task, &self.mu[..]);
         let c0 = point.cost(task, mu);
-        let mut g = DVector::zeros(d);
+        let g = self.cost_gradient(point);
         let mut h = DMatrix::zeros(d, d);
         for (p, &i) in coords.iter().enumerate() {
-            let s = GRADIENT_STEP * steps[p];
-            let plus = point.moved(task, mu, (i, s), (i, 0.0));
-            let minus = point.moved(task, mu, (i, -s), (i, 0.0));
-            g[p] = (plus - minus) / (2.0 * s);
             let s = HESSIAN_STEP * steps[p];
             let plus = point.moved(task, mu, (i, s), (i, 0.0));
             let minus = point.moved(task, mu, (i, -s), (i, 0.0));
@@ -505,7 +551,7 @@ impl<'a> Ilqr<'a> {
         let mut local = Vec::with_capacity(plan.actions.len());
         for (t, u) in plan.actions.iter().enumerate() {
             let x = &plan.states[t];
-            let (a, b) = self.linearise(x, u).map_err(step_error)?;
+            let (a, b, _) = self.linearise(x, u).map_err(step_error)?;
             let mut point = CostPoint {
                 state: x.clone(),
                 action: u.clone(),
@@ -516,6 +562,20 @@ impl<'a> Ilqr<'a> {
         }
         Ok(local)
     }
+}
+
+/// One control step and its derivatives ([`Ilqr::differentiate`]).
+#[derive(Clone, Debug)]
+pub struct StepDerivatives {
+    pub next: State,
+    /// A = dx'/dx (2 nv x 2 nv) and B = dx'/du (2 nv x act_dim).
+    pub a: DMatrix<f64>,
+    pub b: DMatrix<f64>,
+    /// The step's cost l = Task::cost(mu, x, u, x') and its gradient in x and
+    /// in u, x' moving with them.
+    pub cost: f64,
+    pub l_x: DVector<f64>,
+    pub l_u: DVector<f64>,
 }
 
 /// One control step's local model: x' ~ A x + B u, the step cost's gradient
@@ -906,7 +966,7 @@ mod tests {
         let task = Held(Cartpole::new());
         let mut planner = Ilqr::new(&task, &[0.2], IlqrOptions::default()).unwrap();
         let (x, u) = ((vec![0.3, -0.2], vec![0.4, 1.1]), vec![0.03]);
-        let (a, b) = planner.linearise(&x, &u).unwrap();
+        let (a, b, _) = planner.linearise(&x, &u).unwrap();
         let h = 1e-6;
         let mut worst: f64 = 0.0;
         for col in 0..5 {
@@ -968,7 +1028,7 @@ mod tests {
             .contacts(&mut task.model().data(), &x.0, &x.1, &[0.0; 9]);
         assert!(!contacts.unwrap().is_empty(), "standing on the floor");
         let u = vec![0.1, -0.2, 0.3, -0.1, 0.2, 0.05];
-        let (a, b) = planner.linearise(&x, &u).unwrap();
+        let (a, b, _) = planner.linearise(&x, &u).unwrap();
         let h = 1e-7;
         let mut worst: f64 = 0.0;
         for col in 0..2 * n + 6 {

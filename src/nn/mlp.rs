@@ -183,6 +183,24 @@ impl<T: Float> Mlp<T> {
     /// `grad`, given the loss's gradient `dout` with respect to the outputs of
     /// the last [`Mlp::forward`] on this tape.
     pub fn backward(&self, tape: &mut Tape<T>, dout: &[T], grad: &mut [T]) {
+        self.backprop(tape, dout, grad, false);
+    }
+
+    /// As [`Mlp::backward`], and also the loss's gradient with respect to
+    /// the inputs of that forward pass (`batch x inputs`), returned.
+    pub fn backward_to_inputs<'t>(
+        &self,
+        tape: &'t mut Tape<T>,
+        dout: &[T],
+        grad: &mut [T],
+    ) -> &'t [T] {
+        self.backprop(tape, dout, grad, true);
+        &tape.delta
+    }
+
+    /// Back-propagation of `dout` into `grad`; with `to_inputs`, on through
+    /// the first layer's weights so that `tape.delta` ends as the inputs' gradient.
+    fn backprop(&self, tape: &mut Tape<T>, dout: &[T], grad: &mut [T], to_inputs: bool) {
         let batch = tape.batch;
         assert_eq!(dout.len(), batch * self.outputs(), "dout shape");
         assert_eq!(grad.len(), self.params.len(), "grad shape");
@@ -206,7 +224,7 @@ impl<T: Float> Mlp<T> {
             for row in tape.delta.chunks_exact(n_out) {
                 gb.iter_mut().zip(row).for_each(|(g, &d)| *g += d);
             }
-            if l == 0 {
+            if l == 0 && !to_inputs {
                 break;
             }
             // Back through W, then through the nonlinearity that produced `input`.
@@ -221,8 +239,10 @@ impl<T: Float> Mlp<T> {
                 T::of(0.0),
                 (&mut tape.next, n_in_s, 1),
             );
-            for (d, &h) in tape.next.iter_mut().zip(input) {
-                *d *= self.activation.slope(h);
+            if l > 0 {
+                for (d, &h) in tape.next.iter_mut().zip(input) {
+                    *d *= self.activation.slope(h);
+                }
             }
             std::mem::swap(&mut tape.delta, &mut tape.next);
         }
@@ -303,8 +323,22 @@ mod tests {
             let y = net.forward(&x, &mut tape).to_vec();
             let dout: Vec<f64> = y.iter().zip(&c).map(|(y, c)| c * y).collect();
             let mut grad = vec![0.0; net.params().len()];
-            net.backward(&mut tape, &dout, &mut grad);
+            let dx = net.backward_to_inputs(&mut tape, &dout, &mut grad).to_vec();
+            let mut only_params = vec![0.0; grad.len()];
+            net.forward(&x, &mut tape);
+            net.backward(&mut tape, &dout, &mut only_params);
+            assert_eq!(only_params, grad);
             let h = 1e-6;
+            for (i, &g) in dx.iter().enumerate() {
+                let (mut plus, mut minus) = (x.clone(), x.clone());
+                plus[i] += h;
+                minus[i] -= h;
+                let fd = (loss(&net, &plus, &c) - loss(&net, &minus, &c)) / (2.0 * h);
+                assert!(
+                    (fd - g).abs() < 1e-8 * (1.0 + fd.abs()),
+                    "{activation:?} input {i}: fd {fd}, backward {g}"
+                );
+            }
             for (i, &g) in grad.iter().enumerate() {
                 let mut plus = net.clone();
                 plus.params_mut()[i] += h;

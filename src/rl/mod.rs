@@ -6,12 +6,14 @@
 //! domain-randomised baseline, which observes the state only. Both are
 //! trained with mu drawn afresh for every episode.
 
+mod apg;
 mod dagger;
 mod eval;
 mod policy;
 mod ppo;
 mod stats;
 
+pub use apg::{train_apg, ApgConfig, ApgRow};
 pub use dagger::{train_dagger, DaggerConfig, RoundRow};
 pub use eval::{evaluate, mean_std, Evaluation, MuSource};
 pub use policy::{Policy, PolicyKind, TrainingInfo};
