@@ -163,18 +163,46 @@ fn imitate(task: &dyn Task, kind: PolicyKind, request: &Request) -> Result<(), S
     })
     .map_err(|e| e.to_string())?;
     bar.finish_and_clear();
+    let curve = Curve {
+        header: RoundRow::CSV_HEADER,
+        rows: curve.iter().map(RoundRow::csv).collect(),
+        points: curve
+            .iter()
+            .map(|r| (r.env_steps as f64, r.mean_metric))
+            .collect(),
+    };
+    let what = (
+        "imitation",
+        "labelled states",
+        "mean task metric of the last round",
+    );
+    save_trained(task, &policy, request, curve, what)
+}
+
+/// A trained policy's learning curve: CSV rows and the points to plot.
+struct Curve {
+    header: &'static str,
+    rows: Vec<String>,
+    points: Vec<(f64, f64)>,
+}
+
+/// Saves `policy` and its learning curve next to it and says what was made;
+/// `what` names the method, its steps and its final metric.
+fn save_trained(
+    task: &dyn Task,
+    policy: &Policy,
+    request: &Request,
+    curve: Curve,
+    (method, steps, metric): (&str, &str, &str),
+) -> Result<(), String> {
     policy.save(request.output)?;
-    let rows: Vec<String> = curve.iter().map(RoundRow::csv).collect();
-    let points: Vec<(f64, f64)> = curve
-        .iter()
-        .map(|r| (r.env_steps as f64, r.mean_metric))
-        .collect();
     let path = curve_path(request);
-    let plot_path = write_curve(&path, RoundRow::CSV_HEADER, &rows, &points)?;
+    let plot_path = write_curve(&path, curve.header, &curve.rows, &curve.points)?;
     let info = policy.training.as_ref().expect("set by training");
     println!(
-        "{} {kind:?} seed {} by imitation: {} labelled states in {:.1} s, mean task metric of the last round {:.1}; wrote {}, {} and {}",
+        "{} {:?} seed {} by {method}: {} {steps} in {:.1} s, {metric} {:.1}; wrote {}, {} and {}",
         task.name(),
+        policy.kind,
         request.seed,
         info.env_steps,
         info.wall_seconds,
@@ -211,28 +239,20 @@ fn refine(task: &dyn Task, init: &Policy, request: &Request) -> Result<(), Strin
     })
     .map_err(|e| e.to_string())?;
     bar.finish_and_clear();
-    policy.save(request.output)?;
-    let rows: Vec<String> = curve.iter().map(ApgRow::csv).collect();
-    let points: Vec<(f64, f64)> = curve
-        .iter()
-        .filter_map(|r| Some((r.env_steps as f64, r.validation?)))
-        .collect();
-    let path = curve_path(request);
-    let plot_path = write_curve(&path, ApgRow::CSV_HEADER, &rows, &points)?;
-    let info = policy.training.as_ref().expect("set by training");
-    println!(
-        "{} {:?} seed {} by analytic policy gradients: {} env steps in {:.1} s, best validation score {:.1}; wrote {}, {} and {}",
-        task.name(),
-        policy.kind,
-        request.seed,
-        info.env_steps,
-        info.wall_seconds,
-        info.final_metric.unwrap_or(f64::NAN),
-        request.output.display(),
-        path.display(),
-        plot_path.display()
+    let curve = Curve {
+        header: ApgRow::CSV_HEADER,
+        rows: curve.iter().map(ApgRow::csv).collect(),
+        points: curve
+            .iter()
+            .filter_map(|r| Some((r.env_steps as f64, r.validation?)))
+            .collect(),
+    };
+    let what = (
+        "analytic policy gradients",
+        "env steps",
+        "best validation score",
     );
-    Ok(())
+    save_trained(task, &policy, request, curve, what)
 }
 
 /// The narrow training range of UC-MLP-Narrow, per mu component.
