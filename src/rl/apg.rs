@@ -25,8 +25,11 @@
 //! range or, with probability `change`, where the policy itself has brought
 //! the system after 1..=`lead` control steps under another mu drawn
 //! uniformly (a mid-episode change, the paper's Table 4): the rollout then
-//! runs at the new mu. An iteration is one Adam step on the mean cost per
-//! step of `batch` rollouts, the gradient's norm clipped. Every `eval_every`
+//! runs at the new mu. A rollout stops where the task ends the episode:
+//! run on, a fallen pole spins and its cost's gradient swamps the others
+//! (the training measured unstable that way). An iteration is one Adam step
+//! on the mean cost per step of `batch` rollouts, the gradient's norm
+//! clipped. Every `eval_every`
 //! iterations the policy plays fixed validation episodes of the full horizon
 //! with the true mu (half of them with a change of mu at a step uniform in
 //! the middle half); the best-scoring policy, the initial one included, is
