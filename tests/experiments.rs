@@ -172,6 +172,26 @@ fn the_shipped_mlps_predict_mu_within_their_training_ranges() {
     }
 }
 
+/// The summaries of UC-Oracle and UC-DiffOSI with the shipped UCs on the
+/// same episodes: `episodes` per model from `seed`, mu changing at `change_at`.
+fn oracle_and_diffosi(
+    seed: u64,
+    episodes: usize,
+    change_at: Option<usize>,
+) -> (experiments::Summary, experiments::Summary) {
+    let methods = vec![
+        Method::uc("UC-Oracle", Source::Oracle, None),
+        Method::uc("UC-DiffOSI", Source::Diffosi, None),
+    ];
+    let s = Study {
+        seed,
+        ..study(methods, episodes, change_at)
+    };
+    let mut results = run(&s, &controllers(3), 2).methods.into_iter();
+    let mut next = || results.next().unwrap().summary;
+    (next(), next())
+}
+
 /// The shipped UCs on unseen episodes (seed 7, 3 models x 100), given the
 /// true mu and fed DiffOSI's: measured UC-Oracle 498.5 (one episode of 300
 /// lost, none of the 37 poles with mu <= -0.45, the first bin of `by_mu`:
@@ -180,20 +200,7 @@ fn the_shipped_mlps_predict_mu_within_their_training_ranges() {
 /// about 457 (193).
 #[test]
 fn the_shipped_ucs_balance_the_hard_poles() {
-    let uc = controllers(3);
-    let s = Study {
-        seed: 7,
-        ..study(
-            vec![
-                Method::uc("UC-Oracle", Source::Oracle, None),
-                Method::uc("UC-DiffOSI", Source::Diffosi, None),
-            ],
-            100,
-            None,
-        )
-    };
-    let results = run(&s, &uc, 2);
-    let (oracle, diffosi) = (&results.methods[0].summary, &results.methods[1].summary);
+    let (oracle, diffosi) = oracle_and_diffosi(7, 100, None);
     let hard = oracle.by_mu[0];
     assert!(
         (hard.hi + 0.45).abs() < 1e-12 && hard.episodes == 37,
@@ -213,20 +220,7 @@ fn the_shipped_ucs_balance_the_hard_poles() {
 /// 492.4 for UC-Oracle and UC-DiffOSI alike at Table 4's seed 0, 30 episodes.
 #[test]
 fn the_shipped_ucs_follow_a_change_of_mu() {
-    let uc = controllers(3);
-    let s = Study {
-        seed: 0,
-        ..study(
-            vec![
-                Method::uc("UC-Oracle", Source::Oracle, None),
-                Method::uc("UC-DiffOSI", Source::Diffosi, None),
-            ],
-            10,
-            Some(250),
-        )
-    };
-    let results = run(&s, &uc, 2);
-    let (oracle, diffosi) = (&results.methods[0].summary, &results.methods[1].summary);
+    let (oracle, diffosi) = oracle_and_diffosi(0, 10, Some(250));
     assert!(oracle.task.0 >= 480.0, "{:?}", oracle.task);
     assert!(
         diffosi.task.0 >= 0.97 * oracle.task.0,
