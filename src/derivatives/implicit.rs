@@ -248,6 +248,8 @@ impl ContactPoint<'_> {
             on,
             below_a,
             below_v,
+            along,
+            path,
             ..
         } = scratch;
         on.clear();
@@ -296,28 +298,43 @@ impl ContactPoint<'_> {
             phi,
             f: (0..dim.min(3)).fold(Vector3::zeros(), |f, k| f + e(k) * phi[k]),
         };
-        // Per row, df = D (dlnR jar + daref) ddist - D d(J a) - D B d(J v)'s
-        // coefficients; zero off the quadratic zone.
-        let mut row_slopes = [[0.0; 3]; 10];
-        for (row, out) in (first..first + count).zip(&mut row_slopes) {
+        // Per row i, df_i = D_i (dlnR_i jar_i + daref_i) ddist - D_i d(J_i a)
+        // - D_i B_i d(J_i v) (zero off the quadratic zone), with d(J_i x) = c_i . du(x);
+        // so psi = c^T df = by_dist ddist - by_a du(a) - by_v du(v), the
+        // gains summed over the rows once per contact.
+        let mut by_dist = [0.0; 6];
+        let (mut by_a, mut by_v) = ([[0.0; 6]; 6], [[0.0; 6]; 6]);
+        for (row, mix) in (first..first + count).zip(self.mix.iter()) {
             if zone[row] == Zone::Quadratic {
                 let d = 1.0 / rows.r[row];
-                let by_dist = d * (rows.dlog_r_ddist[row] * jar[row] + rows.daref_ddist[row]);
-                *out = [by_dist, d, d * rows.damping[row]];
-            }
-        }
-        // Per basis twist (side, u) the slopes' terms, combined per dof below.
-        let mut along = [(0, [0.0; 6], Along::default()); 12];
-        let mut n_along = 0;
-        for (side, moves) in self.slopes.iter().enumerate() {
-            if let Moves::Basis { len, basis, slopes } = moves {
-                for (u, slope) in basis.iter().zip(slopes).take(*len) {
-                    along[n_along] = (side, *u, self.along(slope, &at));
-                    n_along += 1;
+                let dist = d * (rows.dlog_r_ddist[row] * jar[row] + rows.daref_ddist[row]);
+                let damped = d * rows.damping[row];
+                for k in 0..dim {
+                    by_dist[k] += mix[k] * dist;
+                    for l in 0..dim {
+                        by_a[k][l] += mix[k] * d * mix[l];
+                        by_v[k][l] += mix[k] * damped * mix[l];
+                    }
                 }
             }
         }
-        let along = &along[..n_along];
+        // Per basis twist (side, u) the slopes' terms, combined per dof below.
+        along.clear();
+        for (side, moves) in self.slopes.iter().enumerate() {
+            if let Moves::Basis { len, basis, slopes } = moves {
+                for (u, slope) in basis.iter().zip(slopes).take(*len) {
+                    along.push((side, *u, self.along(slope, &at)));
+                }
+            }
+        }
+        // The dofs on exactly one body's path (those on both move neither
+        // body relative to the other): which body's, and its sign.
+        path.clear();
+        path.extend(
+            (0..n)
+                .filter(|&j| on[j] == 1 || on[j] == 2)
+                .map(|j| (j, on[j], sign[usize::from(on[j] == 2)])),
+        );
         for m in (0..n).filter(|&m| on[m] != 0) {
             let s_m = data.world_axis[m];
             let twist = [
@@ -340,25 +357,21 @@ impl ContactPoint<'_> {
                 du_a[k] = slope.a_de[k] + turn_a.dot(&wrenches[k]);
                 du_v[k] = slope.v_de[k] + turn_v.dot(&wrenches[k]);
             }
-            let (ddist, mut dtotal) = (slope.ddist, slope.phi_de);
-            let mut psi = [0.0; 6];
-            for (mix, [by_dist, by_a, by_v]) in self.mix.iter().zip(&row_slopes).take(count) {
-                let combine = |du: &[f64; 6]| (0..dim).fold(0.0, |s, k| s + mix[k] * du[k]);
-                let df = by_dist * ddist - by_a * combine(&du_a) - by_v * combine(&du_v);
-                for k in 0..dim {
-                    psi[k] += mix[k] * df;
-                }
-            }
+            let mut dtotal = slope.phi_de;
             for k in 0..dim {
-                dtotal += wrenches[k] * psi[k];
+                let mut psi = by_dist[k] * slope.ddist;
+                for l in 0..dim {
+                    psi -= by_a[k][l] * du_a[l] + by_v[k][l] * du_v[l];
+                }
+                dtotal += wrenches[k] * psi;
             }
             // (S_m x S_j) . F = -S_j . (S_m x* F): one force per m for every j.
             let turned = dtotal - s_m.cross_force(&total);
-            for j in (0..n).filter(|&j| on[j] == 1 || on[j] == 2) {
-                let side = usize::from(on[j] == 2);
-                let below = on[m] & on[j] != 0 && m <= j;
+            let column = &mut r_q[m * n..(m + 1) * n];
+            for &(j, bits, sign_j) in path.iter() {
+                let below = on[m] & bits != 0 && m <= j;
                 let term = data.world_axis[j].dot(if below { &turned } else { &dtotal });
-                r_q[m * n + j] -= sign[side] * term;
+                column[j] -= sign_j * term;
             }
         }
     }
@@ -367,7 +380,7 @@ impl ContactPoint<'_> {
 /// What a contact's derivative forms from its slope along a twist: the
 /// distance's slope, W(a) . dE_k and W(v) . dE_k, and sum_k phi_k dE_k, for
 /// the change dE_k of the unit wrenches along the twist; linear in the twist.
-#[derive(Clone, Copy, Default)]
+#[derive(Clone, Copy, Debug, Default)]
 struct Along {
     ddist: f64,
     a_de: [f64; 6],
@@ -402,7 +415,7 @@ struct AtPoint {
 
 /// The buffers of [`add_row_partials`], kept across calls: the rows'
 /// residuals, every contact's slopes, and [`ContactPoint::add_partials`]'s
-/// per-dof buffers, reused across contacts.
+/// per-dof and per-basis-twist buffers, reused across contacts.
 #[derive(Clone, Debug, Default)]
 pub(super) struct Scratch {
     jar: Vec<f64>,
@@ -411,6 +424,8 @@ pub(super) struct Scratch {
     on: Vec<u8>,
     below_a: Vec<Motion<f64>>,
     below_v: Vec<Motion<f64>>,
+    along: Vec<(usize, [f64; 6], Along)>,
+    path: Vec<(usize, u8, f64)>,
 }
 
 /// How every contact moves, into `out`: against a static plane in closed
@@ -423,8 +438,14 @@ fn find_slopes(
     contacts: &[ConstraintContact<f64>],
     (out, pre): (&mut Vec<Slopes>, &mut Vec<Pre<Dual64>>),
 ) {
-    out.clear();
+    // Grown, never cleared: every contact's entry is rewritten below (a
+    // slope buffer is large, and most contacts use a small part of it).
     out.resize(contacts.len(), Slopes::default());
+    out.truncate(contacts.len());
+    for moves in out.iter_mut() {
+        moves[0] = Moves::Still;
+        moves[1] = Moves::Still;
+    }
     let mut start = 0;
     while start < contacts.len() {
         let index = contacts[start].pair;

@@ -27,18 +27,14 @@
 //! S_j x* F_j. d(M y)/dq_j is the q-derivative of ID with no velocity and
 //! no gravity, accelerations y: c = -S_j x ay_p, dv = 0.
 
-use nalgebra::DMatrixViewMut;
-
 #[cfg(doc)]
-use crate::dynamics::rnea;
+use crate::dynamics::{constraint::world_frames, rnea};
 use crate::dynamics::{Data, Tree};
-use crate::spatial::{Force, Inertia, Motion, Transform};
+use crate::spatial::{Force, Inertia, Motion};
 
 /// The sweeps' per-node scratch (world coordinates unless noted).
 #[derive(Clone, Debug)]
 pub struct Sweep {
-    /// From the world to node i's frame.
-    world: Vec<Transform<f64>>,
     axis: Vec<Motion<f64>>,
     vel: Vec<Motion<f64>>,
     acc: Vec<Motion<f64>>,
@@ -68,7 +64,6 @@ impl Sweep {
     pub fn new(n: usize) -> Self {
         let zero = (Motion::zero(), Force::zero());
         Sweep {
-            world: vec![Transform::identity(); n],
             axis: vec![Motion::zero(); n],
             vel: vec![Motion::zero(); n],
             acc: vec![Motion::zero(); n],
@@ -114,17 +109,14 @@ impl Sweep {
         &self.acc_y
     }
 
-    /// World frames and axes of every node, and RNEA at (v, a) in world
-    /// coordinates (motions, inertias, forces); then the subtree sums and
+    /// RNEA at (v, a) in world coordinates (axes, motions, inertias,
+    /// forces) from the world frames in `data`; then the subtree sums and
     /// sigma, rho.
     fn sweep(&mut self, tree: &Tree<f64>, data: &Data<f64>, (v, a): (&[f64], &[f64])) {
         let n = tree.nv();
         let gravity = Motion::new(nalgebra::Vector3::zeros(), -tree.gravity);
         for i in 0..n {
-            let up = &data.x_up[i];
-            self.world[i] = tree.parent[i].map_or(*up, |p| up.compose(&self.world[p]));
-            let w = &self.world[i];
-            let s = w.inverse_apply_motion(&tree.joint[i].s);
+            let (w, s) = (&data.world[i], data.world_axis[i]);
             let (v_p, a_p) =
                 tree.parent[i].map_or((Motion::zero(), gravity), |p| (self.vel[p], self.acc[p]));
             let (vel, joint) = (v_p + s * v[i], s * v[i]);
@@ -206,46 +198,48 @@ impl Sweep {
     }
 }
 
-/// Fills d_dq and d_dv (n x n, column j = derivative w.r.t. q_j or v_j) of
-/// ID(q, v, a), and with `mass = Some((y, d_my))` d_my with d(M(q) y)/dq.
-/// M includes the armature, which depends on neither. `data` must hold
-/// the transforms at q (`x_up`).
+/// Fills d_dq and d_dv (n x n, column-major, column j the derivative in
+/// q_j or v_j) of ID(q, v, a), and with `mass = Some((y, d_my))` d_my with
+/// d(M(q) y)/dq. M includes the armature, which depends on neither. `data`
+/// must hold the transforms and world frames at q (`x_up`, and `world`,
+/// `world_axis` as [`world_frames`] leaves them).
 pub fn rnea_derivatives(
     tree: &Tree<f64>,
     data: &Data<f64>,
     sweep: &mut Sweep,
     (v, a): (&[f64], &[f64]),
-    (mut d_dq, mut d_dv): (DMatrixViewMut<f64>, DMatrixViewMut<f64>),
-    mass: Option<(&[f64], DMatrixViewMut<f64>)>,
+    (d_dq, d_dv): (&mut [f64], &mut [f64]),
+    mass: Option<(&[f64], &mut [f64])>,
 ) {
+    let n = tree.nv();
     sweep.sweep(tree, data, (v, a));
     sweep.dof_terms(tree);
-    zero(&mut d_dq);
-    zero(&mut d_dv);
-    let mut mass = mass.map(|(y, mut d_my)| {
+    d_dq.fill(0.0);
+    d_dv.fill(0.0);
+    let mut mass = mass.map(|(y, d_my)| {
         sweep.mass_terms(tree, y);
-        zero(&mut d_my);
+        d_my.fill(0.0);
         d_my
     });
     // Entry (i, k) for every k on i's path (i in k's subtree), and (k, i)
     // for k above i.
-    for i in 0..tree.nv() {
+    for i in 0..n {
         let (sigma, rho) = (&sweep.sigma[i], &sweep.rho[i]);
         let mut k = Some(i);
         while let Some(j) = k {
             let (c, dv, _) = &sweep.position[j];
-            d_dq[(i, j)] = c.dot(sigma) + dv.dot(rho);
+            d_dq[j * n + i] = c.dot(sigma) + dv.dot(rho);
             let (cv, _) = &sweep.velocity[j];
-            d_dv[(i, j)] = cv.dot(sigma) + sweep.axis[j].dot(rho);
+            d_dv[j * n + i] = cv.dot(sigma) + sweep.axis[j].dot(rho);
             if let Some(d_my) = &mut mass {
-                d_my[(i, j)] = sweep.mass[j].0.dot(sigma);
+                d_my[j * n + i] = sweep.mass[j].0.dot(sigma);
             }
             if j != i {
                 let s = &sweep.axis[j];
-                d_dq[(j, i)] = s.dot(&sweep.position[i].2);
-                d_dv[(j, i)] = s.dot(&sweep.velocity[i].1);
+                d_dq[i * n + j] = s.dot(&sweep.position[i].2);
+                d_dv[i * n + j] = s.dot(&sweep.velocity[i].1);
                 if let Some(d_my) = &mut mass {
-                    d_my[(j, i)] = s.dot(&sweep.mass[i].1);
+                    d_my[i * n + j] = s.dot(&sweep.mass[i].1);
                 }
             }
             k = tree.parent[j];
@@ -253,17 +247,10 @@ pub fn rnea_derivatives(
     }
 }
 
-/// Zeros a view column by column (nalgebra's `fill` on a view walks it
-/// entry by entry).
-fn zero(m: &mut DMatrixViewMut<f64>) {
-    for j in 0..m.ncols() {
-        m.column_mut(j).as_mut_slice().fill(0.0);
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dynamics::constraint::world_frames;
     use crate::dynamics::{crba, rnea};
     use crate::Model;
     use nalgebra::{DMatrix, DVector};
@@ -292,21 +279,16 @@ mod tests {
         let mut data = model.data();
         let mut tau = vec![0.0; n];
         rnea(tree, &mut data, &q, &v, &a, &mut tau);
+        world_frames(tree, &mut data, &v);
         let mut sweep = Sweep::new(n);
         let (mut d_dq, mut d_dv, mut d_my) = (
             DMatrix::zeros(n, n),
             DMatrix::zeros(n, n),
             DMatrix::zeros(n, n),
         );
-        let columns = (d_dq.columns_mut(0, n), d_dv.columns_mut(0, n));
-        rnea_derivatives(
-            tree,
-            &data,
-            &mut sweep,
-            (&v, &a),
-            columns,
-            Some((&y, d_my.columns_mut(0, n))),
-        );
+        let columns = (d_dq.as_mut_slice(), d_dv.as_mut_slice());
+        let mass = Some((&y[..], d_my.as_mut_slice()));
+        rnea_derivatives(tree, &data, &mut sweep, (&v, &a), columns, mass);
 
         let mut id = |q: &[f64], v: &[f64]| {
             rnea(tree, &mut data, q, v, &a, &mut tau);

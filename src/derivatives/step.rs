@@ -12,6 +12,7 @@ use super::rnea::{rnea_derivatives, Sweep};
 use super::soft::{subtract_soft_derivatives, Columns};
 use super::window::WindowScratch;
 use crate::dynamics::cholesky;
+use crate::dynamics::constraint::world_frames;
 use crate::dynamics::solver::add_quadratic_rows;
 use crate::dynamics::{
     acceleration, check_inputs, crba, implicit_terms, integrate_euler, ltdl_factor,
@@ -380,18 +381,20 @@ pub(super) fn accel_derivatives(
         ws.data.mass_matrix[(i, i)] += ws.extra[i];
     }
     ltdl_factor(tree, &mut ws.data.mass_matrix);
-    // Velocities, accelerations and forces at the solution, for both blocks.
+    // Velocities, accelerations and forces at the solution, for both
+    // blocks; the world frames RNEA's derivatives read.
     rnea(tree, &mut ws.data, q, v, &ws.qdd, &mut ws.tau);
+    world_frames(tree, &mut ws.data, v);
 
     let (n_state, n_tau) = state_and_tau_columns(n, wrt);
     let n_p: usize = wrt.params.iter().map(|p| p.size()).sum();
     let columns = 2 * n_state + n_tau + n_p;
     reset(&mut ws.r, n, columns);
     if wrt.state {
-        let r_qv = ws.r.columns_range_pair_mut(0..n, n..2 * n);
+        let (r_q, r_v) = ws.r.as_mut_slice()[..2 * n * n].split_at_mut(n * n);
         let at = (v, &ws.qdd[..]);
-        rnea_derivatives(tree, &ws.data, &mut ws.sweep, at, r_qv, None);
-        add_passive_partials(model, (mode, h), &mut ws.r);
+        rnea_derivatives(tree, &ws.data, &mut ws.sweep, at, (r_q, r_v), None);
+        add_passive_partials(model, (mode, h), (r_q, r_v));
     }
     for i in 0..n_tau {
         ws.r[(i, 2 * n_state + i)] = -1.0;
@@ -437,8 +440,12 @@ pub(super) fn accel_derivatives(
 }
 
 /// dR/dq and dR/dv of the passive force -D v - K (q_spring - springref),
-/// q_spring = q (+ h v for DART), into the first 2n columns of `r`.
-fn add_passive_partials(model: &Model, (mode, h): (PassiveMode, f64), r: &mut DMatrix<f64>) {
+/// q_spring = q (+ h v for DART), into `r_q` and `r_v` (n x n column-major).
+fn add_passive_partials(
+    model: &Model,
+    (mode, h): (PassiveMode, f64),
+    (r_q, r_v): (&mut [f64], &mut [f64]),
+) {
     let tree = model.tree();
     let n = model.nv();
     let spring_v = if mode == PassiveMode::ImplicitDampingStiffness {
@@ -447,8 +454,8 @@ fn add_passive_partials(model: &Model, (mode, h): (PassiveMode, f64), r: &mut DM
         0.0
     };
     for i in 0..n {
-        r[(i, i)] += tree.stiffness[i];
-        r[(i, n + i)] += tree.damping[i] + spring_v * tree.stiffness[i];
+        r_q[i * n + i] += tree.stiffness[i];
+        r_v[i * n + i] += tree.damping[i] + spring_v * tree.stiffness[i];
     }
 }
 
@@ -495,9 +502,10 @@ fn constrained_derivatives(
         if !cholesky::spd_inverse(ws.matrix.as_mut_slice(), n, ws.inverse.as_mut_slice()) {
             return false;
         }
-        for j in 0..n {
-            for i in 0..n {
-                ws.matrix[(i, j)] = ws.extra[i] * ws.gain[(i, j)];
+        let columns = ws.matrix.as_mut_slice().chunks_exact_mut(n);
+        for (out, hi) in columns.zip(ws.gain.as_slice().chunks_exact(n)) {
+            for ((x, e), h) in out.iter_mut().zip(&ws.extra).zip(hi) {
+                *x = e * h;
             }
         }
         product(
@@ -518,12 +526,11 @@ fn constrained_derivatives(
     reset(&mut ws.dqdd, n, columns);
     if wrt.state {
         // dg/d(q, v), and d(M y)/dq for the implicit passive forces.
-        let r_qv = ws.r.columns_range_pair_mut(0..n, n..2 * n);
-        reset(&mut ws.dmy, n, n);
-        let mass = implicit.then(|| (&y[..], ws.dmy.columns_mut(0, n)));
-        rnea_derivatives(tree, &ws.data, &mut ws.sweep, (v, a), r_qv, mass);
-        add_passive_partials(model, (mode, h), &mut ws.r);
         let (r_q, r_v) = ws.r.as_mut_slice()[..2 * n * n].split_at_mut(n * n);
+        reset(&mut ws.dmy, n, n);
+        let mass = implicit.then(|| (&y[..], ws.dmy.as_mut_slice()));
+        rnea_derivatives(tree, &ws.data, &mut ws.sweep, (v, a), (r_q, r_v), mass);
+        add_passive_partials(model, (mode, h), (r_q, r_v));
         add_row_partials(tree, &ws.data, (v, a), c, (r_q, r_v), &mut ws.rows);
         let state = ws.dqdd.columns_mut(0, 2 * n);
         product(state, -1.0, &ws.gain, ws.r.columns(0, 2 * n), 0.0);
@@ -554,6 +561,10 @@ fn constrained_derivatives(
 /// out = alpha a b + beta out, column by column over a's contiguous
 /// columns, skipping b's zeros (nalgebra's gemm goes through
 /// matrixmultiply, whose packing allocates: slower on matrices this small).
+/// Each output entry is summed from beta out over a's columns in order, in
+/// blocks of `BLOCK` rows held in registers; the last block overlaps the
+/// one before it when `BLOCK` does not divide the rows (each entry's sum is
+/// the same wherever it is formed).
 fn product(
     mut out: DMatrixViewMut<f64>,
     alpha: f64,
@@ -562,20 +573,66 @@ fn product(
     beta: f64,
 ) {
     let n = a.nrows();
+    let a = a.as_slice();
+    let terms = (alpha, a, beta);
     for (mut column, b) in out.column_iter_mut().zip(b.column_iter()) {
-        let column = column.as_mut_slice();
-        if beta == 0.0 {
-            column.fill(0.0);
-        } else if beta != 1.0 {
-            column.iter_mut().for_each(|x| *x *= beta);
+        let (column, b) = (column.as_mut_slice(), b.as_slice());
+        if n < BLOCK {
+            for (i, x) in column.iter_mut().enumerate() {
+                let mut sum = scaled(*x, beta);
+                for (k, &bk) in b.iter().enumerate().filter(|(_, bk)| **bk != 0.0) {
+                    sum += alpha * bk * a[k * n + i];
+                }
+                *x = sum;
+            }
+            continue;
         }
-        for (a, &bk) in a.as_slice().chunks_exact(n).zip(b.iter()) {
-            if bk != 0.0 {
-                let s = alpha * bk;
-                column.iter_mut().zip(a).for_each(|(x, a)| *x += s * a);
+        // The last block first, from the entries before any is overwritten.
+        let last = n - BLOCK;
+        let end = block_product(&column[last..], terms, b, last);
+        for start in (0..last).step_by(BLOCK) {
+            let sum = block_product(&column[start..], terms, b, start);
+            column[start..start + BLOCK].copy_from_slice(&sum);
+        }
+        column[last..].copy_from_slice(&end);
+    }
+}
+
+/// Rows per block of [`product`].
+const BLOCK: usize = 8;
+
+/// beta x, with beta = 0 giving 0 and beta = 1 giving x exactly.
+fn scaled(x: f64, beta: f64) -> f64 {
+    if beta == 0.0 {
+        0.0
+    } else if beta == 1.0 {
+        x
+    } else {
+        x * beta
+    }
+}
+
+/// Rows start..start + BLOCK of alpha a b + beta out for one column b of
+/// length n, `out` holding those rows of the output column first.
+#[inline(always)]
+fn block_product(
+    out: &[f64],
+    (alpha, a, beta): (f64, &[f64], f64),
+    b: &[f64],
+    start: usize,
+) -> [f64; BLOCK] {
+    let n = b.len();
+    let mut sum: [f64; BLOCK] = std::array::from_fn(|r| scaled(out[r], beta));
+    for (k, &bk) in b.iter().enumerate() {
+        if bk != 0.0 {
+            let s = alpha * bk;
+            let a = &a[k * n + start..k * n + start + BLOCK];
+            for r in 0..BLOCK {
+                sum[r] += s * a[r];
             }
         }
     }
+    sum
 }
 
 /// The parameters' columns of dg into the last columns of `ws.r`: RNEA's
