@@ -15,7 +15,7 @@ use crate::dynamics::cholesky;
 use crate::dynamics::constraint::world_frames;
 use crate::dynamics::solver::add_quadratic_rows;
 use crate::dynamics::{
-    acceleration, check_inputs, crba, implicit_terms, integrate_euler, ltdl_factor,
+    acceleration, check_inputs, crba, implicit_terms, integrate_euler, ltdl_factor, ltdl_inverse,
     ltdl_solve_columns, rnea, rnea_with_transforms, step,
 };
 use crate::dynamics::{Constrained, Data, StepError};
@@ -54,10 +54,12 @@ pub struct StepJacobians {
 pub struct Workspace {
     pub(super) data: Data<f64>,
     sweep: Sweep,
-    /// Scratch of length nv: inverse dynamics, spring position, implicit diagonal.
+    /// Scratch of length nv: inverse dynamics, spring position, implicit
+    /// diagonal, a column of an inverse.
     pub(super) tau: Vec<f64>,
     pub(super) q_spring: Vec<f64>,
     pub(super) extra: Vec<f64>,
+    column: Vec<f64>,
     /// The constraint model's a - qdd (solver's minus implicit acceleration).
     y: Vec<f64>,
     /// The acceleration at the last point, and its derivatives: n x (columns),
@@ -90,6 +92,7 @@ impl Workspace {
             tau: vec![0.0; n],
             q_spring: vec![0.0; n],
             extra: vec![0.0; n],
+            column: vec![0.0; n],
             y: vec![0.0; n],
             qdd: vec![0.0; n],
             dqdd: DMatrix::zeros(n, 0),
@@ -482,7 +485,7 @@ fn constrained_derivatives(
     let a = &c.solution.qacc;
     let implicit = mode != PassiveMode::Explicit;
     // G into ws.gain (H^-1 from the solver's factor of H, when it is on the
-    // final zones); (M + E)^-1 into ws.inverse.
+    // final zones); (M + E)^-1 into ws.inverse (from the step's factor).
     let factor = ws.matrix.as_mut_slice();
     if c.solution.factored {
         factor.copy_from_slice(&c.solution.hessian);
@@ -495,11 +498,9 @@ fn constrained_derivatives(
     }
     cholesky::inverse(factor, n, ws.gain.as_mut_slice());
     if implicit {
-        ws.matrix.copy_from(&ws.data.mass_matrix);
-        for i in 0..n {
-            ws.matrix[(i, i)] += ws.extra[i];
-        }
-        if !cholesky::spd_inverse(ws.matrix.as_mut_slice(), n, ws.inverse.as_mut_slice()) {
+        // (M + E)^-1 from the step's factor of M + E.
+        let factored = ws.data.factored_mass();
+        if !ltdl_inverse(factored, &mut ws.column, ws.inverse.as_mut_slice()) {
             return false;
         }
         let columns = ws.matrix.as_mut_slice().chunks_exact_mut(n);

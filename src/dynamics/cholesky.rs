@@ -1,6 +1,6 @@
 //! Dense Cholesky factors of small symmetric positive definite matrices, in
-//! place and without allocation: the constraint solver's Hessian and the
-//! derivatives' inverses.
+//! place and without allocation: the constraint solver's Hessian, and its
+//! inverse for the derivatives.
 //!
 //! Storage: an n x n column-major buffer whose column j holds row j of L
 //! (A = L L^T) in its first j + 1 entries, so that the factorisation's dot
@@ -72,16 +72,6 @@ pub fn inverse<T: Real>(l: &mut [T], n: usize, out: &mut [T]) {
             column.iter_mut().zip(w).for_each(|(o, wr)| *o += *wr * wc);
         }
     }
-}
-
-/// A^-1 into `out` for the symmetric `a` (n x n, column-major), which it
-/// overwrites; false if `a` is not numerically positive definite.
-pub fn spd_inverse<T: Real>(a: &mut [T], n: usize, out: &mut [T]) -> bool {
-    let definite = factor(a, n);
-    if definite {
-        inverse(a, n, out);
-    }
-    definite
 }
 
 #[cfg(test)]

@@ -33,7 +33,7 @@ pub use aba::{aba, aba_with_transforms};
 pub use contact::{add_soft_forces, add_soft_forces_with_transforms, body_contact_forces, Contact};
 pub use crba::{crba, crba_with_transforms};
 pub use kinematics::{body_poses, update_transforms};
-pub use ltdl::{ltdl_factor, ltdl_solve, ltdl_solve_columns};
+pub use ltdl::{ltdl_factor, ltdl_inverse, ltdl_solve, ltdl_solve_columns};
 pub use passive::passive_forces;
 pub use rnea::{bias_forces, bias_forces_with_transforms, rnea, rnea_with_transforms};
 pub use step::{
@@ -82,6 +82,13 @@ pub struct Data<T: Real> {
 }
 
 impl<T: Real> Data<T> {
+    /// The mass matrix the last constraint-model acceleration with rows
+    /// solved with, factored by [`ltdl_factor`]: M + E (E the implicit
+    /// passive diagonal) under implicit passive forces, else M.
+    pub fn factored_mass(&self) -> &DMatrix<T> {
+        self.reuse.factored_mass()
+    }
+
     pub fn new(tree: &Tree<T>) -> Self {
         let n = tree.nv();
         Data {

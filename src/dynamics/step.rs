@@ -190,6 +190,11 @@ pub struct Reuse<T: Real> {
 }
 
 impl<T: Real> Reuse<T> {
+    /// See [`Data::factored_mass`].
+    pub fn factored_mass(&self) -> &DMatrix<T> {
+        &self.factor
+    }
+
     pub fn new(nv: usize) -> Self {
         Reuse {
             spare: None,
