@@ -563,9 +563,10 @@ fn constrained_derivatives(
 /// columns, skipping b's zeros (nalgebra's gemm goes through
 /// matrixmultiply, whose packing allocates: slower on matrices this small).
 /// Each output entry is summed from beta out over a's columns in order, in
-/// blocks of `BLOCK` rows held in registers; the last block overlaps the
-/// one before it when `BLOCK` does not divide the rows (each entry's sum is
-/// the same wherever it is formed).
+/// blocks of `BLOCK` rows held in registers, two blocks per pass over b;
+/// the last block overlaps the one before it when `BLOCK` does not divide
+/// the rows (an entry's sum is the same in either), and both are formed
+/// in one pass, from the entries before either is written.
 fn product(
     mut out: DMatrixViewMut<f64>,
     alpha: f64,
@@ -588,14 +589,16 @@ fn product(
             }
             continue;
         }
-        // The last block first, from the entries before any is overwritten.
-        let last = n - BLOCK;
-        let end = block_product(&column[last..], terms, b, last);
-        for start in (0..last).step_by(BLOCK) {
-            let sum = block_product(&column[start..], terms, b, start);
-            column[start..start + BLOCK].copy_from_slice(&sum);
+        let start = |block: usize| (block * BLOCK).min(n - BLOCK);
+        let mut blocks = n.div_ceil(BLOCK);
+        while blocks > 0 {
+            let pair = [start(blocks.saturating_sub(2)), start(blocks - 1)];
+            let sums = block_product(column, terms, b, pair);
+            for (s, sum) in pair.into_iter().zip(sums).skip(usize::from(blocks == 1)) {
+                column[s..s + BLOCK].copy_from_slice(&sum);
+            }
+            blocks = blocks.saturating_sub(2);
         }
-        column[last..].copy_from_slice(&end);
     }
 }
 
@@ -613,27 +616,30 @@ fn scaled(x: f64, beta: f64) -> f64 {
     }
 }
 
-/// Rows start..start + BLOCK of alpha a b + beta out for one column b of
-/// length n, `out` holding those rows of the output column first.
+/// The two blocks of rows start..start + BLOCK (for each start) of
+/// alpha a b + beta out, for one column b of length n and its output
+/// column `out`.
 #[inline(always)]
 fn block_product(
     out: &[f64],
     (alpha, a, beta): (f64, &[f64], f64),
     b: &[f64],
-    start: usize,
-) -> [f64; BLOCK] {
+    starts: [usize; 2],
+) -> [[f64; BLOCK]; 2] {
     let n = b.len();
-    let mut sum: [f64; BLOCK] = std::array::from_fn(|r| scaled(out[r], beta));
+    let mut sums = starts.map(|s| std::array::from_fn(|r| scaled(out[s + r], beta)));
     for (k, &bk) in b.iter().enumerate() {
         if bk != 0.0 {
             let s = alpha * bk;
-            let a = &a[k * n + start..k * n + start + BLOCK];
-            for r in 0..BLOCK {
-                sum[r] += s * a[r];
+            for (sum, start) in sums.iter_mut().zip(starts) {
+                let a = &a[k * n + start..k * n + start + BLOCK];
+                for r in 0..BLOCK {
+                    sum[r] += s * a[r];
+                }
             }
         }
     }
-    sum
+    sums
 }
 
 /// The parameters' columns of dg into the last columns of `ws.r`: RNEA's
@@ -707,5 +713,40 @@ fn reset(m: &mut DMatrix<f64>, rows: usize, cols: usize) {
         m.as_mut_slice().fill(0.0);
     } else {
         *m = DMatrix::zeros(rows, cols);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The blocked product equals the plain sum in the same order, bit for
+    /// bit, for sizes below, at and between multiples of the block, with
+    /// zeros in b and every kind of beta.
+    #[test]
+    fn product_sums_in_order() {
+        for n in [1, 3, 7, 8, 9, 16, 17, 20] {
+            let a = DMatrix::from_fn(n, n, |i, j| ((3 * i + 5 * j) % 7) as f64 / 7.0 - 0.3);
+            let b = DMatrix::from_fn(n, 3, |i, j| {
+                if (i + j) % 3 == 0 {
+                    0.0
+                } else {
+                    0.1 * (i as f64 - j as f64).sin()
+                }
+            });
+            let start = DMatrix::from_fn(n, 3, |i, j| (i + 2 * j) as f64 / 5.0);
+            for beta in [0.0, 1.0, -0.5] {
+                let mut out = start.clone();
+                product(out.columns_mut(0, 3), -1.5, &a, b.columns(0, 3), beta);
+                let expected = DMatrix::from_fn(n, 3, |i, j| {
+                    let mut sum = scaled(start[(i, j)], beta);
+                    for k in (0..n).filter(|&k| b[(k, j)] != 0.0) {
+                        sum += -1.5 * b[(k, j)] * a[(i, k)];
+                    }
+                    sum
+                });
+                assert_eq!(out, expected, "n = {n}, beta = {beta}");
+            }
+        }
     }
 }
