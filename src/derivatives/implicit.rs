@@ -71,7 +71,8 @@ enum Moves {
         basis: [[f64; 6]; 6],
         slopes: [Slope; 6],
     },
-    /// In closed form along any twist: against a static plane.
+    /// In closed form along any twist: the other body (b2) against a
+    /// static plane (b1, never moving).
     Plane(OnPlane),
 }
 
@@ -340,16 +341,21 @@ impl ContactPoint<'_> {
             let twist = [
                 s_m.ang.x, s_m.ang.y, s_m.ang.z, s_m.lin.x, s_m.lin.y, s_m.lin.z,
             ];
-            let mut slope = Along::default();
-            for (_, u, t) in along.iter().filter(|(side, ..)| on[m] & (1 << side) != 0) {
-                slope.add(t, dot(u, &twist));
-            }
-            for (side, moves) in self.slopes.iter().enumerate() {
-                if let (Moves::Plane(on_plane), true) = (moves, on[m] & (1 << side) != 0) {
-                    let closed = on_plane.slope(&self.contact.frame, &twist);
-                    slope.add(&self.along(&closed, &at), 1.0);
+            // Against a static plane (b1) in closed form; else the basis
+            // twists' terms of the bodies m moves, combined.
+            let slope = match &self.slopes[1] {
+                Moves::Plane(on_plane) => {
+                    self.along(&on_plane.slope(&self.contact.frame, &twist), &at)
                 }
-            }
+                _ => {
+                    let mut slope = Along::default();
+                    let moved = along.iter().filter(|(side, ..)| on[m] & (1 << side) != 0);
+                    for (_, u, t) in moved {
+                        slope.add(t, dot(u, &twist));
+                    }
+                    slope
+                }
+            };
             let (turn_a, turn_v) = (s_m.cross_motion(&below_a[m]), s_m.cross_motion(&below_v[m]));
             let mut du_a = [0.0; 6];
             let mut du_v = [0.0; 6];
