@@ -444,10 +444,9 @@ fn find_slopes(
     contacts: &[ConstraintContact<f64>],
     (out, pre): (&mut Vec<Slopes>, &mut Vec<Pre<Dual64>>),
 ) {
-    // Grown, never cleared: every contact's entry is rewritten below (a
-    // slope buffer is large, and most contacts use a small part of it).
+    // Resized, not cleared and refilled: an entry is large, and most
+    // contacts use little of it; what they use is written below.
     out.resize(contacts.len(), Slopes::default());
-    out.truncate(contacts.len());
     for moves in out.iter_mut() {
         moves[0] = Moves::Still;
         moves[1] = Moves::Still;
