@@ -108,7 +108,7 @@ fn uc_diffosi_matches_the_oracle_on_the_shipped_policies() {
 }
 
 /// A floor under the shipped UC-Oracle's and UC-DiffOSI's mean returns (3
-/// models x 1 episode, seed 5; measured 3473 and 5002, UC-Average 4550): far
+/// models x 1 episode, seed 5; measured 3888 and 3951, UC-Average 3897): far
 /// above a controller that does not run (a zero or random action scores
 /// about 0 to -300), yet low enough for one episode in three that flips the
 /// cheetah onto its back (about 100), which happens to the best policies.

@@ -1004,20 +1004,25 @@ mod tests {
         );
     }
 
-    /// On the half cheetah standing on its floor under MuJoCo's constraint
-    /// contact: the control step's Jacobians (five substeps of exact
-    /// implicit derivatives) equal central differences, and a plan lowers the
-    /// cost of its warm start.
+    /// On the half cheetah standing on its floor under either contact model
+    /// (MuJoCo's constraints, the task's; the smooth penalty): the control
+    /// step's Jacobians (five substeps of exact derivatives) equal central
+    /// differences, and a plan lowers the cost of its warm start.
     #[test]
-    fn plans_through_constraint_contact() {
+    fn plans_through_contact() {
         use crate::model::ContactModel;
         use crate::tasks::HalfCheetah;
-        let model = HalfCheetah::new()
-            .model()
-            .edited(|s| s.opt.contact_model = ContactModel::Constraint)
-            .unwrap();
-        let task = HalfCheetah::with_model(model).unwrap();
-        let mut planner = Ilqr::new(&task, &[6.25], IlqrOptions::default()).unwrap();
+        for law in [ContactModel::Constraint, ContactModel::Smooth] {
+            let model = HalfCheetah::new()
+                .model()
+                .edited(|s| s.opt.contact_model = law)
+                .unwrap();
+            plans_on(&HalfCheetah::with_model(model).unwrap());
+        }
+    }
+
+    fn plans_on(task: &crate::tasks::HalfCheetah) {
+        let mut planner = Ilqr::new(task, &[6.25], IlqrOptions::default()).unwrap();
         let n = task.model().nv();
         let mut x = (task.model().reference_q(), vec![0.0; n]);
         for _ in 0..60 {

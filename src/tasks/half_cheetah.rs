@@ -4,13 +4,12 @@
 //! - State q = (rootx, rootz, rooty, bthigh, bshin, bfoot, fthigh, fshin,
 //!   ffoot): torso position along world x and z (m, relative to its modelled
 //!   pose at height 0.7 m), torso pitch about +y and the six leg hinges (rad);
-//!   v their rates. Contact with the floor and the soft joint limits are on,
-//!   with the engine's default [`crate::model::SoftOptions`]: at dt 0.01
-//!   random torques stay bounded over the whole mu range and the cheetah
-//!   comes to rest under zero torques, except that a heavy torso (25-50 kg)
-//!   standing on its legs may keep rocking slightly (legs about 1 rad/s,
-//!   creeping 0.1 m/s) on the soft, explicitly integrated floor
-//!   (`tests/half_cheetah.rs`). One control step costs about 35 us.
+//!   v their rates. Contact with the floor and the joint limits are on, as
+//!   MuJoCo's soft constraints (the constraint contact model, MuJoCo's step
+//!   to 1e-9): at dt 0.01 random torques stay bounded over the whole mu
+//!   range and the cheetah comes to rest under zero torques
+//!   (`tests/half_cheetah.rs`). One control step (5 physics steps) costs
+//!   about 20 us.
 //! - mu (kg), uniform in [1, 50], is the torso's mass (`body/torso/mass`); its
 //!   COM and its inertia about the COM stay as modelled. The model's own torso
 //!   mass is 6.25 kg (gymnasium's file after MuJoCo's settotalmass 14; the
@@ -55,10 +54,11 @@ impl HalfCheetah {
     pub const RESET_V_NOISE: f64 = 0.1;
 
     /// The task on the shipped `reference_models/half_cheetah.xml`, under
-    /// the smooth contact model its shipped controllers were trained on.
+    /// MuJoCo's constraint contact (the MJCF default) that its shipped
+    /// controllers were trained on.
     pub fn new() -> HalfCheetah {
         let model = mjcf::parse(MJCF, "reference_models/half_cheetah.xml")
-            .and_then(|m| m.edited(|s| s.opt.contact_model = ContactModel::Smooth))
+            .and_then(|m| m.edited(|s| s.opt.contact_model = ContactModel::Constraint))
             .expect("the shipped half cheetah model loads");
         HalfCheetah::with_model(model).expect("the shipped half cheetah has a torso")
     }
