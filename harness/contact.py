@@ -151,6 +151,7 @@ class PybulletContact:
     switched off and how springs are added."""
 
     name = "pybullet"
+    passive, integrator = "explicit", "Euler"
 
     def __init__(self, urdf: Path, timestep: float):
         import pybullet
@@ -161,7 +162,8 @@ class PybulletContact:
 
         facts = read_urdf(urdf)
         _, gravity, _ = timestep_gravity(urdf, facts)
-        self.pybullet, self.timestep = pybullet, timestep
+        self.pybullet, self.timestep, self.gravity = pybullet, timestep, list(gravity)
+        self.label, self.version = label_of(urdf), PybulletEngine.version
         with quiet_stdio():
             p = self.p = BulletClient(connection_mode=pybullet.DIRECT)
             body = self.body = p.loadURDF(str(urdf), useFixedBase=True, flags=pybullet.URDF_USE_INERTIA_FROM_FILE)
@@ -169,6 +171,7 @@ class PybulletContact:
         links = list(range(p.getNumJoints(body)))
         self.movable = [i for i in links if p.getJointInfo(body, i)[2] != pybullet.JOINT_FIXED]
         self.joint_names = [p.getJointInfo(body, i)[1].decode() for i in self.movable]
+        self.links = {p.getJointInfo(body, i)[12].decode(): i for i in links}
         assert self.joint_names == [j.name for j in facts["joints"]], f"{urdf}: PyBullet dof order"
         p.changeDynamics(body, -1, linearDamping=0.0, angularDamping=0.0, maxJointVelocity=1e6)
         for i in links:
@@ -197,6 +200,25 @@ class PybulletContact:
             self.settings["springs"] = "explicit torques -K (q - q_spring) every substep (PyBullet has none)"
         if armature := {j.name: j.extensions["armature"] for j in facts["joints"] if j.extensions.get("armature")}:
             self.settings["missing_armature"] = armature
+
+    def set_param(self, name: str, value) -> None:
+        """`body/<link>/mass` only: the link's mass by changeDynamics, its COM and its
+        inertia about the COM kept (as our body/<name>/mass)."""
+        kind, link, field = name.split("/")
+        if (kind, field) != ("body", "mass") or link not in self.links:
+            raise ValueError(f"{self.label}: cannot set {name} (only body/<link>/mass)")
+        self.p.changeDynamics(self.body, self.links[link], mass=float(np.ravel(value)[0]))
+
+    @property
+    def constrained(self) -> bool:
+        """Whether the last step ended with a contact point (PyBullet's joint limits are not counted)."""
+        return bool(self.p.getContactPoints(self.body))
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
 
     def set_state(self, q, v):
         for k, i in enumerate(self.movable):

@@ -36,20 +36,23 @@ episode: the metric, and for the UC methods the mean over control steps of |mu_f
 episodes and seeds. Our engine itself runs the same episodes first (the source: no gap,
 no unmodelled effects), so each table shows the transfer gap next to the target's numbers.
 
-The half cheetah (--task half_cheetah, target mujoco only; no --unmodelled): MuJoCo runs
-gymnasium's half_cheetah.xml as HalfCheetah-v5 does (harness/engines/mujoco.py
+The half cheetah (--task half_cheetah, targets mujoco and pybullet; no --unmodelled):
+MuJoCo runs gymnasium's half_cheetah.xml as HalfCheetah-v5 does (harness/engines/mujoco.py
 GymMujocoEngine: frame_skip 5 at dt 0.01, ctrl = the action on the file's motors, its own
-constraint-based contact and joint limits), with the torso mass (mu, kg) in body_mass:
+constraint-based contact and joint limits), with the torso mass (mu, kg) in body_mass;
+PyBullet runs the URDF twin on a plane as `harness contact` does (harness/contact.py
+PybulletContact: stable substeps, no armature), the torso mass by changeDynamics. In both,
 like our body/torso/mass, the COM and the inertia about the COM stay. A control step is
 the task's `substeps` physics steps under one force; DiffOSI is pushed the last of them
 (as the task's estimators see it in `diffosi eval`: Env::last_transition), on our model
 with its constraint contact (MuJoCo's, to 1e-9 per step); per episode the signed `bias`
-(mean of mu_fed - mu) is kept besides MAE and MARE, in case the engines part. The metric is the task's reward summed (the return): forward speed of the
-torso minus 0.1 |a|^2 per control step, HalfCheetah-v5's reward, computed by the same
-function in both engines. Defaults: 10 episodes per policy seed, the full 1000 steps. To
+(mean of mu_fed - mu) is kept besides MAE and MARE. The metric is the task's reward
+summed (the return): forward speed of the torso minus 0.1 |a|^2 per control step,
+HalfCheetah-v5's reward, computed by the same function in every engine. Defaults: 10 episodes per policy seed, the full 1000 steps. To
 show where the bias comes from, the report adds DiffOSI on one transition at a time along
-the UC-Oracle episodes, split by whether MuJoCo's physics step had constraint rows
-(contacts or joint limits) or none (single_transition_estimates).
+the UC-Oracle episodes, split by whether the target's physics step had constraints
+(MuJoCo: contacts or joint limits; PyBullet: contact points) or none
+(single_transition_estimates).
 
 Writes <out>/transfer-<task>-<target>[-<unmodelled>].{md,json,png} per target and, for
 --target all, transfer-<task>-summary[-<unmodelled>].{md,json,png}.
@@ -57,6 +60,7 @@ Writes <out>/transfer-<task>-<target>[-<unmodelled>].{md,json,png} per target an
     python -m harness transfer --task cartpole --target all
     python -m harness transfer --task cartpole --target pybullet --unmodelled friction,delay
     python -m harness transfer --task half_cheetah --target mujoco
+    python -m harness transfer --task half_cheetah --target pybullet
 """
 
 from __future__ import annotations
@@ -100,7 +104,7 @@ class TaskSpec:
 
 TASKS = {
     "cartpole": TaskSpec(engines.ENGINES, 20, "steps in bounds", "mu (m)", (-0.65, 0.65), True),
-    "half_cheetah": TaskSpec(("mujoco",), 10, "return", "torso mass (kg)", (0.0, 52.0), False),
+    "half_cheetah": TaskSpec(("mujoco", "pybullet"), 10, "return", "torso mass (kg)", (0.0, 52.0), False),
 }
 
 
@@ -143,6 +147,10 @@ class Setup:
         """A fresh environment: a reference engine, or SOURCE (our engine, no gap)."""
         if name == SOURCE:
             return Source(self.task)
+        if self.task.name == "half_cheetah" and name == "pybullet":
+            from harness.contact import CHEETAH_URDF, PybulletContact
+
+            return PybulletContact(CHEETAH_URDF, self.task.model().timestep)
         if self.task.name == "half_cheetah":
             from harness.contact import GYM_CHEETAH
             from harness.engines.mujoco import GymMujocoEngine
@@ -401,9 +409,54 @@ def bias_fit(episodes: list[dict]) -> tuple[float, float]:
     return float(slope), float(intercept)
 
 
+ENGINE_NAMES = {"mujoco": "MuJoCo", "pybullet": "PyBullet"}
+# What a target's `constrained` flag means (single_transition_estimates).
+CONSTRAINED = {"mujoco": "constraint rows (contacts or joint limits)", "pybullet": "a contact point"}
+GAP_WORDS = {
+    "mujoco": "Both engines run the same model with the same contact law: MuJoCo's soft constraints (pyramidal "
+              "cones, solref/solimp impedance, Newton solver), ours to 1e-9 per step against converged MuJoCo "
+              "(reports/contact-half_cheetah.md). What remains is rounding and the solvers' stopping rules, "
+              "amplified over an episode's contact-rich, chaotic gait: single episodes part, the means agree. "
+              "The controllers' earlier versions, trained on our smooth penalty contact, reached 39% of their "
+              "own return here and DiffOSI's torso mass was 16 kg off: the gap was the contact law.",
+    "pybullet": "The articulated model is the same (the URDF twin of our file), but PyBullet has no armature "
+                "(0.1 on every leg joint in the file: the feet are much lighter to turn), integrates joint "
+                "damping explicitly (hence its substeps) and solves contacts as hard constraints of its own "
+                "(lateral friction 1 against MuJoCo's 0.4, no solref/solimp softness). DiffOSI explains "
+                "PyBullet's transitions with MuJoCo's contact law: where the contact forces differ, the torso "
+                "mass absorbs part of the difference, which is the bias above. Identifying the contact's "
+                "parameters jointly with mu is the way to close it.",
+}
+
+
+def cheetah_target_words(e: dict, s: dict, meta: dict) -> str:
+    """The report's paragraph on what the target runs and how DiffOSI is fed."""
+    if e["name"] == "mujoco":
+        target = (f"Target: {e['name']} {e['version']} running `{e['model']}` as gymnasium's HalfCheetah-v5 does: "
+                  f"{e['integrator']} at h = {e['timestep']:g} s with {e['passive']} passive forces, 5 physics steps "
+                  f"per control step (frame_skip), ctrl = the action on the motors (gears {s['gear']}), its own "
+                  f"contact (soft constraints solref {s['solref']}, solimp {s['solimp']}, {s['cone']} friction "
+                  f"cones, friction {s['friction'][0]:g}, solver {s['solver']}) and joint limits. Each episode's "
+                  "torso mass mu is written to body_mass (its COM and inertia about the COM kept, as our "
+                  "body/torso/mass does; then mj_setConst).")
+    else:
+        target = (f"Target: {e['name']} {e['version']} running the URDF twin `{e['model']}` on a plane: "
+                  f"{s['substeps']} substeps of {s['substep']:g} s per physics step of {e['timestep']:g} s, "
+                  f"{e['passive']} joint damping, 5 physics steps per control step, the task's joint torques by "
+                  f"TORQUE_CONTROL, its own contact ({s['ground']}) and the URDF's joint limits; no armature "
+                  f"({s.get('missing_armature', {})} in our file). Each episode's torso mass mu is set by "
+                  "changeDynamics (its COM and inertia about the COM kept, as our body/torso/mass does).")
+    return (target + " The policies and DiffOSI run on our engine (its constraint contact, MuJoCo's soft "
+            f"constraints); DiffOSI (bounded Levenberg-Marquardt, window {meta['window']}) is fed the target's "
+            f"last physics step of each control step. {meta['episodes']} episodes (mu, initial state; seed "
+            f"{meta['seed']}) x policy seeds {meta['seeds']} = {meta['episodes'] * len(meta['seeds'])} per method, "
+            f"horizon {meta['horizon']} control steps ({meta['horizon'] * 0.05:g} s; the task's episode is 1000).")
+
+
 def cheetah_markdown(doc: dict, meta: dict, png: str) -> list[str]:
-    """The half cheetah's report: returns in MuJoCo next to ours, and DiffOSI's torso-mass bias."""
+    """The half cheetah's report: returns in the target next to ours, and DiffOSI's torso-mass bias."""
     e, s = doc["engine"], doc["engine"]["settings"]
+    E = ENGINE_NAMES[e["name"]]
     ours = {(x["policy_seed"], x["episode"]): x for x in doc["source_diffosi"]}
     lines = [
         f"# Transfer: half_cheetah controllers from our engine to {e['name']} {e['version']} "
@@ -411,17 +464,7 @@ def cheetah_markdown(doc: dict, meta: dict, png: str) -> list[str]:
         "",
         f"`{meta['command']}`",
         "",
-        f"Target: {e['name']} {e['version']} running `{e['model']}` as gymnasium's HalfCheetah-v5 does: "
-        f"{e['integrator']} at h = {e['timestep']:g} s with {e['passive']} passive forces, 5 physics steps per "
-        f"control step (frame_skip), ctrl = the action on the motors (gears {s['gear']}), its own contact "
-        f"(soft constraints solref {s['solref']}, solimp {s['solimp']}, {s['cone']} friction cones, friction "
-        f"{s['friction'][0]:g}, solver {s['solver']}) and joint limits. Each episode's torso mass mu is written "
-        "to body_mass (its COM and inertia about the COM kept, as our body/torso/mass does; then mj_setConst). "
-        "The policies and DiffOSI run on our engine (its constraint contact, MuJoCo's soft constraints); DiffOSI (bounded Levenberg-Marquardt, "
-        f"window {meta['window']}) is fed MuJoCo's last physics step of each control step. {meta['episodes']} "
-        f"episodes (mu, initial state; seed {meta['seed']}) x policy seeds {meta['seeds']} = "
-        f"{meta['episodes'] * len(meta['seeds'])} per method, horizon {meta['horizon']} control steps "
-        f"({meta['horizon'] * 0.05:g} s; the task's episode is 1000).",
+        cheetah_target_words(e, s, meta),
         "",
         "Return: the sum over control steps of (x' - x) / 0.05 s - 0.1 |a|^2 (HalfCheetah-v5's reward: the "
         "torso's forward speed minus the control cost), computed by the task's own function from each "
@@ -436,21 +479,21 @@ def cheetah_markdown(doc: dict, meta: dict, png: str) -> list[str]:
         cells = [fmt(t[k], 2) if k in t else "N/A" for k in ("mae", "mare", "bias")]
         rows.append([method, *cells, fmt(t["score"], 0), fmt(o["score"], 0), f"{t['score'][0] - o['score'][0]:.0f}",
                      fmt(o["mae"], 2) if "mae" in o else "N/A", fmt(o["bias"], 2) if "bias" in o else "N/A"])
-    lines += markdown_table(["Approach", "MAE (kg)", "MARE", "bias (kg)", "return in MuJoCo", "return in ours",
-                             "MuJoCo - ours", "MAE in ours (kg)", "bias in ours (kg)"], rows)
+    lines += markdown_table(["Approach", "MAE (kg)", "MARE", "bias (kg)", f"return in {E}", "return in ours",
+                             f"{E} - ours", "MAE in ours (kg)", "bias in ours (kg)"], rows)
     source_ratio = doc["source"]["UC-DiffOSI"]["score"][0] / doc["source"]["UC-Oracle"]["score"][0]
-    lines += ["", f"UC-DiffOSI reaches {100 * doc['diffosi_over_oracle']:.1f}% of UC-Oracle's return in MuJoCo "
+    lines += ["", f"UC-DiffOSI reaches {100 * doc['diffosi_over_oracle']:.1f}% of UC-Oracle's return in {E} "
               f"({100 * source_ratio:.1f}% in ours; the paper, in its own engine: 3931 vs 3936, 99.9%).", "",
-              "Return per policy seed in MuJoCo:", ""]
+              f"Return per policy seed in {E}:", ""]
     seeds = list(doc["methods"]["DR"]["summary"]["per_seed_score"])
     lines += markdown_table(["Approach", *[f"seed {x}" for x in seeds]],
                             [[m, *[fmt(r["summary"]["per_seed_score"][x], 0) for x in seeds]]
                              for m, r in doc["methods"].items()])
-    fits = {name: bias_fit(eps) for name, eps in (("MuJoCo", doc["methods"]["UC-DiffOSI"]["episodes"]),
+    fits = {name: bias_fit(eps) for name, eps in ((E, doc["methods"]["UC-DiffOSI"]["episodes"]),
                                                    ("ours", doc["source_diffosi"]))}
-    lines += ["", "## DiffOSI's torso mass under MuJoCo's contact", "",
-              "Per episode: the true torso mass, the mean mass fed to the UC and its bias in MuJoCo and in ours, "
-              "the final estimate in MuJoCo, and the returns of UC-DiffOSI and UC-Oracle in MuJoCo. A least-squares "
+    lines += ["", f"## DiffOSI's torso mass under {E}'s contact", "",
+              f"Per episode: the true torso mass, the mean mass fed to the UC and its bias in {E} and in ours, "
+              f"the final estimate in {E}, and the returns of UC-DiffOSI and UC-Oracle in {E}. A least-squares "
               "line through the mean fed mass against the true mass: "
               + "; ".join(f"{n} {a:.3f} mu {b:+.2f} kg" for n, (a, b) in fits.items()) + ".", ""]
     oracle = {(x["policy_seed"], x["episode"]): x for x in doc["methods"]["UC-Oracle"]["episodes"]}
@@ -463,8 +506,8 @@ def cheetah_markdown(doc: dict, meta: dict, png: str) -> list[str]:
     lines += markdown_table(["policy seed", "episode", "mu (kg)", "mean fed", "bias", "bias / mu", "final",
                              "steps at a bound", "bias in ours", "UC-DiffOSI return", "UC-Oracle return"], rows)
     lines += ["", "One transition at a time (window 1, from the prior, on our model) along the UC-Oracle episodes of "
-              f"policy seed {meta['seeds'][0]}, split by whether MuJoCo's physics step had constraint rows (contact "
-              "or joint limits; \"free\": none; \"all\": our engine, not split): the relative error "
+              f"policy seed {meta['seeds'][0]}, split by whether {E}'s physics step had {CONSTRAINED[e['name']]} "
+              "(\"free\": none; \"all\": our engine, not split): the relative error "
               "(mu_hat - mu) / mu of the estimates, and the share at a bound of [1, 50] kg.", ""]
     rows = [[name, kind, r["count"], " / ".join(f"{100 * x:+.2g}%" for x in r["relative_error_quartiles"]),
              f"{100 * r['at_bound']:.1f}%"]
@@ -472,13 +515,7 @@ def cheetah_markdown(doc: dict, meta: dict, png: str) -> list[str]:
     lines += markdown_table(["engine", "transitions", "count", "relative error: quartiles 25 / 50 / 75",
                              "at a bound"], rows)
     lines += ["", f"![returns and torso-mass estimates]({png})", "", "## Where the gap comes from", "",
-              "Both engines run the same model with the same contact law: MuJoCo's soft constraints (pyramidal "
-              "cones, solref/solimp impedance, Newton solver), ours to 1e-9 per step against converged MuJoCo "
-              "(reports/contact-half_cheetah.md). What remains is rounding and the solvers' stopping rules, "
-              "amplified over an episode's contact-rich, chaotic gait: single episodes part, the means agree. "
-              "The controllers' earlier versions, trained on our smooth penalty contact, reached 39% of their "
-              "own return here and DiffOSI's torso mass was 16 kg off: the gap was the contact law.", "",
-              f"## What {e['name']} ran", ""]
+              GAP_WORDS[e["name"]], "", f"## What {e['name']} ran", ""]
     lines += [f"- {key}: {value}" for key, value in s.items()]
     return lines
 

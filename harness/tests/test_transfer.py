@@ -135,8 +135,8 @@ def cheetah_policies(tmp_path_factory):
     return folder
 
 
-def run_cheetah(out, policies, *extra):
-    return main(["transfer", "--task", "half_cheetah", "--target", "mujoco", "--seeds", "0",
+def run_cheetah(out, policies, *extra, target="mujoco"):
+    return main(["transfer", "--task", "half_cheetah", "--target", target, "--seeds", "0",
                  "--policies", str(policies), "--out", str(out), *extra])
 
 
@@ -218,7 +218,20 @@ def test_cheetah_source_row_is_the_rust_eval(tmp_path, cheetah_policies):
         assert json.loads(out.stdout)["policies"][0]["metrics"] == [ours], source
 
 
-def test_cheetah_goes_to_mujoco_only_without_unmodelled_effects(tmp_path, cheetah_policies):
-    assert main(["transfer", "--task", "half_cheetah", "--target", "pybullet", "--out", str(tmp_path)]) == 2
+def test_cheetah_goes_to_pybullet_on_its_plane(tmp_path, cheetah_policies):
+    """The URDF twin in PyBullet stands on a plane (contacts seen), the torso mass set per
+    episode, and the report names what PyBullet lacks."""
+    assert run_cheetah(tmp_path, cheetah_policies, "--episodes", "1", "--horizon", "30", target="pybullet") == 0
+    doc = json.loads((tmp_path / "transfer-half_cheetah-pybullet.json").read_text())
+    assert doc["engine"]["name"] == "pybullet" and "missing_armature" in doc["engine"]["settings"]
+    for r in doc["methods"].values():
+        assert all(np.isfinite(e["score"]) and np.isfinite(e["peak_abs_q"]).all() for e in r["episodes"])
+    assert doc["single_transition"]["pybullet"]["constrained"]["count"] > 0
+    report = (tmp_path / "transfer-half_cheetah-pybullet.md").read_text()
+    assert "return in PyBullet" in report and "no armature" in report
+
+
+def test_cheetah_goes_to_mujoco_and_pybullet_only_without_unmodelled_effects(tmp_path, cheetah_policies):
+    assert main(["transfer", "--task", "half_cheetah", "--target", "dart", "--out", str(tmp_path)]) == 2
     assert run_cheetah(tmp_path, cheetah_policies, "--unmodelled", "delay") == 2
     assert not any(tmp_path.iterdir())
