@@ -591,13 +591,17 @@ fn product(
         }
         let start = |block: usize| (block * BLOCK).min(n - BLOCK);
         let mut blocks = n.div_ceil(BLOCK);
-        while blocks > 0 {
-            let pair = [start(blocks.saturating_sub(2)), start(blocks - 1)];
+        while blocks >= 2 {
+            let pair = [start(blocks - 2), start(blocks - 1)];
             let sums = block_product(column, terms, b, pair);
-            for (s, sum) in pair.into_iter().zip(sums).skip(usize::from(blocks == 1)) {
+            for (s, sum) in pair.into_iter().zip(sums) {
                 column[s..s + BLOCK].copy_from_slice(&sum);
             }
-            blocks = blocks.saturating_sub(2);
+            blocks -= 2;
+        }
+        if blocks == 1 {
+            let [sum] = block_product(column, terms, b, [0]);
+            column[..BLOCK].copy_from_slice(&sum);
         }
     }
 }
@@ -616,16 +620,16 @@ fn scaled(x: f64, beta: f64) -> f64 {
     }
 }
 
-/// The two blocks of rows start..start + BLOCK (for each start) of
+/// The blocks of rows start..start + BLOCK (for each start) of
 /// alpha a b + beta out, for one column b of length n and its output
 /// column `out`.
 #[inline(always)]
-fn block_product(
+fn block_product<const BLOCKS: usize>(
     out: &[f64],
     (alpha, a, beta): (f64, &[f64], f64),
     b: &[f64],
-    starts: [usize; 2],
-) -> [[f64; BLOCK]; 2] {
+    starts: [usize; BLOCKS],
+) -> [[f64; BLOCK]; BLOCKS] {
     let n = b.len();
     let mut sums = starts.map(|s| std::array::from_fn(|r| scaled(out[s + r], beta)));
     for (k, &bk) in b.iter().enumerate() {
