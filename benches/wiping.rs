@@ -26,7 +26,7 @@ fn bench_wiping(c: &mut Criterion) {
     let counts = (SEGMENTS, SEGMENT_STEPS);
     let segments = Segments::sample(
         &task,
-        (&episode.states, &episode.xi, CANONICAL),
+        (&episode.states, &episode.xi, &episode.forces, CANONICAL),
         counts,
         &mut rng,
     )

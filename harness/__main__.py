@@ -20,7 +20,6 @@ COMMANDS = {
     "robustness": "harness.robustness",
     "contact": "harness.contact",
     "wiping-replay": "harness.wiping_replay",
-    "wiping-transfer": "harness.wiping_transfer",
 }
 
 

@@ -125,6 +125,19 @@ class MujocoContact:
             self.settings.update(solref=self.m.geom_solref[0].tolist(), solimp=self.m.geom_solimp[0, :3].tolist(),
                                  friction=self.m.geom_friction[0].tolist())
 
+    def set_param(self, name: str, value) -> None:
+        """`joint/<name>/stiffness|damping` (jnt_stiffness, dof_damping: no derived constant
+        depends on them)."""
+        kind, owner, field = name.split("/")
+        if kind != "joint" or field not in ("stiffness", "damping") or owner not in self.joint_names:
+            raise ValueError(f"{self.settings['model']}: cannot set {name} (joint/<name>/stiffness|damping)")
+        j = self.m.joint(owner).id
+        x = float(np.ravel(value)[0])
+        if field == "stiffness":
+            self.m.jnt_stiffness[j] = x
+        else:
+            self.m.dof_damping[self.m.jnt_dofadr[j]] = x
+
     def set_state(self, q, v):
         self.mujoco.mj_resetData(self.m, self.d)
         self.d.qpos[:], self.d.qvel[:] = q, v
@@ -202,12 +215,19 @@ class PybulletContact:
             self.settings["missing_armature"] = armature
 
     def set_param(self, name: str, value) -> None:
-        """`body/<link>/mass` only: the link's mass by changeDynamics, its COM and its
-        inertia about the COM kept (as our body/<name>/mass)."""
-        kind, link, field = name.split("/")
-        if (kind, field) != ("body", "mass") or link not in self.links:
-            raise ValueError(f"{self.label}: cannot set {name} (only body/<link>/mass)")
-        self.p.changeDynamics(self.body, self.links[link], mass=float(np.ravel(value)[0]))
+        """`body/<link>/mass` (changeDynamics: the COM and the inertia about it kept, as our
+        body/<name>/mass), `joint/<name>/stiffness` (the explicit spring torque) and
+        `joint/<name>/damping` (changeDynamics jointDamping)."""
+        kind, owner, field = name.split("/")
+        x = float(np.ravel(value)[0])
+        if (kind, field) == ("body", "mass") and owner in self.links:
+            self.p.changeDynamics(self.body, self.links[owner], mass=x)
+        elif kind == "joint" and field == "stiffness" and owner in self.joint_names:
+            self.stiffness[self.joint_names.index(owner)] = x
+        elif kind == "joint" and field == "damping" and owner in self.joint_names:
+            self.p.changeDynamics(self.body, self.movable[self.joint_names.index(owner)], jointDamping=x)
+        else:
+            raise ValueError(f"{self.label}: cannot set {name} (body/<link>/mass, joint/<name>/stiffness|damping)")
 
     @property
     def constrained(self) -> bool:
@@ -243,6 +263,108 @@ class PybulletContact:
 
     def close(self):
         self.p.disconnect()
+
+
+class DartContact:
+    """A URDF twin in DART (dartpy, its own LCP contact and FCL collision) on a ground box of
+    its own whose top face is z = 0 (DART drops the world link and its floor). The URDF's
+    joint limits are enforced (DART's limit constraints; lower = upper means none), damping
+    and springs are DART's own (implicit), friction is each link's <contact>
+    lateral_friction against a ground of 1 (DART takes the smaller); DART has no armature,
+    listed as missing."""
+
+    name = "dart"
+    passive, integrator = "implicit_damping_stiffness", "Euler"
+
+    def __init__(self, urdf: Path, timestep: float):
+        import xml.etree.ElementTree as ET
+
+        import dartpy as dart
+
+        from harness.engines.dart import DartEngine, load_world, set_passive
+        from harness.engines.urdf import read_urdf, timestep_gravity
+
+        facts = read_urdf(urdf)
+        _, gravity, _ = timestep_gravity(urdf, facts)
+        self.timestep, self.gravity = timestep, list(gravity)
+        self.label, self.version = label_of(urdf), DartEngine.version
+        self.world, self.skel = load_world(Path(urdf).resolve(), timestep, self.gravity)
+        skel = self.skel
+        self.joint_names = [skel.getDof(i).getName() for i in range(skel.getNumDofs())]
+        assert self.joint_names == [j.name for j in facts["joints"]], f"{urdf}: DART dof order"
+        set_passive(skel, facts, urdf)
+        for k, j in enumerate(facts["joints"]):
+            dof = skel.getDof(k)
+            lo, hi = j.limit or (-np.inf, np.inf)
+            dof.setPositionLimits(lo, hi)
+            dof.setVelocityLimits(-np.inf, np.inf)
+            dof.setForceLimits(-np.inf, np.inf)
+            skel.getJoint(j.name).setLimitEnforcement(j.limit is not None)
+        friction = {link.get("name"): float(f.get("value"))
+                    for link in ET.parse(urdf).getroot().findall("link")
+                    if (f := link.find("contact/lateral_friction")) is not None}
+        for i in range(skel.getNumBodyNodes()):
+            node = skel.getBodyNode(i)
+            for shape in node.getShapeNodes():
+                if shape.hasDynamicsAspect():
+                    shape.getDynamicsAspect().setFrictionCoeff(friction.get(node.getName(), 1.0))
+        ground = dart.dynamics.Skeleton("ground")
+        joint, body = ground.createWeldJointAndBodyNodePair()
+        node = body.createShapeNode(dart.dynamics.BoxShape([100.0, 100.0, 1.0]))
+        node.createCollisionAspect()
+        node.createDynamicsAspect().setFrictionCoeff(1.0)
+        top = dart.math.Isometry3()
+        top.set_translation([0.0, 0.0, -0.5])  # top face z = 0
+        joint.setTransformFromParentBodyNode(top)
+        self.world.addSkeleton(ground)
+        self.normal_force = 0.0
+        self.settings = {"model": self.label, "version": self.version,
+                         "ground": "a 100 x 100 x 1 m box, top face z = 0, friction 1 (DART takes the smaller)",
+                         "contact": "DART's LCP (boxed, Dantzig), FCL collision",
+                         "joint_limits": "the URDF's, DART's limit constraints", "passive": "DART's implicit"}
+        if armature := {j.name: j.extensions["armature"] for j in facts["joints"] if j.extensions.get("armature")}:
+            self.settings["missing_armature"] = armature
+
+    def set_param(self, name: str, value) -> None:
+        """`body/<link>/mass` (BodyNode.setMass: COM and inertia about it kept, as ours) and
+        `joint/<name>/stiffness|damping` (DART's own springs and dampers)."""
+        kind, owner, field = name.split("/")
+        x = float(np.ravel(value)[0])
+        if (kind, field) == ("body", "mass") and self.skel.getBodyNode(owner) is not None:
+            self.skel.getBodyNode(owner).setMass(x)
+        elif kind == "joint" and field in ("stiffness", "damping") and owner in self.joint_names:
+            dof = self.skel.getDof(self.joint_names.index(owner))
+            (dof.setSpringStiffness if field == "stiffness" else dof.setDampingCoefficient)(x)
+        else:
+            raise ValueError(f"{self.label}: cannot set {name} (body/<link>/mass, joint/<name>/stiffness|damping)")
+
+    @property
+    def constrained(self) -> bool:
+        """Whether the last step had a contact (DART's joint limits are not counted)."""
+        return self.world.getLastCollisionResult().getNumContacts() > 0
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def set_state(self, q, v):
+        self.skel.setPositions(np.asarray(q, float))
+        self.skel.setVelocities(np.asarray(v, float))
+
+    def get_state(self):
+        return np.array(self.skel.getPositions()), np.array(self.skel.getVelocities())
+
+    def step(self, tau):
+        from harness.engines.dart import contact_normal_forces
+
+        self.skel.setForces(np.asarray(tau, float))  # cleared by the step
+        self.world.step()
+        self.normal_force = float(contact_normal_forces(self.world).sum())
+
+    def close(self):
+        pass
 
 
 # ---------------------------------------------------------------- the resting box

@@ -1,89 +1,82 @@
-"""The wiping task's transfer gap: our controller, UC and DiffOSI on the arm as MuJoCo runs it.
+"""The wiping task's transfer gap: our controllers and identifier on the arm as MuJoCo, PyBullet
+and DART run it (`python -m harness transfer --task wiping`).
 
-The "real world" is MuJoCo running reference_models/wiping_arm.xml with the tool joint's
-stiffness and damping set to the true mu (jnt_stiffness, dof_damping), its own contact
-(solref/solimp constraints, pyramidal cone) and sensing: the controller
-(`diffosi.Wiping.act`, the same law and code as ours) reads MuJoCo's tool-table normal
-force (mj_contactForce after mj_forward) at every 1 ms step, and its torques go in through
-qfrc_applied. Per run (true mu drawn uniformly in [1, 100]^2, seeded):
+The "real world" is a reference engine running the arm with the tool joint's stiffness and
+damping at the true mu (k_p = 100 mu_0 N/m, k_d = mu_1 N s/m), its own contact and its own
+sensing (harness/contact.py's adapters):
+- MuJoCo: reference_models/wiping_arm.xml (MujocoContact: soft constraints, pyramidal cone,
+  Newton; the law our engine runs), torques through qfrc_applied;
+- PyBullet: the URDF twin on its plane (PybulletContact: hard contact, the springs as explicit
+  torques, explicit damping in stable substeps);
+- DART: the URDF twin on a ground box (DartContact: its LCP contact, implicit springs and
+  damping).
+The controller (`diffosi.Wiping.act`, the same law and code as ours) reads the engine's
+tool-table normal force over the last step (the contact force of the step just taken) at
+every 1 ms step. Per run (true mu drawn uniformly in [1, 100]^2, seeded):
 
-1. one episode with the canonical gains in MuJoCo; DiffOSI identifies mu from 50
+1. one episode with the canonical gains in the target; DiffOSI identifies mu from 50
    closed-loop segments of it in our engine (`Wiping.identify`), as Table 3 does;
-2. the task metric (MSE of MuJoCo's sensed force against 3 N over its in-contact steps)
-   in MuJoCo with the UC's gains at the true mu (UC-Oracle), at DiffOSI's estimate
-   (UC-DiffOSI), at the middle of the box (UC-Average) and with DR's gains; the same
-   gains in our engine beside them.
+2. the task metric (MSE of the target's sensed force against 3 N over its in-contact steps,
+   N^2, lower is better) in the target with the UC's gains at the true mu (UC-Oracle), at
+   DiffOSI's estimate (UC-DiffOSI), at the middle of the box (UC-Average) and with DR's
+   gains; the same gains in our engine (the source) beside them.
 
-Writes <out>/transfer-wiping-mujoco.md and .json (the same seed gives the same json).
-
-    python -m harness wiping-transfer --runs 5 --seed 0
+Goal (issue 19): UC-DiffOSI's metric within 10% of UC-Oracle's in the target and of its own
+in ours. Writes <out>/transfer-wiping-<target>.{md,json} per target and, for several targets,
+transfer-wiping-summary.{md,json,png} (`targets.<engine>.diffosi_over_oracle` = UC-DiffOSI's
+metric over UC-Oracle's: 1 is no loss, above 1 worse). The same seed gives the same json.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
+import time
 from pathlib import Path
 
 import numpy as np
 
-from harness.report import REPO, REPORTS, markdown_table, write_json, write_markdown
+from harness.report import REPO, markdown_table, write_json, write_markdown
 
 MODEL = REPO / "reference_models" / "wiping_arm.xml"
+URDF = REPO / "reference_models" / "wiping_arm.urdf"
 POLICIES = REPO / "policies" / "wiping"
 STEPS, CONTACT, F_GOAL = 3000, 0.03, 3.0
 METHODS = ("UC-Oracle", "UC-DiffOSI", "UC-Average", "DR")
+TARGETS = ("mujoco", "pybullet", "dart")
+NAMES = {"mujoco": "MuJoCo", "pybullet": "PyBullet", "dart": "DART", "ours": "ours"}
+GOAL = 1.10  # UC-DiffOSI's metric at most 10% above UC-Oracle's, and above its own in ours
 
 
-def add_arguments(ap: argparse.ArgumentParser) -> None:
-    ap.add_argument("--runs", type=int, default=5, help="true mu drawn (default %(default)s)")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", type=Path, default=REPORTS, help="report directory (default reports/)")
+def arm(target: str, mu):
+    """The arm in `target` with the tool's compliance at mu (a fresh engine)."""
+    from harness.contact import DartContact, MujocoContact, PybulletContact
+
+    engine = {"mujoco": lambda: MujocoContact(MODEL), "pybullet": lambda: PybulletContact(URDF, 1e-3),
+              "dart": lambda: DartContact(URDF, 1e-3)}[target]()
+    engine.set_param("joint/tool/stiffness", 100.0 * mu[0])
+    engine.set_param("joint/tool/damping", mu[1])
+    return engine
 
 
-class MujocoArm:
-    """The arm in MuJoCo as it runs the file (contacts and limits on), tool compliance at mu."""
-
-    def __init__(self):
-        import mujoco
-
-        from harness.engines.mujoco import load_mjcf
-
-        self.mujoco, self.m = mujoco, load_mjcf(MODEL)
-        self.d = mujoco.MjData(self.m)
-        self.tool = self.m.joint("tool").id
-        o = self.m.opt
-        self.settings = {"version": mujoco.__version__, "solver": mujoco.mjtSolver(o.solver).name,
-                         "cone": mujoco.mjtCone(o.cone).name, "solref": self.m.geom_solref[0].tolist(),
-                         "solimp": self.m.geom_solimp[0, :3].tolist(), "timestep": float(o.timestep),
-                         "tau_applied_via": "qfrc_applied", "sensing": "mj_contactForce after mj_forward"}
-
-    def force(self) -> float:
-        from harness.engines.mujoco import contact_normal_forces
-
-        self.mujoco.mj_forward(self.m, self.d)
-        return float(contact_normal_forces(self.m, self.d).sum())
-
-    def episode(self, wiping, mu, gains, start) -> dict:
-        """One closed-loop episode: states, offsets xi and sensed forces per step."""
-        m, d = self.m, self.d
-        m.jnt_stiffness[self.tool] = 100.0 * mu[0]
-        m.dof_damping[m.jnt_dofadr[self.tool]] = mu[1]
-        self.mujoco.mj_resetData(m, d)
-        d.qpos[:], d.qvel[:] = start
-        xi, rows = 0.0, {"q": [], "v": [], "xi": [], "force": []}
-        for k in range(STEPS + 1):
-            f = self.force()
-            for key, value in (("q", d.qpos.copy()), ("v", d.qvel.copy()), ("xi", xi), ("force", f)):
-                rows[key].append(value)
-            if k == STEPS:
-                break
-            tau, xi = wiping.act(k, d.qpos, d.qvel, xi, f, gains=gains)
-            d.qfrc_applied[:] = tau
-            self.mujoco.mj_step(m, d)
-            if not np.all(np.isfinite(d.qpos)):
-                raise FloatingPointError(f"MuJoCo diverged at step {k} (mu {mu}, gains {gains})")
-        return {key: np.array(value) for key, value in rows.items()}
+def episode(target: str, wiping, mu, gains, start) -> dict:
+    """One closed-loop episode in `target`: states, offsets xi and sensed forces per step."""
+    engine = arm(target, mu)
+    engine.set_state(*start)
+    xi, force = 0.0, 0.0  # nothing sensed before the first step
+    rows = {"q": [], "v": [], "xi": [], "force": []}
+    for k in range(STEPS + 1):
+        q, v = engine.get_state()
+        for key, value in (("q", q), ("v", v), ("xi", xi), ("force", force)):
+            rows[key].append(value)
+        if k == STEPS:
+            break
+        tau, xi = wiping.act(k, q, v, xi, force, gains=gains)
+        engine.step(tau)
+        force = engine.normal_force
+        if not np.all(np.isfinite(engine.get_state()[0])):
+            raise FloatingPointError(f"{target} diverged at step {k} (mu {mu}, gains {gains})")
+    engine.close()
+    return {key: np.array(value) for key, value in rows.items()}
 
 
 def metric(force: np.ndarray) -> float:
@@ -91,25 +84,25 @@ def metric(force: np.ndarray) -> float:
     return float(np.mean((touching - F_GOAL) ** 2)) if len(touching) else float("inf")
 
 
-def report(runs: int, seed: int) -> dict:
+def target_report(target: str, runs: int, seed: int) -> dict:
     import diffosi
 
-    wiping, arm = diffosi.Wiping(), MujocoArm()
+    wiping = diffosi.Wiping()
     uc = POLICIES / "uc.json"
     dr = json.loads((POLICIES / "dr.json").read_text())
-    dr_gains = (dr["k_tau"], dr["k_xi"])
     start_ep = wiping.episode([50.0, 50.0], steps=600)  # the start state is the task's, whatever mu
     start = (start_ep["q"][0], start_ep["v"][0])
     lo, hi = wiping.mu_range
     rng = np.random.default_rng(seed)
     out = []
     for r in range(runs):
+        begin = time.perf_counter()
         mu = lo + (hi - lo) * rng.random(2)
-        canonical = arm.episode(wiping, mu, wiping.canonical_gains, start)
-        est = wiping.identify(canonical["q"], canonical["v"], canonical["xi"], seed=seed + r)
+        canonical = episode(target, wiping, mu, wiping.canonical_gains, start)
+        est = wiping.identify(canonical["q"], canonical["v"], canonical["xi"], canonical["force"], seed=seed + r)
         mu_hat = np.clip(est["mu"], lo, hi)
         gains = {"UC-Oracle": wiping.uc_gains(uc, mu), "UC-DiffOSI": wiping.uc_gains(uc, mu_hat),
-                 "UC-Average": wiping.uc_gains(uc, (lo + hi) / 2), "DR": dr_gains}
+                 "UC-Average": wiping.uc_gains(uc, (lo + hi) / 2), "DR": (dr["k_tau"], dr["k_xi"])}
         tail = canonical["force"][-1000:]
         row = {"mu": mu, "mu_hat": mu_hat, "flags": est["flags"], "mu_abs_error": np.abs(mu_hat - mu),
                "canonical_last_second": {"mean_force": float(tail.mean()), "std_force": float(tail.std()),
@@ -117,55 +110,153 @@ def report(runs: int, seed: int) -> dict:
                "methods": {}}
         for name in METHODS:
             g = gains[name]
-            row["methods"][name] = {"gains": g, "mujoco": metric(arm.episode(wiping, mu, g, start)["force"]),
+            row["methods"][name] = {"gains": g, "target": metric(episode(target, wiping, mu, g, start)["force"]),
                                     "ours": float(wiping.episode(mu, gains=g)["metric"])}
         out.append(row)
-        print(f"run {r + 1}/{runs}: mu {np.round(mu, 2)}, DiffOSI from MuJoCo {np.round(mu_hat, 2)}")
-    return {"runs": out, "seed": seed, "settings": arm.settings}
+        print(f"  {target:8s} run {r + 1}/{runs}: mu {np.round(mu, 2)}, DiffOSI from {NAMES[target]} "
+              f"{np.round(mu_hat, 2)} ({time.perf_counter() - begin:.1f} s)", flush=True)
+    engine = arm(target, [50.0, 50.0])
+    settings = engine.settings
+    engine.close()
+    doc = {"target": target, "runs": out, "seed": seed, "settings": settings, "summary": summary(out)}
+    s = doc["summary"]
+    oracle, diffosi_ = s["UC-Oracle"]["target"][0], s["UC-DiffOSI"]
+    doc["diffosi_over_oracle"] = diffosi_["target"][0] / oracle
+    doc["target_over_ours"] = diffosi_["target"][0] / diffosi_["ours"][0]
+    doc["goal"] = GOAL
+    doc["meets_goal"] = bool(doc["diffosi_over_oracle"] <= GOAL and abs(doc["target_over_ours"] - 1) <= GOAL - 1)
+    return doc
 
 
-def summary(doc: dict) -> dict:
+def summary(runs: list) -> dict:
+    """Per method: mean and std of the metric in the target and in ours; DiffOSI's MAE."""
     rows = {}
     for name in METHODS:
-        for engine in ("mujoco", "ours"):
-            x = np.array([r["methods"][name][engine] for r in doc["runs"]])
+        for engine in ("target", "ours"):
+            x = np.array([r["methods"][name][engine] for r in runs])
             rows.setdefault(name, {})[engine] = (float(x.mean()), float(x.std()))
+    err = np.array([np.mean(r["mu_abs_error"]) for r in runs])
+    rows["UC-DiffOSI"]["mae"] = (float(err.mean()), float(err.std()))
     return rows
 
 
+GAP_WORDS = {
+    "mujoco": "MuJoCo runs the arm with the contact law ours runs (soft constraints, pyramidal cone), so the "
+              "loop, the sensed force and the identifier see the same physics up to rounding.",
+    "pybullet": "PyBullet solves the tip's contact as a hard constraint of its own (no solref/solimp softness) "
+                "and adds the tool's spring as an explicit torque and its damping explicitly, in substeps: "
+                "its sensed force and the tool's motion differ from ours, and DiffOSI explains them with "
+                "MuJoCo's law.",
+    "dart": "DART solves the tip's contact as an LCP of its own (hard, with error reduction) and integrates "
+            "the tool's spring and damping implicitly: its sensed force and the tool's motion differ from "
+            "ours, and DiffOSI explains them with MuJoCo's law.",
+}
+
+
 def markdown(doc: dict) -> list[str]:
-    s = summary(doc)
+    s, E = doc["summary"], NAMES[doc["target"]]
     err = np.array([r["mu_abs_error"] for r in doc["runs"]])
-    lines = ["# Wiping transfer: our controllers and identifier on MuJoCo's arm", "",
-             f"{len(doc['runs'])} runs (seed {doc['seed']}), true mu = (tool k_p in N/cm, k_d in N s/m) "
-             "uniform in [1, 100]^2. Each method's gains run closed loop in MuJoCo (MuJoCo's contact, "
-             "MuJoCo's sensed force) and in ours; task metric = MSE of the sensed normal force against 3 N "
-             "over the steps in contact (N^2).", ""]
-    lines += markdown_table(["method", "metric in MuJoCo", "metric in ours"],
-                            [[n, f"{s[n]['mujoco'][0]:.3f} ± {s[n]['mujoco'][1]:.3f}",
+    ratio, own = doc["diffosi_over_oracle"], doc["target_over_ours"]
+    verdict = "meets" if doc["meets_goal"] else "**misses**"
+    lines = [f"# Wiping transfer: our controllers and identifier on {E}'s arm", "",
+             f"`python -m harness transfer --task wiping --target {doc['target']} --runs {len(doc['runs'])} "
+             f"--seed {doc['seed']}`", "",
+             f"{len(doc['runs'])} runs (seed {doc['seed']}), true mu = (tool k_p in N/cm, k_d in N s/m) uniform "
+             f"in [1, 100]^2. Each method's gains run closed loop in {E} ({E}'s contact, {E}'s sensed force) "
+             "and in ours; task metric = MSE of the sensed normal force against 3 N over the steps in contact "
+             "(N^2, lower is better).", ""]
+    lines += markdown_table(["method", f"metric in {E}", "metric in ours"],
+                            [[n, f"{s[n]['target'][0]:.3f} ± {s[n]['target'][1]:.3f}",
                               f"{s[n]['ours'][0]:.3f} ± {s[n]['ours'][1]:.3f}"] for n in METHODS])
     last = [r["canonical_last_second"] for r in doc["runs"]]
-    lines += ["", "With the canonical gains MuJoCo's sensed force averages "
+    lines += ["", f"UC-DiffOSI's metric in {E} is {ratio:.3f} x UC-Oracle's there and {own:.3f} x its own in "
+              f"ours (goal: both within 10%: {verdict}).", "",
+              f"With the canonical gains {E}'s sensed force averages "
               f"{np.mean([x['mean_force'] for x in last]):.2f} N over the last second (std "
               f"{np.mean([x['std_force'] for x in last]):.2f} N, in contact "
-              f"{100 * np.mean([x['in_contact'] for x in last]):.0f}% of the steps): the loop regulates the "
-              "mean, but the tool bounces on MuJoCo's stiffer contact."]
-    lines += ["", f"DiffOSI from MuJoCo's canonical-gain episode (in our engine): mean |mu_hat - mu| "
-              f"k_p {err[:, 0].mean():.2f} N/cm, k_d {err[:, 1].mean():.2f} N s/m; flags per run: "
+              f"{100 * np.mean([x['in_contact'] for x in last]):.0f}% of the steps).", "",
+              GAP_WORDS[doc["target"]], "",
+              f"DiffOSI from {E}'s canonical-gain episode (in our engine): mean |mu_hat - mu| "
+              f"k_p {err[:, 0].mean():.3g} N/cm, k_d {err[:, 1].mean():.3g} N s/m; flags per run: "
               + ", ".join(str(r["flags"] or "none") for r in doc["runs"]) + ".", "", "## Runs", ""]
-    lines += markdown_table(["mu", "DiffOSI mu_hat"] + [f"{n} (MuJoCo)" for n in METHODS],
+    lines += markdown_table(["mu", "DiffOSI mu_hat"] + [f"{n} ({E})" for n in METHODS],
                             [[np.round(r["mu"], 2).tolist(), np.round(r["mu_hat"], 2).tolist()]
-                             + [f"{r['methods'][n]['mujoco']:.3f}" for n in METHODS] for r in doc["runs"]])
-    lines += ["", "MuJoCo settings: " + "; ".join(f"{k} {v}" for k, v in doc["settings"].items())]
+                             + [f"{r['methods'][n]['target']:.3f}" for n in METHODS] for r in doc["runs"]])
+    lines += ["", f"{E} settings: " + "; ".join(f"{k} {v}" for k, v in doc["settings"].items())]
     return lines
 
 
-def run(args) -> int:
-    doc = report(args.runs, args.seed)
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_json(args.out / "transfer-wiping-mujoco.json", doc)
-    lines = markdown(doc)
-    write_markdown(args.out / "transfer-wiping-mujoco.md", lines)
-    print("\n".join(lines[:12]))
-    print(f"wrote {args.out / 'transfer-wiping-mujoco.md'} and .json")
-    return 0
+def summary_doc(docs: dict, command: str) -> dict:
+    """The cartpole's summary format: the source (ours) and each target's per-method scores."""
+    first = next(iter(docs.values()))["summary"]
+    return {"meta": {"task": "wiping", "command": command, "score": "force MSE (N^2), lower is better",
+                     "runs": len(next(iter(docs.values()))["runs"])},
+            "source": {m: {"score": first[m]["ours"]} for m in METHODS},
+            "targets": {t: {"diffosi_over_oracle": d["diffosi_over_oracle"], "target_over_ours":
+                            d["target_over_ours"], "goal": d["goal"], "meets_goal": d["meets_goal"],
+                            **{m: {"score": d["summary"][m]["target"],
+                                   **({"mae": d["summary"][m]["mae"]} if "mae" in d["summary"][m] else {})}
+                               for m in METHODS}} for t, d in docs.items()}}
+
+
+def summary_markdown(doc: dict, png: str) -> list[str]:
+    blocks = {"ours (source, no gap)": doc["source"], **{NAMES[t]: d for t, d in doc["targets"].items()}}
+    rows = [[where, m, f"{b[m]['score'][0]:.3f} ± {b[m]['score'][1]:.3f}",
+             f"{b[m]['score'][0] / b['UC-Oracle']['score'][0]:.2f}"] for where, b in blocks.items() for m in METHODS]
+    lines = ["# Transfer summary: wiping controllers from our engine to every reference engine", "",
+             f"`{doc['meta']['command']}`", "",
+             f"{doc['meta']['runs']} runs per target; task metric = force MSE against 3 N over the steps in "
+             "contact (N^2, lower is better). Per-target reports: "
+             + ", ".join(f"[{NAMES[t]}](transfer-wiping-{t}.md)" for t in doc["targets"]) + ".", ""]
+    lines += markdown_table(["Environment", "Approach", "Task metric (N^2)", "over UC-Oracle"], rows)
+    lines += ["", "UC-DiffOSI against its goal (within 10% of UC-Oracle in the target and of its own metric in "
+              "ours): " + "; ".join(f"{NAMES[t]} {d['diffosi_over_oracle']:.3f} x UC-Oracle, "
+                                    f"{d['target_over_ours']:.3f} x ours ({'meets' if d['meets_goal'] else 'misses'})"
+                                    for t, d in doc["targets"].items()) + ".", "",
+              f"![task metric per environment]({png})"]
+    return lines
+
+
+def summary_plot(path: Path, doc: dict) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    blocks = {"ours": doc["source"], **{NAMES[t]: d for t, d in doc["targets"].items()}}
+    fig, ax = plt.subplots(figsize=(8, 4), dpi=110)
+    width = 0.8 / len(METHODS)
+    for i, method in enumerate(METHODS):
+        stats = [b[method]["score"] for b in blocks.values()]
+        ax.bar(np.arange(len(blocks)) + (i - 1.5) * width, [s[0] for s in stats], width,
+               yerr=[s[1] for s in stats], capsize=3, label=method)
+    ax.set_xticks(range(len(blocks)), list(blocks))
+    ax.set_yscale("log")
+    ax.set(title="Wiping: force MSE per environment (mean ± std over runs; lower is better)",
+           ylabel="force MSE (N^2)")
+    ax.grid(True, axis="y", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, metadata={"Software": None})
+    plt.close(fig)
+    return path
+
+
+def run_targets(targets: list[str], runs: int, seed: int, out: Path, command: str) -> dict:
+    """Every target in turn: their reports, and the summary for several. Returns the summary doc."""
+    docs = {}
+    for target in targets:
+        print(f"transfer: wiping -> {target}", flush=True)
+        doc = docs[target] = target_report(target, runs, seed)
+        stem = out / f"transfer-wiping-{target}"
+        write_json(stem.with_suffix(".json"), doc)
+        write_markdown(stem.with_suffix(".md"), markdown(doc))
+        print(f"  UC-DiffOSI / UC-Oracle = {doc['diffosi_over_oracle']:.3f} (metric ratio); wrote {stem}.md, .json")
+    summary_ = summary_doc(docs, command)
+    if len(targets) > 1:
+        stem = out / "transfer-wiping-summary"
+        png = summary_plot(stem.with_suffix(".png"), summary_)
+        write_json(stem.with_suffix(".json"), summary_)
+        write_markdown(stem.with_suffix(".md"), summary_markdown(summary_, png.name))
+        print(f"wrote {stem}.md, .json, .png")
+    return summary_

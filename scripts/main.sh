@@ -39,10 +39,10 @@ for model in cartpole double_pendulum half_cheetah; do
 done
 # Contact: the half cheetah on its floor vs MuJoCo and PyBullet; the resting box in all engines.
 $py -m harness contact --steps 500 --samples 200 --seed 0
-# The wiping episode's torques replayed in MuJoCo and PyBullet.
+# The wiping episode's torques replayed in MuJoCo, PyBullet and DART.
 $py -m harness wiping-replay --mu 50,50 --steps 3000
-# The wiping controllers and DiffOSI on the arm as MuJoCo runs it (transfer gap).
-$py -m harness wiping-transfer --runs 5 --seed 0
+# The wiping controllers and DiffOSI on the arm as MuJoCo, PyBullet and DART run it (transfer gap).
+$py -m harness transfer --task wiping --target all --runs 5
 
 # Example trajectories and a Jacobian from the command line.
 $bin simulate reference_models/cartpole.xml --steps 500 --q0 0,0.3 -o reports/simulate-cartpole.csv

@@ -28,12 +28,14 @@ use crate::{estimate_dict, matrix, osi_error, vector};
 /// by default) and returns a dict of arrays `q`, `v`, `tau` (T+1 rows: the
 /// torques the step from each row applies), `force` (sensed normal force,
 /// N), `xi` (admittance offset, m) and the float `metric` (N^2).
-/// `identify(q, v, xi, gains=None, segments=50, length=5, seed=0,
+/// `identify(q, v, xi, force, gains=None, segments=50, length=5, seed=0,
 /// method="lm", max_evaluations=300)` identifies mu from segments of a
-/// record made with `gains` (from our engine or any other): a dict with `mu`,
-/// `std`, `loss`, `iterations`, `evaluations`, `flags`. `act(k, q, v, xi,
-/// force, gains=None)` is one step of the controller on a force sensed
-/// elsewhere (to run it on another engine), `uc_gains(path, mu)` the
+/// record made with `gains` (from our engine or any other; `force` is what
+/// the controller sensed at each row, the normal force over the step into
+/// it): a dict with `mu`, `std`, `loss`, `iterations`, `evaluations`,
+/// `flags`. `act(k, q, v, xi, force, gains=None)` is one step of the
+/// controller on a force sensed elsewhere (to run it on another engine),
+/// returning the torques and the next xi; `uc_gains(path, mu)` the
 /// Universal Controller's gains.
 #[pyclass(name = "Wiping", module = "diffosi", frozen)]
 pub(crate) struct PyWiping {
@@ -120,13 +122,14 @@ impl PyWiping {
     }
 
     #[allow(clippy::too_many_arguments)]
-    #[pyo3(signature = (q, v, xi, gains = None, segments = 50, length = 5, seed = 0, method = "lm", max_evaluations = 300))]
+    #[pyo3(signature = (q, v, xi, force, gains = None, segments = 50, length = 5, seed = 0, method = "lm", max_evaluations = 300))]
     fn identify<'py>(
         &self,
         py: Python<'py>,
         q: &Bound<'py, PyAny>,
         v: &Bound<'py, PyAny>,
         xi: &Bound<'py, PyAny>,
+        force: &Bound<'py, PyAny>,
         gains: Option<&Bound<'py, PyAny>>,
         segments: usize,
         length: usize,
@@ -145,10 +148,11 @@ impl PyWiping {
             )));
         }
         let xi = vector(xi, "xi", q.nrows(), "rows of q")?;
+        let force = vector(force, "force", q.nrows(), "rows of q")?;
         let states: Vec<State> = rows(&q).into_iter().zip(rows(&v)).collect();
         let gains = gains_of(gains)?;
         let mut rng = StdRng::seed_from_u64(seed);
-        let record = (states.as_slice(), xi.as_slice(), gains);
+        let record = (states.as_slice(), xi.as_slice(), force.as_slice(), gains);
         let segments = Segments::sample(&self.task, record, (segments, length), &mut rng)
             .map_err(PyValueError::new_err)?;
         let mut problem = self.task.problem();
@@ -202,7 +206,7 @@ impl PyWiping {
         let mut tau = vec![0.0; model.nv()];
         let h = model.opt.timestep;
         let target = (tip_target(k as f64 * h), h);
-        let action = ctrl.act_sensed(
+        let xi_next = ctrl.act(
             model.tree(),
             &mut data,
             (&q, &v, force),
@@ -210,7 +214,7 @@ impl PyWiping {
             target,
             &mut tau,
         );
-        Ok((PyArray1::from_vec(py, tau), action.xi_next))
+        Ok((PyArray1::from_vec(py, tau), xi_next))
     }
 
     /// The Universal Controller's gains (k_tau, k_xi) for mu, from a weights

@@ -29,17 +29,17 @@ def test_episode_arrays_and_determinism(record):
 
 def test_identify_recovers_mu_from_the_record(record):
     w, ep = record
-    est = w.identify(ep["q"], ep["v"], ep["xi"])
+    est = w.identify(ep["q"], ep["v"], ep["xi"], ep["force"])
     assert np.allclose(est["mu"], [30.0, 70.0], rtol=1e-8, atol=0)
     assert est["flags"] == [] and est["evaluations"] < 20
-    cma = w.identify(ep["q"], ep["v"], ep["xi"], method="cmaes", max_evaluations=100)
+    cma = w.identify(ep["q"], ep["v"], ep["xi"], ep["force"], method="cmaes", max_evaluations=100)
     assert np.abs(cma["mu"] - [30.0, 70.0]).max() < 10.0 and cma["evaluations"] <= 102
 
 
 def test_more_unknowns():
     w = diffosi.Wiping(unknowns=3)
     ep = w.episode([30.0, 70.0, 40.0])
-    est = w.identify(ep["q"], ep["v"], ep["xi"])
+    est = w.identify(ep["q"], ep["v"], ep["xi"], ep["force"])
     assert np.allclose(est["mu"], [30.0, 70.0, 40.0], rtol=1e-7)
 
 
@@ -51,17 +51,18 @@ def test_bad_input_is_a_value_error(record):
         (lambda: w.episode([np.nan, 50.0]), "finite"),
         (lambda: w.episode([50.0, 50.0], gains=[1.0]), "gains"),
         (lambda: w.episode([50.0, 50.0], gains=[-1.0, 0.01]), "positive"),
-        (lambda: w.identify(ep["q"], ep["v"], ep["xi"][:-1]), "xi"),
-        (lambda: w.identify(ep["q"], ep["v"][:-1], ep["xi"]), "rows"),
-        (lambda: w.identify(ep["q"], ep["v"], ep["xi"], method="newton"), "method"),
-        (lambda: w.identify(ep["q"][:3], ep["v"][:3], ep["xi"][:3], length=5), "segment length"),
+        (lambda: w.identify(ep["q"], ep["v"], ep["xi"][:-1], ep["force"]), "xi"),
+        (lambda: w.identify(ep["q"], ep["v"], ep["xi"], ep["force"][1:]), "force"),
+        (lambda: w.identify(ep["q"], ep["v"][:-1], ep["xi"], ep["force"]), "rows"),
+        (lambda: w.identify(ep["q"], ep["v"], ep["xi"], ep["force"], method="newton"), "method"),
+        (lambda: w.identify(ep["q"][:3], ep["v"][:3], ep["xi"][:3], ep["force"][:3], length=5), "segment length"),
     ]:
         with pytest.raises(ValueError, match=words):
             call()
     bad = ep["q"].copy()
     bad[10, 2] = np.nan
     with pytest.raises(ValueError, match="finite"):
-        w.identify(bad, ep["v"], ep["xi"])
+        w.identify(bad, ep["v"], ep["xi"], ep["force"])
 
 
 def test_act_on_the_recorded_force_reproduces_the_episode(record):

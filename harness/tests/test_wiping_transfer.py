@@ -1,26 +1,41 @@
-"""`python -m harness wiping-transfer` on one run: the controller (our code, MuJoCo's sensed
-force) regulates the mean force in MuJoCo too, every method is scored in both engines, and the
-report is deterministic. Run with `make test`."""
+"""`python -m harness transfer --task wiping --target all` on one run: the controller (our code,
+each engine's sensed force) regulates the mean force in every engine, MuJoCo (the contact law
+ours runs) scores every method as ours does, the summary has the cartpole's format, and the
+reports are deterministic. Run with `make test`."""
 
-import argparse
 import json
 
 import numpy as np
 
-from harness import wiping_transfer
+from harness.__main__ import main
+from harness.wiping_transfer import METHODS, TARGETS
 
 
-def test_one_run_in_mujoco_and_ours(tmp_path):
+def test_one_run_in_every_engine(tmp_path):
     docs = []
     for name in ("a", "b"):
         out = tmp_path / name
-        assert wiping_transfer.run(argparse.Namespace(runs=1, seed=3, out=out)) == 0
-        docs.append(json.loads((out / "transfer-wiping-mujoco.json").read_text()))
+        assert main(["transfer", "--task", "wiping", "--target", "all", "--runs", "1", "--seed", "3",
+                     "--out", str(out)]) == 0
+        docs.append({t: json.loads((out / f"transfer-wiping-{t}.json").read_text()) for t in TARGETS})
+        summary = json.loads((out / "transfer-wiping-summary.json").read_text())
+        assert set(summary["targets"]) == set(TARGETS) and set(summary["source"]) == set(METHODS)
+        assert (out / "transfer-wiping-summary.png").stat().st_size > 10_000
     assert docs[0] == docs[1]
-    run = docs[0]["runs"][0]
-    assert abs(run["canonical_last_second"]["mean_force"] - 3.0) < 0.5
-    assert set(run["methods"]) == set(wiping_transfer.METHODS)
-    for m in run["methods"].values():
-        assert np.isfinite(m["mujoco"]) and 0.0 < m["ours"] < 10.0
-    lo, hi = 1.0, 100.0
-    assert all(lo <= x <= hi for x in run["mu_hat"])
+    for target, doc in docs[0].items():
+        run = doc["runs"][0]
+        assert abs(run["canonical_last_second"]["mean_force"] - 3.0) < 0.5, target
+        assert all(1.0 <= x <= 100.0 for x in run["mu_hat"])
+        for m in run["methods"].values():
+            assert np.isfinite(m["target"]) and 0.0 < m["ours"] < 10.0
+    mujoco = docs[0]["mujoco"]
+    # The same contact law: MuJoCo's metric is ours to rounding, and DiffOSI finds mu from it.
+    for m in mujoco["runs"][0]["methods"].values():
+        assert abs(m["target"] - m["ours"]) <= 1e-6 * m["ours"]
+    assert np.max(mujoco["runs"][0]["mu_abs_error"]) < 1e-6
+    assert mujoco["meets_goal"]
+
+
+def test_wiping_takes_no_unmodelled_effects(tmp_path):
+    assert main(["transfer", "--task", "wiping", "--target", "mujoco", "--unmodelled", "friction",
+                 "--out", str(tmp_path)]) == 2

@@ -32,8 +32,9 @@ fn write(path: &Path, text: &str) -> Result<(), String> {
 /// `diffosi wipe`: one episode at mu under `gains` (the canonical ones by
 /// default) written as CSV: `t, q_<joint>..., v_<joint>..., tau_<joint>...`
 /// (the generalized forces the step from the row applies; on the last row
-/// the controller's output there), `fn_<tip>_<table>` (the sensed normal
-/// force, N) and `xi` (the admittance offset, m); with `model_out`, the arm
+/// the controller's output there), `fn_<tip>_<table>` (the normal force the
+/// controller sensed at the row, over the step into it, N) and `xi` (the
+/// admittance offset, m); with `model_out`, the arm
 /// at mu as MJCF. With `identify`, DiffOSI then identifies mu from 50
 /// segments of the episode.
 pub fn wipe(
@@ -92,7 +93,7 @@ pub fn wipe(
         let counts = (exp::SEGMENTS, exp::SEGMENT_STEPS);
         let segments = Segments::sample(
             &task,
-            (&episode.states, &episode.xi, gains),
+            (&episode.states, &episode.xi, &episode.forces, gains),
             counts,
             &mut rng,
         )?;

@@ -3,8 +3,10 @@
 //!
 //! The law, run at every physics step (1 kHz on the wiping arm), generic over
 //! the scalar so that identification can differentiate the closed loop:
-//! 1. Sense: F = the tool-table normal force at the current (q, v), from the
-//!    contact model (the force the step applies; 0 out of contact).
+//! 1. Sense: F = the tool-table normal force that acted over the last step
+//!    ([`sensed_force`]: the contact model's, the constraint solver's under
+//!    MuJoCo's model; 0 out of contact and before the first step), as a
+//!    force sensor sampled at 1 kHz reads it.
 //! 2. Admittance along the table normal: the commanded tip point is
 //!    p_cmd = p_traj(t) - xi e_z, where the offset xi (m, > 0 pushes into
 //!    the table) integrates the force error,
@@ -22,14 +24,16 @@
 //!    light wrist as stable under the explicit step as the shoulder. The
 //!    tool joint gets no torque: it is the passive compliance.
 //!
-//! The sensed force depends on the state only, so a single step's torque
-//! does not depend on the tool's stiffness or damping; over several steps
-//! they reach the torque through the state, the force and xi, and an exact
-//! closed-loop derivative has to follow them there.
+//! The sensed force is the last step's, known at the step's start, so a
+//! single step's torque does not depend on the tool's stiffness or damping;
+//! over several steps they reach the torque through the state, the force
+//! and xi, and an exact closed-loop derivative has to follow them there.
 
 use nalgebra::Vector3;
 
-use crate::dynamics::{add_soft_forces, bias_forces, Data, Tree};
+use crate::dynamics::constraint::contact_forces;
+use crate::dynamics::{bias_forces, Contact, Data, Tree};
+use crate::model::ContactModel;
 use crate::spatial::{lift, Real};
 use crate::tasks::tool_down_at;
 
@@ -77,24 +81,14 @@ pub struct ArmJoint {
     pub inertia: f64,
 }
 
-/// The controller on one model: its gains, the arm's joints and buffers for
-/// the sensing and gravity passes.
+/// The controller on one model: its gains, the arm's joints and a buffer
+/// for the gravity pass.
 #[derive(Clone, Debug)]
 pub struct Admittance<T: Real> {
     pub gains: Gains,
     /// The arm is the first `arm.len()` dofs; the rest get no torque.
     arm: Vec<ArmJoint>,
-    scratch: Vec<T>,
     zeros: Vec<T>,
-}
-
-/// What the controller did at one step.
-#[derive(Clone, Copy, Debug)]
-pub struct Action<T> {
-    /// The sensed normal force (N).
-    pub force: T,
-    /// The offset for the next step (m).
-    pub xi_next: T,
 }
 
 impl<T: Real> Admittance<T> {
@@ -102,40 +96,15 @@ impl<T: Real> Admittance<T> {
         Admittance {
             gains,
             arm: arm.to_vec(),
-            scratch: vec![T::zero(); nv],
             zeros: vec![T::zero(); nv],
         }
     }
 
-    /// The tool-table normal force at (q, v) (N): the contacts' normal forces
-    /// summed.
-    pub fn sense(&mut self, tree: &Tree<T>, data: &mut Data<T>, (q, v): (&[T], &[T])) -> T {
-        self.scratch.fill(T::zero());
-        add_soft_forces(tree, data, (q, v), &mut self.scratch);
-        data.contacts
-            .iter()
-            .fold(T::zero(), |sum, c| sum + c.normal_force)
-    }
-
-    /// The torques (length nv) at (q, v) with offset `xi` toward the tip
-    /// target `target` (m, world), and what was sensed (by our contact
-    /// model).
+    /// The torques (length nv) at (q, v) on the sensed normal force (N: ours,
+    /// [`sensed_force`], another engine's or a real sensor's) with offset `xi`
+    /// toward the tip target `target` (m, world), `h` the control period (s);
+    /// returns the offset for the next step (m).
     pub fn act(
-        &mut self,
-        tree: &Tree<T>,
-        data: &mut Data<T>,
-        (q, v): (&[T], &[T]),
-        xi: T,
-        target: (Vector3<f64>, f64),
-        tau: &mut [T],
-    ) -> Action<T> {
-        let force = self.sense(tree, data, (q, v));
-        self.act_sensed(tree, data, (q, v, force), xi, target, tau)
-    }
-
-    /// [`Admittance::act`] with the normal force sensed elsewhere (another
-    /// engine's contact, a real sensor), `h` the control period (s).
-    pub fn act_sensed(
         &mut self,
         tree: &Tree<T>,
         data: &mut Data<T>,
@@ -143,7 +112,7 @@ impl<T: Real> Admittance<T> {
         xi: T,
         (target, h): (Vector3<f64>, f64),
         tau: &mut [T],
-    ) -> Action<T> {
+    ) -> T {
         let gains = self.gains;
         let step = xi + lift::<T>(h * gains.k_xi) * (lift::<T>(F_GOAL) - force);
         let xi_next = clamp(step, XI_LIMIT);
@@ -157,7 +126,25 @@ impl<T: Real> Admittance<T> {
         for t in &mut tau[self.arm.len()..] {
             *t = T::zero();
         }
-        Action { force, xi_next }
+        xi_next
+    }
+}
+
+/// The tool-table normal force over the last step (N): the normal forces of
+/// the contacts of the tree's last force evaluation ([`Data::contacts`] under
+/// the smooth model, [`Data::constrained`] under the constraint model; a
+/// semi-implicit Euler step has one evaluation), summed. 0 before any step.
+pub fn sensed_force<T: Real>(tree: &Tree<T>, data: &Data<T>) -> T {
+    let normal = |contacts: &[Contact<T>]| {
+        contacts
+            .iter()
+            .fold(T::zero(), |sum, c| sum + c.normal_force)
+    };
+    match tree.contact_model {
+        ContactModel::Smooth => normal(&data.contacts),
+        ContactModel::Constraint => data.constrained.as_ref().map_or(T::zero(), |c| {
+            normal(&contact_forces(&c.contacts, &c.rows, &c.solution.force))
+        }),
     }
 }
 

@@ -448,7 +448,7 @@ fn one_run(task: &Wiping, c: &Controllers, truth: &[f64], seed: u64) -> Result<R
     let mut rng = StdRng::seed_from_u64(seed);
     let segments = Segments::sample(
         task,
-        (&episode.states, &episode.xi, CANONICAL),
+        (&episode.states, &episode.xi, &episode.forces, CANONICAL),
         (SEGMENTS, SEGMENT_STEPS),
         &mut rng,
     )?;

@@ -116,7 +116,7 @@ fn one_run(
     let counts = (SEGMENTS, SEGMENT_STEPS);
     let segments = Segments::sample(
         task,
-        (&episode.states, &episode.xi, CANONICAL),
+        (&episode.states, &episode.xi, &episode.forces, CANONICAL),
         counts,
         &mut rng,
     )?;

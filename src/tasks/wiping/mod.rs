@@ -11,7 +11,10 @@
 //!   it (the spring at rest), then back-and-forth strokes along x,
 //!   x(t) = 0.55 + 0.1 sin(2 pi (t - 0.5) / 1.5) m, for [`STEPS`] steps in
 //!   all (3 s). q_traj is its tool-down inverse kinematics ([`tool_down_at`]).
-//! - Controller: [`Admittance`] with gains theta = (k_tau, k_xi).
+//! - Contact: the file's, MuJoCo's constraint model; the tip is frictionless
+//!   against the table (the model file says why).
+//! - Controller: [`Admittance`] with gains theta = (k_tau, k_xi), on the
+//!   normal force sensed over the last step.
 //! - mu: the unknown compliance, each component uniform in [1, 100] as the
 //!   paper. Units make that range physical: the tool's k_p in N/cm (100 to
 //!   10^4 N/m) and k_d in N s/m; in N/m, pressing 3 N would need a 3 m
@@ -28,9 +31,9 @@ pub use segments::{Segment, Segments};
 use nalgebra::Vector3;
 use rand::rngs::StdRng;
 
-use crate::control::admittance::{Action, Admittance, ArmJoint, Gains};
+use crate::control::admittance::{sensed_force, Admittance, ArmJoint, Gains};
 use crate::dynamics::{crba, step, Data, StepError, Tree};
-use crate::model::{ContactModel, MapEntry, Model, ParamError, ParamMap, State};
+use crate::model::{MapEntry, Model, ParamError, ParamMap, State};
 use crate::osi::Problem;
 use crate::spatial::{lift, Real};
 use crate::tasks::{middle_of, uniform_in};
@@ -194,8 +197,8 @@ pub struct Wiping {
 }
 
 /// A recorded episode: per step k = 0 ..= steps, the state, the controller's
-/// torques there (those the step from k applies), the sensed force and the
-/// admittance offset xi (m).
+/// torques there (those the step from k applies), the normal force it sensed
+/// there (over the step into k, N) and the admittance offset xi (m).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Episode {
     pub states: Vec<State>,
@@ -218,10 +221,7 @@ impl Wiping {
             env!("CARGO_MANIFEST_DIR"),
             "/reference_models/wiping_arm.xml"
         );
-        // The smooth contact model: the shipped controller was trained on it.
-        let model = Model::load(path)
-            .and_then(|m| m.edited(|s| s.opt.contact_model = ContactModel::Smooth))
-            .map_err(|e| ParamError::Map(e.to_string()))?;
+        let model = Model::load(path).map_err(|e| ParamError::Map(e.to_string()))?;
         let n = unknowns.len();
         let rows: Vec<(String, Vec<f64>)> = unknowns
             .iter()
@@ -363,7 +363,10 @@ impl Wiping {
         let mut ctrl = self.controller::<f64>(gains);
         let (nv, h) = (model.nv(), model.opt.timestep);
         let (mut q, mut v) = self.start();
-        let mut xi = 0.0;
+        let mut carry = LoopState {
+            xi: 0.0,
+            force: 0.0,
+        };
         let mut episode = Episode {
             states: Vec::with_capacity(steps + 1),
             taus: Vec::with_capacity(steps + 1),
@@ -372,32 +375,38 @@ impl Wiping {
             metric: 0.0,
         };
         let (mut q1, mut v1, mut tau) = (vec![0.0; nv], vec![0.0; nv], vec![0.0; nv]);
-        let mut record = |(q, v): (&[f64], &[f64]), tau: &[f64], force, xi| {
+        let mut record = |(q, v): (&[f64], &[f64]), tau: &[f64], carry: LoopState<f64>| {
             episode.states.push((q.to_vec(), v.to_vec()));
             episode.taus.push(tau.to_vec());
-            episode.forces.push(force);
-            episode.xi.push(xi);
+            episode.forces.push(carry.force);
+            episode.xi.push(carry.xi);
         };
         for k in 0..steps {
-            let at = (k, q.as_slice(), v.as_slice(), xi);
-            let action = closed_loop_step(
+            let next = closed_loop_step(
                 (tree, &model),
                 &mut data,
                 &mut ctrl,
-                at,
+                (k, q.as_slice(), v.as_slice(), carry),
                 &mut tau,
                 (&mut q1, &mut v1),
             )
             .map_err(|source| WipingError::Step { step: k, source })?;
-            record((&q, &v), &tau, action.force, xi);
+            record((&q, &v), &tau, carry);
             std::mem::swap(&mut q, &mut q1);
             std::mem::swap(&mut v, &mut v1);
-            xi = action.xi_next;
+            carry = next;
         }
         // The last row: the torques the controller would apply there.
         let last = (tip_target(steps as f64 * h), h);
-        let action = ctrl.act(tree, &mut data, (&q, &v), xi, last, &mut tau);
-        record((&q, &v), &tau, action.force, xi);
+        ctrl.act(
+            tree,
+            &mut data,
+            (&q, &v, carry.force),
+            carry.xi,
+            last,
+            &mut tau,
+        );
+        record((&q, &v), &tau, carry);
         episode.metric = metric(&episode.forces)?;
         Ok(episode)
     }
@@ -423,18 +432,32 @@ pub fn metric(forces: &[f64]) -> Result<f64, WipingError> {
     Ok(touching.iter().sum::<f64>() / touching.len() as f64)
 }
 
-/// One closed-loop step from step index k at (q, v) with offset xi: the
-/// controller's torques into `tau`, the model's step into (q1, v1).
+/// What the closed loop carries from one step to the next besides (q, v):
+/// the admittance offset xi (m) and the normal force sensed over the last
+/// step (N), both known to the controller.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LoopState<T> {
+    pub xi: T,
+    pub force: T,
+}
+
+/// One closed-loop step from step index k at (q, v) with `carry`: the
+/// controller's torques into `tau`, the model's step into (q1, v1); returns
+/// the loop's state after the step.
 pub fn closed_loop_step<T: Real>(
     (tree, model): (&Tree<T>, &Model),
     data: &mut Data<T>,
     ctrl: &mut Admittance<T>,
-    (k, q, v, xi): (usize, &[T], &[T], T),
+    (k, q, v, carry): (usize, &[T], &[T], LoopState<T>),
     tau: &mut [T],
     (q1, v1): (&mut [T], &mut [T]),
-) -> Result<Action<T>, StepError> {
+) -> Result<LoopState<T>, StepError> {
     let h = model.opt.timestep;
-    let action = ctrl.act(tree, data, (q, v), xi, (tip_target(k as f64 * h), h), tau);
+    let target = (tip_target(k as f64 * h), h);
+    let xi = ctrl.act(tree, data, (q, v, carry.force), carry.xi, target, tau);
     step(tree, &model.opt, data, (q, v, tau), (q1, v1))?;
-    Ok(action)
+    Ok(LoopState {
+        xi,
+        force: sensed_force(tree, data),
+    })
 }

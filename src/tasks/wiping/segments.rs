@@ -5,12 +5,13 @@
 //! contact included, from its recorded start.
 //!
 //! Conventions:
-//! - A segment starts at step k with the recorded (q_k, v_k) and admittance
-//!   offset xi_k (the controller's own state, known to it), and holds the
+//! - A segment starts at step k with the recorded (q_k, v_k), admittance
+//!   offset xi_k and sensed force F_k (the controller's own state and
+//!   reading, known to it), and holds the
 //!   `length` recorded states after it, (q, v) at k + 1 .. k + length. The
 //!   paper's segment (q_t, q_t+1, q_t^traj) is length 1; with length 1 the
-//!   torque of the step does not depend on mu (the sensed force is a function
-//!   of the state), so longer segments are what lets mu act through the
+//!   torque of the step does not depend on mu (the sensed force is the
+//!   recorded one), so longer segments are what lets mu act through the
 //!   controller and the contact, and they average out more.
 //! - Residuals: per segment and step, (q_pred - q_obs, v_pred - v_obs)
 //!   divided by the problem's `scale` (q then v), in segment order.
@@ -28,7 +29,7 @@ use rand::RngExt;
 
 #[cfg(doc)]
 use super::Episode;
-use super::{closed_loop_step, Wiping};
+use super::{closed_loop_step, LoopState, Wiping};
 use crate::control::admittance::Gains;
 use crate::derivatives::WindowFit;
 use crate::dynamics::{Data, Tree};
@@ -44,6 +45,7 @@ pub struct Segment {
     pub q: Vec<f64>,
     pub v: Vec<f64>,
     pub xi: f64,
+    pub force: f64,
     /// The recorded states after the start, in order.
     pub observed: Vec<State>,
 }
@@ -59,20 +61,21 @@ pub struct Segments {
 impl Segments {
     /// `count` segments of `length` steps with starts drawn uniformly from a
     /// record of an episode run with `gains` (its states and the
-    /// controller's offset xi at each, as [`Episode`] holds them), with
-    /// replacement, in draw order.
+    /// controller's offset xi and sensed force at each, as [`Episode`]
+    /// holds them), with replacement, in draw order.
     pub fn sample(
         task: &Wiping,
-        (states, xi, gains): (&[State], &[f64], Gains),
+        (states, xi, forces, gains): (&[State], &[f64], &[f64], Gains),
         (count, length): (usize, usize),
         rng: &mut StdRng,
     ) -> Result<Segments, String> {
-        if xi.len() != states.len() {
-            return Err(format!(
-                "the record holds {} states but {} offsets xi",
-                states.len(),
-                xi.len()
-            ));
+        for (what, len) in [("offsets xi", xi.len()), ("forces", forces.len())] {
+            if len != states.len() {
+                return Err(format!(
+                    "the record holds {} states but {len} {what}",
+                    states.len()
+                ));
+            }
         }
         let steps = states.len().saturating_sub(1);
         if length == 0 || length > steps {
@@ -89,6 +92,7 @@ impl Segments {
                     q,
                     v,
                     xi: xi[k],
+                    force: forces[k],
                     observed: states[k + 1..=k + length].to_vec(),
                 }
             })
@@ -118,10 +122,13 @@ impl Segments {
         for s in &self.segments {
             let mut q: Vec<T> = s.q.iter().map(|x| lift(*x)).collect();
             let mut v: Vec<T> = s.v.iter().map(|x| lift(*x)).collect();
-            let mut xi = lift(s.xi);
+            let mut carry = LoopState {
+                xi: lift(s.xi),
+                force: lift(s.force),
+            };
             for k in s.start..s.start + s.observed.len() {
-                let at = (k, q.as_slice(), v.as_slice(), xi);
-                let action = closed_loop_step(
+                let at = (k, q.as_slice(), v.as_slice(), carry);
+                carry = closed_loop_step(
                     (tree, model),
                     &mut data,
                     &mut ctrl,
@@ -132,7 +139,6 @@ impl Segments {
                 .map_err(|e| OsiError::Segment(format!("segment at step {}: {e}", s.start)))?;
                 std::mem::swap(&mut q, &mut q1);
                 std::mem::swap(&mut v, &mut v1);
-                xi = action.xi_next;
                 out(row, &q, &v);
                 row += 1;
             }
@@ -211,13 +217,15 @@ impl Observations for Segments {
                     }
                 }
             }
-            if !s.xi.is_finite() {
-                return Err(OsiError::NotFinite {
-                    t,
-                    what: "xi",
-                    i: 0,
-                    value: s.xi,
-                });
+            for (what, value) in [("xi", s.xi), ("force", s.force)] {
+                if !value.is_finite() {
+                    return Err(OsiError::NotFinite {
+                        t,
+                        what,
+                        i: 0,
+                        value,
+                    });
+                }
             }
         }
         Ok(())
