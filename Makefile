@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 # The Python module `diffosi` (bindings/), built into the venv by maturin.
 MODULE := $(VENV)/.module
 
-.PHONY: setup run test bench golden fuzz
+.PHONY: setup run study test bench golden fuzz
 
 setup: $(STAMP) $(MODULE)
 	cargo build --release --locked
@@ -28,6 +28,11 @@ $(MODULE): $(STAMP) $(shell find src bindings/src -name '*.rs') Cargo.toml Cargo
 
 run: setup
 	scripts/main.sh
+
+# The full transfer study: every task to every reference engine (about 15 min), then the overview.
+study: setup
+	$(VENV)/bin/python -m harness transfer --task all --target all
+	$(VENV)/bin/python -m harness overview --readme
 
 test: setup
 	cargo fmt --check

@@ -17,6 +17,7 @@ COMMANDS = {
     "osi-bench": "harness.osi_bench",
     "figures": "harness.figures",
     "transfer": "harness.transfer",
+    "overview": "harness.overview",
     "robustness": "harness.robustness",
     "contact": "harness.contact",
     "wiping-replay": "harness.wiping_replay",

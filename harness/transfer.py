@@ -690,9 +690,9 @@ def run_task(args) -> int:
         print(f"transfer: {e}")
         return 2
     if args.task == "wiping":
-        command = f"python -m harness transfer --task wiping --target {args.target} --runs {args.runs}"
+        line = f"python -m harness transfer --task wiping --target {args.target} --runs {args.runs}"
         wiping_transfer.run_targets(targets, args.runs, args.seed, args.out,
-                                    command + (f" --seed {args.seed}" if args.seed else ""))
+                                    line + (f" --seed {args.seed}" if args.seed else ""))
         return 0
     setup = Setup(args, unmodelled)
     suffix = "".join(f"-{u}" for u in unmodelled)

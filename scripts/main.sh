@@ -44,6 +44,11 @@ $py -m harness wiping-replay --mu 50,50 --steps 3000
 # The wiping controllers and DiffOSI on the arm as MuJoCo, PyBullet and DART run it (transfer gap).
 $py -m harness transfer --task wiping --target all --runs 5
 
+# The transfer overview (every task x target x method) from the per-target reports, into
+# reports/overview.* and the README; the half cheetah's PyBullet and DART reports come from
+# the full study (`make study`).
+$py -m harness overview --readme
+
 # Example trajectories and a Jacobian from the command line.
 $bin simulate reference_models/cartpole.xml --steps 500 --q0 0,0.3 -o reports/simulate-cartpole.csv
 $bin jacobian reference_models/half_cheetah.xml --v 0.5,0,0,1,-1,0.5,0,0,0 --tau 0,0,0,10,0,0,-10,0,0 \

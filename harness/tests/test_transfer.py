@@ -218,20 +218,37 @@ def test_cheetah_source_row_is_the_rust_eval(tmp_path, cheetah_policies):
         assert json.loads(out.stdout)["policies"][0]["metrics"] == [ours], source
 
 
-def test_cheetah_goes_to_pybullet_on_its_plane(tmp_path, cheetah_policies):
-    """The URDF twin in PyBullet stands on a plane (contacts seen), the torso mass set per
-    episode, and the report names what PyBullet lacks."""
-    assert run_cheetah(tmp_path, cheetah_policies, "--episodes", "1", "--horizon", "30", target="pybullet") == 0
-    doc = json.loads((tmp_path / "transfer-half_cheetah-pybullet.json").read_text())
-    assert doc["engine"]["name"] == "pybullet" and "missing_armature" in doc["engine"]["settings"]
+@pytest.mark.parametrize("target", ["pybullet", "dart"])
+def test_cheetah_goes_to_the_urdf_twins(tmp_path, cheetah_policies, target):
+    """The URDF twin in PyBullet (on a plane) and DART (on a ground box) stands on its floor
+    (contacts seen), the torso mass set per episode and checked, and the report names what
+    the engine lacks."""
+    assert run_cheetah(tmp_path, cheetah_policies, "--episodes", "1", "--horizon", "30", target=target) == 0
+    doc = json.loads((tmp_path / f"transfer-half_cheetah-{target}.json").read_text())
+    assert doc["engine"]["name"] == target and "missing_armature" in doc["engine"]["settings"]
     for r in doc["methods"].values():
         assert all(np.isfinite(e["score"]) and np.isfinite(e["peak_abs_q"]).all() for e in r["episodes"])
-    assert doc["single_transition"]["pybullet"]["constrained"]["count"] > 0
-    report = (tmp_path / "transfer-half_cheetah-pybullet.md").read_text()
-    assert "return in PyBullet" in report and "no armature" in report
+    assert doc["single_transition"][target]["constrained"]["count"] > 0
+    assert doc["goal"] == 0.95
+    report = (tmp_path / f"transfer-half_cheetah-{target}.md").read_text()
+    name = {"pybullet": "PyBullet", "dart": "DART"}[target]
+    assert f"return in {name}" in report and "no armature" in report
 
 
-def test_cheetah_goes_to_mujoco_and_pybullet_only_without_unmodelled_effects(tmp_path, cheetah_policies):
-    assert main(["transfer", "--task", "half_cheetah", "--target", "dart", "--out", str(tmp_path)]) == 2
+def test_twins_set_the_torso_mass_they_are_given():
+    from harness.contact import CHEETAH_URDF, DartContact, PybulletContact
+
+    for twin in (DartContact(CHEETAH_URDF, 0.01), PybulletContact(CHEETAH_URDF, 0.01)):
+        with twin:
+            twin.set_param("body/torso/mass", 31.0)
+            with pytest.raises(ValueError, match="cannot set"):
+                twin.set_param("body/nowhere/mass", 1.0)
+            if twin.name == "dart":
+                assert twin.skel.getBodyNode("torso").getMass() == 31.0
+            else:
+                assert twin.p.getDynamicsInfo(twin.body, twin.links["torso"])[0] == 31.0
+
+
+def test_cheetah_takes_no_unmodelled_effects(tmp_path, cheetah_policies):
     assert run_cheetah(tmp_path, cheetah_policies, "--unmodelled", "delay") == 2
     assert not any(tmp_path.iterdir())
