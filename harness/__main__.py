@@ -18,6 +18,7 @@ COMMANDS = {
     "figures": "harness.figures",
     "transfer": "harness.transfer",
     "overview": "harness.overview",
+    "joint-osi": "harness.joint_osi",
     "robustness": "harness.robustness",
     "contact": "harness.contact",
     "wiping-replay": "harness.wiping_replay",

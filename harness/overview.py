@@ -23,7 +23,8 @@ from harness.report import REPO, REPORTS, markdown_table, write_json, write_mark
 
 TASKS = {  # task: (score, whether higher is better, its methods)
     "cartpole": ("steps in bounds", True, ("DR", "UC-DiffOSI", "UC-Oracle")),
-    "half_cheetah": ("return", True, ("DR", "UC-DiffOSI", "UC-Oracle")),
+    "half_cheetah": ("return", True, ("DR", "UC-Average", "UC-DiffOSI", "UC-Oracle")),
+    "half_cheetah_contact": ("return", True, ("DR", "UC-Average", "UC-DiffOSI", "UC-Oracle")),
     "wiping": ("force MSE (N^2)", False, ("DR", "UC-Average", "UC-DiffOSI", "UC-Oracle")),
 }
 TARGETS = ("mujoco", "pybullet", "dart")
@@ -84,9 +85,12 @@ def markdown(doc: dict, png: str) -> list[str]:
         score, higher, methods = TASKS[task]
         envs = block["environments"]
         lines += [f"## {task} ({score}, {'higher' if higher else 'lower'} is better)", ""]
-        rows = [[m] + [f"{envs[e][m][0]:.{0 if higher else 3}f} ± {envs[e][m][1]:.{0 if higher else 3}f} "
-                       f"({100 * share(task, envs[e], m):.0f}%)" for e in envs] for m in methods]
-        lines += markdown_table(["Approach"] + [NAMES[e] for e in envs], rows)
+        if envs:
+            digits = 0 if higher else 3
+            rows = [[m] + [f"{envs[e][m][0]:.{digits}f} ± {envs[e][m][1]:.{digits}f} "
+                           f"({100 * share(task, envs[e], m):.0f}%)" if m in envs[e] else "-" for e in envs]
+                    for m in methods]
+            lines += markdown_table(["Approach"] + [NAMES[e] for e in envs], rows)
         if block["missing"]:
             lines += ["", "No report yet for: " + ", ".join(NAMES[t] for t in block["missing"]) + "."]
         lines.append("")
@@ -100,19 +104,21 @@ def plot(path: Path, doc: dict) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, len(doc), figsize=(13, 4), dpi=110)
-    for ax, (task, block) in zip(axes, doc.items()):
+    shown = {task: block for task, block in doc.items() if block["environments"]}
+    fig, axes = plt.subplots(1, len(shown), figsize=(4.4 * len(shown), 4), dpi=110, squeeze=False)
+    for ax, (task, block) in zip(axes[0], shown.items()):
         score, higher, methods = TASKS[task]
         envs = block["environments"]
         width = 0.8 / len(methods)
         for i, m in enumerate(methods):
             ax.bar(np.arange(len(envs)) + (i - (len(methods) - 1) / 2) * width,
-                   [100 * share(task, envs[e], m) for e in envs], width, label=m, color=COLOURS[m])
+                   [100 * share(task, envs[e], m) if m in envs[e] else 0.0 for e in envs], width, label=m,
+                   color=COLOURS[m])
         ax.axhline(100, color="grey", lw=0.8, ls="--")
         ax.set_xticks(range(len(envs)), [NAMES[e].split(" ")[0] for e in envs])
         ax.set(title=f"{task}", ylabel="% of UC-Oracle in the same engine")
         ax.grid(True, axis="y", alpha=0.3)
-    axes[-1].legend(fontsize=8)  # the wiping panel shows every method
+    axes[0, -1].legend(fontsize=8)  # the last panel (wiping) shows every method
     fig.suptitle("Transfer: each method against UC-Oracle, in our engine and in every reference engine")
     fig.tight_layout()
     fig.savefig(path, metadata={"Software": None})

@@ -17,7 +17,7 @@ import diffosi
 from harness import engines
 from harness.__main__ import main
 from harness.engines.base import REPO
-from harness.transfer import METHODS
+from harness.transfer import METHODS, TASKS
 
 HORIZON = 100
 BINARY = REPO / "target" / "release" / "diffosi"
@@ -186,7 +186,7 @@ def test_cheetah_transfer_is_finite_and_seeded(tmp_path, cheetah_policies):
     assert first == (tmp_path / "b" / f"{name}.json").read_text()
     doc = json.loads(first)
     assert doc["engine"]["model"] == "gymnasium:half_cheetah.xml" and doc["engine"]["settings"]["disableflags"] == []
-    assert list(doc["methods"]) == list(METHODS) and doc["meta"]["horizon"] == 40
+    assert list(doc["methods"]) == list(TASKS["half_cheetah"].methods) and doc["meta"]["horizon"] == 40
     mu = diffosi.Task("half_cheetah").episodes(2, 0)[0][:, 0]
     for method, r in doc["methods"].items():
         for k, e in enumerate(r["episodes"]):
@@ -252,3 +252,25 @@ def test_twins_set_the_torso_mass_they_are_given():
 def test_cheetah_takes_no_unmodelled_effects(tmp_path, cheetah_policies):
     assert run_cheetah(tmp_path, cheetah_policies, "--unmodelled", "delay") == 2
     assert not any(tmp_path.iterdir())
+
+
+def test_contact_variant_gives_each_engine_its_own_settings(tmp_path):
+    """half_cheetah_contact: the policies see all four components of mu; a reference engine is
+    given the torso mass only and UC-Oracle is fed that engine's own settings (PyBullet: no
+    armature, hard contact); DiffOSI identifies all four and its mass error is what is kept."""
+    folder = tmp_path / "policies"
+    folder.mkdir()
+    for kind in ("uc", "dr"):
+        subprocess.run([str(BINARY), "train", "--task", "half_cheetah_contact", "--policy", kind, "--seed", "0",
+                        "--steps", "2048", "-o", str(folder / f"{kind}-seed0.json")], check=True, capture_output=True)
+    assert main(["transfer", "--task", "half_cheetah_contact", "--target", "pybullet", "--seeds", "0",
+                 "--episodes", "1", "--horizon", "8", "--policies", str(folder), "--out", str(tmp_path)]) == 0
+    doc = json.loads((tmp_path / "transfer-half_cheetah_contact-pybullet.json").read_text())
+    assert doc["meta"]["environment"]["pybullet"] == [0.0, 1.0, 0.4]
+    assert list(doc["methods"]) == ["DR", "UC-Average", "UC-DiffOSI", "UC-Oracle"]
+    mu = diffosi.Task("half_cheetah_contact").episodes(1, 0)[0][0, 0]
+    for r in doc["methods"].values():
+        assert all(e["mu"] == mu and np.isfinite(e["score"]) for e in r["episodes"])
+    diffosi_episode = doc["methods"]["UC-DiffOSI"]["episodes"][0]
+    assert diffosi_episode["mae"] == pytest.approx(np.mean(np.abs(np.array(diffosi_episode["mu_fed"]) - mu)))
+    assert "half_cheetah_contact" in (tmp_path / "transfer-half_cheetah_contact-pybullet.md").read_text()

@@ -95,7 +95,7 @@ impl MlpConfig {
     pub fn for_task(task: &str, mu_lower: &[f64], mu_upper: &[f64]) -> MlpConfig {
         let config = MlpConfig::new(mu_lower, mu_upper);
         match task {
-            "half_cheetah" => MlpConfig {
+            "half_cheetah" | "half_cheetah_contact" => MlpConfig {
                 hidden: vec![512, 128],
                 episodes: 20,
                 epochs: 20,

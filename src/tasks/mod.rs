@@ -20,7 +20,7 @@ mod half_cheetah;
 pub mod wiping;
 
 pub use cartpole::Cartpole;
-pub use half_cheetah::HalfCheetah;
+pub use half_cheetah::{Contact, HalfCheetah};
 pub use wiping::{tool_down_at, Wiping};
 
 use rand::rngs::StdRng;
@@ -76,8 +76,9 @@ pub fn by_name(name: &str) -> Result<Box<dyn Task>, String> {
     match name {
         "cartpole" => Ok(Box::new(Cartpole::new())),
         "half_cheetah" => Ok(Box::new(HalfCheetah::new())),
+        "half_cheetah_contact" => Ok(Box::new(HalfCheetah::contact())),
         _ => Err(format!(
-            "unknown task '{name}' (known: cartpole, half_cheetah)"
+            "unknown task '{name}' (known: cartpole, half_cheetah, half_cheetah_contact)"
         )),
     }
 }

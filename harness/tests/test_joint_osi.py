@@ -1,0 +1,25 @@
+"""`python -m harness joint-osi` on a short run: DiffOSI recovers the torso mass from MuJoCo's
+transitions with every parameter set, reports every target and set, and is deterministic.
+Run with `make test`."""
+
+import argparse
+import json
+
+from harness import joint_osi
+
+
+def test_short_joint_identification_study(tmp_path):
+    docs = []
+    for name in ("a", "b"):
+        args = argparse.Namespace(episodes=1, horizon=30, windows="4", seed=0, out=tmp_path / name)
+        assert joint_osi.run(args) == 0
+        docs.append(json.loads((tmp_path / name / "joint-osi-half_cheetah.json").read_text()))
+    assert docs[0] == docs[1]
+    doc = docs[0]
+    assert list(doc["targets"]) == list(joint_osi.TARGETS)
+    for target in doc["targets"].values():
+        assert list(target["results"]) == [f"W=4 {s}" for s in joint_osi.SETS]
+        assert all(r["windows"] == 2 for r in target["results"].values())
+    for r in doc["targets"]["mujoco"]["results"].values():  # the same contact law: exact
+        assert r["mae"] < 1e-6 and r["at_bound"] == 0.0
+    assert "| pybullet | W=4 mass+armature+floor |" in (tmp_path / "a" / "joint-osi-half_cheetah.md").read_text()
