@@ -12,6 +12,11 @@ sets on our model:
   friction (3), the contact parameters a hard contact would be fitted with.
 Per target and set: the median over windows of the mass error (kg) and its mean absolute
 value, pooled over the episodes, and the share of estimates at a bound of the mass's range.
+
+Then how much those settings matter to the controller: the shipped UC (policy seed 0, fed the
+true mass) in our engine with the half_cheetah_contact task's armature, hardness and friction
+at the file's values, without armature, at hardness 1 (close to a hard contact), both, and
+at friction 0.5: its return over the same episodes.
 Writes <out>/joint-osi-half_cheetah.{md,json}; the same seed gives the same json.
 
     python -m harness joint-osi --episodes 3 --horizon 200
@@ -37,6 +42,9 @@ SETS = {
         [0.3] * 6 + [0.2, 5.0] + [0.99, 0.9999, 0.1, 0.51, 2.01] + [2.0, 0.5, 0.5]),
 }
 TARGETS = ("mujoco", "pybullet", "dart")
+# half_cheetah_contact's (armature, hardness, friction): the file's, then what other engines differ in
+SETTINGS = {"the file's": (0.1, 0.0, 0.4), "no armature": (0.0, 0.0, 0.4), "hardness 1": (0.1, 1.0, 0.4),
+            "no armature, hardness 1 (PyBullet's, DART's)": (0.0, 1.0, 0.4), "friction 0.5": (0.1, 0.0, 0.5)}
 STRIDE = 20  # control steps between window starts
 
 
@@ -98,7 +106,36 @@ def report(args) -> dict:
                 print(f"  {target:8s} W={window:2d} {name:20s} median error {r['median_error']:+7.2f} kg, "
                       f"MAE {r['mae']:6.2f} kg, at a bound {100 * r['at_bound']:3.0f}%", flush=True)
         doc["targets"][target] = {"masses": [mu for mu, _ in episodes], "results": rows}
+    doc["settings"] = sensitivity(setup)
     return doc
+
+
+def sensitivity(setup) -> dict:
+    """The shipped UC's return in our engine under each of SETTINGS (see the module docs)."""
+    import diffosi
+
+    task, wide = setup.task, diffosi.Task("half_cheetah_contact")
+    policy = setup.policies[("uc", setup.seeds[0])]
+    out = {}
+    for name, setting in SETTINGS.items():
+        returns = []
+        for k, mu in enumerate(setup.mu):
+            model = wide.model()
+            for param, value in wide.mu_params(np.r_[mu[0], setting]).items():
+                model.set_param(param, value)
+            q, v, total = setup.q0[k], setup.v0[k], 0.0
+            for _ in range(setup.horizon):
+                action = policy.act(task, q, v, mu)
+                tau = task.forces(action)
+                q1, v1 = q, v
+                for _ in range(task.substeps):
+                    q1, v1 = model.step(q1, v1, tau)
+                total += task.metric(q, v, action, q1, v1)
+                q, v = q1, v1
+            returns.append(total)
+        out[name] = {"setting": setting, "return": [float(np.mean(returns)), float(np.std(returns))]}
+        print(f"  ours, {name:45s} return {np.mean(returns):7.1f}", flush=True)
+    return out
 
 
 def markdown(doc: dict) -> list[str]:
@@ -116,7 +153,14 @@ def markdown(doc: dict) -> list[str]:
     lines += markdown_table(["target", "window, parameters", "median mass error (kg)", "mass MAE (kg)",
                              "at a bound", "windows"], rows)
     lines += ["", "Parameter sets: " + "; ".join(f"`{k}`: torso mass" + (" + " + ", ".join(v) if v else "")
-                                                  for k, v in doc["sets"].items()) + "."]
+                                                  for k, v in doc["sets"].items()) + ".", "",
+              "## How much those settings matter to the controller", "",
+              "The shipped UC (policy seed 0, fed the true mass) in our engine, the same episodes, with "
+              "half_cheetah_contact's (leg armature, contact hardness, friction) set as listed:", ""]
+    base = doc["settings"]["the file's"]["return"][0]
+    lines += markdown_table(["settings", "(armature, hardness, friction)", "return", "of the file's"],
+                            [[name, r["setting"], f"{r['return'][0]:.0f} ± {r['return'][1]:.0f}",
+                              f"{100 * r['return'][0] / base:.0f}%"] for name, r in doc["settings"].items()])
     return lines
 
 

@@ -5,6 +5,8 @@ Run with `make test`."""
 import argparse
 import json
 
+import numpy as np
+
 from harness import joint_osi
 
 
@@ -23,3 +25,6 @@ def test_short_joint_identification_study(tmp_path):
     for r in doc["targets"]["mujoco"]["results"].values():  # the same contact law: exact
         assert r["mae"] < 1e-6 and r["at_bound"] == 0.0
     assert "| pybullet | W=4 mass+armature+floor |" in (tmp_path / "a" / "joint-osi-half_cheetah.md").read_text()
+    assert list(doc["settings"]) == list(joint_osi.SETTINGS)  # the UC under each engine's settings
+    returns = [r["return"][0] for r in doc["settings"].values()]
+    assert all(np.isfinite(returns)) and len(set(returns)) == len(returns)  # each setting changes the run
