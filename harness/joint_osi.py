@@ -14,9 +14,10 @@ Per target and set: the median over windows of the mass error (kg) and its mean 
 value, pooled over the episodes, and the share of estimates at a bound of the mass's range.
 
 Then how much those settings matter to the controller: the shipped UC (policy seed 0, fed the
-true mass) in our engine with the half_cheetah_contact task's armature, hardness and friction
-at the file's values, without armature, at hardness 1 (close to a hard contact), both, and
-at friction 0.5: its return over the same episodes.
+true mass) in our engine with the leg armature, every geom's solimp (a "hardness" x: (0.9 x,
+0.8 + 0.15 x, 0.01, 0.5, 2), 0 the file's soft floor, 1 close to a hard contact) and every
+geom's sliding friction at the file's values, without armature, at hardness 1, both, and at
+friction 0.5: its return over the same episodes.
 Writes <out>/joint-osi-half_cheetah.{md,json}; the same seed gives the same json.
 
     python -m harness joint-osi --episodes 3 --horizon 200
@@ -42,7 +43,7 @@ SETS = {
         [0.3] * 6 + [0.2, 5.0] + [0.99, 0.9999, 0.1, 0.51, 2.01] + [2.0, 0.5, 0.5]),
 }
 TARGETS = ("mujoco", "pybullet", "dart")
-# half_cheetah_contact's (armature, hardness, friction): the file's, then what other engines differ in
+# (leg armature, contact hardness, friction): the file's, then what other engines differ in
 SETTINGS = {"the file's": (0.1, 0.0, 0.4), "no armature": (0.0, 0.0, 0.4), "hardness 1": (0.1, 1.0, 0.4),
             "no armature, hardness 1 (PyBullet's, DART's)": (0.0, 1.0, 0.4), "friction 0.5": (0.1, 0.0, 0.5)}
 STRIDE = 20  # control steps between window starts
@@ -112,17 +113,13 @@ def report(args) -> dict:
 
 def sensitivity(setup) -> dict:
     """The shipped UC's return in our engine under each of SETTINGS (see the module docs)."""
-    import diffosi
-
-    task, wide = setup.task, diffosi.Task("half_cheetah_contact")
+    task = setup.task
     policy = setup.policies[("uc", setup.seeds[0])]
     out = {}
     for name, setting in SETTINGS.items():
         returns = []
         for k, mu in enumerate(setup.mu):
-            model = wide.model()
-            for param, value in wide.mu_params(np.r_[mu[0], setting]).items():
-                model.set_param(param, value)
+            model = with_setting(task, mu, setting)
             q, v, total = setup.q0[k], setup.v0[k], 0.0
             for _ in range(setup.horizon):
                 action = policy.act(task, q, v, mu)
@@ -136,6 +133,22 @@ def sensitivity(setup) -> dict:
         out[name] = {"setting": setting, "return": [float(np.mean(returns)), float(np.std(returns))]}
         print(f"  ours, {name:45s} return {np.mean(returns):7.1f}", flush=True)
     return out
+
+
+def with_setting(task, mu, setting):
+    """The task's model at mu with (leg armature, hardness, friction) set on the legs and every geom."""
+    armature, hardness, friction = setting
+    model = task.model()
+    for param, value in task.mu_params(mu).items():
+        model.set_param(param, value)
+    for joint in LEGS:
+        model.set_param(f"joint/{joint}/armature", armature)
+    for param in model.param_names():
+        if param.endswith("/solimp"):
+            model.set_param(param, [0.9 * hardness, 0.8 + 0.15 * hardness, 0.01, 0.5, 2.0])
+        elif param.startswith("geom/") and param.endswith("/friction"):
+            model.set_param(param, [friction, 0.1, 0.1])
+    return model
 
 
 def markdown(doc: dict) -> list[str]:
@@ -155,8 +168,9 @@ def markdown(doc: dict) -> list[str]:
     lines += ["", "Parameter sets: " + "; ".join(f"`{k}`: torso mass" + (" + " + ", ".join(v) if v else "")
                                                   for k, v in doc["sets"].items()) + ".", "",
               "## How much those settings matter to the controller", "",
-              "The shipped UC (policy seed 0, fed the true mass) in our engine, the same episodes, with "
-              "half_cheetah_contact's (leg armature, contact hardness, friction) set as listed:", ""]
+              "The shipped UC (policy seed 0, fed the true mass) in our engine, the same episodes, with the "
+              "leg armature, the contact's hardness (every geom's solimp, see the command's help) and every "
+              "geom's friction set as listed:", ""]
     base = doc["settings"]["the file's"]["return"][0]
     lines += markdown_table(["settings", "(armature, hardness, friction)", "return", "of the file's"],
                             [[name, r["setting"], f"{r['return'][0]:.0f} ± {r['return'][1]:.0f}",

@@ -255,9 +255,9 @@ def test_cheetah_takes_no_unmodelled_effects(tmp_path, cheetah_policies):
 
 
 def test_contact_variant_gives_each_engine_its_own_settings(tmp_path):
-    """half_cheetah_contact: the policies see all four components of mu; a reference engine is
+    """half_cheetah_contact: the policies see all three components of mu; a reference engine is
     given the torso mass only, UC-Oracle is fed that engine's own settings (PyBullet: no
-    armature, hard contact) with the true mass, UC-Average the middle of the box."""
+    armature) with the true mass, UC-Average the middle of the box."""
     folder = tmp_path / "policies"
     folder.mkdir()
     for kind in ("uc", "dr"):
@@ -266,7 +266,7 @@ def test_contact_variant_gives_each_engine_its_own_settings(tmp_path):
     assert main(["transfer", "--task", "half_cheetah_contact", "--target", "pybullet", "--seeds", "0",
                  "--episodes", "2", "--horizon", "20", "--policies", str(folder), "--out", str(tmp_path)]) == 0
     doc = json.loads((tmp_path / "transfer-half_cheetah_contact-pybullet.json").read_text())
-    assert doc["meta"]["environment"]["pybullet"] == [0.0, 1.0, 0.4]
+    assert doc["meta"]["environment"]["pybullet"] == [0.0, 0.4]
     assert list(doc["methods"]) == ["DR", "UC-Average", "UC-Oracle"] and doc["diffosi_over_oracle"] is None
     mu = diffosi.Task("half_cheetah_contact").episodes(2, 0)[0][:, 0]
     for r in doc["methods"].values():
