@@ -9,7 +9,10 @@ sets on our model:
 - `mass`: the torso mass alone (what the transfer's DiffOSI does);
 - `mass+armature`: and the six leg joints' armature (PyBullet and DART have none);
 - `mass+armature+floor`: and the floor's solref (2), solimp (5, the last two pinned) and
-  friction (3), the contact parameters a hard contact would be fitted with.
+  friction (3), the contact parameters a hard contact would be fitted with;
+- `mass+armature, unknown constraints`: the mass and the six armatures with the target's
+  contact, limit and dry-friction impulses eliminated (DiffOsi constraints="unknown", unit
+  force scale): no contact law assumed.
 Per target and set: the median over windows of the mass error (kg) and its mean absolute
 value, pooled over the episodes, and the share of estimates at a bound of the mass's range.
 
@@ -41,7 +44,9 @@ SETS = {
         [f"joint/{j}/armature" for j in LEGS] + ["geom/floor/solref", "geom/floor/solimp", "geom/floor/friction"],
         [0.0] * 6 + [0.02, 0.2] + [0.0, 0.5, 0.001, 0.49, 1.99] + [0.05, 0.0, 0.0],
         [0.3] * 6 + [0.2, 5.0] + [0.99, 0.9999, 0.1, 0.51, 2.01] + [2.0, 0.5, 0.5]),
+    "mass+armature, unknown constraints": ([f"joint/{j}/armature" for j in LEGS], [0.0] * 6, [0.3] * 6),
 }
+UNKNOWN = {"mass+armature, unknown constraints"}  # the sets run with constraints="unknown"
 TARGETS = ("mujoco", "pybullet", "dart")
 # (leg armature, contact hardness, friction): the file's, then what other engines differ in
 SETTINGS = {"the file's": (0.1, 0.0, 0.4), "no armature": (0.0, 0.0, 0.4), "hardness 1": (0.1, 1.0, 0.4),
@@ -74,7 +79,9 @@ def identify(model, episodes: list, window: int, name: str) -> dict:
     import diffosi
 
     extra, lo, hi = SETS[name]
-    osi = diffosi.DiffOsi(model, params=["body/torso/mass", *extra], lower=[1.0, *lo], upper=[50.0, *hi])
+    constraints = "unknown" if name in UNKNOWN else "modelled"
+    osi = diffosi.DiffOsi(model, params=["body/torso/mass", *extra], lower=[1.0, *lo], upper=[50.0, *hi],
+                          constraints=constraints)
     est, truth = [], []
     for mu, kept in episodes:
         for s in range(0, len(kept) - window + 1, STRIDE):
@@ -92,7 +99,8 @@ def report(args) -> dict:
     from harness.transfer import Setup
 
     ns = argparse.Namespace(task="half_cheetah", episodes=args.episodes, seeds="0", seed=args.seed,
-                            horizon=args.horizon, window=4, unmodelled="", friction=1.0, policies=None)
+                            horizon=args.horizon, window=4, joint_window=20, unmodelled="", friction=1.0,
+                            policies=None)
     setup = Setup(ns, [])
     model = diffosi.Task("half_cheetah").model()
     windows = [int(w) for w in args.windows.split(",")]

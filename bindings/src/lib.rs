@@ -17,7 +17,7 @@ use engine::derivatives::{
     step_jacobians, transition_jacobians, Transition, TransitionJacobians, Workspace, Wrt,
 };
 use engine::dynamics::{body_contact_forces, Contact, Data};
-use engine::model::{ContactModel, Integrator, MapEntry, Param, ParamError, ParamMap, PassiveMode};
+use engine::model::{ContactModel, Integrator, Param, ParamError, ParamMap, PassiveMode};
 use engine::osi::{
     Adam, CmaEs, CmaEsOptions, Estimate, Identifier, Lm, LmOptions, Loss, OsiError, Problem,
     HUBER_THRESHOLD,
@@ -474,6 +474,42 @@ pub(crate) fn default_scale(model: &Model) -> Vec<f64> {
     s
 }
 
+/// The margin (m or rad) within which a body or joint counts as possibly
+/// constrained when constraints are unknown.
+pub(crate) const DEFAULT_MARGIN: f64 = 0.02;
+
+/// Applies the `constraints`, `margin` and `force_scale` arguments of
+/// `DiffOsi` and `OnlineOsi`: "modelled" keeps `problem`; "unknown" eliminates
+/// the target's constraint impulses (`Problem::with_unknown_constraints`),
+/// `force_scale` nv positive values (default 1 N or N m each).
+pub(crate) fn with_constraints(
+    problem: Problem,
+    constraints: &str,
+    margin: f64,
+    force_scale: Option<&Bound<'_, PyAny>>,
+    class: &str,
+) -> PyResult<Problem> {
+    let nv = problem.nv();
+    match constraints {
+        "modelled" if force_scale.is_some() => Err(PyValueError::new_err(
+            "force_scale applies to constraints='unknown' only",
+        )),
+        "modelled" => Ok(problem),
+        "unknown" => {
+            let scale = match force_scale {
+                Some(s) => vector(s, "force_scale", nv, "nv")?,
+                None => vec![1.0; nv],
+            };
+            problem
+                .with_unknown_constraints(margin, &scale)
+                .map_err(|e| osi_error(class, e))
+        }
+        other => Err(PyValueError::new_err(format!(
+            "constraints must be 'modelled' or 'unknown', got '{other}'"
+        ))),
+    }
+}
+
 /// Which solver a `DiffOsi` runs.
 #[derive(Clone, Copy, Debug)]
 enum Method {
@@ -485,7 +521,8 @@ enum Method {
 /// the model reproduce a window of observed transitions.
 ///
 /// `DiffOsi(model, params, lower, upper, method="lm", scale=None,
-/// loss="squared", huber=1.345)`:
+/// loss="squared", huber=1.345, constraints="modelled", margin=0.02,
+/// force_scale=None)`:
 /// - `params`: parameter names (see `Model.param_names()`); mu is their
 ///   values flattened in that order (a 3-vector such as `body/pole/com` takes
 ///   three components), and `lower`/`upper` hold one finite bound per
@@ -502,6 +539,15 @@ enum Method {
 ///   linear beyond, so a few corrupted transitions cannot drag the estimate.
 ///   `huber` is in units of the residual scale (1.345, the default, keeps 95%
 ///   of least squares' efficiency when `scale` is the noise level).
+/// - `constraints`: "modelled" (the default: the residuals are the paper's,
+///   through our contact and limits) or "unknown" (the target's contact law,
+///   limits and dry friction are not ours: each transition's residual is the
+///   generalized force our smooth dynamics leaves unexplained at the observed
+///   acceleration, less any impulse on a body within `margin` (m) of touching
+///   something or on a joint within `margin` of its range's ends or with dry
+///   friction; nv values per transition divided by `force_scale`, nv values in
+///   N or N m, default 1; `scale` is then unused; the model must integrate
+///   with Euler).
 ///
 /// The model is copied: later changes to it do not reach this object. The
 /// default start is the model's current parameter values clamped into the
@@ -516,7 +562,7 @@ struct PyDiffOsi {
 #[pymethods]
 impl PyDiffOsi {
     #[new]
-    #[pyo3(signature = (model, params, lower, upper, method = "lm", scale = None, loss = "squared", huber = HUBER_THRESHOLD))]
+    #[pyo3(signature = (model, params, lower, upper, method = "lm", scale = None, loss = "squared", huber = HUBER_THRESHOLD, constraints = "modelled", margin = DEFAULT_MARGIN, force_scale = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         model: &Bound<'_, PyModel>,
@@ -527,6 +573,9 @@ impl PyDiffOsi {
         scale: Option<&Bound<'_, PyAny>>,
         loss: &str,
         huber: f64,
+        constraints: &str,
+        margin: f64,
+        force_scale: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let method = match method {
             "lm" => Method::Lm,
@@ -538,7 +587,8 @@ impl PyDiffOsi {
             }
         };
         let loss = robust_loss(loss, huber, matches!(method, Method::Lm))?;
-        let osi = Osi::new(model, params, lower, upper, scale, "DiffOsi")?;
+        let mut osi = Osi::new(model, params, lower, upper, scale, "DiffOsi")?;
+        osi.problem = with_constraints(osi.problem, constraints, margin, force_scale, "DiffOsi")?;
         Ok(PyDiffOsi { osi, method, loss })
     }
 
@@ -842,23 +892,7 @@ impl Osi {
         for (i, p) in prior.iter_mut().enumerate() {
             *p = p.clamp(lower[i], upper[i]);
         }
-        let gains: Vec<Vec<f64>> = (0..nmu)
-            .map(|i| (0..nmu).map(|j| f64::from(u8::from(i == j))).collect())
-            .collect();
-        let mut rows: Vec<Vec<&[f64]>> = vec![];
-        let mut k = 0;
-        for &size in &sizes {
-            rows.push(gains[k..k + size].iter().map(|g| g.as_slice()).collect());
-            k += size;
-        }
-        let offsets: Vec<Vec<f64>> = sizes.iter().map(|&n| vec![0.0; n]).collect();
-        let entries: Vec<MapEntry> = params
-            .iter()
-            .zip(&rows)
-            .zip(&offsets)
-            .map(|((name, gain), offset)| MapEntry { name, offset, gain })
-            .collect();
-        let map = ParamMap::new(&model, nmu, &entries).map_err(param_error)?;
+        let map = ParamMap::identity(&model, &params).map_err(param_error)?;
         let problem = Problem::new(&model, map, &lower, &upper, &prior, &scale)
             .map_err(|e| osi_error(class, e))?;
         Ok(Osi {

@@ -27,7 +27,8 @@ use rand::rngs::StdRng;
 use rand::SeedableRng;
 
 use crate::{
-    default_scale, estimate_dict, loss_name, osi_error, param_error, robust_loss, vector, PyModel,
+    default_scale, estimate_dict, loss_name, osi_error, param_error, robust_loss, vector,
+    with_constraints, PyModel, DEFAULT_MARGIN,
 };
 
 /// A control task by name: `Task("cartpole")`.
@@ -329,7 +330,8 @@ type Solver = Box<dyn Identifier + Send + Sync>;
 
 /// Online DiffOSI of a task's mu (src/osi/online.rs):
 /// `OnlineOsi(task, window=1, method="lm", change_detection=False, seed=0,
-/// scale=None, loss="squared", huber=1.345)`.
+/// scale=None, loss="squared", huber=1.345, constraints="modelled",
+/// margin=0.02, force_scale=None, restarts=8)`.
 ///
 /// Each `push(q, v, tau, q_next, v_next)` of one observed transition (tau the
 /// generalized forces, length nv) re-identifies mu on the `window` most recent
@@ -337,8 +339,12 @@ type Solver = Box<dyn Identifier + Send + Sync>;
 /// mu range before the first), within the task's mu range, on the task's
 /// nominal model. `method` "lm" (bounded Levenberg-Marquardt; `seed` seeds
 /// its restarts) or "adam"; `change_detection=True` empties the window when a
-/// transition no longer fits (the engine's default rule); `scale`, `loss`
-/// and `huber` as in `DiffOsi`. Returns a dict: "mu", "std", "loss", "iterations",
+/// transition no longer fits (the engine's default rule); `scale`, `loss`,
+/// `huber`, `constraints`, `margin` and `force_scale` as in `DiffOsi`
+/// (constraints="unknown": the target's contact law is not ours); `restarts`:
+/// how many other starts "lm" tries when a fit leaves a misfit (useless
+/// when mu enters the residuals linearly, as masses and armatures do with
+/// constraints="unknown"). Returns a dict: "mu", "std", "loss", "iterations",
 /// "evaluations", "flags" (a list drawn from "unexcited", "at_bound",
 /// "not_converged", "misfit", "changed").
 #[pyclass(name = "OnlineOsi", module = "diffosi")]
@@ -352,7 +358,7 @@ pub(crate) struct PyOnlineOsi {
 #[pymethods]
 impl PyOnlineOsi {
     #[new]
-    #[pyo3(signature = (task, window = 1, method = "lm", change_detection = false, seed = 0, scale = None, loss = "squared", huber = HUBER_THRESHOLD))]
+    #[pyo3(signature = (task, window = 1, method = "lm", change_detection = false, seed = 0, scale = None, loss = "squared", huber = HUBER_THRESHOLD, constraints = "modelled", margin = DEFAULT_MARGIN, force_scale = None, restarts = LmOptions::default().restarts))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         task: &PyTask,
@@ -363,6 +369,10 @@ impl PyOnlineOsi {
         scale: Option<&Bound<'_, PyAny>>,
         loss: &str,
         huber: f64,
+        constraints: &str,
+        margin: f64,
+        force_scale: Option<&Bound<'_, PyAny>>,
+        restarts: usize,
     ) -> PyResult<Self> {
         let t = task.task.as_ref();
         let loss = robust_loss(loss, huber, method == "lm")?;
@@ -371,6 +381,7 @@ impl PyOnlineOsi {
                 let options = LmOptions {
                     seed,
                     loss,
+                    restarts,
                     ..LmOptions::default()
                 };
                 (Box::new(Lm { options }), "lm")
@@ -400,6 +411,7 @@ impl PyOnlineOsi {
         let prior = tasks::average_mu(t);
         let problem = Problem::new(model, t.mu_map().clone(), lo, hi, &prior, &scale)
             .map_err(|e| osi_error("OnlineOsi", e))?;
+        let problem = with_constraints(problem, constraints, margin, force_scale, "OnlineOsi")?;
         let mut online = Online::new(problem, solver, window, Sampling::Recent, seed)
             .map_err(|e| osi_error("OnlineOsi", e))?;
         if change_detection {

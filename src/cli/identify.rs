@@ -5,9 +5,8 @@
 use std::path::Path;
 
 use diffosi::derivatives::Transition;
-use diffosi::model::{MapEntry, Param, ParamMap};
+use diffosi::model::{Param, ParamMap};
 use diffosi::osi::{Adam, CmaEs, Estimate, Identifier, Lm, Problem};
-use diffosi::Model;
 use serde_json::json;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -93,7 +92,7 @@ pub fn identify(r: Request) -> Result<(), String> {
     }
 
     let window = read_transitions(r.transitions, model.nq(), nv)?;
-    let map = identity_map(&model, r.params, &params, nmu)?;
+    let map = ParamMap::identity(&model, r.params).map_err(|e| e.to_string())?;
     let mut problem =
         Problem::new(&model, map, &lower, &upper, &init, &scale).map_err(|e| e.to_string())?;
     let estimate = match r.method {
@@ -168,42 +167,6 @@ fn values(
             Ok(v)
         }
     }
-}
-
-/// mu is the flattened parameters: parameter k's scalar i is mu[offset_k + i].
-fn identity_map(
-    model: &Model,
-    names: &[String],
-    params: &[Param],
-    nmu: usize,
-) -> Result<ParamMap, String> {
-    let mut offsets = vec![];
-    let mut gains: Vec<Vec<Vec<f64>>> = vec![];
-    let mut k = 0;
-    for p in params {
-        offsets.push(vec![0.0; p.size()]);
-        gains.push(
-            (0..p.size())
-                .map(|i| {
-                    let mut row = vec![0.0; nmu];
-                    row[k + i] = 1.0;
-                    row
-                })
-                .collect(),
-        );
-        k += p.size();
-    }
-    let rows: Vec<Vec<&[f64]>> = gains
-        .iter()
-        .map(|g| g.iter().map(|r| r.as_slice()).collect())
-        .collect();
-    let entries: Vec<MapEntry> = names
-        .iter()
-        .zip(&offsets)
-        .zip(&rows)
-        .map(|((name, offset), gain)| MapEntry { name, offset, gain })
-        .collect();
-    ParamMap::new(model, nmu, &entries).map_err(|e| e.to_string())
 }
 
 /// Reads one transition per row: q (nq), v (nv), tau (nv), q_next (nq),

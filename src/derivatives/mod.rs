@@ -19,12 +19,16 @@
 //! state, tau, body and joint parameters), the contact parameters by dual
 //! numbers through the whole step (module `constrained`): exact for the
 //! solver's converged zones, one-sided where they switch.
+//! When the target's constraint forces are unknown (another engine's contact
+//! law), module `eliminated` fits the same residual R at the observed
+//! acceleration with the impulses that may act eliminated.
 //! No finite differences anywhere: they exist only in the tests.
 
 // Node-indexed sweeps read several per-node arrays at the node's index.
 #![allow(clippy::needless_range_loop)]
 
 mod constrained;
+mod eliminated;
 mod implicit;
 mod params;
 mod rnea;
@@ -33,6 +37,7 @@ mod step;
 mod transition;
 mod window;
 
+pub use eliminated::{eliminated_residuals_into, Elimination};
 pub use rnea::{rnea_derivatives, Sweep};
 pub use step::{step_jacobians, StepJacobians, Workspace, Wrt};
 pub use transition::{transition_jacobians, TransitionJacobians};

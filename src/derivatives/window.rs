@@ -51,6 +51,14 @@ pub enum WindowError {
     NotFinite { t: usize, what: &'static str },
     #[error("scale must hold 2 nv = {expected} positive values")]
     Scale { expected: usize },
+    #[error("the force scale of unknown constraints must hold nv = {expected} positive values")]
+    ForceScale { expected: usize },
+    #[error("the margin of unknown constraints must be finite and >= 0, got {margin}")]
+    Margin { margin: f64 },
+    #[error("unknown constraints need the Euler integrator: their residual is the Euler step's")]
+    NotEuler,
+    #[error("unknown constraints: {0}")]
+    Detection(String),
 }
 
 /// Residuals r (2 nv per transition: q then v, divided by `scale`), their
@@ -179,7 +187,7 @@ impl WindowScratch {
 /// The terms of every mu column at the model's current parameters: for a
 /// body parameter the node inertia derivative along the column's gains
 /// (summed per node), for a joint parameter the gain.
-fn directions(model: &Model, map: &ParamMap, columns: &mut Vec<Vec<Term>>) {
+pub(super) fn directions(model: &Model, map: &ParamMap, columns: &mut Vec<Vec<Term>>) {
     columns.resize_with(map.nmu, Vec::new);
     for (j, column) in columns.iter_mut().enumerate() {
         column.clear();
@@ -354,7 +362,7 @@ fn general_rows(
     Ok(())
 }
 
-fn check_transition(t: usize, tr: &Transition, n: usize) -> Result<(), WindowError> {
+pub(super) fn check_transition(t: usize, tr: &Transition, n: usize) -> Result<(), WindowError> {
     let fields = [
         ("q", &tr.q),
         ("v", &tr.v),

@@ -734,6 +734,25 @@ impl ParamMap {
         Ok(ParamMap { nmu, targets })
     }
 
+    /// The map whose mu is the named parameters flattened in order:
+    /// parameter k's scalar i is mu[offset_k + i], offset_k the sizes before it.
+    pub fn identity<S: AsRef<str>>(model: &Model, names: &[S]) -> Result<ParamMap, ParamError> {
+        let sizes = names
+            .iter()
+            .map(|n| model.param(n.as_ref()).map(|p| p.size()))
+            .collect::<Result<Vec<_>, _>>()?;
+        let nmu: usize = sizes.iter().sum();
+        let mut targets = vec![];
+        let mut k = 0;
+        for (name, size) in names.iter().zip(sizes) {
+            let p = model.param(name.as_ref())?;
+            let gain = DMatrix::from_fn(size, nmu, |r, c| f64::from(u8::from(c == k + r)));
+            targets.push((p, DVector::zeros(size), gain));
+            k += size;
+        }
+        Ok(ParamMap { nmu, targets })
+    }
+
     /// The parameters' values at mu, in target order.
     pub fn values(&self, mu: &[f64]) -> Vec<DVector<f64>> {
         let mu = DVector::from_column_slice(mu);

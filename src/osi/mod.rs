@@ -34,7 +34,10 @@ pub use lm::{Lm, LmOptions, Loss, HUBER_THRESHOLD};
 pub use online::{Online, Sampling};
 pub use trivial::{Average, Oracle, Random};
 
-use crate::derivatives::{window_residuals_into, Transition, WindowError, WindowFit, Workspace};
+use crate::derivatives::{
+    eliminated_residuals_into, window_residuals_into, Elimination, Transition, WindowError,
+    WindowFit, Workspace,
+};
 use crate::model::{Model, ParamError, ParamMap};
 
 #[derive(Debug, thiserror::Error)]
@@ -101,6 +104,10 @@ pub struct Problem {
     upper: Vec<f64>,
     prior: Vec<f64>,
     scale: Vec<f64>,
+    /// Set when the target's constraint impulses are unknown (another
+    /// engine's contact law): the residuals are then
+    /// [`eliminated_residuals_into`]'s, nv per transition.
+    elimination: Option<Elimination>,
 }
 
 impl Problem {
@@ -164,7 +171,38 @@ impl Problem {
             upper: upper.to_vec(),
             prior: prior.to_vec(),
             scale: scale.to_vec(),
+            elimination: None,
         })
+    }
+
+    /// The same problem with the target's constraint impulses unknown: any
+    /// wrench on a body within `margin` of touching, any force on a joint
+    /// within `margin` of its range's ends or with dry friction, eliminated
+    /// from each transition's residual (module `derivatives::eliminated`),
+    /// whose nv values are generalized forces divided by `force_scale`
+    /// (N or N m). Refuses a bad margin or scale and a model that does not
+    /// integrate with Euler.
+    pub fn with_unknown_constraints(
+        mut self,
+        margin: f64,
+        force_scale: &[f64],
+    ) -> Result<Problem, OsiError> {
+        self.elimination = Some(Elimination::new(&self.model, margin, force_scale)?);
+        Ok(self)
+    }
+
+    /// How constraint impulses are eliminated, if they are unknown.
+    pub fn unknown_constraints(&self) -> Option<&Elimination> {
+        self.elimination.as_ref()
+    }
+
+    /// Residuals per transition: 2 nv (q then v), or nv forces when the
+    /// constraints are unknown.
+    pub fn rows_per_transition(&self) -> usize {
+        match self.elimination {
+            Some(_) => self.nv(),
+            None => 2 * self.nv(),
+        }
     }
 
     pub fn nmu(&self) -> usize {
@@ -326,7 +364,7 @@ impl Observations for [Transition] {
     }
 
     fn residual_count(&self, problem: &Problem) -> usize {
-        self.len() * 2 * problem.nv()
+        self.len() * problem.rows_per_transition()
     }
 
     fn residuals_into(
@@ -338,7 +376,10 @@ impl Observations for [Transition] {
     ) -> Result<(), OsiError> {
         let (model, ws) = (&mut problem.model, &mut problem.ws);
         let at = (&problem.map, mu);
-        window_residuals_into(model, ws, at, (self, &problem.scale), jacobian, fit)?;
+        match &mut problem.elimination {
+            Some(e) => eliminated_residuals_into(model, ws, at, (self, e), jacobian, fit)?,
+            None => window_residuals_into(model, ws, at, (self, &problem.scale), jacobian, fit)?,
+        }
         Ok(())
     }
 }

@@ -111,7 +111,7 @@ impl<I: Identifier> Online<I> {
                 Some(e) => Some(self.problem.loss(&e.mu, one)?),
                 None => None,
             };
-            changed = detector.judge(self.residual, 2 * self.problem.nv());
+            changed = detector.judge(self.residual, self.problem.rows_per_transition());
         }
         if changed {
             self.buffer.clear();

@@ -1,0 +1,254 @@
+//! Identification with the target's constraint impulses unknown
+//! (`Problem::with_unknown_constraints`, src/derivatives/eliminated.rs): the
+//! half cheetah on its floor, whose torso mass and leg armature come back
+//! exactly from our own constrained steps under every passive mode and from
+//! a target with another contact law (our smooth penalty contact); exact
+//! residual Jacobians; clear errors for bad settings.
+
+mod common;
+
+use diffosi::derivatives::Transition;
+use diffosi::model::{ContactModel, Integrator, MapEntry, Model, ParamMap, PassiveMode};
+use diffosi::osi::{Identifier, Lm, OsiError, Problem};
+use rand::rngs::StdRng;
+
+const LEGS: [&str; 6] = ["bthigh", "bshin", "bfoot", "fthigh", "fshin", "ffoot"];
+const MARGIN: f64 = 0.02;
+
+fn cheetah() -> Model {
+    Model::load(common::model_path("reference_models/half_cheetah.xml")).unwrap()
+}
+
+/// mu = (torso mass, the six leg joints' armature tied together).
+fn mass_and_armature(model: &Model) -> ParamMap {
+    let armature: Vec<String> = LEGS.iter().map(|j| format!("joint/{j}/armature")).collect();
+    let mut entries = vec![MapEntry {
+        name: "body/torso/mass",
+        offset: &[0.0],
+        gain: &[&[1.0, 0.0]],
+    }];
+    entries.extend(armature.iter().map(|name| MapEntry {
+        name,
+        offset: &[0.0],
+        gain: &[&[0.0, 1.0]],
+    }));
+    ParamMap::new(model, 2, &entries).unwrap()
+}
+
+fn problem(model: &Model) -> Problem {
+    let map = mass_and_armature(model);
+    let scale = vec![1e-3; 2 * model.nv()];
+    Problem::new(model, map, &[1.0, 0.0], &[50.0, 0.3], &[25.5, 0.05], &scale)
+        .unwrap()
+        .with_unknown_constraints(MARGIN, &vec![1.0; model.nv()])
+        .unwrap()
+}
+
+/// `len` transitions of `truth` dropped on its floor under random leg torques
+/// (held for 5 steps, as the task does), every step kept.
+fn walk(truth: &Model, len: usize, seed: u64) -> Vec<Transition> {
+    let mut rng: StdRng = common::rng(seed);
+    let n = truth.nv();
+    let mut data = truth.data();
+    let (mut q, mut v) = (vec![0.0; n], vec![0.0; n]);
+    let mut tau = vec![0.0; n];
+    let gears = [120.0, 90.0, 60.0, 120.0, 60.0, 30.0];
+    (0..len)
+        .map(|k| {
+            if k % 5 == 0 {
+                for (i, g) in gears.iter().enumerate() {
+                    tau[3 + i] = g * common::uniform(&mut rng, -1.0, 1.0);
+                }
+            }
+            let (q_next, v_next) = truth.step(&mut data, &q, &v, &tau).unwrap();
+            let t = Transition {
+                q: q.clone(),
+                v: v.clone(),
+                tau: tau.clone(),
+                q_next: q_next.clone(),
+                v_next: v_next.clone(),
+            };
+            (q, v) = (q_next, v_next);
+            t
+        })
+        .collect()
+}
+
+fn with_truth(model: &Model, mass: f64, armature: f64) -> Model {
+    let mut truth = model.clone();
+    mass_and_armature(model)
+        .apply(&mut truth, &[mass, armature])
+        .unwrap();
+    truth
+}
+
+#[test]
+fn our_constrained_steps_leave_no_residual_under_every_passive_mode() {
+    for passive in [
+        PassiveMode::ImplicitDamping,
+        PassiveMode::Explicit,
+        PassiveMode::ImplicitDampingStiffness,
+    ] {
+        let model = cheetah().edited(|s| s.opt.passive = passive).unwrap();
+        let truth = with_truth(&model, 20.0, 0.1);
+        let window = walk(&truth, 150, 1);
+        let mut data = truth.data();
+        let touching = window
+            .iter()
+            .filter(|t| {
+                !truth
+                    .contacts(&mut data, &t.q, &t.v, &t.tau)
+                    .unwrap()
+                    .is_empty()
+            })
+            .count();
+        assert!(
+            touching > 50,
+            "{passive:?}: the cheetah must stand on its floor ({touching})"
+        );
+        let mut p = problem(&model);
+        let fit = p.fit(&[20.0, 0.1], window.as_slice()).unwrap();
+        assert_eq!(fit.residuals.len(), 150 * model.nv());
+        let worst = fit.residuals.amax();
+        assert!(
+            worst < 1e-8,
+            "{passive:?}: residual {worst:e} N at the truth"
+        );
+        // The wrong mass leaves a residual: the rows do see the torso.
+        let off = p.fit(&[21.0, 0.1], window.as_slice()).unwrap();
+        assert!(
+            off.residuals.amax() > 1e-2,
+            "{passive:?}: {:e}",
+            off.residuals.amax()
+        );
+    }
+}
+
+#[test]
+fn torso_mass_and_armature_come_back_from_our_constraint_contact() {
+    let model = cheetah();
+    let truth = with_truth(&model, 20.0, 0.1);
+    let window = walk(&truth, 60, 2);
+    let est = Lm::default()
+        .identify(&mut problem(&model), &window, &[25.5, 0.05])
+        .unwrap();
+    assert!((est.mu[0] - 20.0).abs() < 1e-6, "{:?}", est.mu);
+    assert!((est.mu[1] - 0.1).abs() < 1e-8, "{:?}", est.mu);
+    assert!(!est.flags.unexcited && !est.flags.misfit, "{:?}", est.flags);
+}
+
+/// The target runs the smooth penalty contact (and soft limits): a contact
+/// law the identifying model, on MuJoCo's constraints, does not share.
+#[test]
+fn another_contact_law_leaves_the_mass_unbiased() {
+    let model = cheetah();
+    let target = with_truth(&model, 20.0, 0.1)
+        .edited(|s| s.opt.contact_model = ContactModel::Smooth)
+        .unwrap();
+    let window = walk(&target, 60, 3);
+    let start = [25.5, 0.05];
+    let est = Lm::default()
+        .identify(&mut problem(&model), &window, &start)
+        .unwrap();
+    assert!((est.mu[0] - 20.0).abs() < 1e-3, "{:?}", est.mu);
+    assert!((est.mu[1] - 0.1).abs() < 1e-5, "{:?}", est.mu);
+    // The paper's residual through our constraint contact is biased there.
+    let map = mass_and_armature(&model);
+    let scale = vec![1e-3; 2 * model.nv()];
+    let mut modelled =
+        Problem::new(&model, map, &[1.0, 0.0], &[50.0, 0.3], &start, &scale).unwrap();
+    let biased = Lm::default()
+        .identify(&mut modelled, &window, &start)
+        .unwrap();
+    assert!((biased.mu[0] - 20.0).abs() > 0.5, "{:?}", biased.mu);
+}
+
+#[test]
+fn residual_jacobian_is_exact() {
+    let model = cheetah();
+    let names = [
+        "body/torso/mass",
+        "body/bthigh/com",
+        "joint/bshin/armature",
+        "joint/fthigh/damping",
+        "joint/ffoot/stiffness",
+        "geom/floor/friction",
+    ];
+    let map = ParamMap::identity(&model, &names).unwrap();
+    let nmu = map.nmu;
+    let mu: Vec<f64> = [20.0, 0.1, 0.0, -0.13, 0.12, 4.0, 60.0, 0.4, 0.1, 0.1].to_vec();
+    let truth = {
+        let mut t = model.clone();
+        map.apply(&mut t, &mu).unwrap();
+        t
+    };
+    let window = walk(&truth, 30, 4);
+    let scale = vec![1e-3; 2 * model.nv()];
+    let lower = vec![-100.0; nmu];
+    let upper = vec![100.0; nmu];
+    let mut p = Problem::new(&model, map, &lower, &upper, &mu, &scale)
+        .unwrap()
+        .with_unknown_constraints(MARGIN, &vec![1.0; model.nv()])
+        .unwrap();
+    let fit = p.fit(&mu, window.as_slice()).unwrap();
+    for j in 0..nmu {
+        let step = 1e-6 * mu[j].abs().max(1.0);
+        let mut plus = mu.clone();
+        let mut minus = mu.clone();
+        plus[j] += step;
+        minus[j] -= step;
+        let rp = p.fit(&plus, window.as_slice()).unwrap().residuals;
+        let rm = p.fit(&minus, window.as_slice()).unwrap().residuals;
+        let fd = (rp - rm) / (2.0 * step);
+        let err = (&fd - fit.jacobian.column(j)).amax();
+        let size = fd.amax().max(1.0);
+        assert!(
+            err < 1e-6 * size,
+            "column {j}: error {err:e} against {size:e}"
+        );
+    }
+    // Friction acts through the eliminated impulses alone.
+    assert_eq!(fit.jacobian.column(nmu - 3).amax(), 0.0);
+}
+
+#[test]
+fn bad_settings_are_refused() {
+    let model = cheetah();
+    let make = || {
+        let map = mass_and_armature(&model);
+        let scale = vec![1e-3; 2 * model.nv()];
+        Problem::new(
+            &model,
+            map,
+            &[1.0, 0.0],
+            &[50.0, 0.3],
+            &[25.5, 0.05],
+            &scale,
+        )
+        .unwrap()
+    };
+    let n = model.nv();
+    for margin in [-0.1, f64::NAN, f64::INFINITY] {
+        let e = make()
+            .with_unknown_constraints(margin, &vec![1.0; n])
+            .unwrap_err();
+        assert!(e.to_string().contains("margin"), "{e}");
+    }
+    for scale in [vec![1.0; n - 1], vec![0.0; n], vec![f64::NAN; n]] {
+        let e = make().with_unknown_constraints(MARGIN, &scale).unwrap_err();
+        assert!(e.to_string().contains("force scale"), "{e}");
+    }
+    let rk4 = model
+        .edited(|s| s.opt.integrator = Integrator::Rk4)
+        .unwrap();
+    let map = mass_and_armature(&rk4);
+    let scale = vec![1e-3; 2 * n];
+    let e = Problem::new(&rk4, map, &[1.0, 0.0], &[50.0, 0.3], &[25.5, 0.05], &scale)
+        .unwrap()
+        .with_unknown_constraints(MARGIN, &vec![1.0; n])
+        .unwrap_err();
+    assert!(
+        matches!(e, OsiError::Window(_)) && e.to_string().contains("Euler"),
+        "{e}"
+    );
+}
