@@ -23,13 +23,13 @@ from harness.report import REPO, REPORTS, markdown_table, write_json, write_mark
 
 TASKS = {  # task: (score, whether higher is better, its methods)
     "cartpole": ("steps in bounds", True, ("DR", "UC-DiffOSI", "UC-Oracle")),
-    "half_cheetah": ("return", True, ("DR", "UC-Average", "UC-DiffOSI", "UC-Oracle")),
+    "half_cheetah": ("return", True, ("DR", "UC-Average", "UC-DiffOSI", "UC-DiffOSI-joint", "UC-Oracle")),
     "half_cheetah_contact": ("return", True, ("DR", "UC-Average", "UC-Oracle")),
     "wiping": ("force MSE (N^2)", False, ("DR", "UC-Average", "UC-DiffOSI", "UC-Oracle")),
 }
 TARGETS = ("mujoco", "pybullet", "dart")
 NAMES = {"ours": "ours (source)", "mujoco": "MuJoCo", "pybullet": "PyBullet", "dart": "DART"}
-COLOURS = {"DR": "C0", "UC-Average": "C4", "UC-DiffOSI": "C1", "UC-Oracle": "C2"}
+COLOURS = {"DR": "C0", "UC-Average": "C4", "UC-DiffOSI": "C1", "UC-DiffOSI-joint": "C3", "UC-Oracle": "C2"}
 MARKERS = ("<!-- overview:start (python -m harness overview --readme writes this block) -->",
            "<!-- overview:end -->")
 
@@ -118,7 +118,9 @@ def plot(path: Path, doc: dict) -> Path:
         ax.set_xticks(range(len(envs)), [NAMES[e].split(" ")[0] for e in envs])
         ax.set(title=f"{task}", ylabel="% of UC-Oracle in the same engine")
         ax.grid(True, axis="y", alpha=0.3)
-    axes[0, -1].legend(fontsize=8)  # the last panel (wiping) shows every method
+    # One legend on the last panel for every method of every panel.
+    shown_methods = {label: handle for ax in axes[0] for handle, label in zip(*ax.get_legend_handles_labels())}
+    axes[0, -1].legend(shown_methods.values(), shown_methods.keys(), fontsize=8)
     fig.suptitle("Transfer: each method against UC-Oracle, in our engine and in every reference engine")
     fig.tight_layout()
     fig.savefig(path, metadata={"Software": None})

@@ -494,17 +494,27 @@ GAP_WORDS = {
     "pybullet": "The articulated model is the same (the URDF twin of our file), but PyBullet has no armature "
                 "(0.1 on every leg joint in the file: the feet are much lighter to turn), integrates joint "
                 "damping explicitly (hence its substeps) and solves contacts as hard constraints of its own "
-                "(lateral friction 1 against MuJoCo's 0.4, no solref/solimp softness). DiffOSI explains "
+                "(lateral friction 1 against MuJoCo's 0.4, no solref/solimp softness). UC-DiffOSI explains "
                 "PyBullet's transitions with MuJoCo's contact law: where the contact forces differ, the torso "
                 "mass absorbs part of the difference, which is the bias above. Identifying the armature and "
                 "MuJoCo's contact parameters jointly with the mass does not remove it "
-                "(reports/joint-osi-half_cheetah.md): no solref or solimp makes MuJoCo's soft law a hard contact.",
+                "(reports/joint-osi-half_cheetah.md): no solref or solimp makes MuJoCo's soft law a hard "
+                f"contact. {JOINT} assumes no contact law: PyBullet's contact and limit impulses are "
+                "eliminated from each transition and the armature is identified with the mass. What it cannot "
+                "remove is PyBullet's other integration (explicit damping over 5 substeps against our one step "
+                "with implicit damping), which leaves the mass a few kilograms low on average (its bias above).",
     "dart": "The articulated model is the same (the URDF twin of our file), but DART has no armature (0.1 on "
             "every leg joint in the file) and solves contacts as hard constraints of its own (an LCP with "
-            "lateral friction 0.4, no solref/solimp softness). DiffOSI explains DART's transitions with "
+            "lateral friction 0.4, no solref/solimp softness). UC-DiffOSI explains DART's transitions with "
             "MuJoCo's contact law and the file's armature: the torso mass absorbs what differs, which is the "
             "bias above, and identifying the armature and MuJoCo's contact parameters jointly with it does not "
-            "remove it (reports/joint-osi-half_cheetah.md).",
+            f"remove it (reports/joint-osi-half_cheetah.md). {JOINT} assumes no contact law (DART's impulses "
+            "eliminated, the armature identified). What stays is a convention: DART applies its constraint "
+            "impulses through the mass matrix alone, its implicit spring and damper terms taken before them, "
+            "while our residual has MuJoCo's (through M + h D); with the file's stiff leg springs that leaves "
+            "the mass about 10 kg off in the heavy-torso episodes, where the cheetah squats on its legs. "
+            "DART's returns barely depend on the mass fed to the UC (UC-Average above), so the return is "
+            "UC-Oracle's all the same.",
 }
 
 

@@ -17,7 +17,7 @@ import diffosi
 from harness import engines
 from harness.__main__ import main
 from harness.engines.base import REPO
-from harness.transfer import METHODS, TASKS
+from harness.transfer import JOINT, METHODS, TASKS
 
 HORIZON = 100
 BINARY = REPO / "target" / "release" / "diffosi"
@@ -197,6 +197,9 @@ def test_cheetah_transfer_is_finite_and_seeded(tmp_path, cheetah_policies):
         assert e["mu_fed"][0] == 25.5 and e["mae"] == pytest.approx(np.mean(np.abs(np.array(e["mu_fed"]) - e["mu"])))
     for e in doc["source_diffosi"]:  # in our engine DiffOSI finds the mass
         assert abs(e["mu_hat_final"] - e["mu"]) < 0.1, e
+    for e in doc["methods"][JOINT]["episodes"]:  # so does the joint identifier in MuJoCo, no contact law assumed
+        assert len(e["mu_fed"]) == 40 and e["mu_fed"][0] == 25.5 and abs(e["mu_hat_final"] - e["mu"]) < 0.1, e
+    assert np.isfinite(doc["joint_over_oracle"]) and isinstance(doc["joint_meets_goal"], bool)
     single = doc["single_transition"]  # one transition at a time: exact in ours, split by kind in MuJoCo
     assert list(single["ours"]) == ["all"] and single["ours"]["all"]["count"] == 80
     assert max(map(abs, single["ours"]["all"]["relative_error_quartiles"])) < 1e-9
@@ -233,6 +236,7 @@ def test_cheetah_goes_to_the_urdf_twins(tmp_path, cheetah_policies, target):
     report = (tmp_path / f"transfer-half_cheetah-{target}.md").read_text()
     name = {"pybullet": "PyBullet", "dart": "DART"}[target]
     assert f"return in {name}" in report and "no armature" in report
+    assert f"{JOINT} reaches" in report and np.isfinite(doc["joint_over_oracle"])
 
 
 def test_twins_set_the_torso_mass_they_are_given():
