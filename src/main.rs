@@ -101,6 +101,18 @@ enum Command {
         /// positions and 1e-6 for velocities (noise-free data).
         #[arg(long, value_delimiter = ',')]
         scale: Option<Vec<f64>>,
+        /// The transitions' contact, limits and dry friction are not ours
+        /// (another engine's law): eliminate the impulse of any body within
+        /// MARGIN (m) of touching and of any joint within MARGIN of its
+        /// range's ends or with dry friction; the residuals are then nv
+        /// generalized forces per transition over --force-scale (--scale is
+        /// unused). Needs the Euler integrator.
+        #[arg(long, value_name = "MARGIN", allow_hyphen_values = true)]
+        unknown_constraints: Option<f64>,
+        /// With --unknown-constraints: nv values (N or N m) or one for all;
+        /// default 1.
+        #[arg(long, value_delimiter = ',', requires = "unknown_constraints")]
+        force_scale: Option<Vec<f64>>,
         /// Print JSON instead of text.
         #[arg(long)]
         json: bool,
@@ -323,6 +335,8 @@ fn main() -> ExitCode {
             upper,
             init,
             scale,
+            unknown_constraints,
+            force_scale,
             json,
         } => cli::identify::identify(cli::identify::Request {
             model: &model,
@@ -333,6 +347,7 @@ fn main() -> ExitCode {
             upper,
             init,
             scale,
+            unknown_constraints: unknown_constraints.map(|m| (m, force_scale)),
             json,
         }),
         Command::Train {

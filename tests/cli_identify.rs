@@ -209,3 +209,56 @@ fn bad_inputs_are_clear_errors() {
     let err = failure(&good, &["--method", "newton"]);
     assert!(err.contains("newton"), "{err}");
 }
+
+/// A half cheetah whose floor follows another contact law (the smooth penalty
+/// contact) than the identifying file's (MuJoCo's constraints): with its
+/// constraints unknown the torso mass comes back; through our contact law it
+/// does not.
+#[test]
+fn unknown_constraints_find_the_mass_under_another_contact_law() {
+    let file = "reference_models/half_cheetah.xml";
+    let model = Model::load(common::model_path(file)).unwrap();
+    let mut target = model
+        .edited(|s| s.opt.contact_model = diffosi::model::ContactModel::Smooth)
+        .unwrap();
+    target.set_param("body/torso/mass", &[20.0]).unwrap();
+    let rows: Vec<String> = common::cheetah_walk(&target, 60, 5)
+        .iter()
+        .map(|t| {
+            let cells = [&t.q, &t.v, &t.tau, &t.q_next, &t.v_next].map(|x| {
+                x.iter()
+                    .map(|v| format!("{v:e}"))
+                    .collect::<Vec<_>>()
+                    .join(",")
+            });
+            cells.join(",")
+        })
+        .collect();
+    let csv = write("cheetah.csv", &rows);
+    let mass = |extra: &[&str]| -> f64 {
+        let mut args = vec![
+            "identify",
+            file,
+            "--params",
+            "body/torso/mass",
+            "--transitions",
+            &csv,
+        ];
+        args.extend_from_slice(&["--lower", "1", "--upper", "50", "--init", "25", "--json"]);
+        args.extend_from_slice(extra);
+        let (ok, out, err) = run_cli(&args);
+        assert!(ok, "{err}");
+        let doc: serde_json::Value = serde_json::from_str(&out).unwrap();
+        assert_eq!(doc["params"][0]["name"], "body/torso/mass");
+        doc["params"][0]["value"][0].as_f64().unwrap()
+    };
+    let unknown = mass(&["--unknown-constraints", "0.02", "--force-scale", "1"]);
+    assert!((unknown - 20.0).abs() < 1e-3, "{unknown}");
+    let modelled = mass(&[]);
+    assert!((modelled - 20.0).abs() > 0.5, "{modelled}");
+    let cartpole = write("cartpole-margin.csv", &cartpole_rows(0.3, 5, 1));
+    let err = failure(&cartpole, &["--unknown-constraints", "-1"]);
+    assert!(err.contains("margin"), "{err}");
+    let err = failure(&cartpole, &["--force-scale", "1"]);
+    assert!(err.contains("--unknown-constraints"), "{err}");
+}

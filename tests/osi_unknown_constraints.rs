@@ -7,10 +7,8 @@
 
 mod common;
 
-use diffosi::derivatives::Transition;
 use diffosi::model::{ContactModel, Integrator, MapEntry, Model, ParamMap, PassiveMode};
 use diffosi::osi::{Identifier, Lm, OsiError, Problem};
-use rand::rngs::StdRng;
 
 const LEGS: [&str; 6] = ["bthigh", "bshin", "bfoot", "fthigh", "fshin", "ffoot"];
 const MARGIN: f64 = 0.02;
@@ -44,36 +42,6 @@ fn problem(model: &Model) -> Problem {
         .unwrap()
 }
 
-/// `len` transitions of `truth` dropped on its floor under random leg torques
-/// (held for 5 steps, as the task does), every step kept.
-fn walk(truth: &Model, len: usize, seed: u64) -> Vec<Transition> {
-    let mut rng: StdRng = common::rng(seed);
-    let n = truth.nv();
-    let mut data = truth.data();
-    let (mut q, mut v) = (vec![0.0; n], vec![0.0; n]);
-    let mut tau = vec![0.0; n];
-    let gears = [120.0, 90.0, 60.0, 120.0, 60.0, 30.0];
-    (0..len)
-        .map(|k| {
-            if k % 5 == 0 {
-                for (i, g) in gears.iter().enumerate() {
-                    tau[3 + i] = g * common::uniform(&mut rng, -1.0, 1.0);
-                }
-            }
-            let (q_next, v_next) = truth.step(&mut data, &q, &v, &tau).unwrap();
-            let t = Transition {
-                q: q.clone(),
-                v: v.clone(),
-                tau: tau.clone(),
-                q_next: q_next.clone(),
-                v_next: v_next.clone(),
-            };
-            (q, v) = (q_next, v_next);
-            t
-        })
-        .collect()
-}
-
 fn with_truth(model: &Model, mass: f64, armature: f64) -> Model {
     let mut truth = model.clone();
     mass_and_armature(model)
@@ -91,7 +59,7 @@ fn our_constrained_steps_leave_no_residual_under_every_passive_mode() {
     ] {
         let model = cheetah().edited(|s| s.opt.passive = passive).unwrap();
         let truth = with_truth(&model, 20.0, 0.1);
-        let window = walk(&truth, 150, 1);
+        let window = common::cheetah_walk(&truth, 150, 1);
         let mut data = truth.data();
         let touching = window
             .iter()
@@ -128,7 +96,7 @@ fn our_constrained_steps_leave_no_residual_under_every_passive_mode() {
 fn torso_mass_and_armature_come_back_from_our_constraint_contact() {
     let model = cheetah();
     let truth = with_truth(&model, 20.0, 0.1);
-    let window = walk(&truth, 60, 2);
+    let window = common::cheetah_walk(&truth, 60, 2);
     let est = Lm::default()
         .identify(&mut problem(&model), &window, &[25.5, 0.05])
         .unwrap();
@@ -145,7 +113,7 @@ fn another_contact_law_leaves_the_mass_unbiased() {
     let target = with_truth(&model, 20.0, 0.1)
         .edited(|s| s.opt.contact_model = ContactModel::Smooth)
         .unwrap();
-    let window = walk(&target, 60, 3);
+    let window = common::cheetah_walk(&target, 60, 3);
     let start = [25.5, 0.05];
     let est = Lm::default()
         .identify(&mut problem(&model), &window, &start)
@@ -182,7 +150,7 @@ fn residual_jacobian_is_exact() {
         map.apply(&mut t, &mu).unwrap();
         t
     };
-    let window = walk(&truth, 30, 4);
+    let window = common::cheetah_walk(&truth, 30, 4);
     let scale = vec![1e-3; 2 * model.nv()];
     let lower = vec![-100.0; nmu];
     let upper = vec![100.0; nmu];

@@ -271,11 +271,12 @@ def test_contact_variant_gives_each_engine_its_own_settings(tmp_path):
                  "--episodes", "2", "--horizon", "20", "--policies", str(folder), "--out", str(tmp_path)]) == 0
     doc = json.loads((tmp_path / "transfer-half_cheetah_contact-pybullet.json").read_text())
     assert doc["meta"]["environment"]["pybullet"] == [0.0, 0.4]
-    assert list(doc["methods"]) == ["DR", "UC-Average", "UC-Oracle"] and doc["diffosi_over_oracle"] is None
+    assert list(doc["methods"]) == ["DR", "UC-Average", JOINT, "UC-Oracle"] and doc["diffosi_over_oracle"] is None
+    assert np.isfinite(doc["joint_over_oracle"])
     mu = diffosi.Task("half_cheetah_contact").episodes(2, 0)[0][:, 0]
     for r in doc["methods"].values():
         assert [e["mu"] for e in r["episodes"]] == list(mu) and all(np.isfinite(e["score"]) for e in r["episodes"])
     average = doc["methods"]["UC-Average"]["episodes"][0]
     assert average["mae"] == pytest.approx(abs(25.5 - mu[0]))
     report = (tmp_path / "transfer-half_cheetah_contact-pybullet.md").read_text()
-    assert "half_cheetah_contact" in report and "No UC-DiffOSI here" in report
+    assert "half_cheetah_contact" in report and "No UC-DiffOSI (the paper's residual" in report

@@ -29,6 +29,8 @@ pub struct Request<'a> {
     pub upper: Option<Vec<f64>>,
     pub init: Option<Vec<f64>>,
     pub scale: Option<Vec<f64>>,
+    /// The margin and force scale when the constraints are unknown.
+    pub unknown_constraints: Option<(f64, Option<Vec<f64>>)>,
     pub json: bool,
 }
 
@@ -95,6 +97,16 @@ pub fn identify(r: Request) -> Result<(), String> {
     let map = ParamMap::identity(&model, r.params).map_err(|e| e.to_string())?;
     let mut problem =
         Problem::new(&model, map, &lower, &upper, &init, &scale).map_err(|e| e.to_string())?;
+    if let Some((margin, force_scale)) = r.unknown_constraints {
+        let force_scale = match force_scale {
+            Some(s) if s.len() == 1 => vec![s[0]; nv],
+            s => values("--force-scale", s, vec![1.0; nv], nv)
+                .map_err(|e| format!("{e} (or a single value for all)"))?,
+        };
+        problem = problem
+            .with_unknown_constraints(margin, &force_scale)
+            .map_err(|e| e.to_string())?;
+    }
     let estimate = match r.method {
         Method::Lm => Lm::default().identify(&mut problem, &window, &init),
         Method::Adam => Adam::default().identify(&mut problem, &window, &init),

@@ -1,6 +1,7 @@
 //! Shared helpers of the integration tests: random trees and states.
 #![allow(dead_code)]
 
+use diffosi::derivatives::Transition;
 use diffosi::dynamics::{bias_forces, body_poses, crba, Data};
 use diffosi::model::{Body, Integrator, Joint, JointKind, Model, Options, ParamMap, PassiveMode};
 use nalgebra::{DMatrix, DVector};
@@ -280,4 +281,34 @@ pub fn rel_err<'a>(
         .zip(theirs)
         .map(|(a, b)| (a - b).abs() / b.abs().max(1.0))
         .fold(0.0, f64::max)
+}
+
+/// `len` transitions of a half cheetah `truth` dropped on its floor under random leg torques
+/// (held for 5 steps, as the task does), every step kept.
+pub fn cheetah_walk(truth: &Model, len: usize, seed: u64) -> Vec<Transition> {
+    let mut rng: StdRng = rng(seed);
+    let n = truth.nv();
+    let mut data = truth.data();
+    let (mut q, mut v) = (vec![0.0; n], vec![0.0; n]);
+    let mut tau = vec![0.0; n];
+    let gears = [120.0, 90.0, 60.0, 120.0, 60.0, 30.0];
+    (0..len)
+        .map(|k| {
+            if k % 5 == 0 {
+                for (i, g) in gears.iter().enumerate() {
+                    tau[3 + i] = g * uniform(&mut rng, -1.0, 1.0);
+                }
+            }
+            let (q_next, v_next) = truth.step(&mut data, &q, &v, &tau).unwrap();
+            let t = Transition {
+                q: q.clone(),
+                v: v.clone(),
+                tau: tau.clone(),
+                q_next: q_next.clone(),
+                v_next: v_next.clone(),
+            };
+            (q, v) = (q_next, v_next);
+            t
+        })
+        .collect()
 }
