@@ -12,7 +12,10 @@ sets on our model:
   friction (3), the contact parameters a hard contact would be fitted with;
 - `mass+armature, unknown constraints`: the mass and the six armatures with the target's
   contact, limit and dry-friction impulses eliminated (DiffOsi constraints="unknown", unit
-  force scale): no contact law assumed.
+  force scale): no contact law assumed;
+- `mass+armature, unknown constraints, DART's conventions`: the same on our model told how
+  DART integrates (springs and dampers implicit, impulses through M alone: passive
+  "implicit_damping_stiffness", impulses="mass").
 Per target and set: the median over windows of the mass error (kg) and its mean absolute
 value, pooled over the episodes, and the share of estimates at a bound of the mass's range.
 
@@ -45,8 +48,12 @@ SETS = {
         [0.0] * 6 + [0.02, 0.2] + [0.0, 0.5, 0.001, 0.49, 1.99] + [0.05, 0.0, 0.0],
         [0.3] * 6 + [0.2, 5.0] + [0.99, 0.9999, 0.1, 0.51, 2.01] + [2.0, 0.5, 0.5]),
     "mass+armature, unknown constraints": ([f"joint/{j}/armature" for j in LEGS], [0.0] * 6, [0.3] * 6),
+    "mass+armature, unknown constraints, DART's conventions": ([f"joint/{j}/armature" for j in LEGS], [0.0] * 6,
+                                                               [0.3] * 6),
 }
-UNKNOWN = {"mass+armature, unknown constraints"}  # the sets run with constraints="unknown"
+# The sets run with constraints="unknown": (our model's passive mode or None for the file's, impulses)
+UNKNOWN = {"mass+armature, unknown constraints": (None, "model"),
+           "mass+armature, unknown constraints, DART's conventions": ("implicit_damping_stiffness", "mass")}
 TARGETS = ("mujoco", "pybullet", "dart")
 # (leg armature, contact hardness, friction): the file's, then what other engines differ in
 SETTINGS = {"the file's": (0.1, 0.0, 0.4), "no armature": (0.0, 0.0, 0.4), "hardness 1": (0.1, 1.0, 0.4),
@@ -79,9 +86,13 @@ def identify(model, episodes: list, window: int, name: str) -> dict:
     import diffosi
 
     extra, lo, hi = SETS[name]
-    constraints = "unknown" if name in UNKNOWN else "modelled"
+    options = {}
+    if name in UNKNOWN:
+        passive, impulses = UNKNOWN[name]
+        model = model.with_options(passive=passive) if passive else model
+        options = {"constraints": "unknown", "impulses": impulses}
     osi = diffosi.DiffOsi(model, params=["body/torso/mass", *extra], lower=[1.0, *lo], upper=[50.0, *hi],
-                          constraints=constraints)
+                          **options)
     est, truth = [], []
     for mu, kept in episodes:
         for s in range(0, len(kept) - window + 1, STRIDE):

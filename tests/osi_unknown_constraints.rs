@@ -7,8 +7,10 @@
 
 mod common;
 
+use diffosi::derivatives::{Impulses, Transition};
 use diffosi::model::{ContactModel, Integrator, MapEntry, Model, ParamMap, PassiveMode};
 use diffosi::osi::{Identifier, Lm, OsiError, Problem};
+use nalgebra::{DMatrix, DVector};
 
 const LEGS: [&str; 6] = ["bthigh", "bshin", "bfoot", "fthigh", "fshin", "ffoot"];
 const MARGIN: f64 = 0.02;
@@ -38,7 +40,7 @@ fn problem(model: &Model) -> Problem {
     let scale = vec![1e-3; 2 * model.nv()];
     Problem::new(model, map, &[1.0, 0.0], &[50.0, 0.3], &[25.5, 0.05], &scale)
         .unwrap()
-        .with_unknown_constraints(MARGIN, &vec![1.0; model.nv()])
+        .with_unknown_constraints(MARGIN, &vec![1.0; model.nv()], Impulses::Model)
         .unwrap()
 }
 
@@ -133,7 +135,14 @@ fn another_contact_law_leaves_the_mass_unbiased() {
 
 #[test]
 fn residual_jacobian_is_exact() {
-    let model = cheetah();
+    for impulses in [Impulses::Model, Impulses::Mass] {
+        jacobian_check(impulses);
+    }
+}
+
+fn jacobian_check(impulses: Impulses) {
+    let passive = PassiveMode::ImplicitDampingStiffness;
+    let model = cheetah().edited(|s| s.opt.passive = passive).unwrap();
     let names = [
         "body/torso/mass",
         "body/bthigh/com",
@@ -156,7 +165,7 @@ fn residual_jacobian_is_exact() {
     let upper = vec![100.0; nmu];
     let mut p = Problem::new(&model, map, &lower, &upper, &mu, &scale)
         .unwrap()
-        .with_unknown_constraints(MARGIN, &vec![1.0; model.nv()])
+        .with_unknown_constraints(MARGIN, &vec![1.0; model.nv()], impulses)
         .unwrap();
     let fit = p.fit(&mu, window.as_slice()).unwrap();
     for j in 0..nmu {
@@ -172,11 +181,85 @@ fn residual_jacobian_is_exact() {
         let size = fd.amax().max(1.0);
         assert!(
             err < 1e-6 * size,
-            "column {j}: error {err:e} against {size:e}"
+            "{impulses:?}, column {j}: error {err:e} against {size:e}"
         );
     }
     // Friction acts through the eliminated impulses alone.
     assert_eq!(fit.jacobian.column(nmu - 3).amax(), 0.0);
+}
+
+/// DART's convention, made from our own steps: the free step's velocity v_f
+/// plus our constraint impulse applied through M alone (DART's way, its
+/// implicit springs and dampers taken before it). `Impulses::Mass` leaves no
+/// residual and finds the mass; `Impulses::Model` does not.
+#[test]
+fn impulses_through_the_mass_matrix_alone() {
+    let passive = PassiveMode::ImplicitDampingStiffness;
+    let model = cheetah().edited(|s| s.opt.passive = passive).unwrap();
+    let truth = with_truth(&model, 20.0, 0.1);
+    let free = truth
+        .edited(|s| {
+            s.opt.contact = false;
+            s.opt.limits = false;
+        })
+        .unwrap();
+    let (n, h) = (model.nv(), model.opt.timestep);
+    let implicit = DVector::from_iterator(
+        n,
+        model
+            .joints
+            .iter()
+            .map(|j| h * j.damping + h * h * j.stiffness),
+    );
+    let mut data = free.data();
+    let window: Vec<Transition> = common::cheetah_walk(&truth, 80, 6)
+        .into_iter()
+        .map(|t| {
+            let (_, v_free) = free.step(&mut data, &t.q, &t.v, &t.tau).unwrap();
+            let v_free = DVector::from_vec(v_free);
+            let m = common::mass_matrix(&truth, &t.q);
+            let impulse = (&m + DMatrix::from_diagonal(&implicit))
+                * (DVector::from_column_slice(&t.v_next) - &v_free);
+            let v_next = v_free + m.lu().solve(&impulse).unwrap();
+            let q_next = (0..n).map(|i| t.q[i] + h * v_next[i]).collect();
+            Transition {
+                q_next,
+                v_next: v_next.as_slice().to_vec(),
+                ..t
+            }
+        })
+        .collect();
+    let make = |impulses| {
+        let map = mass_and_armature(&model);
+        let scale = vec![1e-3; 2 * n];
+        Problem::new(
+            &model,
+            map,
+            &[1.0, 0.0],
+            &[50.0, 0.3],
+            &[25.5, 0.05],
+            &scale,
+        )
+        .unwrap()
+        .with_unknown_constraints(MARGIN, &vec![1.0; n], impulses)
+        .unwrap()
+    };
+    let mass = make(Impulses::Mass)
+        .fit(&[20.0, 0.1], window.as_slice())
+        .unwrap();
+    assert!(mass.residuals.amax() < 1e-8, "{:e}", mass.residuals.amax());
+    let est = Lm::default()
+        .identify(&mut make(Impulses::Mass), &window, &[25.5, 0.05])
+        .unwrap();
+    assert!((est.mu[0] - 20.0).abs() < 1e-6, "{:?}", est.mu);
+    let model_way = make(Impulses::Model)
+        .fit(&[20.0, 0.1], window.as_slice())
+        .unwrap();
+    assert!(
+        model_way.residuals.amax() > 1e-2,
+        "{:e}",
+        model_way.residuals.amax()
+    );
 }
 
 #[test]
@@ -198,12 +281,14 @@ fn bad_settings_are_refused() {
     let n = model.nv();
     for margin in [-0.1, f64::NAN, f64::INFINITY] {
         let e = make()
-            .with_unknown_constraints(margin, &vec![1.0; n])
+            .with_unknown_constraints(margin, &vec![1.0; n], Impulses::Model)
             .unwrap_err();
         assert!(e.to_string().contains("margin"), "{e}");
     }
     for scale in [vec![1.0; n - 1], vec![0.0; n], vec![f64::NAN; n]] {
-        let e = make().with_unknown_constraints(MARGIN, &scale).unwrap_err();
+        let e = make()
+            .with_unknown_constraints(MARGIN, &scale, Impulses::Model)
+            .unwrap_err();
         assert!(e.to_string().contains("force scale"), "{e}");
     }
     let rk4 = model
@@ -213,7 +298,7 @@ fn bad_settings_are_refused() {
     let scale = vec![1e-3; 2 * n];
     let e = Problem::new(&rk4, map, &[1.0, 0.0], &[50.0, 0.3], &[25.5, 0.05], &scale)
         .unwrap()
-        .with_unknown_constraints(MARGIN, &vec![1.0; n])
+        .with_unknown_constraints(MARGIN, &vec![1.0; n], Impulses::Model)
         .unwrap_err();
     assert!(
         matches!(e, OsiError::Window(_)) && e.to_string().contains("Euler"),

@@ -14,7 +14,7 @@ mod task;
 mod wiping;
 
 use engine::derivatives::{
-    step_jacobians, transition_jacobians, Transition, TransitionJacobians, Workspace, Wrt,
+    step_jacobians, transition_jacobians, Impulses, Transition, TransitionJacobians, Workspace, Wrt,
 };
 use engine::dynamics::{body_contact_forces, Contact, Data};
 use engine::model::{ContactModel, Integrator, Param, ParamError, ParamMap, PassiveMode};
@@ -478,22 +478,31 @@ pub(crate) fn default_scale(model: &Model) -> Vec<f64> {
 /// constrained when constraints are unknown.
 pub(crate) const DEFAULT_MARGIN: f64 = 0.02;
 
-/// Applies the `constraints`, `margin` and `force_scale` arguments of
-/// `DiffOsi` and `OnlineOsi`: "modelled" keeps `problem`; "unknown" eliminates
-/// the target's constraint impulses (`Problem::with_unknown_constraints`),
-/// `force_scale` nv positive values (default 1 N or N m each).
+/// Applies the `constraints`, `margin`, `force_scale` and `impulses` arguments
+/// of `DiffOsi` and `OnlineOsi`: "modelled" keeps `problem`; "unknown"
+/// eliminates the target's constraint impulses
+/// (`Problem::with_unknown_constraints`), `force_scale` nv positive values
+/// (default 1 N or N m each), `impulses` "model" or "mass".
 pub(crate) fn with_constraints(
     problem: Problem,
     constraints: &str,
-    margin: f64,
-    force_scale: Option<&Bound<'_, PyAny>>,
+    (margin, force_scale, impulses): (f64, Option<&Bound<'_, PyAny>>, &str),
     class: &str,
 ) -> PyResult<Problem> {
     let nv = problem.nv();
+    let impulses = match impulses {
+        "model" => Impulses::Model,
+        "mass" => Impulses::Mass,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "impulses must be 'model' or 'mass', got '{other}'"
+            )))
+        }
+    };
     match constraints {
-        "modelled" if force_scale.is_some() => Err(PyValueError::new_err(
-            "force_scale applies to constraints='unknown' only",
-        )),
+        "modelled" if force_scale.is_some() || impulses != Impulses::Model => Err(
+            PyValueError::new_err("force_scale and impulses apply to constraints='unknown' only"),
+        ),
         "modelled" => Ok(problem),
         "unknown" => {
             let scale = match force_scale {
@@ -501,7 +510,7 @@ pub(crate) fn with_constraints(
                 None => vec![1.0; nv],
             };
             problem
-                .with_unknown_constraints(margin, &scale)
+                .with_unknown_constraints(margin, &scale, impulses)
                 .map_err(|e| osi_error(class, e))
         }
         other => Err(PyValueError::new_err(format!(
@@ -522,7 +531,7 @@ enum Method {
 ///
 /// `DiffOsi(model, params, lower, upper, method="lm", scale=None,
 /// loss="squared", huber=1.345, constraints="modelled", margin=0.02,
-/// force_scale=None)`:
+/// force_scale=None, impulses="model")`:
 /// - `params`: parameter names (see `Model.param_names()`); mu is their
 ///   values flattened in that order (a 3-vector such as `body/pole/com` takes
 ///   three components), and `lower`/`upper` hold one finite bound per
@@ -547,7 +556,10 @@ enum Method {
 ///   something or on a joint within `margin` of its range's ends or with dry
 ///   friction; nv values per transition divided by `force_scale`, nv values in
 ///   N or N m, default 1; `scale` is then unused; the model must integrate
-///   with Euler).
+///   with Euler). `impulses`: how the target applies those impulses, "model"
+///   (through M + E, E the model's implicit passive diagonal: MuJoCo's and
+///   our Euler step) or "mass" (through M alone, the implicit spring and
+///   damper terms taken before them: DART's).
 ///
 /// The model is copied: later changes to it do not reach this object. The
 /// default start is the model's current parameter values clamped into the
@@ -562,7 +574,7 @@ struct PyDiffOsi {
 #[pymethods]
 impl PyDiffOsi {
     #[new]
-    #[pyo3(signature = (model, params, lower, upper, method = "lm", scale = None, loss = "squared", huber = HUBER_THRESHOLD, constraints = "modelled", margin = DEFAULT_MARGIN, force_scale = None))]
+    #[pyo3(signature = (model, params, lower, upper, method = "lm", scale = None, loss = "squared", huber = HUBER_THRESHOLD, constraints = "modelled", margin = DEFAULT_MARGIN, force_scale = None, impulses = "model"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         model: &Bound<'_, PyModel>,
@@ -576,6 +588,7 @@ impl PyDiffOsi {
         constraints: &str,
         margin: f64,
         force_scale: Option<&Bound<'_, PyAny>>,
+        impulses: &str,
     ) -> PyResult<Self> {
         let method = match method {
             "lm" => Method::Lm,
@@ -588,7 +601,8 @@ impl PyDiffOsi {
         };
         let loss = robust_loss(loss, huber, matches!(method, Method::Lm))?;
         let mut osi = Osi::new(model, params, lower, upper, scale, "DiffOsi")?;
-        osi.problem = with_constraints(osi.problem, constraints, margin, force_scale, "DiffOsi")?;
+        let unknown = (margin, force_scale, impulses);
+        osi.problem = with_constraints(osi.problem, constraints, unknown, "DiffOsi")?;
         Ok(PyDiffOsi { osi, method, loss })
     }
 

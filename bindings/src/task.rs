@@ -331,7 +331,7 @@ type Solver = Box<dyn Identifier + Send + Sync>;
 /// Online DiffOSI of a task's mu (src/osi/online.rs):
 /// `OnlineOsi(task, window=1, method="lm", change_detection=False, seed=0,
 /// scale=None, loss="squared", huber=1.345, constraints="modelled",
-/// margin=0.02, force_scale=None, restarts=8)`.
+/// margin=0.02, force_scale=None, impulses="model", restarts=8)`.
 ///
 /// Each `push(q, v, tau, q_next, v_next)` of one observed transition (tau the
 /// generalized forces, length nv) re-identifies mu on the `window` most recent
@@ -340,7 +340,7 @@ type Solver = Box<dyn Identifier + Send + Sync>;
 /// nominal model. `method` "lm" (bounded Levenberg-Marquardt; `seed` seeds
 /// its restarts) or "adam"; `change_detection=True` empties the window when a
 /// transition no longer fits (the engine's default rule); `scale`, `loss`,
-/// `huber`, `constraints`, `margin` and `force_scale` as in `DiffOsi`
+/// `huber`, `constraints`, `margin`, `force_scale` and `impulses` as in `DiffOsi`
 /// (constraints="unknown": the target's contact law is not ours); `restarts`:
 /// how many other starts "lm" tries when a fit leaves a misfit (useless
 /// when mu enters the residuals linearly, as masses and armatures do with
@@ -358,7 +358,7 @@ pub(crate) struct PyOnlineOsi {
 #[pymethods]
 impl PyOnlineOsi {
     #[new]
-    #[pyo3(signature = (task, window = 1, method = "lm", change_detection = false, seed = 0, scale = None, loss = "squared", huber = HUBER_THRESHOLD, constraints = "modelled", margin = DEFAULT_MARGIN, force_scale = None, restarts = LmOptions::default().restarts))]
+    #[pyo3(signature = (task, window = 1, method = "lm", change_detection = false, seed = 0, scale = None, loss = "squared", huber = HUBER_THRESHOLD, constraints = "modelled", margin = DEFAULT_MARGIN, force_scale = None, impulses = "model", restarts = LmOptions::default().restarts))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         task: &PyTask,
@@ -372,6 +372,7 @@ impl PyOnlineOsi {
         constraints: &str,
         margin: f64,
         force_scale: Option<&Bound<'_, PyAny>>,
+        impulses: &str,
         restarts: usize,
     ) -> PyResult<Self> {
         let t = task.task.as_ref();
@@ -411,7 +412,8 @@ impl PyOnlineOsi {
         let prior = tasks::average_mu(t);
         let problem = Problem::new(model, t.mu_map().clone(), lo, hi, &prior, &scale)
             .map_err(|e| osi_error("OnlineOsi", e))?;
-        let problem = with_constraints(problem, constraints, margin, force_scale, "OnlineOsi")?;
+        let unknown = (margin, force_scale, impulses);
+        let problem = with_constraints(problem, constraints, unknown, "OnlineOsi")?;
         let mut online = Online::new(problem, solver, window, Sampling::Recent, seed)
             .map_err(|e| osi_error("OnlineOsi", e))?;
         if change_detection {

@@ -6,8 +6,9 @@ mass identified jointly with the leg armature: in PyBullet within a kilogram or 
 (measured: 1.1 kg mean error), where the paper's residual through our contact law is 22 kg off;
 in DART half as far off as that residual (measured 8.0 kg against 17.6: DART applies its
 constraint impulses through the mass matrix without its implicit spring and damper terms, which
-our residual, MuJoCo's convention, does not know). Bad settings raise ValueError. Run with
-`make test`."""
+our residual, MuJoCo's convention, does not know). Told DART's conventions (its implicit springs
+and dampers, impulses through M alone: impulses="mass"), the mass comes back from DART's own
+transitions to rounding. Bad settings raise ValueError. Run with `make test`."""
 
 import argparse
 
@@ -34,10 +35,10 @@ def transitions(target):
     return [np.array([t[i] for t in kept]) for i in range(5)]
 
 
-def mass_errors(window_arrays, **kw):
+def mass_errors(window_arrays, model=None, **kw):
     params = ["body/torso/mass"] + [f"joint/{j}/armature" for j in LEGS]
-    osi = diffosi.DiffOsi(diffosi.Task("half_cheetah").model(), params=params, lower=[1.0] + [0.0] * 6,
-                          upper=[50.0] + [0.3] * 6, **kw)
+    model = model or diffosi.Task("half_cheetah").model()
+    osi = diffosi.DiffOsi(model, params=params, lower=[1.0] + [0.0] * 6, upper=[50.0] + [0.3] * 6, **kw)
     n = len(window_arrays[0])
     return np.array([osi.identify(*(a[s:s + WINDOW] for a in window_arrays))["params"][0] - MASS
                      for s in range(0, n - WINDOW + 1, 20)])
@@ -51,6 +52,15 @@ def test_mass_under_another_engines_contact(target, within, gain):
     assert unknown < within and modelled > gain * unknown, (unknown, modelled)
 
 
+def test_dart_conventions_make_it_exact():
+    data = transitions("dart")
+    model = diffosi.Task("half_cheetah").model().with_options(passive="implicit_damping_stiffness")
+    errors = mass_errors(data, model, constraints="unknown", impulses="mass")
+    assert np.abs(errors).max() < 1e-3, errors
+    model_way = mass_errors(data, model, constraints="unknown")  # DART's passive mode, MuJoCo's impulses
+    assert np.abs(model_way).mean() > 1.0, model_way
+
+
 def test_bad_constraint_settings_are_refused():
     model = diffosi.Task("half_cheetah").model()
     make = lambda **kw: diffosi.DiffOsi(model, params=["body/torso/mass"], lower=[1.0], upper=[50.0], **kw)
@@ -62,6 +72,10 @@ def test_bad_constraint_settings_are_refused():
         make(constraints="unknown", force_scale=np.ones(model.nv - 1))
     with pytest.raises(ValueError, match="force_scale"):
         make(force_scale=np.ones(model.nv))
+    with pytest.raises(ValueError, match="'model' or 'mass'"):
+        make(constraints="unknown", impulses="dart")
+    with pytest.raises(ValueError, match="apply to constraints='unknown' only"):
+        make(impulses="mass")
     with pytest.raises(ValueError, match="Euler"):
         rk4 = model.with_options(integrator="RK4")
         diffosi.DiffOsi(rk4, params=["body/torso/mass"], lower=[1.0], upper=[50.0], constraints="unknown")

@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+use diffosi::derivatives::Impulses;
 use diffosi::derivatives::Transition;
 use diffosi::model::{Param, ParamMap};
 use diffosi::osi::{Adam, CmaEs, Estimate, Identifier, Lm, Problem};
@@ -104,7 +105,7 @@ pub fn identify(r: Request) -> Result<(), String> {
                 .map_err(|e| format!("{e} (or a single value for all)"))?,
         };
         problem = problem
-            .with_unknown_constraints(margin, &force_scale)
+            .with_unknown_constraints(margin, &force_scale, Impulses::Model)
             .map_err(|e| e.to_string())?;
     }
     let estimate = match r.method {

@@ -26,27 +26,56 @@
 //! Contacts are found by the constraint model's colliders with every geom's
 //! margin raised by `margin` (a pair without a collider is not seen). The
 //! residual is the Euler step's, so the model must integrate with Euler.
+//!
+//! How an impulse moves the velocity is the target's convention
+//! ([`Impulses`]). MuJoCo's Euler step (and ours) solves its constraints with
+//! the implicit passive diagonal E: (M + E)(v' - v) / h = f + G lambda, so R
+//! itself is G lambda. DART takes its implicit spring and damper terms at the
+//! free velocity v_f, (M + E)(v_f - v) / h = f, and applies the impulse
+//! through M alone, M (v' - v_f) / h = G lambda: there the residual is
+//!   R_M = M (a - qdd_free) = R - E (a - qdd_free),  (M + E) qdd_free = f,
+//! whose derivative adds E d qdd_free / d mu - dE / d mu (a - qdd_free), with
+//! d qdd_free / d mu = -(M + E)^-1 dR / d mu at qdd_free.
 
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
 
-use super::params::{add_body_force, joint_derivative};
+use super::params::implicit_diagonal_derivative;
 use super::step::Workspace;
-use super::window::{check_transition, directions, Term, Transition, WindowError, WindowFit};
+use super::window::{
+    articulated_solve, check_transition, directions, residual_column, Term, Transition,
+    WindowError, WindowFit,
+};
 use crate::dynamics::collision::{ConstraintContact, Pre};
 use crate::dynamics::constraint::{contacts, world_frames};
-use crate::dynamics::{implicit_terms, passive_forces, rnea, update_transforms};
-use crate::model::{ContactModel, Integrator, Model, ParamMap};
+use crate::dynamics::{
+    aba_with_transforms, implicit_terms, passive_forces, rnea, update_transforms, Data,
+};
+use crate::model::{ContactModel, Integrator, Model, ParamMap, PassiveMode};
+use crate::spatial::{Force, Motion};
 
 /// Below this fraction of its own norm, what is left of a constraint
 /// direction after the ones before it are taken out adds nothing new.
 const INDEPENDENT: f64 = 1e-9;
 
+/// How the target applies a constraint impulse (see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Impulses {
+    /// Through M + E, E the model's implicit passive diagonal: MuJoCo's and
+    /// our Euler step (the default).
+    #[default]
+    Model,
+    /// Through M alone, the implicit passive terms taken before it: DART's.
+    Mass,
+}
+
 /// How the constraint impulses of a model's transitions are eliminated: the
-/// margin, the force scale, and the colliders that find what may touch.
+/// margin, the force scale, the impulses' convention, and the colliders that
+/// find what may touch.
 #[derive(Clone, Debug)]
 pub struct Elimination {
     margin: f64,
     scale: Vec<f64>,
+    impulses: Impulses,
     /// The model under the constraint model's colliders, contacts on, every
     /// geom's margin raised by `margin`.
     detect: Model,
@@ -61,7 +90,12 @@ pub struct Elimination {
 impl Elimination {
     /// Refuses a margin that is not finite and >= 0, a scale that is not nv
     /// positive values, and a model that does not integrate with Euler.
-    pub fn new(model: &Model, margin: f64, scale: &[f64]) -> Result<Elimination, WindowError> {
+    pub fn new(
+        model: &Model,
+        margin: f64,
+        scale: &[f64],
+        impulses: Impulses,
+    ) -> Result<Elimination, WindowError> {
         if !(margin.is_finite() && margin >= 0.0) {
             return Err(WindowError::Margin { margin });
         }
@@ -85,6 +119,7 @@ impl Elimination {
         Ok(Elimination {
             margin,
             scale: scale.to_vec(),
+            impulses,
             detect,
             contacts: vec![],
             pre: vec![],
@@ -102,9 +137,13 @@ impl Elimination {
         &self.scale
     }
 
+    pub fn impulses(&self) -> Impulses {
+        self.impulses
+    }
+
     /// Adds the nodes carrying a body that may touch something at the state
     /// whose world frames `data` holds.
-    fn touching(&mut self, data: &crate::dynamics::Data<f64>) {
+    fn touching(&mut self, data: &Data<f64>) {
         let tree = self.detect.tree();
         contacts(tree, data, (&mut self.contacts, &mut self.pre));
         for c in &self.contacts {
@@ -133,6 +172,38 @@ impl Elimination {
         let left = g.norm();
         if left > INDEPENDENT * norm {
             self.basis.push(g / left);
+        }
+    }
+
+    /// The basis of the scaled constraint directions at a transition whose
+    /// frames at q `data` holds (world axes): a wrench on each touching body,
+    /// a force on each dof near a range end or with dry friction.
+    fn constraint_directions(&mut self, model: &Model, data: &Data<f64>, tr: &Transition) {
+        let (n, tree) = (model.nv(), model.tree());
+        self.basis.clear();
+        for k in 0..self.nodes.len() {
+            for c in 0..6 {
+                let mut g = DVector::zeros(n);
+                let mut i = Some(self.nodes[k]);
+                while let Some(d) = i {
+                    let s = &data.world_axis[d];
+                    g[d] = if c < 3 { s.ang[c] } else { s.lin[c - 3] };
+                    i = tree.parent[d];
+                }
+                self.add_direction(g);
+            }
+        }
+        for (d, joint) in model.joints.iter().enumerate() {
+            let near = |x: f64| {
+                joint
+                    .range
+                    .is_some_and(|(lo, hi)| x < lo + self.margin || x > hi - self.margin)
+            };
+            if joint.frictionloss > 0.0 || near(tr.q[d]) || near(tr.q_next[d]) {
+                let mut g = DVector::zeros(n);
+                g[d] = 1.0;
+                self.add_direction(g);
+            }
         }
     }
 
@@ -198,18 +269,11 @@ fn transition_rows(
     let n = model.nv();
     let tree = model.tree();
     let (mode, h) = (model.opt.passive, model.opt.timestep);
-    // What may touch at q', then at q (whose frames RNEA leaves in `data`).
+    // What may touch at q' (q's frames come with RNEA below).
     elim.nodes.clear();
     update_transforms(tree, &mut ws.data, &tr.q_next);
     world_frames(tree, &mut ws.data, &tr.v_next);
     elim.touching(&ws.data);
-    for i in 0..n {
-        ws.qdd[i] = (tr.v_next[i] - tr.v[i]) / h;
-    }
-    rnea(tree, &mut ws.data, &tr.q, &tr.v, &ws.qdd, &mut ws.tau);
-    world_frames(tree, &mut ws.data, &tr.v);
-    elim.touching(&ws.data);
-    // R = ID + extra a - tau - tau_passive.
     implicit_terms(
         tree,
         (mode, h),
@@ -217,62 +281,90 @@ fn transition_rows(
         &mut ws.q_spring,
         &mut ws.extra,
     );
-    let mut passive = vec![0.0; n];
-    passive_forces(tree, &ws.q_spring, &tr.v, &mut passive);
-    let r = DVector::from_fn(n, |i, _| {
-        ws.tau[i] + ws.extra[i] * ws.qdd[i] - tr.tau[i] - passive[i]
-    });
-    // The constraint directions: a wrench on each touching body (the world
-    // axes of the dofs on its path), a force on each limited or rubbing dof.
-    elim.basis.clear();
-    for k in 0..elim.nodes.len() {
-        for c in 0..6 {
-            let mut g = DVector::zeros(n);
-            let mut i = Some(elim.nodes[k]);
-            while let Some(d) = i {
-                let s = &ws.data.world_axis[d];
-                g[d] = if c < 3 { s.ang[c] } else { s.lin[c - 3] };
-                i = tree.parent[d];
-            }
-            elim.add_direction(g);
-        }
+    let mut force = vec![0.0; n];
+    passive_forces(tree, &ws.q_spring, &tr.v, &mut force);
+    for (f, t) in force.iter_mut().zip(&tr.tau) {
+        *f += t;
     }
-    for (d, joint) in model.joints.iter().enumerate() {
-        let near = |x: f64| {
-            joint
-                .range
-                .is_some_and(|(lo, hi)| x < lo + elim.margin || x > hi - elim.margin)
-        };
-        if joint.frictionloss > 0.0 || near(tr.q[d]) || near(tr.q_next[d]) {
-            let mut g = DVector::zeros(n);
-            g[d] = 1.0;
-            elim.add_direction(g);
-        }
+    let a = DVector::from_fn(n, |i, _| (tr.v_next[i] - tr.v[i]) / h);
+    // Under `Impulses::Mass`: the free acceleration, and its derivatives.
+    let free = (elim.impulses == Impulses::Mass)
+        .then(|| free_acceleration(tree, ws, (mode, h), (&tr.q, &tr.v), &force, jacobian));
+    // R = ID(q, v, a) + extra a - (tau + tau_passive).
+    ws.qdd.copy_from_slice(a.as_slice());
+    rnea(tree, &mut ws.data, &tr.q, &tr.v, &ws.qdd, &mut ws.tau);
+    world_frames(tree, &mut ws.data, &tr.v);
+    elim.touching(&ws.data);
+    let extra = DVector::from_column_slice(&ws.extra);
+    let mut r = DVector::from_fn(n, |i, _| ws.tau[i] + extra[i] * a[i] - force[i]);
+    if let Some((qdd, _)) = &free {
+        r -= extra.component_mul(&(&a - qdd));
     }
-    let scaled = |x: DVector<f64>| x.component_div(&DVector::from_column_slice(&elim.scale));
-    let residual = elim.project(scaled(r));
-    fit.residuals.rows_mut(first, n).copy_from(&residual);
+    elim.constraint_directions(model, &ws.data, tr);
+    let scale = DVector::from_column_slice(&elim.scale);
+    fit.residuals
+        .rows_mut(first, n)
+        .copy_from(&elim.project(r.component_div(&scale)));
     if !jacobian {
         return;
     }
     let at = (&ws.q_spring[..], &tr.v[..], &ws.qdd[..]);
+    let mut dr = DVector::zeros(n);
     for (j, column) in ws.window.columns.iter().enumerate() {
-        let mut dr = DVector::zeros(n);
-        for term in column {
-            match term {
-                Term::Inertia { node, di } => {
-                    add_body_force(tree, &ws.data, *node, di, dr.as_mut_slice())
-                }
-                // Contact and constraint parameters act through the
-                // eliminated impulses alone.
-                Term::Joint { param, .. } if param.is_contact() || param.is_constraint() => {}
-                Term::Joint { param, gain } => {
-                    let (i, value) = joint_derivative(tree, (mode, h), at, *param);
-                    dr[i] += gain * value;
-                }
+        residual_column(tree, &ws.data, (mode, h), at, column, dr.as_mut_slice());
+        if let Some((qdd, dqdd)) = &free {
+            dr += extra.component_mul(&dqdd.column(j));
+            for (i, de) in implicit_diagonal(column, (mode, h)) {
+                dr[i] -= de * (a[i] - qdd[i]);
             }
         }
-        let column = elim.project(scaled(dr));
-        fit.jacobian.view_mut((first, j), (n, 1)).copy_from(&column);
+        let col = elim.project(dr.component_div(&scale));
+        fit.jacobian.view_mut((first, j), (n, 1)).copy_from(&col);
     }
+}
+
+/// qdd_free solving (M + E) qdd_free = tau + tau_passive (`force`), and with
+/// `jacobian` its derivative along every mu column, -(M + E)^-1 dR / d mu_j
+/// at qdd_free (one RNEA and one articulated solve per column).
+fn free_acceleration(
+    tree: &crate::dynamics::Tree<f64>,
+    ws: &mut Workspace,
+    (mode, h): (PassiveMode, f64),
+    (q, v): (&[f64], &[f64]),
+    force: &[f64],
+    jacobian: bool,
+) -> (DVector<f64>, DMatrix<f64>) {
+    let n = tree.nv();
+    let implicit = (mode != PassiveMode::Explicit).then_some(&ws.extra[..]);
+    update_transforms(tree, &mut ws.data, q);
+    aba_with_transforms(tree, &mut ws.data, v, force, implicit, &mut ws.qdd);
+    let qdd = DVector::from_column_slice(&ws.qdd);
+    let columns = &ws.window.columns;
+    let mut dqdd = DMatrix::zeros(n, if jacobian { columns.len() } else { 0 });
+    if jacobian {
+        // RNEA at qdd_free for the body terms; ABA's factors stay in `data`.
+        rnea(tree, &mut ws.data, q, v, &ws.qdd, &mut ws.tau);
+        let at = (&ws.q_spring[..], v, &ws.qdd[..]);
+        let mut sweeps = (vec![Force::zero(); n], vec![Motion::zero(); n]);
+        let mut dr = vec![0.0; n];
+        for (j, column) in columns.iter().enumerate() {
+            residual_column(tree, &ws.data, (mode, h), at, column, &mut dr);
+            articulated_solve(tree, &ws.data, &mut dr, (&mut sweeps.0, &mut sweeps.1));
+            dqdd.set_column(j, &-DVector::from_column_slice(&dr));
+        }
+    }
+    (qdd, dqdd)
+}
+
+/// The implicit diagonal's change along a mu column: (dof, dE_i / d mu_j).
+fn implicit_diagonal(column: &[Term], (mode, h): (PassiveMode, f64)) -> Vec<(usize, f64)> {
+    column
+        .iter()
+        .filter_map(|term| match term {
+            Term::Joint { param, gain } => {
+                implicit_diagonal_derivative((mode, h), *param).map(|(i, de)| (i, gain * de))
+            }
+            Term::Inertia { .. } => None,
+        })
+        .collect()
 }

@@ -37,7 +37,7 @@ mod step;
 mod transition;
 mod window;
 
-pub use eliminated::{eliminated_residuals_into, Elimination};
+pub use eliminated::{eliminated_residuals_into, Elimination, Impulses};
 pub use rnea::{rnea_derivatives, Sweep};
 pub use step::{step_jacobians, StepJacobians, Workspace, Wrt};
 pub use transition::{transition_jacobians, TransitionJacobians};

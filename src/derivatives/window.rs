@@ -20,7 +20,7 @@ use nalgebra::{DMatrix, DVector};
 use super::params::{add_body_force, joint_derivative, node_inertia_derivative};
 use super::step::{step_jacobians, Workspace, Wrt};
 use crate::dynamics::{acceleration, implicit_terms, integrate_euler, Data, StepError, Tree};
-use crate::model::{Integrator, Model, Param, ParamError, ParamMap};
+use crate::model::{Integrator, Model, Param, ParamError, ParamMap, PassiveMode};
 use crate::spatial::{Force, Inertia, Motion};
 
 /// One observed transition (q, v) --tau--> (q_next, v_next).
@@ -262,16 +262,7 @@ fn euler_rows(
     let at = (&ws.q_spring[..], &tr.v[..], &ws.qdd[..]);
     for (j, column) in scratch.columns.iter().enumerate() {
         let dr = &mut ws.tau;
-        dr.fill(0.0);
-        for term in column {
-            match term {
-                Term::Inertia { node, di } => add_body_force(tree, &ws.data, *node, di, dr),
-                Term::Joint { param, gain } => {
-                    let (i, value) = joint_derivative(tree, (mode, h), at, *param);
-                    dr[i] += gain * value;
-                }
-            }
-        }
+        residual_column(tree, &ws.data, (mode, h), at, column, dr);
         let sweeps = (&mut scratch.forces[..], &mut scratch.motions[..]);
         articulated_solve(tree, &ws.data, dr, sweeps);
         let mut col = fit.jacobian.column_mut(j);
@@ -282,6 +273,31 @@ fn euler_rows(
         }
     }
     Ok(())
+}
+
+/// dR / d mu_j into `dr` (zeroed first) at the point (q_spring, v, a) whose
+/// RNEA velocities and accelerations `data` holds: the column's body forces
+/// and joint entries. Contact and constraint parameters add nothing: they
+/// act through constraint forces, not through R.
+pub(super) fn residual_column(
+    tree: &Tree<f64>,
+    data: &Data<f64>,
+    (mode, h): (PassiveMode, f64),
+    at: (&[f64], &[f64], &[f64]),
+    column: &[Term],
+    dr: &mut [f64],
+) {
+    dr.fill(0.0);
+    for term in column {
+        match term {
+            Term::Inertia { node, di } => add_body_force(tree, data, *node, di, dr),
+            Term::Joint { param, .. } if param.is_contact() || param.is_constraint() => {}
+            Term::Joint { param, gain } => {
+                let (i, value) = joint_derivative(tree, (mode, h), at, *param);
+                dr[i] += gain * value;
+            }
+        }
+    }
 }
 
 /// Writes one transition's scaled residuals (predicted - observed) / scale,
@@ -305,7 +321,7 @@ fn put_residuals(
 /// articulated-body pass left in `data` (transforms, U_i = I^A_i S_i and
 /// D_i, extra included): that pass's last two sweeps with no velocity and
 /// no gravity. `forces` and `motions` are scratch of length nv.
-fn articulated_solve(
+pub(super) fn articulated_solve(
     tree: &Tree<f64>,
     data: &Data<f64>,
     b: &mut [f64],

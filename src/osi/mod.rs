@@ -35,8 +35,8 @@ pub use online::{Online, Sampling};
 pub use trivial::{Average, Oracle, Random};
 
 use crate::derivatives::{
-    eliminated_residuals_into, window_residuals_into, Elimination, Transition, WindowError,
-    WindowFit, Workspace,
+    eliminated_residuals_into, window_residuals_into, Elimination, Impulses, Transition,
+    WindowError, WindowFit, Workspace,
 };
 use crate::model::{Model, ParamError, ParamMap};
 
@@ -180,14 +180,16 @@ impl Problem {
     /// within `margin` of its range's ends or with dry friction, eliminated
     /// from each transition's residual (module `derivatives::eliminated`),
     /// whose nv values are generalized forces divided by `force_scale`
-    /// (N or N m). Refuses a bad margin or scale and a model that does not
-    /// integrate with Euler.
+    /// (N or N m), `impulses` the target's convention. Refuses a bad margin
+    /// or scale and a model that does not integrate with Euler.
     pub fn with_unknown_constraints(
         mut self,
         margin: f64,
         force_scale: &[f64],
+        impulses: Impulses,
     ) -> Result<Problem, OsiError> {
-        self.elimination = Some(Elimination::new(&self.model, margin, force_scale)?);
+        let elimination = Elimination::new(&self.model, margin, force_scale, impulses)?;
+        self.elimination = Some(elimination);
         Ok(self)
     }
 
