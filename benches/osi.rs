@@ -12,7 +12,9 @@
 //!
 //! And in contact, at W = 4: `osi_lm/half_cheetah_contact/W4` and
 //! `osi_lm_warm/half_cheetah_contact/W4`, the torso mass from four
-//! consecutive transitions standing on the floor (constraint contact).
+//! consecutive transitions standing on the floor (constraint contact);
+//! `osi_lm/half_cheetah_unknown_constraints/W4`, the same window with the
+//! constraint impulses unknown (`Problem::with_unknown_constraints`).
 //!
 //! Divide by W for the cost per transition (`python -m harness bench` does,
 //! next to the NimblePhysics anchors). Evaluations to tolerance, LM against
@@ -21,6 +23,7 @@
 mod osi_problems;
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use diffosi::derivatives::Impulses;
 use diffosi::osi::{Identifier, Lm};
 use osi_problems::{cartpole, half_cheetah, half_cheetah_contact, truth};
 use std::hint::black_box;
@@ -102,6 +105,22 @@ fn bench_osi_contact(c: &mut Criterion) {
         b.iter(|| {
             Lm::default()
                 .identify(&mut problem, black_box(&window), &warm)
+                .unwrap()
+        })
+    });
+    let n = task.model.nv();
+    let mut unknown = task
+        .problem()
+        .with_unknown_constraints(0.02, &vec![1.0; n], Impulses::Model)
+        .unwrap();
+    let e = Lm::default()
+        .identify(&mut unknown, &window, &[task.prior])
+        .unwrap();
+    assert!((e.mu[0] - mu).abs() < 1e-6, "unknown constraints: {e:?}");
+    c.bench_function("osi_lm/half_cheetah_unknown_constraints/W4", |b| {
+        b.iter(|| {
+            Lm::default()
+                .identify(&mut unknown, black_box(&window), &[task.prior])
                 .unwrap()
         })
     });

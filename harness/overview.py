@@ -118,11 +118,11 @@ def plot(path: Path, doc: dict) -> Path:
         ax.set_xticks(range(len(envs)), [NAMES[e].split(" ")[0] for e in envs])
         ax.set(title=f"{task}", ylabel="% of UC-Oracle in the same engine")
         ax.grid(True, axis="y", alpha=0.3)
-    # One legend on the last panel for every method of every panel.
+    # One legend below the panels for every method of every panel.
     shown_methods = {label: handle for ax in axes[0] for handle, label in zip(*ax.get_legend_handles_labels())}
-    axes[0, -1].legend(shown_methods.values(), shown_methods.keys(), fontsize=8)
+    fig.legend(shown_methods.values(), shown_methods.keys(), loc="lower center", ncol=len(shown_methods), fontsize=9)
     fig.suptitle("Transfer: each method against UC-Oracle, in our engine and in every reference engine")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.07, 1, 1))
     fig.savefig(path, metadata={"Software": None})
     plt.close(fig)
     return path

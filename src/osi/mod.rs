@@ -9,7 +9,10 @@
 //!   ([`window_residuals`]); `scale` holds 2 nv positive values, q then v,
 //!   best set to each component's measurement noise (then J^T J is the
 //!   Fisher information). [`Lm`] can minimise a Huber loss of the same
-//!   scaled residuals instead ([`Loss`]).
+//!   scaled residuals instead ([`Loss`]). When the target's contact law is
+//!   not ours, [`Problem::with_unknown_constraints`] replaces them by nv
+//!   generalized-force residuals per transition with the constraint
+//!   impulses eliminated (module `derivatives::eliminated`).
 //! - The prior is uniform on the bounds: its standard deviation is
 //!   (upper - lower) / sqrt(12). A direction of mu the window does not excite
 //!   keeps its start value and reports that prior standard deviation, so an
