@@ -113,6 +113,16 @@ enum Command {
         /// default 1.
         #[arg(long, value_delimiter = ',', requires = "unknown_constraints")]
         force_scale: Option<Vec<f64>>,
+        /// With --unknown-constraints: how the transitions' engine applies its
+        /// constraint impulses: model (through M + E, E the implicit passive
+        /// diagonal: MuJoCo, ours) or mass (through M alone: DART).
+        #[arg(
+            long,
+            value_enum,
+            default_value = "model",
+            requires = "unknown_constraints"
+        )]
+        impulses: cli::identify::ImpulsesArg,
         /// Print JSON instead of text.
         #[arg(long)]
         json: bool,
@@ -337,6 +347,7 @@ fn main() -> ExitCode {
             scale,
             unknown_constraints,
             force_scale,
+            impulses,
             json,
         } => cli::identify::identify(cli::identify::Request {
             model: &model,
@@ -347,7 +358,7 @@ fn main() -> ExitCode {
             upper,
             init,
             scale,
-            unknown_constraints: unknown_constraints.map(|m| (m, force_scale)),
+            unknown_constraints: unknown_constraints.map(|m| (m, force_scale, impulses.into())),
             json,
         }),
         Command::Train {

@@ -254,11 +254,16 @@ fn unknown_constraints_find_the_mass_under_another_contact_law() {
     };
     let unknown = mass(&["--unknown-constraints", "0.02", "--force-scale", "1"]);
     assert!((unknown - 20.0).abs() < 1e-3, "{unknown}");
+    // The smooth law's forces act through M + E, as ours: DART's way is off.
+    let dart_way = mass(&["--unknown-constraints", "0.02", "--impulses", "mass"]);
+    assert!((dart_way - 20.0).abs() > 1e-3, "{dart_way}");
     let modelled = mass(&[]);
     assert!((modelled - 20.0).abs() > 0.5, "{modelled}");
     let cartpole = write("cartpole-margin.csv", &cartpole_rows(0.3, 5, 1));
     let err = failure(&cartpole, &["--unknown-constraints", "-1"]);
     assert!(err.contains("margin"), "{err}");
     let err = failure(&cartpole, &["--force-scale", "1"]);
+    assert!(err.contains("--unknown-constraints"), "{err}");
+    let err = failure(&cartpole, &["--impulses", "mass"]);
     assert!(err.contains("--unknown-constraints"), "{err}");
 }

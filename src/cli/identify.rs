@@ -20,6 +20,24 @@ pub enum Method {
     Cmaes,
 }
 
+/// How the transitions' engine applies its constraint impulses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ImpulsesArg {
+    /// Through M + E (MuJoCo's and our Euler step).
+    Model,
+    /// Through M alone (DART's).
+    Mass,
+}
+
+impl From<ImpulsesArg> for Impulses {
+    fn from(a: ImpulsesArg) -> Impulses {
+        match a {
+            ImpulsesArg::Model => Impulses::Model,
+            ImpulsesArg::Mass => Impulses::Mass,
+        }
+    }
+}
+
 /// What `identify` is asked, as parsed from the command line.
 pub struct Request<'a> {
     pub model: &'a super::ModelFile,
@@ -30,8 +48,8 @@ pub struct Request<'a> {
     pub upper: Option<Vec<f64>>,
     pub init: Option<Vec<f64>>,
     pub scale: Option<Vec<f64>>,
-    /// The margin and force scale when the constraints are unknown.
-    pub unknown_constraints: Option<(f64, Option<Vec<f64>>)>,
+    /// The margin, force scale and impulses when the constraints are unknown.
+    pub unknown_constraints: Option<(f64, Option<Vec<f64>>, Impulses)>,
     pub json: bool,
 }
 
@@ -98,14 +116,14 @@ pub fn identify(r: Request) -> Result<(), String> {
     let map = ParamMap::identity(&model, r.params).map_err(|e| e.to_string())?;
     let mut problem =
         Problem::new(&model, map, &lower, &upper, &init, &scale).map_err(|e| e.to_string())?;
-    if let Some((margin, force_scale)) = r.unknown_constraints {
+    if let Some((margin, force_scale, impulses)) = r.unknown_constraints {
         let force_scale = match force_scale {
             Some(s) if s.len() == 1 => vec![s[0]; nv],
             s => values("--force-scale", s, vec![1.0; nv], nv)
                 .map_err(|e| format!("{e} (or a single value for all)"))?,
         };
         problem = problem
-            .with_unknown_constraints(margin, &force_scale, Impulses::Model)
+            .with_unknown_constraints(margin, &force_scale, impulses)
             .map_err(|e| e.to_string())?;
     }
     let estimate = match r.method {
