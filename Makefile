@@ -29,7 +29,7 @@ $(MODULE): $(STAMP) $(shell find src bindings/src -name '*.rs') Cargo.toml Cargo
 run: setup
 	scripts/main.sh
 
-# The full transfer study: every task to every reference engine (about 19 min), then the overview.
+# The full transfer study: every task to every reference engine (about 17 min), then the overview.
 study: setup
 	$(VENV)/bin/python -m harness transfer --task all --target all
 	$(VENV)/bin/python -m harness overview --readme

@@ -35,12 +35,18 @@ fn mass_and_armature(model: &Model) -> ParamMap {
     ParamMap::new(model, 2, &entries).unwrap()
 }
 
-fn problem(model: &Model) -> Problem {
+/// (mass, armature) in [1, 50] x [0, 0.3] from (25.5, 0.05), the paper's
+/// residual (constraints modelled).
+fn modelled(model: &Model) -> Problem {
     let map = mass_and_armature(model);
     let scale = vec![1e-3; 2 * model.nv()];
-    Problem::new(model, map, &[1.0, 0.0], &[50.0, 0.3], &[25.5, 0.05], &scale)
-        .unwrap()
-        .with_unknown_constraints(MARGIN, &vec![1.0; model.nv()], Impulses::Model)
+    Problem::new(model, map, &[1.0, 0.0], &[50.0, 0.3], &[25.5, 0.05], &scale).unwrap()
+}
+
+/// The same with the constraints unknown, impulses as `impulses` says.
+fn problem(model: &Model, impulses: Impulses) -> Problem {
+    modelled(model)
+        .with_unknown_constraints(MARGIN, &vec![1.0; model.nv()], impulses)
         .unwrap()
 }
 
@@ -76,7 +82,7 @@ fn our_constrained_steps_leave_no_residual_under_every_passive_mode() {
             touching > 50,
             "{passive:?}: the cheetah must stand on its floor ({touching})"
         );
-        let mut p = problem(&model);
+        let mut p = problem(&model, Impulses::Model);
         let fit = p.fit(&[20.0, 0.1], window.as_slice()).unwrap();
         assert_eq!(fit.residuals.len(), 150 * model.nv());
         let worst = fit.residuals.amax();
@@ -100,7 +106,11 @@ fn torso_mass_and_armature_come_back_from_our_constraint_contact() {
     let truth = with_truth(&model, 20.0, 0.1);
     let window = common::cheetah_walk(&truth, 60, 2);
     let est = Lm::default()
-        .identify(&mut problem(&model), &window, &[25.5, 0.05])
+        .identify(
+            &mut problem(&model, Impulses::Model),
+            &window,
+            &[25.5, 0.05],
+        )
         .unwrap();
     assert!((est.mu[0] - 20.0).abs() < 1e-6, "{:?}", est.mu);
     assert!((est.mu[1] - 0.1).abs() < 1e-8, "{:?}", est.mu);
@@ -118,17 +128,13 @@ fn another_contact_law_leaves_the_mass_unbiased() {
     let window = common::cheetah_walk(&target, 60, 3);
     let start = [25.5, 0.05];
     let est = Lm::default()
-        .identify(&mut problem(&model), &window, &start)
+        .identify(&mut problem(&model, Impulses::Model), &window, &start)
         .unwrap();
     assert!((est.mu[0] - 20.0).abs() < 1e-3, "{:?}", est.mu);
     assert!((est.mu[1] - 0.1).abs() < 1e-5, "{:?}", est.mu);
     // The paper's residual through our constraint contact is biased there.
-    let map = mass_and_armature(&model);
-    let scale = vec![1e-3; 2 * model.nv()];
-    let mut modelled =
-        Problem::new(&model, map, &[1.0, 0.0], &[50.0, 0.3], &start, &scale).unwrap();
     let biased = Lm::default()
-        .identify(&mut modelled, &window, &start)
+        .identify(&mut modelled(&model), &window, &start)
         .unwrap();
     assert!((biased.mu[0] - 20.0).abs() > 0.5, "{:?}", biased.mu);
 }
@@ -229,21 +235,7 @@ fn impulses_through_the_mass_matrix_alone() {
             }
         })
         .collect();
-    let make = |impulses| {
-        let map = mass_and_armature(&model);
-        let scale = vec![1e-3; 2 * n];
-        Problem::new(
-            &model,
-            map,
-            &[1.0, 0.0],
-            &[50.0, 0.3],
-            &[25.5, 0.05],
-            &scale,
-        )
-        .unwrap()
-        .with_unknown_constraints(MARGIN, &vec![1.0; n], impulses)
-        .unwrap()
-    };
+    let make = |impulses| problem(&model, impulses);
     let mass = make(Impulses::Mass)
         .fit(&[20.0, 0.1], window.as_slice())
         .unwrap();
@@ -265,19 +257,7 @@ fn impulses_through_the_mass_matrix_alone() {
 #[test]
 fn bad_settings_are_refused() {
     let model = cheetah();
-    let make = || {
-        let map = mass_and_armature(&model);
-        let scale = vec![1e-3; 2 * model.nv()];
-        Problem::new(
-            &model,
-            map,
-            &[1.0, 0.0],
-            &[50.0, 0.3],
-            &[25.5, 0.05],
-            &scale,
-        )
-        .unwrap()
-    };
+    let make = || modelled(&model);
     let n = model.nv();
     for margin in [-0.1, f64::NAN, f64::INFINITY] {
         let e = make()
@@ -294,14 +274,30 @@ fn bad_settings_are_refused() {
     let rk4 = model
         .edited(|s| s.opt.integrator = Integrator::Rk4)
         .unwrap();
-    let map = mass_and_armature(&rk4);
-    let scale = vec![1e-3; 2 * n];
-    let e = Problem::new(&rk4, map, &[1.0, 0.0], &[50.0, 0.3], &[25.5, 0.05], &scale)
-        .unwrap()
+    let e = modelled(&rk4)
         .with_unknown_constraints(MARGIN, &vec![1.0; n], Impulses::Model)
         .unwrap_err();
     assert!(
         matches!(e, OsiError::Window(_)) && e.to_string().contains("Euler"),
         "{e}"
     );
+}
+
+/// A problem keeps each window position's constraint directions between
+/// evaluations: another window at the same positions must find its own.
+#[test]
+fn a_reused_problem_answers_as_a_fresh_one() {
+    let model = cheetah();
+    let truth = with_truth(&model, 20.0, 0.1);
+    let (a, b) = (
+        common::cheetah_walk(&truth, 40, 7),
+        common::cheetah_walk(&truth, 40, 8),
+    );
+    let mut reused = problem(&model, Impulses::Model);
+    reused.fit(&[25.0, 0.05], a.as_slice()).unwrap();
+    let again = reused.fit(&[25.0, 0.05], b.as_slice()).unwrap();
+    let fresh = problem(&model, Impulses::Model)
+        .fit(&[25.0, 0.05], b.as_slice())
+        .unwrap();
+    assert_eq!(again, fresh);
 }

@@ -81,10 +81,20 @@ pub struct Elimination {
     detect: Model,
     contacts: Vec<ConstraintContact<f64>>,
     pre: Vec<Pre<f64>>,
-    /// The nodes a wrench may act on, and an orthonormal basis of the scaled
-    /// constraint directions (one vector of nv per direction).
+    /// The nodes a wrench may act on (scratch of [`Elimination::refresh`]).
     nodes: Vec<usize>,
-    basis: Vec<DVector<f64>>,
+    /// Per position in the last window: the transition's q and q', and an
+    /// orthonormal basis of its scaled constraint directions (one vector of
+    /// nv per direction). They depend on q and q' alone, so the evaluations
+    /// of one identification find them here.
+    bases: Vec<Basis>,
+}
+
+#[derive(Clone, Debug, Default)]
+struct Basis {
+    q: Vec<f64>,
+    q_next: Vec<f64>,
+    directions: Vec<DVector<f64>>,
 }
 
 impl Elimination {
@@ -124,21 +134,8 @@ impl Elimination {
             contacts: vec![],
             pre: vec![],
             nodes: vec![],
-            basis: vec![],
+            bases: vec![],
         })
-    }
-
-    pub fn margin(&self) -> f64 {
-        self.margin
-    }
-
-    /// The force scale s (nv values, N or N m).
-    pub fn scale(&self) -> &[f64] {
-        &self.scale
-    }
-
-    pub fn impulses(&self) -> Impulses {
-        self.impulses
     }
 
     /// Adds the nodes carrying a body that may touch something at the state
@@ -157,40 +154,54 @@ impl Elimination {
         }
     }
 
-    /// Adds a scaled constraint direction to the basis if it is new.
-    fn add_direction(&mut self, mut g: DVector<f64>) {
-        g.component_div_assign(&DVector::from_column_slice(&self.scale));
-        let norm = g.norm();
-        if norm == 0.0 {
+    /// The basis of transition `t`'s constraint directions, found again only
+    /// when the window's transition there is another: what may touch at q'
+    /// and at q, then the directions from the world axes at q.
+    fn refresh(&mut self, t: usize, model: &Model, data: &mut Data<f64>, tr: &Transition) {
+        if self.bases.len() <= t {
+            self.bases.resize_with(t + 1, Basis::default);
+        }
+        if self.bases[t].q == tr.q && self.bases[t].q_next == tr.q_next {
             return;
         }
-        for _ in 0..2 {
-            for b in &self.basis {
-                g.axpy(-b.dot(&g), b, 1.0);
-            }
+        let tree = model.tree();
+        self.nodes.clear();
+        for (q, v) in [(&tr.q_next, &tr.v_next), (&tr.q, &tr.v)] {
+            update_transforms(tree, data, q);
+            world_frames(tree, data, v);
+            self.touching(data);
         }
-        let left = g.norm();
-        if left > INDEPENDENT * norm {
-            self.basis.push(g / left);
-        }
+        let directions = self.constraint_directions(model, data, tr);
+        self.bases[t] = Basis {
+            q: tr.q.clone(),
+            q_next: tr.q_next.clone(),
+            directions,
+        };
     }
 
-    /// The basis of the scaled constraint directions at a transition whose
-    /// frames at q `data` holds (world axes): a wrench on each touching body,
-    /// a force on each dof near a range end or with dry friction.
-    fn constraint_directions(&mut self, model: &Model, data: &Data<f64>, tr: &Transition) {
+    /// The orthonormal basis of the scaled constraint directions at a
+    /// transition whose frames at q `data` holds (world axes): a wrench on
+    /// each touching body, a force on each dof near a range end or with dry
+    /// friction.
+    fn constraint_directions(
+        &self,
+        model: &Model,
+        data: &Data<f64>,
+        tr: &Transition,
+    ) -> Vec<DVector<f64>> {
         let (n, tree) = (model.nv(), model.tree());
-        self.basis.clear();
-        for k in 0..self.nodes.len() {
+        let scale = DVector::from_column_slice(&self.scale);
+        let mut basis = vec![];
+        for &node in &self.nodes {
             for c in 0..6 {
                 let mut g = DVector::zeros(n);
-                let mut i = Some(self.nodes[k]);
+                let mut i = Some(node);
                 while let Some(d) = i {
                     let s = &data.world_axis[d];
                     g[d] = if c < 3 { s.ang[c] } else { s.lin[c - 3] };
                     i = tree.parent[d];
                 }
-                self.add_direction(g);
+                add_direction(&mut basis, g.component_div(&scale));
             }
         }
         for (d, joint) in model.joints.iter().enumerate() {
@@ -201,18 +212,37 @@ impl Elimination {
             };
             if joint.frictionloss > 0.0 || near(tr.q[d]) || near(tr.q_next[d]) {
                 let mut g = DVector::zeros(n);
-                g[d] = 1.0;
-                self.add_direction(g);
+                g[d] = 1.0 / scale[d];
+                add_direction(&mut basis, g);
             }
         }
+        basis
     }
 
-    /// Takes the basis's directions out of `x` (P x).
-    fn project(&self, mut x: DVector<f64>) -> DVector<f64> {
-        for b in &self.basis {
+    /// Takes transition `t`'s directions out of `x` (P x).
+    fn project(&self, t: usize, mut x: DVector<f64>) -> DVector<f64> {
+        for b in &self.bases[t].directions {
             x.axpy(-b.dot(&x), b, 1.0);
         }
         x
+    }
+}
+
+/// Adds direction `g` to the orthonormal `basis` if it is new (twice
+/// orthogonalised against it).
+fn add_direction(basis: &mut Vec<DVector<f64>>, mut g: DVector<f64>) {
+    let norm = g.norm();
+    if norm == 0.0 {
+        return;
+    }
+    for _ in 0..2 {
+        for b in basis.iter() {
+            g.axpy(-b.dot(&g), b, 1.0);
+        }
+    }
+    let left = g.norm();
+    if left > INDEPENDENT * norm {
+        basis.push(g / left);
     }
 }
 
@@ -231,28 +261,15 @@ pub fn eliminated_residuals_into(
     let n = model.nv();
     map.apply(model, mu)?;
     ws.size_for(model);
-    let (rows, cols) = (n * window.len(), if jacobian { map.nmu } else { 0 });
-    if fit.residuals.len() != rows {
-        fit.residuals = DVector::zeros(rows);
-    }
-    if fit.jacobian.shape() != (rows, cols) {
-        fit.jacobian = nalgebra::DMatrix::zeros(rows, cols);
-    }
-    if fit.gradient.len() != cols {
-        fit.gradient = DVector::zeros(cols);
-    }
+    fit.size(n * window.len(), if jacobian { map.nmu } else { 0 });
     if jacobian {
         directions(model, map, &mut ws.window.columns);
     }
     for (t, tr) in window.iter().enumerate() {
         check_transition(t, tr, n)?;
-        transition_rows(model, ws, tr, elimination, jacobian, fit, n * t);
+        transition_rows(model, ws, (t, tr), elimination, jacobian, fit);
     }
-    fit.loss = fit.residuals.norm_squared();
-    if jacobian {
-        fit.gradient
-            .gemv_tr(2.0, &fit.jacobian, &fit.residuals, 0.0);
-    }
+    fit.finish();
     Ok(())
 }
 
@@ -260,20 +277,15 @@ pub fn eliminated_residuals_into(
 fn transition_rows(
     model: &Model,
     ws: &mut Workspace,
-    tr: &Transition,
+    (t, tr): (usize, &Transition),
     elim: &mut Elimination,
     jacobian: bool,
     fit: &mut WindowFit,
-    first: usize,
 ) {
-    let n = model.nv();
+    let (n, first) = (model.nv(), model.nv() * t);
     let tree = model.tree();
     let (mode, h) = (model.opt.passive, model.opt.timestep);
-    // What may touch at q' (q's frames come with RNEA below).
-    elim.nodes.clear();
-    update_transforms(tree, &mut ws.data, &tr.q_next);
-    world_frames(tree, &mut ws.data, &tr.v_next);
-    elim.touching(&ws.data);
+    elim.refresh(t, model, &mut ws.data, tr);
     implicit_terms(
         tree,
         (mode, h),
@@ -293,18 +305,15 @@ fn transition_rows(
     // R = ID(q, v, a) + extra a - (tau + tau_passive).
     ws.qdd.copy_from_slice(a.as_slice());
     rnea(tree, &mut ws.data, &tr.q, &tr.v, &ws.qdd, &mut ws.tau);
-    world_frames(tree, &mut ws.data, &tr.v);
-    elim.touching(&ws.data);
     let extra = DVector::from_column_slice(&ws.extra);
     let mut r = DVector::from_fn(n, |i, _| ws.tau[i] + extra[i] * a[i] - force[i]);
     if let Some((qdd, _)) = &free {
         r -= extra.component_mul(&(&a - qdd));
     }
-    elim.constraint_directions(model, &ws.data, tr);
     let scale = DVector::from_column_slice(&elim.scale);
     fit.residuals
         .rows_mut(first, n)
-        .copy_from(&elim.project(r.component_div(&scale)));
+        .copy_from(&elim.project(t, r.component_div(&scale)));
     if !jacobian {
         return;
     }
@@ -318,7 +327,7 @@ fn transition_rows(
                 dr[i] -= de * (a[i] - qdd[i]);
             }
         }
-        let col = elim.project(dr.component_div(&scale));
+        let col = elim.project(t, dr.component_div(&scale));
         fit.jacobian.view_mut((first, j), (n, 1)).copy_from(&col);
     }
 }

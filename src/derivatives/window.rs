@@ -81,6 +81,30 @@ impl WindowFit {
             gradient: DVector::zeros(0),
         }
     }
+
+    /// Sizes the buffers for `rows` residuals and `cols` Jacobian columns,
+    /// reallocating only when a shape changes.
+    pub(super) fn size(&mut self, rows: usize, cols: usize) {
+        if self.residuals.len() != rows {
+            self.residuals = DVector::zeros(rows);
+        }
+        if self.jacobian.shape() != (rows, cols) {
+            self.jacobian = DMatrix::zeros(rows, cols);
+        }
+        if self.gradient.len() != cols {
+            self.gradient = DVector::zeros(cols);
+        }
+    }
+
+    /// The loss sum r^2 and, with a Jacobian, its gradient 2 J^T r, from the
+    /// residuals and Jacobian written.
+    pub(super) fn finish(&mut self) {
+        self.loss = self.residuals.norm_squared();
+        if self.jacobian.ncols() > 0 {
+            self.gradient
+                .gemv_tr(2.0, &self.jacobian, &self.residuals, 0.0);
+        }
+    }
 }
 
 /// Evaluates the window loss at mu, with its Jacobian. `model` is set to the
@@ -115,16 +139,7 @@ pub fn window_residuals_into(
     }
     map.apply(model, mu)?;
     ws.size_for(model);
-    let (rows, cols) = (2 * n * window.len(), if jacobian { map.nmu } else { 0 });
-    if fit.residuals.len() != rows {
-        fit.residuals = DVector::zeros(rows);
-    }
-    if fit.jacobian.shape() != (rows, cols) {
-        fit.jacobian = DMatrix::zeros(rows, cols);
-    }
-    if fit.gradient.len() != cols {
-        fit.gradient = DVector::zeros(cols);
-    }
+    fit.size(2 * n * window.len(), if jacobian { map.nmu } else { 0 });
     // The contact parameters' columns need tau_soft's derivatives, and the
     // constraint model's rows its solver's: those windows go through
     // step_jacobians.
@@ -145,11 +160,7 @@ pub fn window_residuals_into(
         };
         step.map_err(|source| WindowError::Step { t, source })?;
     }
-    fit.loss = fit.residuals.norm_squared();
-    if jacobian {
-        fit.gradient
-            .gemv_tr(2.0, &fit.jacobian, &fit.residuals, 0.0);
-    }
+    fit.finish();
     Ok(())
 }
 

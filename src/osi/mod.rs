@@ -196,11 +196,6 @@ impl Problem {
         Ok(self)
     }
 
-    /// How constraint impulses are eliminated, if they are unknown.
-    pub fn unknown_constraints(&self) -> Option<&Elimination> {
-        self.elimination.as_ref()
-    }
-
     /// Residuals per transition: 2 nv (q then v), or nv forces when the
     /// constraints are unknown.
     pub fn rows_per_transition(&self) -> usize {
