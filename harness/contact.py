@@ -185,6 +185,9 @@ class PybulletContact:
         self.movable = [i for i in links if p.getJointInfo(body, i)[2] != pybullet.JOINT_FIXED]
         self.joint_names = [p.getJointInfo(body, i)[1].decode() for i in self.movable]
         self.links = {p.getJointInfo(body, i)[12].decode(): i for i in links}
+        # the file's principal moments: changeDynamics(mass=) alone would recompute them from the
+        # collision shapes
+        self.inertia = {name: p.getDynamicsInfo(body, i)[2] for name, i in self.links.items()}
         assert self.joint_names == [j.name for j in facts["joints"]], f"{urdf}: PyBullet dof order"
         p.changeDynamics(body, -1, linearDamping=0.0, angularDamping=0.0, maxJointVelocity=1e6)
         for i in links:
@@ -215,13 +218,14 @@ class PybulletContact:
             self.settings["missing_armature"] = armature
 
     def set_param(self, name: str, value) -> None:
-        """`body/<link>/mass` (changeDynamics: the COM and the inertia about it kept, as our
-        body/<name>/mass), `joint/<name>/stiffness` (the explicit spring torque) and
+        """`body/<link>/mass` (changeDynamics with the file's principal moments passed back: the
+        COM and the inertia about it kept, as our body/<name>/mass), `joint/<name>/stiffness`
+        (the explicit spring torque) and
         `joint/<name>/damping` (changeDynamics jointDamping)."""
         kind, owner, field = name.split("/")
         x = float(np.ravel(value)[0])
         if (kind, field) == ("body", "mass") and owner in self.links:
-            self.p.changeDynamics(self.body, self.links[owner], mass=x)
+            self.p.changeDynamics(self.body, self.links[owner], mass=x, localInertiaDiagonal=self.inertia[owner])
         elif kind == "joint" and field == "stiffness" and owner in self.joint_names:
             self.stiffness[self.joint_names.index(owner)] = x
         elif kind == "joint" and field == "damping" and owner in self.joint_names:

@@ -2,8 +2,8 @@
 engines' half cheetahs: the URDF twin in PyBullet (hard contacts and limits, no armature,
 substeps) and in DART (its LCP contact, implicit springs, no armature) runs UC-Oracle episodes
 of the shipped UC with a 30 kg torso. From every window of 40 of their transitions, the torso
-mass identified jointly with the leg armature: in PyBullet within a kilogram or two of the truth
-(measured: 1.1 kg mean error), where the paper's residual through our contact law is 22 kg off;
+mass identified jointly with the leg armature: in PyBullet within a kilogram of the truth
+(measured: 0.28 kg mean error), where the paper's residual through our contact law is 25 kg off;
 in DART half as far off as that residual (measured 8.0 kg against 17.6: DART applies its
 constraint impulses through the mass matrix without its implicit spring and damper terms, which
 our residual, MuJoCo's convention, does not know). Told DART's conventions (its implicit springs
@@ -44,7 +44,7 @@ def mass_errors(window_arrays, model=None, **kw):
                      for s in range(0, n - WINDOW + 1, 20)])
 
 
-@pytest.mark.parametrize("target, within, gain", [("pybullet", 3.0, 5.0), ("dart", 12.0, 1.5)])
+@pytest.mark.parametrize("target, within, gain", [("pybullet", 1.0, 20.0), ("dart", 12.0, 1.5)])
 def test_mass_under_another_engines_contact(target, within, gain):
     data = transitions(target)
     unknown = np.abs(mass_errors(data, constraints="unknown")).mean()
