@@ -49,6 +49,7 @@ bench: setup
 golden: setup
 	$(VENV)/bin/python -m harness golden --all --seed 0
 	$(VENV)/bin/python -m harness golden-contact --seed 0
+	$(VENV)/bin/python -m harness golden-free --seed 0
 
 # The long fuzz run (nightly + cargo-fuzz, installed on first use): 10^6
 # executions per target. Its stable smoke run is part of `cargo test`.

@@ -13,6 +13,7 @@ COMMANDS = {
     "gradcheck": "harness.gradcheck",
     "golden": "harness.golden",
     "golden-contact": "harness.golden_contact",
+    "golden-free": "harness.golden_free",
     "bench": "harness.bench",
     "osi-bench": "harness.osi_bench",
     "figures": "harness.figures",

@@ -45,7 +45,7 @@ GYM_ASSETS = [
     "inverted_double_pendulum", "reacher", "pusher", "pusher_v5",
     "swimmer", "point",  # also planar: swimmer needs its fluid forces off (see engines/mujoco.py)
 ]
-# Not generated: ant (free joint), humanoid and humanoidstandup (free joint, tendons).
+# ant, humanoid and humanoidstandup (free joints) and swimmer's fluid: harness/golden_free.py.
 RK4_EXTRA = {"double_pendulum"}  # our models that get a third MuJoCo case with RK4
 
 

@@ -6,8 +6,7 @@ Usage (from the repository root, with the project venv):
     .venv/bin/python scripts/mujoco_compiled.py            # default set, see below
     .venv/bin/python scripts/mujoco_compiled.py a.xml ...  # just these files
 
-The default set is gymnasium's MuJoCo models that our loader supports
-(hinge/slide joints only, no fluid forces), written as gym_<name>.json, and
+The default set is gymnasium's fourteen MuJoCo models, written as gym_<name>.json, and
 every reference_models/*.xml and tests/data/mjcf_*.xml, written as <name>.json,
 all into reference_models/golden/compiled/. tests/mjcf_vs_mujoco.rs loads the same
 XML with our loader and compares.
@@ -32,6 +31,7 @@ GYM_ASSETS = pathlib.Path(
 GYM_MODELS = [
     "half_cheetah", "hopper", "walker2d", "walker2d_v5", "inverted_pendulum",
     "inverted_double_pendulum", "reacher", "pusher", "pusher_v5", "point",
+    "swimmer", "ant", "humanoid", "humanoidstandup",
 ]
 INTEGRATORS = {
     int(mujoco.mjtIntegrator.mjINT_EULER): "Euler",
@@ -59,6 +59,7 @@ def compiled(m):
         "gravity_disabled": bool(m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY),
         "density": float(m.opt.density),
         "viscosity": float(m.opt.viscosity),
+        "wind": floats(m.opt.wind),
     }
     bodies = [{
         "name": name(mujoco.mjtObj.mjOBJ_BODY, i),
@@ -74,6 +75,7 @@ def compiled(m):
     for j in range(m.njnt):
         dof = int(m.jnt_dofadr[j])
         qpos = int(m.jnt_qposadr[j])
+        nq = {0: 7, 1: 4}.get(int(m.jnt_type[j]), 1)
         joints.append({
             "name": name(mujoco.mjtObj.mjOBJ_JOINT, j),
             "type": JOINT_TYPES[int(m.jnt_type[j])],
@@ -88,6 +90,7 @@ def compiled(m):
             "armature": float(m.dof_armature[dof]),
             "ref": float(m.qpos0[qpos]),
             "frictionloss": float(m.dof_frictionloss[dof]),
+            "qpos0": floats(m.qpos0[qpos:qpos + nq]),
         })
     actuators = [{
         "name": name(mujoco.mjtObj.mjOBJ_ACTUATOR, a),
@@ -115,10 +118,6 @@ def compiled(m):
 
 def write(xml, out_name, source):
     m = mujoco.MjModel.from_xml_path(str(xml))
-    kinds = {JOINT_TYPES[int(t)] for t in m.jnt_type}
-    if not kinds <= {"hinge", "slide"}:
-        print(f"skip {xml}: joint types {sorted(kinds)} (only hinge/slide are supported)")
-        return
     data = {"source": source, **compiled(m)}
     OUT.mkdir(parents=True, exist_ok=True)
     path = OUT / f"{out_name}.json"

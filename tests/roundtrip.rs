@@ -158,11 +158,12 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         contact_model,
         soft,
         solver,
+        fluid,
     } = opt;
     let o = &theirs.opt;
     assert_eq!(
-        (timestep, gravity, integrator, passive),
-        (&o.timestep, &o.gravity, &o.integrator, &o.passive),
+        (timestep, gravity, integrator, passive, fluid),
+        (&o.timestep, &o.gravity, &o.integrator, &o.passive, &o.fluid),
         "{model}: options"
     );
     assert_eq!(
@@ -182,6 +183,7 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
             mass,
             com,
             inertia,
+            inertia_frame,
             joints,
         } = a;
         let at = |what: &str| format!("body '{name}' {what}");
@@ -195,6 +197,17 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         worst.number(|| at("mass"), *mass, b.mass);
         worst.numbers(|| at("com"), com.as_slice(), b.com.as_slice());
         rebuilt.tensor(|| at("inertia"), inertia, &b.inertia);
+        // The inertial frame survives where the inertia is diagonal in it (written
+        // as its quat and moments); else the file holds the tensor alone.
+        let axes = inertia_frame.matrix();
+        let local = axes.transpose() * inertia * axes;
+        if (local - Matrix3::from_diagonal(&local.diagonal()))
+            .abs()
+            .max()
+            <= 1e-12 * local.abs().max()
+        {
+            rebuilt.rotation(|| at("inertia_frame"), inertia_frame, &b.inertia_frame);
+        }
     }
     assert_eq!(joints.len(), theirs.joints.len(), "{model}: joints");
     for (a, b) in joints.iter().zip(&theirs.joints) {

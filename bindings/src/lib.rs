@@ -33,8 +33,11 @@ use pyo3::types::{PyDict, PyList, PyTuple};
 /// A rigid-body model with its simulation buffers.
 ///
 /// `Model.load(path)` reads MJCF (`.xml`) or URDF (`.urdf`). States are
-/// (q, v) with q of length nq and v of length nv; tau are generalized forces
-/// of length nv. Parameters are named as in `param_names()`.
+/// (q, v) with q of length nq and v of length nv (MuJoCo's qpos and qvel);
+/// tau are generalized forces of length nv. nq > nv with ball joints (a
+/// quaternion w, x, y, z for 3 dofs: body-frame angular velocity) and free
+/// joints (world position and quaternion for 6 dofs: world linear, then
+/// body-frame angular velocity). Parameters are named as in `param_names()`.
 #[pyclass(name = "Model", module = "diffosi")]
 pub(crate) struct PyModel {
     pub(crate) model: Model,

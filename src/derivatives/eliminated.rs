@@ -6,8 +6,8 @@
 //! Per transition (q, v) --tau--> (q', v'), with a = (v' - v) / h, the
 //! generalized force our smooth dynamics leaves unexplained is the residual
 //! a semi-implicit Euler step zeroes (module `derivatives`):
-//!   R = ID(q, v, a) + extra a - tau - tau_passive(q_spring, v)
-//! (armature inside ID; extra and q_spring from the model's passive mode).
+//!   R = ID(q, v, a) + extra a - tau - tau_passive(stretch, v)
+//! (armature inside ID; extra and stretch from the model's passive mode).
 //! Whatever the constraint law, R = G lambda for some lambda, G's columns
 //! being the generalized forces of
 //! - any wrench (6 columns) on a body with a geom within `margin` of
@@ -259,6 +259,7 @@ pub fn eliminated_residuals_into(
     fit: &mut WindowFit,
 ) -> Result<(), WindowError> {
     let n = model.nv();
+    super::one_dof_joints(model).map_err(|source| WindowError::Step { t: 0, source })?;
     map.apply(model, mu)?;
     ws.size_for(model);
     fit.size(n * window.len(), if jacobian { map.nmu } else { 0 });
@@ -290,11 +291,11 @@ fn transition_rows(
         tree,
         (mode, h),
         (&tr.q, &tr.v),
-        &mut ws.q_spring,
+        &mut ws.stretch,
         &mut ws.extra,
     );
     let mut force = vec![0.0; n];
-    passive_forces(tree, &ws.q_spring, &tr.v, &mut force);
+    passive_forces(tree, &ws.stretch, &tr.v, &mut force);
     for (f, t) in force.iter_mut().zip(&tr.tau) {
         *f += t;
     }
@@ -317,7 +318,7 @@ fn transition_rows(
     if !jacobian {
         return;
     }
-    let at = (&ws.q_spring[..], &tr.v[..], &ws.qdd[..]);
+    let at = (&ws.stretch[..], &tr.v[..], &ws.qdd[..]);
     let mut dr = DVector::zeros(n);
     for (j, column) in ws.window.columns.iter().enumerate() {
         residual_column(tree, &ws.data, (mode, h), at, column, dr.as_mut_slice());
@@ -353,7 +354,7 @@ fn free_acceleration(
     if jacobian {
         // RNEA at qdd_free for the body terms; ABA's factors stay in `data`.
         rnea(tree, &mut ws.data, q, v, &ws.qdd, &mut ws.tau);
-        let at = (&ws.q_spring[..], v, &ws.qdd[..]);
+        let at = (&ws.stretch[..], v, &ws.qdd[..]);
         let mut sweeps = (vec![Force::zero(); n], vec![Motion::zero(); n]);
         let mut dr = vec![0.0; n];
         for (j, column) in columns.iter().enumerate() {

@@ -2,7 +2,7 @@
 //! physical parameters, and the identification loss built on them.
 //!
 //! A step's acceleration qdd solves R(q, v, qdd, tau; p) = 0, with
-//! R = ID(q, v, a) + extra * a - tau - tau_passive(q_spring, v) (see
+//! R = ID(q, v, a) + extra * a - tau - tau_passive(stretch, v) (see
 //! [`crate::dynamics::step`] for the passive modes). Differentiating,
 //! d qdd / d theta = -(M + diag(extra))^-1 dR/d theta, for theta any of q, v,
 //! tau or p. dR/dq and dR/dv come from analytic RNEA derivatives
@@ -42,3 +42,19 @@ pub use rnea::{rnea_derivatives, Sweep};
 pub use step::{step_jacobians, StepJacobians, Workspace, Wrt};
 pub use transition::{transition_jacobians, TransitionJacobians};
 pub use window::{window_residuals, window_residuals_into, Transition, WindowError, WindowFit};
+
+use crate::dynamics::StepError;
+use crate::model::Model;
+
+/// Refuses a model with ball or free joints (these derivatives index q and v
+/// alike, nq = nv: their tangent-space form is still to be written) or fluid
+/// forces (not differentiated yet).
+fn one_dof_joints(model: &Model) -> Result<(), StepError> {
+    if !model.one_dof_joints() {
+        Err(StepError::NoTangentDerivatives)
+    } else if model.opt.fluid.acts() {
+        Err(StepError::NoFluidDerivatives)
+    } else {
+        Ok(())
+    }
+}

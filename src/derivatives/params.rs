@@ -1,5 +1,5 @@
 //! dR/dp for one scalar of a named parameter, where
-//! R(q, v, a, tau; p) = ID(q, v, a) + extra * a - tau - tau_passive(q_spring, v)
+//! R(q, v, a, tau; p) = ID(q, v, a) + extra * a - tau - tau_passive(stretch, v)
 //! is the residual a step's acceleration zeroes (see the module `derivatives`).
 //!
 //! A body parameter changes one node's spatial inertia by dI, so it adds the
@@ -26,7 +26,7 @@ pub fn residual_derivative(
     model: &Model,
     data: &Data<f64>,
     (mode, h): (PassiveMode, f64),
-    (q_spring, v, a): (&[f64], &[f64], &[f64]),
+    (stretch, v, a): (&[f64], &[f64], &[f64]),
     (param, component): (Param, usize),
     out: &mut [f64],
 ) {
@@ -44,7 +44,7 @@ pub fn residual_derivative(
         Param::ContactStiffness | Param::ContactDamping | Param::ContactFriction => {}
         p if p.is_constraint() => {}
         _ => {
-            let (i, value) = joint_derivative(model.tree(), (mode, h), (q_spring, v, a), param);
+            let (i, value) = joint_derivative((mode, h), (stretch, v, a), param);
             out[i] = value;
         }
     }
@@ -91,9 +91,8 @@ pub fn implicit_diagonal_derivative(
 /// dR_i / d(joint parameter) for the joint i it belongs to: (i, value).
 /// Panics on a body parameter.
 pub fn joint_derivative(
-    tree: &Tree<f64>,
     (mode, h): (PassiveMode, f64),
-    (q_spring, v, a): (&[f64], &[f64], &[f64]),
+    (stretch, v, a): (&[f64], &[f64], &[f64]),
     param: Param,
 ) -> (usize, f64) {
     match param {
@@ -111,7 +110,7 @@ pub fn joint_derivative(
             } else {
                 0.0
             };
-            (i, implicit * a[i] + q_spring[i] - tree.springref[i])
+            (i, implicit * a[i] + stretch[i])
         }
         Param::Armature(i) => (i, a[i]),
         _ => unreachable!("{param:?} is not a joint parameter"),

@@ -57,7 +57,7 @@ pub struct Workspace {
     /// Scratch of length nv: inverse dynamics, spring position, implicit
     /// diagonal, a column of an inverse.
     pub(super) tau: Vec<f64>,
-    pub(super) q_spring: Vec<f64>,
+    pub(super) stretch: Vec<f64>,
     pub(super) extra: Vec<f64>,
     column: Vec<f64>,
     /// The constraint model's a - qdd (solver's minus implicit acceleration).
@@ -90,7 +90,7 @@ impl Workspace {
             data: model.data(),
             sweep: Sweep::new(n),
             tau: vec![0.0; n],
-            q_spring: vec![0.0; n],
+            stretch: vec![0.0; n],
             extra: vec![0.0; n],
             column: vec![0.0; n],
             y: vec![0.0; n],
@@ -124,7 +124,8 @@ pub fn step_jacobians(
 ) -> Result<StepJacobians, StepError> {
     let n = model.nv();
     let tree = model.tree();
-    check_inputs(n, (q, v, tau))?;
+    check_inputs(tree, (q, v, tau))?;
+    super::one_dof_joints(model)?;
     ws.size_for(model);
     let (mut q_next, mut v_next) = (vec![0.0; n], vec![0.0; n]);
     // Under the constraint model the columns are analytic but the contact
@@ -154,7 +155,7 @@ pub fn step_jacobians(
             let h = model.opt.timestep;
             let mode = (model.opt.passive, h);
             accel_derivatives(model, ws, mode, (q, v, tau), &analytic_wrt).then(|| {
-                integrate_euler(h, (q, v, &ws.qdd), (&mut q_next, &mut v_next));
+                integrate_euler(tree, h, (q, v, &ws.qdd), (&mut q_next, &mut v_next));
                 euler_blocks(&ws.dqdd, h, n, &analytic_wrt)
             })
         }
@@ -372,7 +373,7 @@ pub(super) fn accel_derivatives(
     let n = model.nv();
     let tree = model.tree();
     acceleration(tree, &mut ws.data, (mode, h), (q, v, tau), &mut ws.qdd);
-    implicit_terms(tree, (mode, h), (q, v), &mut ws.q_spring, &mut ws.extra);
+    implicit_terms(tree, (mode, h), (q, v), &mut ws.stretch, &mut ws.extra);
     if let Some(c) = ws.data.constrained.take() {
         let done = differentiable(&c) && constrained_derivatives(model, ws, (mode, h), v, &c, wrt);
         ws.data.constrained = Some(c);
@@ -409,7 +410,7 @@ pub(super) fn accel_derivatives(
             contact_columns.push((param, col));
         }
         for component in 0..param.size() {
-            let point = (&ws.q_spring[..], v, &ws.qdd[..]);
+            let point = (&ws.stretch[..], v, &ws.qdd[..]);
             residual_derivative(
                 model,
                 &ws.data,
@@ -442,8 +443,8 @@ pub(super) fn accel_derivatives(
     true
 }
 
-/// dR/dq and dR/dv of the passive force -D v - K (q_spring - springref),
-/// q_spring = q (+ h v for DART), into `r_q` and `r_v` (n x n column-major).
+/// dR/dq and dR/dv of the passive force -D v - K stretch,
+/// stretch = q - springref (+ h v for DART), into `r_q` and `r_v` (n x n column-major).
 fn add_passive_partials(
     model: &Model,
     (mode, h): (PassiveMode, f64),
@@ -669,7 +670,7 @@ fn parameter_derivatives(
         .collect();
     let start = ws.r.ncols() - param_columns.len();
     for (k, &(param, component)) in param_columns.iter().enumerate() {
-        let point = (&ws.q_spring[..], v, &a[..]);
+        let point = (&ws.stretch[..], v, &a[..]);
         let explicit = (PassiveMode::Explicit, h);
         residual_derivative(
             model,

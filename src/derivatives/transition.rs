@@ -43,7 +43,8 @@ pub fn transition_jacobians(
     out: &mut TransitionJacobians,
 ) -> Result<(), StepError> {
     let n = model.nv();
-    check_inputs(n, (q, v, tau))?;
+    check_inputs(model.tree(), (q, v, tau))?;
+    super::one_dof_joints(model)?;
     ws.size_for(model);
     if out.q_next.len() != n {
         *out = TransitionJacobians::new(n);
@@ -58,7 +59,12 @@ pub fn transition_jacobians(
     if model.opt.integrator == Integrator::Euler
         && accel_derivatives(model, ws, mode, (q, v, tau), &wrt)
     {
-        integrate_euler(h, (q, v, &ws.qdd), (&mut out.q_next, &mut out.v_next));
+        integrate_euler(
+            model.tree(),
+            h,
+            (q, v, &ws.qdd),
+            (&mut out.q_next, &mut out.v_next),
+        );
         // Without short-circuit: a loop the compiler vectorises.
         let finite = |x: &[f64]| x.iter().fold(true, |all, x| all & x.is_finite());
         if !finite(&out.q_next) || !finite(&out.v_next) {

@@ -134,6 +134,7 @@ pub fn window_residuals_into(
     fit: &mut WindowFit,
 ) -> Result<(), WindowError> {
     let n = model.nv();
+    super::one_dof_joints(model).map_err(|source| WindowError::Step { t: 0, source })?;
     if scale.len() != 2 * n || scale.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
         return Err(WindowError::Scale { expected: 2 * n });
     }
@@ -249,7 +250,7 @@ fn euler_rows(
     acceleration(tree, &mut ws.data, (mode, h), point, &mut ws.qdd);
     let scratch = &mut ws.window;
     let next = (&mut scratch.q_next[..], &mut scratch.v_next[..]);
-    integrate_euler(h, (&tr.q, &tr.v, &ws.qdd), next);
+    integrate_euler(tree, h, (&tr.q, &tr.v, &ws.qdd), next);
     if !scratch
         .q_next
         .iter()
@@ -267,10 +268,10 @@ fn euler_rows(
         tree,
         (mode, h),
         (&tr.q, &tr.v),
-        &mut ws.q_spring,
+        &mut ws.stretch,
         &mut ws.extra,
     );
-    let at = (&ws.q_spring[..], &tr.v[..], &ws.qdd[..]);
+    let at = (&ws.stretch[..], &tr.v[..], &ws.qdd[..]);
     for (j, column) in scratch.columns.iter().enumerate() {
         let dr = &mut ws.tau;
         residual_column(tree, &ws.data, (mode, h), at, column, dr);
@@ -286,7 +287,7 @@ fn euler_rows(
     Ok(())
 }
 
-/// dR / d mu_j into `dr` (zeroed first) at the point (q_spring, v, a) whose
+/// dR / d mu_j into `dr` (zeroed first) at the point (stretch, v, a) whose
 /// RNEA velocities and accelerations `data` holds: the column's body forces
 /// and joint entries. Contact and constraint parameters add nothing: they
 /// act through constraint forces, not through R.
@@ -304,7 +305,7 @@ pub(super) fn residual_column(
             Term::Inertia { node, di } => add_body_force(tree, data, *node, di, dr),
             Term::Joint { param, .. } if param.is_contact() || param.is_constraint() => {}
             Term::Joint { param, gain } => {
-                let (i, value) = joint_derivative(tree, (mode, h), at, *param);
+                let (i, value) = joint_derivative((mode, h), at, *param);
                 dr[i] += gain * value;
             }
         }

@@ -40,7 +40,7 @@ pub fn aba_with_transforms<T: Real>(
         };
         let inertia = &tree.inertia[i];
         data.vel[i] = vel;
-        data.bias_acc[i] = vel.cross_motion(&joint_vel);
+        data.bias_acc[i] = tree.crossed_velocity(i, vel, v).cross_motion(&joint_vel);
         data.art_inertia[i] = (*inertia).into();
         data.art_bias[i] = vel.cross_force(&inertia.mul_motion(&vel));
     }

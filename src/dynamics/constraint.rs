@@ -187,7 +187,7 @@ fn invweight0_raw<T: Real>(
 ) -> (Vec<[T; 2]>, Vec<T>) {
     let n = tree.nv();
     let mut data = Data::new(tree);
-    let q: Vec<T> = tree.joint.iter().map(|j| j.reference).collect();
+    let q: Vec<T> = spec.reference_q().into_iter().map(lift).collect();
     crba(tree, &mut data, &q);
     let mut factored = data.mass_matrix.clone();
     ltdl_factor(tree, &mut factored);
@@ -221,7 +221,7 @@ fn invweight0_raw<T: Real>(
     }
     let dofs = (0..n)
         .map(|i| {
-            let body = spec.joints[i].body;
+            let body = spec.joints[tree.node_joint[i]].body;
             if simple[body] {
                 let mass = lift_param(Param::Mass(body), 0, spec.bodies[body].mass);
                 return T::one() / mass.max(lift(MINVAL));
@@ -519,10 +519,10 @@ pub fn rows<T: Real>(
         else {
             continue;
         };
-        for (dist, sign) in [
-            (q[i] - lift(lo), T::one()),
-            (lift::<T>(hi) - q[i], -T::one()),
-        ] {
+        let x = q[tree.joint[i]
+            .coordinate()
+            .expect("limits are on hinges and slides")];
+        for (dist, sign) in [(x - lift(lo), T::one()), (lift::<T>(hi) - x, -T::one())] {
             if dist < lift(margin) {
                 unit(rows, i, sign);
                 let block = Block {

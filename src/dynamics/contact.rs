@@ -408,12 +408,15 @@ fn add_limit_forces<T: Real>(tree: &Tree<T>, (q, v): (&[T], &[T]), out: &mut [T]
     let cutoff: T = lift(-CUTOFF_WIDTHS * w);
     for (i, range) in tree.limits.iter().enumerate() {
         let Some((lo, hi)) = *range else { continue };
-        let below = lift::<T>(lo) - q[i];
+        let x = q[tree.joint[i]
+            .coordinate()
+            .expect("limits are on hinges and slides")];
+        let below = lift::<T>(lo) - x;
         if below > cutoff {
             let (s, ds) = softplus(below, w);
             out[i] += k * s - c * ds * v[i];
         }
-        let above = q[i] - lift::<T>(hi);
+        let above = x - lift::<T>(hi);
         if above > cutoff {
             let (s, ds) = softplus(above, w);
             out[i] -= k * s + c * ds * v[i];

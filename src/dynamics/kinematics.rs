@@ -8,7 +8,7 @@ use crate::spatial::{Real, Transform};
 /// Fills `data.x_up[i]`, the transform from node i's parent frame to its frame.
 pub fn update_transforms<T: Real>(tree: &Tree<T>, data: &mut Data<T>, q: &[T]) {
     for i in 0..tree.nv() {
-        data.x_up[i] = tree.joint[i].transform(q[i]).compose(&tree.x_tree[i]);
+        data.x_up[i] = tree.joint[i].transform(q).compose(&tree.x_tree[i]);
     }
 }
 
@@ -17,7 +17,7 @@ pub fn body_poses<T: Real>(tree: &Tree<T>, q: &[T]) -> Vec<(Matrix3<T>, Vector3<
     // to_node[i]: from world coordinates to node i's frame.
     let mut to_node: Vec<Transform<T>> = Vec::with_capacity(tree.nv());
     for i in 0..tree.nv() {
-        let up = tree.joint[i].transform(q[i]).compose(&tree.x_tree[i]);
+        let up = tree.joint[i].transform(q).compose(&tree.x_tree[i]);
         let x = match tree.parent[i] {
             Some(p) => up.compose(&to_node[p]),
             None => up,

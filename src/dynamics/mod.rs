@@ -18,9 +18,11 @@ mod box_box;
 mod capsule_box;
 pub mod cholesky;
 pub mod collision;
+pub mod configuration;
 pub mod constraint;
 pub mod contact;
 mod crba;
+pub mod fluid;
 mod kinematics;
 mod ltdl;
 mod passive;
@@ -34,7 +36,7 @@ pub use contact::{add_soft_forces, add_soft_forces_with_transforms, body_contact
 pub use crba::{crba, crba_with_transforms};
 pub use kinematics::{body_poses, update_transforms};
 pub use ltdl::{ltdl_factor, ltdl_inverse, ltdl_solve, ltdl_solve_columns};
-pub use passive::passive_forces;
+pub use passive::{passive_forces, stretch};
 pub use rnea::{bias_forces, bias_forces_with_transforms, rnea, rnea_with_transforms};
 pub use step::{
     acceleration, check_inputs, implicit_terms, integrate_euler, step, Constrained, StepError,
@@ -74,9 +76,11 @@ pub struct Data<T: Real> {
     pub contacts: Vec<Contact<T>>,
     /// The constraint model's last evaluation: its contacts, rows and solution.
     pub constrained: Option<Constrained<T>>,
-    /// Scratch vectors of length nv: the acceleration's, and RK4's stages.
+    /// Scratch vectors: the acceleration's (nv each), and RK4's stages
+    /// (qdd, q, v, the position step, the stage's tangent offset and rate:
+    /// nv, nq, then nv each).
     scratch: [Vec<T>; 3],
-    stage: [Vec<T>; 3],
+    stage: [Vec<T>; 6],
     /// The constraint model's buffers.
     reuse: step::Reuse<T>,
 }
@@ -111,7 +115,7 @@ impl<T: Real> Data<T> {
             contacts: vec![],
             constrained: None,
             scratch: std::array::from_fn(|_| vec![T::zero(); n]),
-            stage: std::array::from_fn(|_| vec![T::zero(); n]),
+            stage: std::array::from_fn(|k| vec![T::zero(); if k == 1 { tree.nq() } else { n }]),
             reuse: step::Reuse::new(n),
         }
     }

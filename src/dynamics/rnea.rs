@@ -53,7 +53,8 @@ fn newton_euler<T: Real>(
             None => (Motion::zero(), x.apply_motion(&a_world)),
         };
         let vel = v_parent + s * v[i];
-        let acc = a_parent + s * a(i) + vel.cross_motion(&(s * v[i]));
+        let crossed = tree.crossed_velocity(i, vel, v);
+        let acc = a_parent + s * a(i) + crossed.cross_motion(&(s * v[i]));
         let inertia = &tree.inertia[i];
         data.force[i] = inertia.mul_motion(&acc) + vel.cross_force(&inertia.mul_motion(&vel));
         data.vel[i] = vel;

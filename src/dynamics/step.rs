@@ -3,11 +3,14 @@
 use nalgebra::DMatrix;
 
 use super::collision::{ConstraintContact, Pre};
+use super::configuration::{integrate, tangent_rate};
 use super::constraint::{rows, unreachable_pair, world_frames, Rows};
+use super::fluid::add_fluid_forces;
 use super::solver::{solve, Scratch, Solution};
 use super::{
     aba_with_transforms, add_soft_forces_with_transforms, bias_forces_with_transforms,
-    crba_with_transforms, ltdl_factor, ltdl_solve, passive_forces, update_transforms, Data, Tree,
+    crba_with_transforms, ltdl_factor, ltdl_solve, passive_forces, stretch, update_transforms,
+    Data, Tree,
 };
 use crate::model::{ContactModel, Integrator, Options, PassiveMode};
 use crate::spatial::{lift, Real};
@@ -33,22 +36,37 @@ pub enum StepError {
         .0[0], .0[1]
     )]
     NoCollider([usize; 2]),
+    /// Derivatives in the tangent space of ball and free joints are not
+    /// written yet.
+    #[error(
+        "derivatives of models with ball or free joints are not supported yet (the model steps; \
+         its Jacobians and identification do not)"
+    )]
+    NoTangentDerivatives,
+    /// Fluid forces are not differentiated yet.
+    #[error("derivatives of models with fluid forces are not supported yet (the model steps)")]
+    NoFluidDerivatives,
     /// The next state is finite but a Jacobian block overflowed.
     #[error("the step Jacobian {block} is not finite (state, forces or parameters too large)")]
     JacobianNotFinite { block: &'static str },
 }
 
 /// Advances (q, v) by one timestep under generalized forces tau, writing the
-/// next state into (q_next, v_next).
+/// next state into (q_next, v_next). q has nq coordinates, v, tau and qdd nv
+/// (module `model`); q (+) h v moves q along v ([`integrate`]: q + h v for
+/// hinges and slides, the quaternions turned by their body-frame angular
+/// velocity), and s(q) is the springs' stretch ([`stretch`]: q - q_s).
 ///
-/// Semi-implicit Euler: v' = v + h qdd, q' = q + h v', where qdd solves
-/// - `Explicit`:                 M qdd = tau - c - D v  - K (q - q_s)
-/// - `ImplicitDamping`:          (M + hD) qdd = tau - c - D v - K (q - q_s),
+/// Semi-implicit Euler: v' = v + h qdd, q' = q (+) h v', where qdd solves
+/// - `Explicit`:                 M qdd = tau - c - D v  - K s(q)
+/// - `ImplicitDamping`:          (M + hD) qdd = tau - c - D v - K s(q),
 ///   i.e. damping acts at v' (MuJoCo's Euler)
-/// - `ImplicitDampingStiffness`: (M + hD + h^2 K) qdd = tau - c - D v - K (q + h v - q_s),
+/// - `ImplicitDampingStiffness`: (M + hD + h^2 K) qdd = tau - c - D v - K (s(q) + h v),
 ///   i.e. damping at v' and the spring at q' (DART)
 ///
-/// RK4 integrates q' = v, v' = M^-1 (tau - c - D v - K (q - q_s)) classically.
+/// RK4 integrates dq/dt = v, dv/dt = M^-1 (tau - c - D v - K s(q)) classically,
+/// its stages and result moved along the manifold as MuJoCo's mj_RungeKutta
+/// does.
 ///
 /// Contact and joint-limit forces ([`super::contact`]) join tau on the right:
 /// explicit in the Euler step (evaluated at (q, v)), at each stage under RK4.
@@ -59,14 +77,17 @@ pub fn step<T: Real>(
     (q, v, tau): (&[T], &[T], &[T]),
     (q_next, v_next): (&mut [T], &mut [T]),
 ) -> Result<(), StepError> {
-    let n = tree.nv();
-    check_inputs(n, (q, v, tau))?;
-    for (name, x) in [("q_next", &*q_next), ("v_next", &*v_next)] {
-        if x.len() != n {
+    check_inputs(tree, (q, v, tau))?;
+    let lengths = [
+        ("q_next", q_next.len(), q.len()),
+        ("v_next", v_next.len(), v.len()),
+    ];
+    for (name, got, expected) in lengths {
+        if got != expected {
             return Err(StepError::Length {
                 name,
-                got: x.len(),
-                expected: n,
+                got,
+                expected,
             });
         }
     }
@@ -91,9 +112,13 @@ pub fn step<T: Real>(
     }
 }
 
-/// Checks that q, v and tau have length n and finite entries.
-pub fn check_inputs<T: Real>(n: usize, (q, v, tau): (&[T], &[T], &[T])) -> Result<(), StepError> {
-    for (name, x) in [("q", q), ("v", v), ("tau", tau)] {
+/// Checks that q has length nq, v and tau nv, and all are finite.
+pub fn check_inputs<T: Real>(
+    tree: &Tree<T>,
+    (q, v, tau): (&[T], &[T], &[T]),
+) -> Result<(), StepError> {
+    let (nq, nv) = (tree.nq(), tree.nv());
+    for (name, x, n) in [("q", q, nq), ("v", v, nv), ("tau", tau, nv)] {
         check(name, x, n)?;
     }
     Ok(())
@@ -126,14 +151,18 @@ pub fn acceleration<T: Real>(
     qdd: &mut [T],
 ) {
     let mut scratch = std::mem::take(&mut data.scratch);
-    let [force, extra, q_spring, ..] = &mut scratch;
-    implicit_terms(tree, (mode, h), (q, v), q_spring, extra);
-    passive_forces(tree, q_spring, v, force);
+    let [force, extra, stretched, ..] = &mut scratch;
+    implicit_terms(tree, (mode, h), (q, v), stretched, extra);
+    passive_forces(tree, stretched, v, force);
     for i in 0..tree.nv() {
         force[i] += tau[i];
     }
     let implicit = (mode != PassiveMode::Explicit).then_some(&extra[..]);
     update_transforms(tree, data, q);
+    if !tree.fluid.is_empty() {
+        world_frames(tree, data, v);
+        add_fluid_forces(tree, &tree.medium, data, force);
+    }
     let previous = data.constrained.take();
     if tree.contact_model == ContactModel::Constraint && tree.has_constraints() {
         world_frames(tree, data, v);
@@ -266,22 +295,26 @@ fn constrained<T: Real>(
     }
 }
 
-/// For a semi-implicit Euler step: the position at which the spring acts, and
+/// For a semi-implicit Euler step: the springs' stretch where they act, and
 /// the diagonal added to M by the implicit passive terms (see [`step`]).
 pub fn implicit_terms<T: Real>(
     tree: &Tree<T>,
     (mode, h): (PassiveMode, f64),
     (q, v): (&[T], &[T]),
-    q_spring: &mut [T],
+    stretched: &mut [T],
     extra: &mut [T],
 ) {
     let h: T = lift(h);
+    stretch(tree, q, stretched);
     for i in 0..tree.nv() {
         let (d, k) = (tree.damping[i], tree.stiffness[i]);
-        (q_spring[i], extra[i]) = match mode {
-            PassiveMode::Explicit => (q[i], T::zero()),
-            PassiveMode::ImplicitDamping => (q[i], h * d),
-            PassiveMode::ImplicitDampingStiffness => (q[i] + h * v[i], h * d + h * h * k),
+        extra[i] = match mode {
+            PassiveMode::Explicit => T::zero(),
+            PassiveMode::ImplicitDamping => h * d,
+            PassiveMode::ImplicitDampingStiffness => {
+                stretched[i] += h * v[i];
+                h * d + h * h * k
+            }
         };
     }
 }
@@ -296,21 +329,22 @@ fn euler<T: Real>(
 ) {
     let mut qdd = std::mem::take(&mut data.stage[0]);
     acceleration(tree, data, (mode, h), (q, v, tau), &mut qdd);
-    integrate_euler(h, (q, v, &qdd), (q_next, v_next));
+    integrate_euler(tree, h, (q, v, &qdd), (q_next, v_next));
     data.stage[0] = qdd;
 }
 
-/// v' = v + h qdd, q' = q + h v'.
+/// v' = v + h qdd, q' = q (+) h v'.
 pub fn integrate_euler<T: Real>(
+    tree: &Tree<T>,
     h: f64,
     (q, v, qdd): (&[T], &[T], &[T]),
     (q_next, v_next): (&mut [T], &mut [T]),
 ) {
     let h: T = lift(h);
-    for i in 0..q.len() {
+    for i in 0..v.len() {
         v_next[i] = v[i] + h * qdd[i];
-        q_next[i] = q[i] + h * v_next[i];
     }
+    integrate(tree, q, v_next, h, q_next);
 }
 
 /// Classic RK4 on (q, v) with explicit passive forces. The weighted sums of the
@@ -325,12 +359,14 @@ fn rk4<T: Real>(
     let h: T = lift(timestep);
     let two = T::one() + T::one();
     let mut stage = std::mem::take(&mut data.stage);
-    let [qdd, q_stage, v_stage] = &mut stage;
+    let [qdd, q_stage, v_stage, dq, theta, rate] = &mut stage;
     q_stage.copy_from_slice(q);
     v_stage.copy_from_slice(v);
-    q_next.copy_from_slice(q);
     v_next.copy_from_slice(v);
-    // Stage k is evaluated at (q, v) + step[k] * (previous stage derivative).
+    dq.fill(T::zero());
+    theta.fill(T::zero());
+    // Stage k is evaluated at (q (+) theta, v + step[k-1] qdd_(k-1)), theta =
+    // step[k-1] times the previous stage's tangent rate.
     let step_to_next = [h / two, h / two, h, T::zero()];
     let weight = [
         h / (two * lift(3.0)),
@@ -347,13 +383,16 @@ fn rk4<T: Real>(
             stage_state,
             qdd,
         );
+        // The stage derivative is (tangent rate, qdd).
+        tangent_rate(tree, theta, v_stage, rate);
         for i in 0..tree.nv() {
-            // The stage derivative is (v_stage, qdd).
-            q_next[i] += weight[k] * v_stage[i];
+            dq[i] += weight[k] * rate[i];
             v_next[i] += weight[k] * qdd[i];
-            q_stage[i] = q[i] + step_to_next[k] * v_stage[i];
+            theta[i] = step_to_next[k] * rate[i];
             v_stage[i] = v[i] + step_to_next[k] * qdd[i];
         }
+        integrate(tree, q, theta, T::one(), q_stage);
     }
+    integrate(tree, q, dq, T::one(), q_next);
     data.stage = stage;
 }

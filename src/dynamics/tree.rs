@@ -1,31 +1,40 @@
 //! The numeric form of a model that the algorithms run on, in any scalar.
 //!
-//! Every joint is one dof and one node of the tree. Node i has a frame: its
-//! body's frame after the joints of the body up to and including joint i have
-//! moved it (module `model` defines the order). Node i's parent is the node of
-//! the previous joint on the path to the world, or the world itself (`None`).
-//! A node carries the inertia of its body if it is the body's last joint, plus
-//! the inertia of every body welded (jointless) below that body.
+//! Every dof is one node of the tree: a hinge or slide joint is one node, a
+//! ball three (its body-frame axes x, y, z: the first turns the frame by the
+//! quaternion, the other two share that frame), a free joint six (slides
+//! along the world axes, then a ball). Node i has a frame: its body's frame
+//! after the joints of the body up to and including node i have moved it
+//! (module `model` defines the order). Node i's parent is the previous node
+//! on the path to the world, or the world itself (`None`). A node carries the
+//! inertia of its body if it is the body's last node, plus the inertia of
+//! every body welded (jointless) below that body.
 
 use nalgebra::{Matrix3, Vector3};
 
 use super::collision::{collision_pairs, CollisionPair};
+use super::configuration::{rotation_matrix, Coordinates};
 use super::constraint::{invweight0, ConstraintConsts, Limit};
 use super::contact::{contact_pairs, GeomFrame, Pair, Soft};
+use super::fluid::{fluid_bodies, FluidBody};
 use crate::model::params::inertia_to_six;
-use crate::model::{Body, ContactModel, JointKind, Param, SoftOptions, Spec};
+use crate::model::{Body, ContactModel, Fluid, JointKind, Param, SoftOptions, Spec};
 use crate::spatial::{lift, lift_vector, Inertia, Motion, Real, Transform};
 
-/// A one-dof joint in its node's frame. Its motion subspace `s` is the same
-/// before and after the joint moves.
+/// A node's dof in its frame: a hinge (a ball's axis too) or a slide. Its
+/// motion subspace `s` is the same before and after the joint moves.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NodeJoint<T: Real> {
+    /// Hinge, Slide or Ball (a ball's axis; a free joint's nodes are slides
+    /// and a ball's).
     pub kind: JointKind,
     pub axis: Vector3<T>,
     pub anchor: Vector3<T>,
-    /// q at which the joint transform is the identity.
+    /// The coordinate at which a hinge or slide's transform is the identity.
     pub reference: T,
     pub s: Motion<T>,
+    /// Where its coordinates are in q.
+    pub coordinates: Coordinates,
 }
 
 /// The rotation by `angle` about the unit `axis` (Rodrigues' formula).
@@ -55,10 +64,15 @@ fn rotation<T: Real>(axis: &Vector3<T>, angle: T) -> Matrix3<T> {
 }
 
 impl<T: Real> NodeJoint<T> {
-    fn new(kind: JointKind, axis: Vector3<T>, anchor: Vector3<T>, reference: T) -> Self {
+    fn new(
+        kind: JointKind,
+        (axis, anchor): (Vector3<T>, Vector3<T>),
+        reference: T,
+        coordinates: Coordinates,
+    ) -> Self {
         let s = match kind {
-            JointKind::Hinge => Motion::new(axis, anchor.cross(&axis)),
             JointKind::Slide => Motion::new(Vector3::zeros(), axis),
+            _ => Motion::new(axis, anchor.cross(&axis)),
         };
         NodeJoint {
             kind,
@@ -66,19 +80,44 @@ impl<T: Real> NodeJoint<T> {
             anchor,
             reference,
             s,
+            coordinates,
         }
     }
 
-    /// X_J(q): from the frame before the joint to the frame after it.
+    /// X_J(q) (q: the whole configuration): from the frame before the joint
+    /// to the frame after it. A ball's first axis carries its rotation, the
+    /// other two the identity.
     #[inline]
-    pub fn transform(&self, q: T) -> Transform<T> {
-        let angle = q - self.reference;
-        match self.kind {
-            JointKind::Hinge => {
-                let r = rotation(&self.axis, angle);
-                Transform::from_pose(&r, &(self.anchor - r * self.anchor))
-            }
-            JointKind::Slide => Transform::from_pose(&Matrix3::identity(), &(self.axis * angle)),
+    pub fn transform(&self, q: &[T]) -> Transform<T> {
+        let turn = |r: Matrix3<T>| Transform::from_pose(&r, &(self.anchor - r * self.anchor));
+        match (self.kind, self.coordinates) {
+            (JointKind::Slide, Coordinates::Scalar { at }) => Transform::from_pose(
+                &Matrix3::identity(),
+                &(self.axis * (q[at] - self.reference)),
+            ),
+            (_, Coordinates::Scalar { at }) => turn(rotation(&self.axis, q[at] - self.reference)),
+            (_, Coordinates::Rotation { at, axis: 0 }) => turn(rotation_matrix(&q[at..at + 4])),
+            (_, Coordinates::Rotation { .. }) => Transform::identity(),
+        }
+    }
+
+    /// A hinge's or slide's coordinate in q (None on a ball's axes, which
+    /// have no limits).
+    pub fn coordinate(&self) -> Option<usize> {
+        match self.coordinates {
+            Coordinates::Scalar { at } => Some(at),
+            Coordinates::Rotation { .. } => None,
+        }
+    }
+
+    /// The axes of its ball before it (0, 1 or 2; 0 for any other joint):
+    /// their velocities are not part of the velocity its own dof's motion
+    /// crosses (the velocity-product term uses the velocity entering the
+    /// ball, as MuJoCo's cdof_dot does).
+    pub fn ball_axes_before(&self) -> usize {
+        match self.coordinates {
+            Coordinates::Rotation { axis, .. } => axis,
+            Coordinates::Scalar { .. } => 0,
         }
     }
 }
@@ -103,8 +142,12 @@ pub struct Tree<T: Real> {
     pub inertia: Vec<Inertia<T>>,
     pub damping: Vec<T>,
     pub stiffness: Vec<T>,
-    pub springref: Vec<T>,
+    /// The springs' rest configuration (nq; MuJoCo's qpos_spring): a hinge's
+    /// or slide's springref, a ball's or free joint's reference.
+    pub spring_q: Vec<T>,
     pub armature: Vec<T>,
+    /// Per node, the model joint it belongs to.
+    pub node_joint: Vec<usize>,
     pub gravity: Vector3<T>,
     pub body: Vec<BodyFrame<T>>,
     /// The geoms in contact pairs, and the pairs (indices into `geoms`, see
@@ -119,6 +162,9 @@ pub struct Tree<T: Real> {
     /// model's constants (empty under the smooth model).
     pub contact_model: ContactModel,
     pub constraint: ConstraintConsts<T>,
+    /// The medium and the bodies it acts on (none without one).
+    pub medium: Fluid,
+    pub fluid: Vec<FluidBody<T>>,
 }
 
 impl<T: Real> Tree<T> {
@@ -131,8 +177,9 @@ impl<T: Real> Tree<T> {
             inertia: vec![],
             damping: vec![],
             stiffness: vec![],
-            springref: vec![],
+            spring_q: vec![],
             armature: vec![],
+            node_joint: vec![],
             gravity: Vector3::zeros(),
             body: vec![],
             geoms: vec![],
@@ -141,6 +188,8 @@ impl<T: Real> Tree<T> {
             soft: Soft::new(&SoftOptions::default(), [T::zero(); 3]),
             contact_model: ContactModel::Smooth,
             constraint: ConstraintConsts::empty(),
+            medium: Fluid::default(),
+            fluid: vec![],
         }
     }
 
@@ -164,6 +213,23 @@ impl<T: Real> Tree<T> {
         self.parent.len()
     }
 
+    pub fn nq(&self) -> usize {
+        self.spring_q.len()
+    }
+
+    /// The velocity node i's dof moves within, for its velocity-product
+    /// term: `vel` (node i's) less the motion of the axes of its ball before
+    /// it (see [`NodeJoint::ball_axes_before`]); `vel` itself elsewhere.
+    pub fn crossed_velocity(&self, i: usize, vel: Motion<T>, v: &[T]) -> Motion<T> {
+        let before = self.joint[i].ball_axes_before();
+        (1..=before).fold(vel, |m, k| m - self.joint[i - k].s * v[i - k])
+    }
+
+    /// Each body's (node, offset) (see [`BodyFrame`]).
+    pub fn body_frames(&self) -> Vec<(Option<usize>, Transform<T>)> {
+        self.body.iter().map(|b| (b.node, b.offset)).collect()
+    }
+
     /// Builds the tree of a validated model, lifting its numbers into T.
     pub fn build(model: &Spec) -> Self {
         Self::build_with(model, |_, _, x| lift(x))
@@ -179,32 +245,43 @@ impl<T: Real> Tree<T> {
             node: None,
             offset: Transform::identity(),
         });
+        let reference = model.reference_q();
+        let mut at = 0;
         for (index, b) in model.bodies.iter().enumerate().skip(1) {
             let parent = tree.body[b.parent];
             let place = Transform::from_pose_f64(&b.rot, &b.pos).compose(&parent.offset);
             let mut node = parent.node;
-            let mut x_tree = place;
+            // A free joint places its body absolutely.
+            let free = model.joints[b.joints.clone()]
+                .iter()
+                .any(|j| j.kind == JointKind::Free);
+            let mut x_tree = if free { Transform::identity() } else { place };
             for (k, j) in model.joints[b.joints.clone()].iter().enumerate() {
                 let k = b.joints.start + k;
-                tree.parent.push(node);
-                tree.x_tree.push(x_tree);
-                tree.joint.push(NodeJoint::new(
-                    j.kind,
-                    lift_vector(&j.axis),
-                    lift_vector(&j.anchor),
-                    lift(j.reference),
-                ));
-                tree.damping
-                    .push(lift_param(Param::Damping(k), 0, j.damping));
-                tree.stiffness
-                    .push(lift_param(Param::Stiffness(k), 0, j.stiffness));
-                tree.springref.push(lift(j.springref));
-                tree.armature
-                    .push(lift_param(Param::Armature(k), 0, j.armature));
-                tree.limits.push(j.range.filter(|_| model.opt.limits));
-                tree.inertia.push(Inertia::zero());
-                node = Some(tree.parent.len() - 1);
-                x_tree = Transform::identity();
+                for node_joint in node_joints(j, at) {
+                    tree.parent.push(node);
+                    tree.x_tree.push(x_tree);
+                    tree.joint.push(node_joint);
+                    tree.damping
+                        .push(lift_param(Param::Damping(k), 0, j.damping));
+                    tree.stiffness
+                        .push(lift_param(Param::Stiffness(k), 0, j.stiffness));
+                    tree.armature
+                        .push(lift_param(Param::Armature(k), 0, j.armature));
+                    tree.node_joint.push(k);
+                    tree.limits.push(j.range.filter(|_| model.opt.limits));
+                    tree.inertia.push(Inertia::zero());
+                    node = Some(tree.parent.len() - 1);
+                    x_tree = Transform::identity();
+                }
+                let rest = reference[at..at + j.kind.nq()]
+                    .iter()
+                    .map(|x| lift::<T>(*x));
+                match j.kind {
+                    JointKind::Hinge | JointKind::Slide => tree.spring_q.push(lift(j.springref)),
+                    _ => tree.spring_q.extend(rest),
+                }
+                at += j.kind.nq();
             }
             // Within the last node's frame, the body sits at `x_tree`: identity if
             // the body has joints, else its placement relative to its carrier.
@@ -217,6 +294,8 @@ impl<T: Real> Tree<T> {
                 tree.inertia[n] += own.to_source(&x_tree);
             }
         }
+        tree.medium = model.opt.fluid;
+        tree.fluid = fluid_bodies(model, &tree.body_frames());
         let soft = &model.opt.soft;
         let constants = [
             (Param::ContactStiffness, soft.stiffness),
@@ -241,12 +320,12 @@ impl<T: Real> Tree<T> {
         let c = &mut self.constraint;
         c.solver = opt.solver;
         c.timestep = opt.timestep;
-        c.limits = model
-            .joints
+        let node_joint = &self.node_joint;
+        c.limits = node_joint
             .iter()
             .zip(limits)
-            .enumerate()
-            .map(|(k, (j, range))| {
+            .map(|(&k, range)| {
+                let j = &model.joints[k];
                 range.map(|range| Limit {
                     range,
                     margin: j.margin,
@@ -257,11 +336,10 @@ impl<T: Real> Tree<T> {
                 })
             })
             .collect();
-        c.frictionloss = model
-            .joints
+        c.frictionloss = node_joint
             .iter()
-            .enumerate()
-            .map(|(k, j)| {
+            .map(|&k| {
+                let j = &model.joints[k];
                 let on = opt.solver.frictionloss && j.frictionloss > 0.0;
                 let value = lift_param(Param::FrictionLoss(k), 0, j.frictionloss);
                 let sol = j.friction_sol.lift(|_, x| lift(x), |_, x| lift(x));
@@ -309,6 +387,39 @@ impl<T: Real> Tree<T> {
     }
 }
 
+/// The nodes of joint `j`, whose coordinates start at q[at] (see the module
+/// documentation).
+fn node_joints<T: Real>(j: &crate::model::Joint, at: usize) -> Vec<NodeJoint<T>> {
+    let ball = |at: usize, anchor: Vector3<T>| {
+        (0..3).map(move |k| {
+            let coordinates = Coordinates::Rotation { at, axis: k };
+            let axis = Vector3::ith(k, T::one());
+            NodeJoint::new(JointKind::Ball, (axis, anchor), T::zero(), coordinates)
+        })
+    };
+    match j.kind {
+        JointKind::Hinge | JointKind::Slide => {
+            let axis_anchor = (lift_vector(&j.axis), lift_vector(&j.anchor));
+            let coordinates = Coordinates::Scalar { at };
+            vec![NodeJoint::new(
+                j.kind,
+                axis_anchor,
+                lift(j.reference),
+                coordinates,
+            )]
+        }
+        JointKind::Ball => ball(at, lift_vector(&j.anchor)).collect(),
+        JointKind::Free => (0..3)
+            .map(|k| {
+                let axis_anchor = (Vector3::ith(k, T::one()), Vector3::zeros());
+                let coordinates = Coordinates::Scalar { at: at + k };
+                NodeJoint::new(JointKind::Slide, axis_anchor, T::zero(), coordinates)
+            })
+            .chain(ball(at + 3, Vector3::zeros()))
+            .collect(),
+    }
+}
+
 /// Body `index`'s spatial inertia about its own frame, with its mass, COM and
 /// inertia lifted by `lift_param` (see [`Tree::build_with`]).
 pub fn body_inertia<T: Real>(
@@ -333,14 +444,19 @@ mod tests {
     fn hinge_transform_keeps_anchor_and_axis_fixed() {
         let axis = Vector3::new(0.0, 0.6, 0.8);
         let anchor = Vector3::new(0.3, -0.2, 0.5);
-        let j = NodeJoint::new(JointKind::Hinge, axis, anchor, 0.1);
-        let x = j.transform(1.3);
+        let j = NodeJoint::new(
+            JointKind::Hinge,
+            (axis, anchor),
+            0.1,
+            Coordinates::Scalar { at: 0 },
+        );
+        let x = j.transform(&[1.3]);
         // The anchor point has the same coordinates before and after the joint.
         let moved = x.rot * (anchor - x.trans);
         assert!((moved - anchor).norm() < 1e-14);
         assert!((x.rot * axis - axis).norm() < 1e-14);
         assert!((x.apply_motion(&j.s) - j.s).ang.norm() < 1e-14);
         assert!((x.apply_motion(&j.s) - j.s).lin.norm() < 1e-14);
-        assert_eq!(j.transform(0.1), Transform::identity());
+        assert_eq!(j.transform(&[0.1]), Transform::identity());
     }
 }

@@ -1,4 +1,4 @@
-//! The physical model: a tree of rigid bodies connected by one-dof joints.
+//! The physical model: a tree of rigid bodies connected by joints.
 //!
 //! Conventions, stated once here and used everywhere:
 //! - SI units; angles in radians (loaders convert MJCF degrees).
@@ -9,13 +9,25 @@
 //! - A body has zero or more joints, applied in order, each in the body's own
 //!   (already moved) frame: a hinge turns the body by `q - reference` about
 //!   `axis` through `anchor`; a slide moves it by `(q - reference) * axis`.
-//!   This is MJCF's meaning; a URDF joint is a body with one joint whose anchor is
-//!   the body origin. A body with no joint is welded to its parent ("fixed").
-//! - Every joint has one dof, so nq = nv and joint i owns q[i] and v[i].
+//!   A ball turns the body about `anchor` by a unit quaternion. A free joint
+//!   places the body in the world absolutely (its `pos`/`rot` are only its
+//!   reference configuration), so it is the only joint of a body whose parent
+//!   is the world. This is MJCF's meaning; a URDF joint is a body with one
+//!   joint whose anchor is the body origin. A body with no joint is welded to
+//!   its parent ("fixed").
+//! - Positions q have nq coordinates and velocities v have nv (MuJoCo's qpos
+//!   and qvel): joints own consecutive slices of both, in joint order.
+//!   Hinge and slide: one coordinate, one dof. Ball: a unit quaternion
+//!   (w, x, y, z), 3 dofs, the angular velocity in the body frame. Free: the
+//!   body origin's world position, then a unit quaternion of its axes; 6
+//!   dofs, the linear velocity in world coordinates, then the angular
+//!   velocity in the body frame. So nq = nv unless a model has ball or free
+//!   joints. A quaternion need not be normalised on input (the dynamics read
+//!   it normalised); the step returns it normalised, as MuJoCo does.
 //! - A body's inertial properties are its mass, its centre of mass `com` in body
 //!   coordinates, and its inertia tensor about the COM in body axes.
 //! - Generalized forces tau have length nv. An actuator maps a control u to
-//!   tau[joint] += gear * u.
+//!   tau[joint's dof] += gear * u (hinge and slide joints only).
 
 pub mod constraint;
 pub mod geom_inertia;
@@ -73,6 +85,11 @@ pub struct Body {
     pub com: Vector3<f64>,
     /// Inertia tensor about the COM, in body axes (kg m^2).
     pub inertia: Matrix3<f64>,
+    /// The body's inertial frame (columns: its axes in body coordinates),
+    /// where the loader found the inertia diagonal: MuJoCo's body_iquat,
+    /// the frame its fluid forces act in. Where principal moments are equal
+    /// it tells the axes apart; elsewhere any principal frame is the same.
+    pub inertia_frame: Rotation3<f64>,
     /// The joints of this body, as a range of joint (= dof) indices.
     pub joints: std::ops::Range<usize>,
 }
@@ -88,6 +105,7 @@ impl Body {
             mass: 0.0,
             com: Vector3::zeros(),
             inertia: Matrix3::zeros(),
+            inertia_frame: Rotation3::identity(),
             joints: 0..0,
         }
     }
@@ -99,9 +117,37 @@ pub enum JointKind {
     Hinge,
     /// Prismatic: translation along an axis (MJCF slide, URDF prismatic).
     Slide,
+    /// Spherical: rotation about the anchor (MJCF ball).
+    Ball,
+    /// Six dofs relative to the world (MJCF free, URDF floating).
+    Free,
 }
 
-/// A one-dof joint. Axis and anchor are in the coordinates of its body's frame.
+impl JointKind {
+    /// Its number of position coordinates.
+    pub fn nq(self) -> usize {
+        match self {
+            JointKind::Hinge | JointKind::Slide => 1,
+            JointKind::Ball => 4,
+            JointKind::Free => 7,
+        }
+    }
+
+    /// Its number of dofs (velocity coordinates).
+    pub fn nv(self) -> usize {
+        match self {
+            JointKind::Hinge | JointKind::Slide => 1,
+            JointKind::Ball => 3,
+            JointKind::Free => 6,
+        }
+    }
+}
+
+/// A joint. Axis and anchor are in the coordinates of its body's frame. A
+/// ball uses its anchor alone, a free joint neither; for both the reference
+/// and the spring's rest position are the reference configuration (the
+/// identity, the body's `pos`/`rot`), and the damping, armature and spring
+/// apply to each dof alike (MuJoCo's).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Joint {
     pub name: String,
@@ -242,6 +288,24 @@ pub struct Options {
     pub soft: SoftOptions,
     /// The constraint model's solver.
     pub solver: SolverOptions,
+    /// The medium the bodies move in ([`crate::dynamics::fluid`]).
+    pub fluid: Fluid,
+}
+
+/// MuJoCo's fluid: density (kg/m^3), viscosity (Pa s) and wind (m/s, world
+/// frame), all zero by default (no fluid forces).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Fluid {
+    pub density: f64,
+    pub viscosity: f64,
+    pub wind: Vector3<f64>,
+}
+
+impl Fluid {
+    /// Whether the medium exerts any force (MuJoCo's test: density or viscosity).
+    pub fn acts(&self) -> bool {
+        self.density != 0.0 || self.viscosity != 0.0
+    }
 }
 
 impl Default for Options {
@@ -258,6 +322,7 @@ impl Default for Options {
             contact_model: ContactModel::Smooth,
             soft: SoftOptions::default(),
             solver: SolverOptions::default(),
+            fluid: Fluid::default(),
         }
     }
 }
@@ -454,14 +519,6 @@ impl Model {
         std::fs::write(path, text).map_err(|e| ModelError::Unwritable(format!("{shown}: {e}")))
     }
 
-    pub fn nq(&self) -> usize {
-        self.joints.len()
-    }
-
-    pub fn nv(&self) -> usize {
-        self.joints.len()
-    }
-
     pub fn nu(&self) -> usize {
         self.actuators.len()
     }
@@ -469,11 +526,6 @@ impl Model {
     /// The numeric tree the dynamics algorithms run on.
     pub fn tree(&self) -> &Tree<f64> {
         &self.tree
-    }
-
-    /// The configuration at which every body sits at its modelled pose.
-    pub fn reference_q(&self) -> Vec<f64> {
-        self.joints.iter().map(|j| j.reference).collect()
     }
 
     pub fn body_index(&self, name: &str) -> Option<usize> {
@@ -484,17 +536,61 @@ impl Model {
         self.joints.iter().position(|j| j.name == name)
     }
 
-    /// Generalized forces from actuator controls: tau = sum gear * u on each joint.
+    /// Generalized forces from actuator controls: tau = sum gear * u on each
+    /// actuated joint's dof.
     pub fn actuator_forces(&self, u: &[f64]) -> Vec<f64> {
         let mut tau = vec![0.0; self.nv()];
         for (a, &ui) in self.actuators.iter().zip(u) {
-            tau[a.joint] += a.gear * ui;
+            tau[self.joint_address(a.joint).1] += a.gear * ui;
         }
         tau
     }
 }
 
 impl Spec {
+    pub fn nq(&self) -> usize {
+        self.joints.iter().map(|j| j.kind.nq()).sum()
+    }
+
+    pub fn nv(&self) -> usize {
+        self.joints.iter().map(|j| j.kind.nv()).sum()
+    }
+
+    /// Whether every joint is a hinge or a slide (then nq = nv and joint i
+    /// owns q[i] and v[i]).
+    pub fn one_dof_joints(&self) -> bool {
+        self.joints.iter().all(|j| j.kind.nv() == 1)
+    }
+
+    /// Joint j's first position coordinate and first dof.
+    pub fn joint_address(&self, j: usize) -> (usize, usize) {
+        self.joints[..j].iter().fold((0, 0), |(q, v), joint| {
+            (q + joint.kind.nq(), v + joint.kind.nv())
+        })
+    }
+
+    /// The configuration at which every body sits at its modelled pose
+    /// (MuJoCo's qpos0).
+    pub fn reference_q(&self) -> Vec<f64> {
+        let mut q = Vec::with_capacity(self.nq());
+        for j in &self.joints {
+            let body = &self.bodies[j.body];
+            let quaternion = |rot: &Rotation3<f64>| {
+                let u = nalgebra::UnitQuaternion::from_rotation_matrix(rot);
+                [u.w, u.i, u.j, u.k]
+            };
+            match j.kind {
+                JointKind::Hinge | JointKind::Slide => q.push(j.reference),
+                JointKind::Ball => q.extend([1.0, 0.0, 0.0, 0.0]),
+                JointKind::Free => {
+                    q.extend(body.pos.iter());
+                    q.extend(quaternion(&body.rot));
+                }
+            }
+        }
+        q
+    }
+
     fn validate(&self) -> Result<(), ModelError> {
         let bad = |msg: String| Err(ModelError::NotPhysical(msg));
         if self.bodies.is_empty() {
@@ -530,6 +626,7 @@ impl Spec {
             if (j.axis.norm() - 1.0).abs() > 1e-9 {
                 return bad(format!("joint '{}' axis is not a unit vector", j.name));
             }
+            check_kind(j, &self.bodies[j.body])?;
             check_passive(j)?;
             let owner = format!("joint '{}'", j.name);
             j.limit_sol.check(&owner).map_err(ModelError::NotPhysical)?;
@@ -558,6 +655,13 @@ impl Spec {
             if a.joint >= self.joints.len() || !a.gear.is_finite() {
                 return bad(format!("actuator '{}' has a bad joint or gear", a.name));
             }
+            if self.joints[a.joint].kind.nv() != 1 {
+                let j = &self.joints[a.joint].name;
+                return bad(format!(
+                    "actuator '{}': joint '{j}' is a ball or free joint; actuators drive hinges and slides",
+                    a.name
+                ));
+            }
         }
         Ok(())
     }
@@ -582,6 +686,26 @@ pub fn check_soft(s: &SoftOptions) -> Result<(), ModelError> {
         )));
     }
     Ok(())
+}
+
+/// Checks what a ball or free joint may have: a free joint only on a body of
+/// the world and as its only joint; neither with limits or dry friction.
+fn check_kind(j: &Joint, body: &Body) -> Result<(), ModelError> {
+    let bad = |msg: &str| {
+        Err(ModelError::NotPhysical(format!(
+            "joint '{}': {msg}",
+            j.name
+        )))
+    };
+    match j.kind {
+        JointKind::Hinge | JointKind::Slide => Ok(()),
+        JointKind::Free if body.parent != 0 || body.joints.len() != 1 => {
+            bad("a free joint must be the only joint of a body whose parent is the world")
+        }
+        _ if j.range.is_some() => bad("ball and free joints cannot be limited (not supported)"),
+        _ if j.frictionloss > 0.0 => bad("dry friction on ball and free joints is not supported"),
+        _ => Ok(()),
+    }
 }
 
 /// Checks that a joint's damping, stiffness, armature and frictionloss are
@@ -706,7 +830,7 @@ impl Model {
         v: &[f64],
         tau: &[f64],
     ) -> Result<Vec<Contact<f64>>, StepError> {
-        dynamics::check_inputs(self.nv(), (q, v, tau))?;
+        dynamics::check_inputs(&self.tree, (q, v, tau))?;
         if self.opt.contact_model == ContactModel::Smooth {
             let mut out = vec![0.0; self.nv()];
             dynamics::add_soft_forces(&self.tree, data, (q, v), &mut out);

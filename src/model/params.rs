@@ -32,6 +32,7 @@ use crate::dynamics::body_inertia;
 use crate::dynamics::collision::collision_pairs;
 use crate::dynamics::constraint::invweight0;
 use crate::dynamics::contact::contact_pairs;
+use crate::dynamics::fluid::fluid_bodies;
 use crate::dynamics::Tree;
 use crate::spatial::Inertia;
 
@@ -526,8 +527,8 @@ impl Model {
     /// `bodies` and the passive values of `joints`: each node carrying an
     /// edited body sums its bodies' inertias again, in body order from zero
     /// as [`Tree::build`] does, so the result equals a rebuilt tree bit for
-    /// bit; an edited joint's node (node index = joint index) takes its
-    /// damping, stiffness and armature.
+    /// bit; an edited joint's nodes (one per dof) take its damping,
+    /// stiffness and armature.
     fn patch_tree(
         &mut self,
         bodies: impl Iterator<Item = usize>,
@@ -551,10 +552,14 @@ impl Model {
         }
         for k in joints {
             let j = &self.spec.joints[k];
-            tree.damping[k] = j.damping;
-            tree.stiffness[k] = j.stiffness;
-            tree.armature[k] = j.armature;
+            for node in (0..tree.nv()).filter(|i| tree.node_joint[*i] == k) {
+                tree.damping[node] = j.damping;
+                tree.stiffness[node] = j.stiffness;
+                tree.armature[node] = j.armature;
+            }
         }
+        // The fluid's equivalent boxes follow the masses and inertias.
+        tree.fluid = fluid_bodies(&self.spec, &tree.body_frames());
         if tree.contact_model == ContactModel::Constraint {
             // MuJoCo's mj_setConst after an edit of inertial values.
             let (body, dof) = invweight0(tree, &self.spec, &|_, _, x| x);

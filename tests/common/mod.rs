@@ -85,6 +85,7 @@ pub fn random_model(seed: u64, n: usize, passive: PassiveMode, integrator: Integ
             mass: uniform(&mut r, 0.2, 3.0),
             com: vector(&mut r, 0.3),
             inertia: inertia(&mut r),
+            inertia_frame: Rotation3::identity(),
             joints: start..joints.len(),
         });
     }

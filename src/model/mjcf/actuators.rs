@@ -69,10 +69,18 @@ impl<'a> Reader<'a> {
         }
         let joint_name = value(node, "joint")
             .ok_or_else(|| self.error(node, "an actuator needs a joint to act on"))?;
-        tree.joints
+        let joint = tree
+            .joints
             .iter()
             .position(|j| j.name == joint_name)
-            .ok_or_else(|| self.error(node, format!("unknown joint '{joint_name}'")))
+            .ok_or_else(|| self.error(node, format!("unknown joint '{joint_name}'")))?;
+        if tree.joints[joint].kind.nv() != 1 {
+            let msg = format!(
+                "'{joint_name}' is a ball or free joint; actuators drive hinges and slides"
+            );
+            return Err(self.error(node, msg));
+        }
+        Ok(joint)
     }
 
     /// The force per unit control of a motor-like actuator (gaintype fixed,

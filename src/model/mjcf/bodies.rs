@@ -2,7 +2,7 @@
 //! static when it and all its ancestors have no joints (only static bodies
 //! may hold planes).
 
-use nalgebra::Matrix3;
+use nalgebra::{Matrix3, Rotation3};
 
 use super::attributes::Attrs;
 use super::compiler::FromGeom;
@@ -10,7 +10,7 @@ use super::inertial::Principal;
 use super::schema::{check_attributes, BODY_ATTRS};
 use super::tree::{Kind, Tree};
 use super::{children, elements, tag, unrecognized, unsupported, Node, Reader, Result};
-use crate::model::Body;
+use crate::model::{Body, JointKind};
 
 impl<'a> Reader<'a> {
     /// All `<worldbody>` sections: their geoms belong to the world, then come
@@ -40,12 +40,9 @@ impl<'a> Reader<'a> {
     /// Rejects body children we do not read.
     fn check_body_child(&self, node: Node<'a>) -> Result<()> {
         match tag(node) {
-            "body" | "joint" | "geom" | "inertial" | "site" | "camera" | "light" => Ok(()),
-            "freejoint" => Err(self.error(
-                node,
-                "free joints are not supported: \
-                 a model is a tree of hinge and slide joints",
-            )),
+            "body" | "joint" | "freejoint" | "geom" | "inertial" | "site" | "camera" | "light" => {
+                Ok(())
+            }
             "frame" | "replicate" | "composite" | "flexcomp" | "attach" | "plugin" => Err(
                 unsupported(self.file, node, "write the bodies out explicitly"),
             ),
@@ -87,8 +84,22 @@ impl<'a> Reader<'a> {
         let index = tree.bodies.len();
         let name = tree.claim(self.file, node, Kind::Body)?;
         let first_joint = tree.joints.len();
-        for joint in contents.iter().filter(|n| n.has_tag_name("joint")) {
-            let joint = self.read_joint(tree, *joint, index, class)?;
+        for node in &contents {
+            let joint = match tag(*node) {
+                "joint" => self.read_joint(tree, *node, index, class)?,
+                "freejoint" => self.read_freejoint(tree, *node, index)?,
+                _ => continue,
+            };
+            let alone = parent == 0 && first_joint == tree.joints.len();
+            let last = !contents
+                .iter()
+                .skip_while(|n| n != &node)
+                .skip(1)
+                .any(|n| matches!(tag(*n), "joint" | "freejoint"));
+            if joint.kind == JointKind::Free && !(alone && last) {
+                let msg = "a free joint must be the only joint of a body whose parent is the world";
+                return Err(self.error(*node, msg));
+            }
             tree.joints.push(joint);
         }
         let joints = first_joint..tree.joints.len();
@@ -105,6 +116,7 @@ impl<'a> Reader<'a> {
             mass: principal.mass,
             com: principal.com,
             inertia: Matrix3::zeros(),
+            inertia_frame: Rotation3::identity(),
             joints,
         });
         tree.inertials.push(principal);

@@ -9,8 +9,8 @@
 
 use super::attributes::{value, Attrs};
 use super::schema::{
-    check_attributes, check_default_attributes, ACTUATOR_KINDS, GENERAL_ONLY_ATTRS, GEOM_ATTRS,
-    JOINT_ATTRS, MOTOR_ATTRS, PAIR_ATTRS,
+    check_attributes, check_default_attributes, ACTUATOR_KINDS, FIXED_TENDON_ATTRS,
+    GENERAL_ONLY_ATTRS, GEOM_ATTRS, JOINT_ATTRS, MOTOR_ATTRS, PAIR_ATTRS,
 };
 use super::{children, elements, tag, unrecognized, Node, Reader, Result};
 
@@ -22,12 +22,13 @@ pub struct Class<'a> {
     pub geom: Vec<Node<'a>>,
     pub pair: Vec<Node<'a>>,
     pub actuator: Vec<Node<'a>>,
+    pub tendon: Vec<Node<'a>>,
 }
 
 /// Default elements that only set up elements we ignore or reject anyway.
 #[rustfmt::skip]
 const INERT_DEFAULTS: &[&str] = &[
-    "mesh", "material", "site", "camera", "light", "equality", "tendon",
+    "mesh", "material", "site", "camera", "light", "equality",
 ];
 
 impl<'a> Reader<'a> {
@@ -81,6 +82,10 @@ impl<'a> Reader<'a> {
                 class.actuator.push(child);
             }
             kind if ACTUATOR_KINDS.contains(&kind) => class.actuator.push(child),
+            "tendon" => {
+                check_default_attributes(file, child, FIXED_TENDON_ATTRS)?;
+                class.tendon.push(child);
+            }
             "default" => {}
             kind if INERT_DEFAULTS.contains(&kind) => {}
             _ => return Err(unrecognized(file, child)),

@@ -8,7 +8,7 @@
 //! repairs principal moments that violate the triangle inequality, and
 //! `settotalmass` scales all bodies to the given total.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, Rotation3, Vector3};
 
 use super::attributes::{value, Attrs};
 use super::orientation::ALTERNATIVES;
@@ -52,6 +52,16 @@ impl Principal {
 
     pub fn mass_properties(&self) -> MassProperties {
         MassProperties::from_principal(self.mass, self.com, &self.axes, &self.moments)
+    }
+
+    /// The principal axes as a rotation (an axis flipped if they are
+    /// left-handed).
+    pub fn frame(&self) -> Rotation3<f64> {
+        let mut axes = self.axes;
+        if axes.determinant() < 0.0 {
+            axes.set_column(2, &-axes.column(2));
+        }
+        Rotation3::from_matrix_unchecked(axes)
     }
 
     fn has_mass(&self) -> bool {

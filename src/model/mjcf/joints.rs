@@ -1,14 +1,16 @@
-//! `<joint>`: hinges and slides with linear springs and dampers. Hinge
-//! `range`, `ref` and `springref` are angles (see `compiler.rs`).
+//! `<joint>` and `<freejoint>`: hinges, slides, balls and free joints with
+//! linear springs and dampers. Hinge `range`, `ref` and `springref` are
+//! angles (see `compiler.rs`); a ball or free joint has no axis, `ref` or
+//! `springref` (MuJoCo ignores them), and a free joint no anchor.
 
 use nalgebra::Vector3;
 
 use super::attributes::Attrs;
 use super::orientation::unit;
-use super::schema::{check_attributes, JOINT_ATTRS};
+use super::schema::{check_attributes, FREEJOINT_ATTRS, JOINT_ATTRS};
 use super::tree::{Kind, Tree};
 use super::{Node, Reader, Result};
-use crate::model::{Joint, JointKind};
+use crate::model::{Joint, JointKind, SolParams};
 
 impl<'a> Reader<'a> {
     pub(super) fn read_joint(
@@ -26,6 +28,7 @@ impl<'a> Reader<'a> {
         let angle = |x: f64| match kind {
             JointKind::Hinge => self.compiler.joint_angle(x),
             JointKind::Slide => x,
+            JointKind::Ball | JointKind::Free => 0.0,
         };
         let autolimits = self.compiler.autolimits;
         let range = a.limits("limited", "range", autolimits)?;
@@ -39,7 +42,10 @@ impl<'a> Reader<'a> {
             kind,
             body,
             axis,
-            anchor: a.vector("pos")?.unwrap_or_default(),
+            anchor: match kind {
+                JointKind::Free => Vector3::zeros(),
+                _ => a.vector("pos")?.unwrap_or_default(),
+            },
             reference: angle(a.number("ref")?.unwrap_or(0.0)),
             damping,
             stiffness,
@@ -68,25 +74,63 @@ impl<'a> Reader<'a> {
             let msg = "damping, stiffness, armature and frictionloss must be >= 0";
             return Err(self.error(node, msg));
         }
+        if matches!(kind, JointKind::Ball | JointKind::Free) {
+            if joint.range.is_some() {
+                let msg = "limits on ball and free joints are not supported";
+                return Err(self.error(node, msg));
+            }
+            if joint.frictionloss > 0.0 {
+                let msg = "dry friction on ball and free joints is not supported";
+                return Err(self.error(node, msg));
+            }
+        }
         Ok(joint)
+    }
+
+    /// `<freejoint>`: a free joint without damping, spring, armature or dry
+    /// friction, whatever the defaults say (MuJoCo's shortcut).
+    pub(super) fn read_freejoint(
+        &self,
+        tree: &mut Tree<'a>,
+        node: Node<'a>,
+        body: usize,
+    ) -> Result<Joint> {
+        check_attributes(self.file, node, FREEJOINT_ATTRS)?;
+        Ok(Joint {
+            name: tree.claim(self.file, node, Kind::Joint)?,
+            kind: JointKind::Free,
+            body,
+            axis: Vector3::z(),
+            anchor: Vector3::zeros(),
+            reference: 0.0,
+            damping: 0.0,
+            stiffness: 0.0,
+            springref: 0.0,
+            armature: 0.0,
+            frictionloss: 0.0,
+            range: None,
+            margin: 0.0,
+            limit_sol: SolParams::default(),
+            friction_sol: SolParams::default(),
+        })
     }
 }
 
-/// Hinge (the default) or slide; ball and free joints are rejected.
+/// Hinge (the default), slide, ball or free.
 fn joint_kind(a: &Attrs) -> Result<JointKind> {
-    match a
-        .keyword("type", &["hinge", "slide", "ball", "free"])?
-        .unwrap_or("hinge")
-    {
-        "hinge" => Ok(JointKind::Hinge),
-        "slide" => Ok(JointKind::Slide),
-        other => {
-            let msg = format!(
-                "{other} joints are not supported: a model is a tree of hinge and slide joints"
-            );
-            Err(a.error(a.element, msg))
-        }
-    }
+    let kinds = [
+        ("hinge", JointKind::Hinge),
+        ("slide", JointKind::Slide),
+        ("ball", JointKind::Ball),
+        ("free", JointKind::Free),
+    ];
+    let names = kinds.map(|(name, _)| name);
+    let name = a.keyword("type", &names)?.unwrap_or("hinge");
+    Ok(kinds
+        .iter()
+        .find(|(n, _)| *n == name)
+        .expect("a listed keyword")
+        .1)
 }
 
 /// The linear damping and stiffness coefficients; `springdamper` and the

@@ -53,6 +53,7 @@ mod joints;
 mod options;
 mod orientation;
 mod schema;
+mod tendons;
 #[cfg(test)]
 mod test_util;
 mod tree;
@@ -90,6 +91,7 @@ pub fn parse(text: &str, file: &str) -> Result<Model> {
     let mut tree = Tree::new();
     reader.read_world(&mut tree, &children(root, "worldbody"))?;
     check_unsupported_sections(file, root)?;
+    reader.check_tendons(&tree, root)?;
     reader.check_moving_bodies(&tree)?;
     reader.scale_total_mass(&mut tree);
     let mut actuators = reader.read_actuators(&tree, root)?;
@@ -179,7 +181,6 @@ fn check_document(file: &str, root: Node) -> Result<()> {
 fn check_unsupported_sections(file: &str, root: Node) -> Result<()> {
     for section in elements(root) {
         let why = match tag(section) {
-            "tendon" => "tendons change the dynamics",
             "equality" => "equality constraints change the dynamics",
             "deformable" => "flexes and skins change the dynamics",
             "extension" => "plugins change the dynamics",
@@ -271,13 +272,25 @@ mod tests {
         // (before <worldbody>, inside a body, after </worldbody>, expected message)
         #[rustfmt::skip]
         let cases = [
-            ("", r#"<joint type="free"/>"#, "", "free joints are not supported"),
-            ("", "<freejoint/>", "", "free joints are not supported"),
-            ("", r#"<joint type="ball"/>"#, "", "ball joints are not supported"),
+            ("", "<freejoint/>", "", "only joint of a body whose parent is the world"),
+            ("", r#"<body><freejoint/><joint/></body>"#, "", "only joint of a body"),
+            ("", r#"<joint type="ball" range="0 1"/>"#, "", "limits on ball and free joints"),
+            ("", r#"<joint type="ball" frictionloss="1"/>"#, "", "dry friction on ball"),
+            ("", r#"<joint name="b" type="ball"/>"#, r#"<actuator><motor joint="b"/></actuator>"#,
+             "actuators drive hinges and slides"),
             ("", r#"<geom type="mesh" mesh="m"/>"#, "", "mesh"),
-            ("", "", r#"<tendon><fixed name="t"/></tendon>"#, "tendons"),
+            ("", "", r#"<tendon><spatial name="t"/></tendon>"#, "spatial tendons"),
+            ("", r#"<joint name="j"/>"#,
+             r#"<tendon><fixed stiffness="1"><joint joint="j" coef="1"/></fixed></tendon>"#,
+             "with stiffness"),
+            ("", r#"<joint name="j"/>"#,
+             r#"<tendon><fixed range="-1 1" limited="true"><joint joint="j"/></fixed></tendon>"#,
+             "limited fixed tendon"),
+            ("", "", r#"<tendon><fixed><joint joint="nowhere"/></fixed></tendon>"#,
+             "unknown joint 'nowhere'"),
             ("", "", r#"<equality><weld body1="b"/></equality>"#, "equality"),
-            (r#"<option viscosity="0.1"/>"#, "", "", "fluid forces"),
+            (r#"<option density="-1"/>"#, "", "", "density must be finite and >= 0"),
+            ("", r#"<geom size="1" fluidshape="ellipsoid"/>"#, "", "fluidshape"),
             (r#"<option integrator="implicit"/>"#, "", "", "implicit"),
             (r#"<option><flag damper="disable"/></option>"#, "", "", "damper=\"disable\""),
             (r#"<include file="x.xml"/>"#, "", "", "<include> is not supported"),

@@ -32,7 +32,7 @@ use super::attributes::Attrs;
 use super::schema::{check_attributes, OPTION_ATTRS};
 use super::{children, elements, tag, unrecognized, xml, Node, Result};
 use crate::model::{
-    Cone, ContactModel, Integrator, Options, PassiveMode, SoftOptions, SolverOptions,
+    Cone, ContactModel, Fluid, Integrator, Options, PassiveMode, SoftOptions, SolverOptions,
 };
 
 /// Flags that only concern contacts, constraints, sensors or the solver.
@@ -90,6 +90,7 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
         opt.gravity = a.vector("gravity")?.unwrap_or(opt.gravity);
         integrator = read_integrator(&a)?.unwrap_or(integrator);
         read_solver(&a, &mut opt.solver)?;
+        read_fluid(&a, &mut opt.fluid)?;
         check_unsupported(&a)?;
         for flag in elements(node) {
             if tag(flag) != "flag" {
@@ -196,16 +197,28 @@ fn read_integrator(a: &Attrs) -> Result<Option<&'static str>> {
     Ok(integrator)
 }
 
-/// Fluid forces and disabled actuator groups.
-fn check_unsupported(a: &Attrs) -> Result<()> {
-    let density = a.number("density")?.unwrap_or(0.0);
-    let viscosity = a.number("viscosity")?.unwrap_or(0.0);
-    if density != 0.0 || viscosity != 0.0 {
-        let msg = format!(
-            "fluid forces are not supported (density=\"{density}\" viscosity=\"{viscosity}\")"
-        );
-        return Err(a.error(a.element, msg));
+/// The medium: `density`, `viscosity` (finite, >= 0) and `wind`.
+fn read_fluid(a: &Attrs, fluid: &mut Fluid) -> Result<()> {
+    for (name, value) in [
+        ("density", &mut fluid.density),
+        ("viscosity", &mut fluid.viscosity),
+    ] {
+        if let Some(x) = a.number(name)? {
+            if !(x.is_finite() && x >= 0.0) {
+                return Err(a.error(
+                    a.element,
+                    format!("{name} must be finite and >= 0, got {x}"),
+                ));
+            }
+            *value = x;
+        }
     }
+    fluid.wind = a.vector("wind")?.unwrap_or(fluid.wind);
+    Ok(())
+}
+
+/// Disabled actuator groups.
+fn check_unsupported(a: &Attrs) -> Result<()> {
     if a.text("actuatorgroupdisable").is_some() {
         return Err(a.error(a.element, "actuatorgroupdisable is not supported"));
     }

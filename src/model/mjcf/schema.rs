@@ -50,6 +50,14 @@ pub const JOINT_ATTRS: &[&str] = &[
     "stiffness", "range", "actuatorfrcrange", "actuatorgravcomp", "margin", "ref", "springref",
     "armature", "damping", "frictionloss", "user",
 ];
+pub const FREEJOINT_ATTRS: &[&str] = &["name", "group", "align"];
+#[rustfmt::skip]
+pub const FIXED_TENDON_ATTRS: &[&str] = &[
+    "name", "class", "group", "limited", "actuatorfrclimited", "range", "actuatorfrcrange",
+    "solreflimit", "solimplimit", "solreffriction", "solimpfriction", "frictionloss",
+    "springlength", "margin", "stiffness", "damping", "armature", "rgba", "user",
+];
+pub const TENDON_JOINT_ATTRS: &[&str] = &["joint", "coef"];
 #[rustfmt::skip]
 pub const GEOM_ATTRS: &[&str] = &[
     "name", "class", "type", "contype", "conaffinity", "condim", "group", "priority", "size",

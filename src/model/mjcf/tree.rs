@@ -69,6 +69,7 @@ impl<'a> Tree<'a> {
             body.mass = p.mass;
             body.com = p.com;
             body.inertia = p.mass_properties().inertia;
+            body.inertia_frame = p.frame();
         }
         fill_names(&mut self.bodies, "body", |b| &mut b.name);
         fill_names(&mut self.joints, "joint", |j| &mut j.name);

@@ -113,7 +113,10 @@ fn write_options(doc: &mut Document, opt: &Options) -> Result<(), ModelError> {
         .text("integrator", integrator)
         .text("cone", cone)
         .number("impratio", opt.solver.impratio)
-        .text("iterations", &opt.solver.iterations.to_string());
+        .text("iterations", &opt.solver.iterations.to_string())
+        .number("density", opt.fluid.density)
+        .number("viscosity", opt.fluid.viscosity)
+        .numbers("wind", opt.fluid.wind.as_slice());
     if (opt.integrator, opt.passive) == (Integrator::Euler, PassiveMode::ImplicitDampingStiffness) {
         return Err(unwritable(
             "MuJoCo has no implicit joint stiffness (passive mode ImplicitDampingStiffness, \
@@ -200,6 +203,8 @@ fn joint_tag(j: &Joint) -> Tag {
     let kind = match j.kind {
         JointKind::Hinge => "hinge",
         JointKind::Slide => "slide",
+        JointKind::Ball => "ball",
+        JointKind::Free => "free",
     };
     Tag::new("joint")
         .text("name", &j.name)
@@ -220,13 +225,24 @@ fn joint_tag(j: &Joint) -> Tag {
 
 /// `diaginertia` for a diagonal tensor (it reads back exactly), else
 /// `fullinertia`.
+/// The inertia as diagonal moments in the body's inertial frame where it is
+/// diagonal there (to rounding), which keeps the frame; else the full tensor.
 fn inertial(body: &Body) -> Tag {
     let tag = Tag::new("inertial")
         .numbers("pos", body.com.as_slice())
         .number("mass", body.mass);
     let six = inertia_to_six(&body.inertia);
+    let axes = body.inertia_frame.matrix();
+    let local = axes.transpose() * body.inertia * axes;
+    let scale = local.diagonal().abs().max();
+    let off = [local[(0, 1)], local[(0, 2)], local[(1, 2)]];
     match six {
-        [xx, yy, zz, 0.0, 0.0, 0.0] => tag.numbers("diaginertia", &[xx, yy, zz]),
+        [xx, yy, zz, 0.0, 0.0, 0.0] if body.inertia_frame == Rotation3::identity() => {
+            tag.numbers("diaginertia", &[xx, yy, zz])
+        }
+        _ if off.iter().all(|x| x.abs() <= 1e-12 * scale) => tag
+            .numbers("quat", &quat(&body.inertia_frame))
+            .numbers("diaginertia", local.diagonal().as_slice()),
         _ => tag.numbers("fullinertia", &six),
     }
 }

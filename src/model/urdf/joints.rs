@@ -17,7 +17,7 @@ impl Reader<'_> {
         };
         let axis = self.axis(node)?;
         let range = match ty {
-            "continuous" => None,
+            "continuous" | "floating" => None,
             _ => self.limit(node)?,
         };
         let [damping, frictionloss, stiffness, springref, armature] = self.dynamics(node)?;
@@ -46,12 +46,11 @@ impl Reader<'_> {
             "revolute" | "continuous" => Ok(Some(JointKind::Hinge)),
             "prismatic" => Ok(Some(JointKind::Slide)),
             "fixed" => Ok(None),
-            "floating" | "planar" => Err(self.error(
+            "floating" => Ok(Some(JointKind::Free)),
+            "planar" => Err(self.error(
                 node,
-                format!(
-                    "{ty} joints are not supported: every joint has one dof \
-                     (revolute, continuous, prismatic or fixed)"
-                ),
+                "planar joints are not supported: write them as two prismatic joints and a \
+                 revolute one through massless links",
             )),
             _ => Err(self.error(node, format!("unknown joint type '{ty}'"))),
         }
@@ -128,5 +127,21 @@ mod tests {
             ]
         );
         assert_eq!(m.joints[0].axis, Vector3::x());
+    }
+
+    #[test]
+    fn a_floating_joint_is_a_free_joint_placed_at_its_origin() {
+        let origin = r#"<origin xyz="0.1 0.2 0.7" rpy="0.3 0 0"/>"#;
+        let text = format!(
+            "<link name=\"world\"/>{}{}",
+            link("base"),
+            joint("float", "floating", "world", "base", origin)
+        );
+        let m = load(&text).unwrap();
+        assert_eq!((m.joints[0].kind, m.nq(), m.nv()), (JointKind::Free, 7, 6));
+        let q0 = m.reference_q();
+        assert_eq!(q0[..3], [0.1, 0.2, 0.7]);
+        let half = 0.15f64;
+        assert!((q0[3] - half.cos()).abs() < 1e-15 && (q0[4] - half.sin()).abs() < 1e-15);
     }
 }

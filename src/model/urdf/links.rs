@@ -4,7 +4,7 @@
 
 use std::collections::HashMap;
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, Rotation3, Vector3};
 
 use super::attributes::{identity, Pose};
 use super::tree::{Edge, Link, Tree};
@@ -21,8 +21,8 @@ pub(super) struct Parts<'a> {
     pub dofs: HashMap<&'a str, Option<usize>>,
 }
 
-/// Mass, COM and inertia about the COM in link axes.
-type Inertial = (f64, Vector3<f64>, Matrix3<f64>);
+/// Mass, COM, inertia about the COM in link axes, and the axes it was given in.
+type Inertial = (f64, Vector3<f64>, Matrix3<f64>, Rotation3<f64>);
 
 impl Reader<'_> {
     pub(super) fn parts<'a>(
@@ -70,7 +70,7 @@ impl Reader<'_> {
             None => identity(),
             Some(edge) => self.add_joint(parts, edge, body)?,
         };
-        let (mass, com, inertia) = self.inertial(link)?;
+        let (mass, com, inertia, inertia_frame) = self.inertial(link)?;
         parts.bodies.push(Body {
             name: link.name.to_string(),
             parent,
@@ -79,6 +79,7 @@ impl Reader<'_> {
             mass,
             com,
             inertia,
+            inertia_frame,
             joints: first_joint..parts.joints.len(),
         });
         parts.geoms.extend(self.geoms(link.node, body)?);
@@ -97,7 +98,12 @@ impl Reader<'_> {
 
     fn inertial(&self, link: Link) -> Result<Inertial> {
         let Some(inertial) = child(link.node, "inertial") else {
-            return Ok((0.0, Vector3::zeros(), Matrix3::zeros()));
+            return Ok((
+                0.0,
+                Vector3::zeros(),
+                Matrix3::zeros(),
+                Rotation3::identity(),
+            ));
         };
         let mass = self.mass(inertial)?;
         let tensor = self.inertia(inertial)?;
@@ -105,7 +111,7 @@ impl Reader<'_> {
         let inertia = rot.matrix() * tensor * rot.matrix().transpose();
         check_inertial(link.name, mass, &com, &inertia)
             .map_err(|e| self.error(inertial, e.to_string()))?;
-        Ok((mass, com, inertia))
+        Ok((mass, com, inertia, rot))
     }
 
     fn mass(&self, inertial: Node) -> Result<f64> {

@@ -11,8 +11,11 @@
 //!   no `<inertial>` has mass 0 and zero inertia, as the URDF spec says
 //!   (PyBullet and DART give it 1 kg and identity inertia instead).
 //! - Joint types: revolute and continuous are hinges, prismatic is a slide,
-//!   fixed welds the child to its parent (a body with no joint); floating and
-//!   planar are rejected.
+//!   fixed welds the child to its parent (a body with no joint), floating is a
+//!   free joint (its child's parent must be the world; the `<origin>` is the
+//!   reference configuration); planar is rejected. A root link other than
+//!   `world` is welded to the world (PyBullet's useFixedBase): float it as
+//!   PyBullet's default base by a floating joint from `world`.
 //! - A revolute or prismatic joint is limited when its `<limit>` has
 //!   lower < upper; absent bounds are 0 (the URDF default), so a `<limit>`
 //!   without them means unlimited, as in PyBullet. `effort` and `velocity` are
@@ -189,11 +192,11 @@ mod tests {
                 format!(
                     "<link name=\"world\"/>{}\n{}",
                     link("a"),
-                    joint("j", "floating", "world", "a", "")
+                    joint("j", "planar", "world", "a", "")
                 ),
                 3,
                 "joint",
-                "floating joints are not supported",
+                "planar joints are not supported",
             ),
             (
                 format!(

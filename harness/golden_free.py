@@ -1,0 +1,127 @@
+"""Golden data for ball and free joints and fluid forces: MuJoCo's own steps.
+
+For each case, MuJoCo 4 loads the model with contacts and joint limits disabled (and the
+fluid the case sets, else the file's) and steps
+20 random valid states (every quaternion normalised, velocities and generalized forces
+uniform) and one 50-step rollout under random forces, with the file's integrator or the
+one the case names. The Rust test tests/golden_free.rs steps the same states in our engine
+(its own loader, contacts and limits off, MuJoCo's passive convention for the integrator)
+and asserts 1e-12. Writes reference_models/golden/free/<case>.json; the same seed gives the
+same files.
+
+    python -m harness golden-free --seed 0
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+from harness.engines.base import MODELS, gym_assets_dir
+from harness.report import jsonable
+
+OUT_DIR = MODELS / "golden" / "free"
+N_ONE_STEP, T_ROLLOUT = 20, 50
+# A medium in every direction: (density, viscosity, wind)
+AIR_AND_WIND = (1000.0, 0.02, (0.5, -1.0, 0.3))
+# case: (model, integrator or None for the file's, fluid or None for the file's)
+CASES = {
+    "free_ball_euler": ("reference_models/free_ball.xml", "Euler", None),
+    "free_ball_rk4": ("reference_models/free_ball.xml", "RK4", None),
+    "free_ball_fluid": ("reference_models/free_ball.xml", "RK4", AIR_AND_WIND),
+    "gym_ant": ("gymnasium:ant.xml", None, None),
+    "gym_humanoid": ("gymnasium:humanoid.xml", None, None),
+    "gym_humanoidstandup": ("gymnasium:humanoidstandup.xml", None, None),
+    "gym_swimmer": ("gymnasium:swimmer.xml", None, None),
+}
+
+
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    ap.add_argument("--seed", type=int, required=True)
+    ap.add_argument("--out", type=Path, default=OUT_DIR)
+
+
+def model_path(name: str) -> Path:
+    if name.startswith("gymnasium:"):
+        return gym_assets_dir() / name.split(":", 1)[1]
+    return MODELS.parent / name
+
+
+def sample_q(m, rng) -> np.ndarray:
+    """qpos0 moved by up to 0.5 per coordinate, quaternions normalised."""
+    import mujoco
+
+    q = m.qpos0 + rng.uniform(-0.5, 0.5, m.nq)
+    for j in range(m.njnt):
+        kind, a = m.jnt_type[j], m.jnt_qposadr[j]
+        if kind in (mujoco.mjtJoint.mjJNT_FREE, mujoco.mjtJoint.mjJNT_BALL):
+            a += 3 if kind == mujoco.mjtJoint.mjJNT_FREE else 0
+            q[a:a + 4] /= np.linalg.norm(q[a:a + 4])
+    return q
+
+
+def record(name: str, seed: int) -> dict:
+    import mujoco
+
+    model, integrator, fluid = CASES[name]
+    m = mujoco.MjModel.from_xml_path(str(model_path(model)))
+    m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_LIMIT
+    if integrator:
+        m.opt.integrator = {"Euler": mujoco.mjtIntegrator.mjINT_EULER,
+                            "RK4": mujoco.mjtIntegrator.mjINT_RK4}[integrator]
+    if fluid:
+        m.opt.density, m.opt.viscosity, m.opt.wind[:] = fluid
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng([seed, zlib.crc32(name.encode())])
+
+    def step(q, v, tau):
+        d.qpos[:], d.qvel[:], d.qfrc_applied[:], d.ctrl[:] = q, v, tau, 0.0
+        mujoco.mj_step(m, d)
+        return d.qpos.copy(), d.qvel.copy()
+
+    scale = 10.0 * np.maximum(np.diag(full_mass(m, d, m.qpos0)), 1e-3)
+    one_step = []
+    for _ in range(N_ONE_STEP):
+        q, v = sample_q(m, rng), rng.uniform(-2.0, 2.0, m.nv)
+        tau = rng.uniform(-1.0, 1.0, m.nv) * scale
+        q1, v1 = step(q, v, tau)
+        one_step.append({"q": q, "v": v, "tau": tau, "q_next": q1, "v_next": v1})
+    q0, v0 = sample_q(m, rng), rng.uniform(-1.0, 1.0, m.nv)
+    taus = rng.uniform(-1.0, 1.0, (T_ROLLOUT, m.nv)) * scale * 0.2
+    qs, vs = [q0], [v0]
+    for tau in taus:
+        q, v = step(qs[-1], vs[-1], tau)
+        qs.append(q)
+        vs.append(v)
+    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(m.njnt)]
+    return {"engine": "mujoco", "engine_version": mujoco.__version__, "model": model,
+            "integrator": {0: "Euler", 1: "RK4"}[int(m.opt.integrator)], "timestep": m.opt.timestep,
+            "nq": m.nq, "nv": m.nv, "joint_names": names,
+            "fluid": {"density": m.opt.density, "viscosity": m.opt.viscosity, "wind": m.opt.wind.copy()},
+            "settings": {"disableflags": ["contact", "limit"], "seed": seed,
+                         "tau": "uniform in +-1 times 10 M_ii at qpos0 (armature in M), rollout 0.2 of that"},
+            "one_step": one_step, "rollout": {"q0": q0, "v0": v0, "taus": taus, "q": qs, "v": vs}}
+
+
+def full_mass(m, d, q) -> np.ndarray:
+    import mujoco
+
+    d.qpos[:] = q
+    mujoco.mj_forward(m, d)
+    M = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, M)  # MuJoCo 4: armature included
+    return M
+
+
+def run(args) -> int:
+    args.out.mkdir(parents=True, exist_ok=True)
+    for name in CASES:
+        doc = record(name, args.seed)
+        path = args.out / f"{name}.json"
+        path.write_text(json.dumps(jsonable(doc), indent=1) + "\n")
+        print(f"wrote {path} (nq {doc['nq']}, nv {doc['nv']}, {doc['integrator']})")
+    return 0

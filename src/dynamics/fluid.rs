@@ -1,0 +1,107 @@
+//! Fluid forces: MuJoCo's inertia-box model (its default; the ellipsoid model,
+//! geom `fluidshape`, is not supported).
+//!
+//! Every body with mass moves in a medium of density rho, viscosity beta and
+//! wind w (model option [`Fluid`]) as the box with its mass and principal
+//! moments would: full sides b_k = sqrt(6 (I_j + I_l - I_k) / m) along its
+//! principal axes (k, j, l distinct). With (omega, u) its angular velocity
+//! and the velocity of its centre of mass less the wind, both on its
+//! principal axes, it feels at its centre of mass
+//!   torque  -pi d^3 beta omega   - rho b_k (b_j^4 + b_l^4) |omega_k| omega_k / 64
+//!   force   -3 pi d beta u       - rho b_j b_l |u_k| u_k / 2
+//! per axis k, d = (b_x + b_y + b_z) / 3 the diameter of the equivalent
+//! sphere. The generalized force is J^T of that wrench; it is explicit in
+//! every integrator (evaluated at (q, v)), as MuJoCo's passive forces are.
+//! The principal axes are the body's inertial frame
+//! ([`crate::model::Body::inertia_frame`], MuJoCo's body_iquat), the moments
+//! the inertia's diagonal there: where two moments are equal, the frame tells
+//! their axes apart as MuJoCo does.
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::contact::body_force_to_joints;
+use super::{Data, Tree};
+use crate::model::{Fluid, Spec};
+use crate::spatial::{lift, lift_matrix, lift_vector, Force, Real, Transform};
+
+/// MuJoCo's mjMINVAL: lighter bodies feel no fluid.
+const MIN_MASS: f64 = 1e-15;
+
+/// A body the fluid acts on, in its node's frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FluidBody<T: Real> {
+    pub node: usize,
+    /// From the node's frame to the body's.
+    pub offset: Transform<T>,
+    /// Centre of mass and principal axes (columns) in body coordinates.
+    pub com: Vector3<T>,
+    pub axes: Matrix3<T>,
+    /// The equivalent box's full sides along the principal axes.
+    pub sides: Vector3<T>,
+}
+
+/// The bodies of `spec` the fluid acts on (none without a medium), each
+/// carried by node `frames[b]` at the offset given (the tree's body frames).
+pub fn fluid_bodies<T: Real>(
+    spec: &Spec,
+    frames: &[(Option<usize>, Transform<T>)],
+) -> Vec<FluidBody<T>> {
+    if !spec.opt.fluid.acts() {
+        return vec![];
+    }
+    let mut out = vec![];
+    for (b, body) in spec.bodies.iter().enumerate().skip(1) {
+        let (Some(node), offset) = frames[b] else {
+            continue;
+        };
+        if body.mass < MIN_MASS {
+            continue;
+        }
+        let axes = *body.inertia_frame.matrix();
+        let moments = (axes.transpose() * body.inertia * axes).diagonal();
+        let side = |k: usize| {
+            let (j, l) = ((k + 1) % 3, (k + 2) % 3);
+            let excess = (moments[j] + moments[l] - moments[k]).max(MIN_MASS);
+            (excess / body.mass * 6.0).sqrt()
+        };
+        out.push(FluidBody {
+            node,
+            offset,
+            com: lift_vector(&body.com),
+            axes: lift_matrix(&axes),
+            sides: lift_vector(&Vector3::new(side(0), side(1), side(2))),
+        });
+    }
+    out
+}
+
+/// Adds the fluid's generalized forces to `out` (`data.world` and
+/// `data.world_vel` filled by [`super::constraint::world_frames`], `data.x_up`
+/// at q).
+pub fn add_fluid_forces<T: Real>(tree: &Tree<T>, medium: &Fluid, data: &Data<T>, out: &mut [T]) {
+    let (rho, beta): (T, T) = (lift(medium.density), lift(medium.viscosity));
+    let wind = lift_vector(&medium.wind);
+    let pi = T::pi();
+    for f in &tree.fluid {
+        // world -> body
+        let to_body = f.offset.compose(&data.world[f.node]);
+        let vel = to_body.apply_motion(&data.world_vel[f.node]);
+        let at_com = vel.lin + vel.ang.cross(&f.com) - to_body.rot * wind;
+        let (omega, u) = (f.axes.tr_mul(&vel.ang), f.axes.tr_mul(&at_com));
+        let b = f.sides;
+        let d = (b.x + b.y + b.z) / lift(3.0);
+        let mut torque = omega * (-pi * d * d * d * beta);
+        let mut force = u * (-lift::<T>(3.0) * pi * d * beta);
+        for k in 0..3 {
+            let (j, l) = ((k + 1) % 3, (k + 2) % 3);
+            let fourth = |x: T| x * x * x * x;
+            force[k] -= rho * b[j] * b[l] * u[k].abs() * u[k] / lift(2.0);
+            torque[k] -=
+                rho * b[k] * (fourth(b[j]) + fourth(b[l])) * omega[k].abs() * omega[k] / lift(64.0);
+        }
+        let (torque, force) = (f.axes * torque, f.axes * force);
+        let in_body = Force::new(torque + f.com.cross(&force), force);
+        let in_node = f.offset.inverse_apply_force(&in_body);
+        body_force_to_joints(tree, &data.x_up, f.node, in_node, out);
+    }
+}
