@@ -38,7 +38,8 @@ FEATURES = MODELS.parent / "tests" / "data"
 
 
 def models() -> dict:
-    """The models of the report: name -> (MJCF path, steps). The wiping arm's episode
+    """The models of the report: name -> (MJCF path, steps); gymnasium's ant and humanoid
+    (free joints) stand and fall under random controls. The wiping arm's episode
     brings its own arm; the feature models (every collider and contact setting, under
     both cones) fall passively for 1.2 s, before their hinge chains near gimbal lock;
     the chain of 50 overlapping spheres (1176 contacts; MuJoCo's converged solve takes
@@ -46,7 +47,8 @@ def models() -> dict:
     gym = gym_assets_dir()
     return {"half_cheetah": (MODELS / "half_cheetah.xml", 500), "box": (MODELS / "box.xml", 500),
             "wiping_arm": (MODELS / "wiping_arm.xml", 2000), "hopper": (gym / "hopper.xml", 500),
-            "walker2d": (gym / "walker2d.xml", 500),
+            "walker2d": (gym / "walker2d.xml", 500), "ant": (gym / "ant.xml", 300),
+            "humanoid": (gym / "humanoid.xml", 300),
             "features_pyramidal": (FEATURES / "contact_features_pyramidal.xml", 300),
             "features_elliptic": (FEATURES / "contact_features_elliptic.xml", 300),
             "box_stack": (FEATURES / "box_stack.xml", 500),
