@@ -40,6 +40,12 @@ smooth penalty model, and MuJoCo on gymnasium's half_cheetah.xml (same dt 0.01),
 settled by SETTLE_STEPS steps without forces from its reference pose; all then step on from
 there (zero forces, so they keep standing and the contact count stays put).
 
+Gymnasium's humanoid (a free joint, 23 dofs; target: at least as fast as MuJoCo): contacts and
+limits off at the fixed state above (its quaternion normalised), and as the file runs it (RK4,
+contacts and limits on; MuJoCo's PGS solver at the file's 50 iterations, ours to convergence),
+each engine from its own state after HUMANOID_FALL steps without forces from the reference pose
+(lying on the floor), stepping on from there.
+
 Ratio = their time / ours: > 1 means we are faster. An OSI table from
 benches/osi.rs follows (criterion only): one DiffOSI identification (LM from
 the prior until a tolerance stops it), the warm-started online update, and one
@@ -67,6 +73,8 @@ TARGET_SECONDS = 0.01  # a repeat calls the function until about this long
 FD_EPS = 1e-6
 CONTACT = "half_cheetah, floor contact"  # the row of the contact step
 SETTLE_STEPS = 300  # from rest at the reference pose to standing on the floor
+HUMANOID = "humanoid (gymnasium)"  # the rows of the humanoid's step
+HUMANOID_FALL = 200  # steps from the reference pose to lying on the floor
 
 # NimblePhysics Gauss-Newton DiffOSI step, thread-CPU seconds per update
 # (shared/notes/reference-engines.md): (model, W) -> seconds.
@@ -113,9 +121,11 @@ def medians(jobs, repeats=REPEATS):
     return {key: float(np.median(t)) for key, t in times.items()}
 
 
-def fixed_state(q0):
-    i = np.arange(len(q0))
-    return q0 + 0.1 * np.sin(i + 1.0), 0.5 * np.cos(i + 2.0), np.sin(i + 3.0)
+def fixed_state(q0, nv=None):
+    """q0 + 0.1 sin(i + 1) over q's coordinates, v = 0.5 cos(i + 2) and tau = sin(i + 3) over the
+    nv dofs (nv = len(q0) unless given)."""
+    i, k = np.arange(len(q0)), np.arange(len(q0) if nv is None else nv)
+    return q0 + 0.1 * np.sin(i + 1.0), 0.5 * np.cos(k + 2.0), np.sin(k + 3.0)
 
 
 def ours_jobs(name):
@@ -188,6 +198,37 @@ def contact_jobs():
     }
 
 
+def humanoid_jobs():
+    """{(library, what): job}: gymnasium's humanoid, ours and MuJoCo's, contact-free at the fixed
+    state ("free ...") and as the file runs it after falling ("step", "loop")."""
+    path = gym_assets_dir() / "humanoid.xml"
+    m = diffosi.Model.load(str(path))
+    free = m.with_options(contact=False, limits=False)
+    q, v, tau = fixed_state(m.reference_q(), m.nv)
+    q[3:7] /= np.linalg.norm(q[3:7])
+    rest = np.zeros((HUMANOID_FALL, m.nv))
+    Q, V = m.rollout(m.reference_q(), np.zeros(m.nv), rest)
+    ql, vl = Q[-1], V[-1]
+    with quiet_stdio():
+        model = mujoco.MjModel.from_xml_path(str(path))
+        filed = mujoco.MjModel.from_xml_path(str(path))
+    model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_LIMIT
+    data, lying = mujoco.MjData(model), mujoco.MjData(filed)
+    data.qpos[:], data.qvel[:], data.qfrc_applied[:] = q, v, tau
+    mujoco.mj_step(filed, lying, HUMANOID_FALL)
+    loop = np.tile(tau, (NATIVE_STEPS, 1))
+    return {
+        ("diffosi", "free step"): (free.step, (q, v, tau), 1),
+        ("diffosi", "free loop"): (free.rollout, (q, v, loop), NATIVE_STEPS),
+        ("MuJoCo", "free step"): (mujoco.mj_step, (model, data), 1),
+        ("MuJoCo", "free loop"): (mujoco.mj_step, (model, data, NATIVE_STEPS), NATIVE_STEPS),
+        ("diffosi", "step"): (m.step, (ql, vl, rest[0]), 1),
+        ("diffosi", "loop"): (m.rollout, (ql, vl, np.zeros((NATIVE_STEPS, m.nv))), NATIVE_STEPS),
+        ("MuJoCo", "step"): (mujoco.mj_step, (filed, lying), 1),
+        ("MuJoCo", "loop"): (mujoco.mj_step, (filed, lying, NATIVE_STEPS), NATIVE_STEPS),
+    }
+
+
 LIBRARIES = {"diffosi": ours_jobs, "MuJoCo": mujoco_jobs, "Pinocchio": pinocchio_jobs}
 
 
@@ -199,6 +240,7 @@ def measure():
         for library, make_jobs in LIBRARIES.items():
             jobs.update({(name, library, what): job for what, job in make_jobs(name).items()})
     jobs.update({(CONTACT, library, what): job for (library, what), job in contact_jobs().items()})
+    jobs.update({(HUMANOID, library, what): job for (library, what), job in humanoid_jobs().items()})
     result = {}
     for (name, library, what), seconds in medians(jobs).items():
         result.setdefault(name, {}).setdefault(library, {})[what] = seconds
@@ -264,6 +306,13 @@ def speed_table():
             ("step + 1-parameter Jacobian (constraint model)", ours["param"],
              "constraint_jacobian_param_half_cheetah", None)]:
         cells = [what, CONTACT, us(mine), us(criterion(bench)), versus(theirs, mine), "—"]
+        lines.append("| " + " | ".join(cells) + " |")
+    ours_h, mj_h = times[HUMANOID]["diffosi"], times[HUMANOID]["MuJoCo"]
+    for what, key in [("step, one Python call, contacts and limits off", "free step"),
+                      (f"step, loop of {NATIVE_STEPS} in native code, contacts and limits off", "free loop"),
+                      ("step, one Python call, as the file runs it, lying on the floor", "step"),
+                      (f"step, loop of {NATIVE_STEPS} in native code, as the file runs it", "loop")]:
+        cells = [what, HUMANOID, us(ours_h[key]), "—", versus(mj_h[key], ours_h[key]), "—"]
         lines.append("| " + " | ".join(cells) + " |")
     param, step = (criterion(f"constraint_{b}_half_cheetah") for b in ("jacobian_param", "step"))
     param_steps = "—" if None in (param, step) else (

@@ -93,6 +93,13 @@ impl PyModel {
         self.model.nv()
     }
 
+    /// The configuration (length nq) at which every body sits at its
+    /// modelled pose: MuJoCo's qpos0 (a free joint's body position and
+    /// quaternion, a ball's identity quaternion).
+    fn reference_q<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_vec(py, self.model.reference_q())
+    }
+
     /// Number of actuators.
     #[getter]
     fn nu(&self) -> usize {

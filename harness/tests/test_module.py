@@ -370,3 +370,22 @@ def test_malformed_files_raise_value_error(tmp_path):
     other.write_text("v 0 0 0")
     with pytest.raises(ValueError, match="model.obj"):
         diffosi.Model.load(str(other))
+
+
+def test_free_and_ball_joints_have_nq_above_nv():
+    """A model with free and ball joints: q is nq long (quaternions w, x, y, z), v and tau nv;
+    the reference configuration is MuJoCo's qpos0; a step returns unit quaternions; a q of
+    length nv is refused naming nq; the Jacobians refuse the model clearly."""
+    m = diffosi.Model.load(str(MODELS / "free_ball.xml")).with_options(contact=False)
+    assert (m.nq, m.nv) == (16, 13)
+    q0 = m.reference_q()
+    assert q0.shape == (16,) and np.allclose(q0[:3], [0.1, 0.2, 1.5])
+    assert np.isclose(np.linalg.norm(q0[3:7]), 1.0) and np.allclose(q0[7:11], [1, 0, 0, 0])
+    q, v = m.step(2.0 * q0, np.full(13, 0.5), np.zeros(13))  # quaternions read normalised
+    assert q.shape == (16,) and v.shape == (13,)
+    for start in (3, 7, 12):
+        assert abs(np.linalg.norm(q[start:start + 4]) - 1.0) < 1e-15
+    with pytest.raises(ValueError, match="nq"):
+        m.step(np.zeros(13), np.zeros(13), np.zeros(13))
+    with pytest.raises(ValueError, match="ball or free joints"):
+        m.transition_jacobians(q0, np.zeros(13), np.zeros(13))
