@@ -50,7 +50,7 @@ fn bench_model(c: &mut Criterion, name: &str, param: &str) {
     c.bench_function(&format!("jacobian_step/{name}"), |b| {
         b.iter(|| model.step(&mut data, black_box(&q), &v, &tau).unwrap())
     });
-    let mut transition = TransitionJacobians::new(model.nv());
+    let mut transition = TransitionJacobians::new(model.nq(), model.nv());
     c.bench_function(&format!("jacobian_full/{name}"), |b| {
         b.iter(|| {
             let x = (black_box(&q[..]), &v[..], &tau[..]);
@@ -116,7 +116,7 @@ fn bench_constraint(c: &mut Criterion) {
     c.bench_function("constraint_step/half_cheetah", |b| {
         b.iter(|| model.step(&mut data, black_box(&q), &v, &tau).unwrap())
     });
-    let mut transition = TransitionJacobians::new(model.nv());
+    let mut transition = TransitionJacobians::new(model.nq(), model.nv());
     c.bench_function("constraint_jacobian_full/half_cheetah", |b| {
         b.iter(|| {
             let x = (black_box(&q[..]), &v[..], &tau[..]);

@@ -53,7 +53,7 @@ impl PyModel {
     pub(crate) fn new(model: Model) -> Self {
         let data = model.data();
         let ws = Workspace::new(&model);
-        let transition = TransitionJacobians::new(model.nv());
+        let transition = TransitionJacobians::new(model.nq(), model.nv());
         PyModel {
             model,
             data,
@@ -288,7 +288,8 @@ impl PyModel {
     /// One step with its exact Jacobians: a dict of 2-D float64 arrays
     /// dq_dq, dq_dv, dv_dq, dv_dv (n x n), dq_dtau, dv_dtau (n x n) and
     /// dq_dp, dv_dp (n x total length of `params`, columns in the order of
-    /// the flattened parameters).
+    /// the flattened parameters); n = nv, positions in the tangent space
+    /// (see `transition_jacobians`).
     #[pyo3(signature = (q, v, tau, params = None))]
     fn step_jacobians<'py>(
         &mut self,
@@ -327,6 +328,8 @@ impl PyModel {
     /// One step's Jacobians in MuJoCo's layout (mjd_transitionFD's A and B,
     /// here exact): A = d(q', v')/d(q, v), 2 nv x 2 nv, rows q' then v',
     /// columns q then v; B = d(q', v')/d tau, 2 nv x nv. Two float64 arrays.
+    /// Positions in the tangent space, as mjd_transitionFD has them: a ball's
+    /// or free joint's rotation as its body-frame rotation vector.
     fn transition_jacobians<'py>(
         &mut self,
         py: Python<'py>,

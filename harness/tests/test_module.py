@@ -375,7 +375,8 @@ def test_malformed_files_raise_value_error(tmp_path):
 def test_free_and_ball_joints_have_nq_above_nv():
     """A model with free and ball joints: q is nq long (quaternions w, x, y, z), v and tau nv;
     the reference configuration is MuJoCo's qpos0; a step returns unit quaternions; a q of
-    length nv is refused naming nq; the Jacobians refuse the model clearly."""
+    length nv is refused naming nq; the step Jacobians are in the tangent space (2 nv columns
+    of state, MuJoCo's layout); identification refuses the model clearly."""
     m = diffosi.Model.load(str(MODELS / "free_ball.xml")).with_options(contact=False)
     assert (m.nq, m.nv) == (16, 13)
     q0 = m.reference_q()
@@ -387,5 +388,8 @@ def test_free_and_ball_joints_have_nq_above_nv():
         assert abs(np.linalg.norm(q[start:start + 4]) - 1.0) < 1e-15
     with pytest.raises(ValueError, match="nq"):
         m.step(np.zeros(13), np.zeros(13), np.zeros(13))
+    A, B = m.transition_jacobians(q0, np.zeros(13), np.zeros(13))
+    assert A.shape == (26, 26) and B.shape == (26, 13) and np.isfinite(A).all()
     with pytest.raises(ValueError, match="ball or free joints"):
-        m.transition_jacobians(q0, np.zeros(13), np.zeros(13))
+        diffosi.DiffOsi(m, params=["body/box/mass"], lower=[1.0], upper=[3.0]).identify(
+            q0[None], np.zeros((1, 13)), np.zeros((1, 13)), q0[None], np.zeros((1, 13)))

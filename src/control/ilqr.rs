@@ -316,7 +316,7 @@ impl<'a> Ilqr<'a> {
         let mut a = DMatrix::identity(2 * n, 2 * n);
         let mut b_tau = DMatrix::zeros(2 * n, n);
         let (mut q, mut v) = (q.clone(), v.clone());
-        let mut step = TransitionJacobians::new(n);
+        let mut step = TransitionJacobians::new(n, n);
         for _ in 0..self.task.substeps() {
             transition_jacobians(&self.model, &mut self.ws, (&q, &v, &tau), &mut step)?;
             a = &step.a * a;

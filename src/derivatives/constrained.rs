@@ -14,11 +14,19 @@
 //! step per column. It gives the contact parameters' columns, and every
 //! column where the analytic derivative ([`super::implicit`]) does not
 //! apply; that one is tested against it.
+//!
+//! Positions are differentiated in the tangent space (mjd_transitionFD's
+//! layout, nv rows and columns for q): a column of q seeds q (+) eps e_k
+//! (for a ball's axis: the body turned by eps about its own axis k), and a
+//! row of q' reads the tangent of q' (+) d at d = 0 (a quaternion's
+//! 2 vec(conj(q') dq'/deps)). For hinges and slides both are the plain
+//! coordinate.
 
 use nalgebra::{DMatrix, DVector};
 use num_dual::Dual64;
 
 use super::step::Wrt;
+use crate::dynamics::configuration::{integrate, multiply, Coordinates};
 use crate::dynamics::{step, Data, StepError, Tree};
 use crate::model::{Model, Param};
 
@@ -147,9 +155,37 @@ fn dual_step(
             .map(|(i, &xi)| Dual64::new(xi, if seed == Some(offset + i) { 1.0 } else { 0.0 }))
             .collect()
     };
-    let (qd, vd, td) = (lift(q, 0), lift(v, n), lift(tau, 2 * n));
-    let (mut q1, mut v1) = (vec![Dual64::from(0.0); n], vec![Dual64::from(0.0); n]);
+    let mut qd = lift(q, 3 * n); // seeds are below 3 n: q plain
+    if seed.is_some_and(|s| s < n) {
+        // q (+) eps e_k
+        let plain = qd.clone();
+        integrate(
+            tree,
+            &plain,
+            &lift(&vec![0.0; n], 0),
+            Dual64::from(1.0),
+            &mut qd,
+        );
+    }
+    let (vd, td) = (lift(v, n), lift(tau, 2 * n));
+    let (mut q1, mut v1) = (vec![Dual64::from(0.0); q.len()], vec![Dual64::from(0.0); n]);
     step(tree, &model.opt, data, (&qd, &vd, &td), (&mut q1, &mut v1))?;
     let eps = |x: &[Dual64]| DVector::from_iterator(n, x.iter().map(|d| d.eps));
-    Ok((eps(&q1), eps(&v1)))
+    Ok((tangent_slope(tree, &q1), eps(&v1)))
+}
+
+/// The tangent-space slope of dual positions q (see the module docs).
+fn tangent_slope(tree: &Tree<Dual64>, q: &[Dual64]) -> DVector<f64> {
+    let mut out = DVector::zeros(tree.nv());
+    for (i, joint) in tree.joint.iter().enumerate() {
+        out[i] = match joint.coordinates {
+            Coordinates::Scalar { at } => q[at].eps,
+            Coordinates::Rotation { at, axis } => {
+                let [w, x, y, z] = [0, 1, 2, 3].map(|k| q[at + k].re);
+                let slope = [0, 1, 2, 3].map(|k| q[at + k].eps);
+                2.0 * multiply(&[w, -x, -y, -z], &slope)[1 + axis]
+            }
+        };
+    }
+    out
 }

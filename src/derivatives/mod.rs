@@ -46,9 +46,16 @@ pub use window::{window_residuals, window_residuals_into, Transition, WindowErro
 use crate::dynamics::StepError;
 use crate::model::Model;
 
-/// Refuses a model with ball or free joints (these derivatives index q and v
-/// alike, nq = nv: their tangent-space form is still to be written) or fluid
-/// forces (not differentiated yet).
+/// Whether a model's step Jacobians come from dual numbers alone: ball and
+/// free joints (their columns in the tangent space, see module
+/// `constrained`) and fluid forces have no analytic derivatives yet.
+fn dual_only(model: &Model) -> bool {
+    !model.one_dof_joints() || model.opt.fluid.acts()
+}
+
+/// Refuses, for the identification residuals (which index q and v alike and
+/// differentiate analytically), a model with ball or free joints or fluid
+/// forces.
 fn one_dof_joints(model: &Model) -> Result<(), StepError> {
     if !model.one_dof_joints() {
         Err(StepError::NoTangentDerivatives)

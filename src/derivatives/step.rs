@@ -125,9 +125,8 @@ pub fn step_jacobians(
     let n = model.nv();
     let tree = model.tree();
     check_inputs(tree, (q, v, tau))?;
-    super::one_dof_joints(model)?;
     ws.size_for(model);
-    let (mut q_next, mut v_next) = (vec![0.0; n], vec![0.0; n]);
+    let (mut q_next, mut v_next) = (vec![0.0; model.nq()], vec![0.0; n]);
     // Under the constraint model the columns are analytic but the contact
     // parameters' (friction, solref, solimp, dry friction), which are dual
     // and interleaved back in order; where the zones defeat the analytic
@@ -151,6 +150,7 @@ pub fn step_jacobians(
     };
     let analytic = match model.opt.integrator {
         _ if !wrt.state && !wrt.control && analytic_wrt.params.is_empty() => None,
+        _ if super::dual_only(model) => None,
         Integrator::Euler => {
             let h = model.opt.timestep;
             let mode = (model.opt.passive, h);

@@ -25,9 +25,10 @@ pub struct TransitionJacobians {
 
 impl TransitionJacobians {
     /// Sized for n dofs.
-    pub fn new(n: usize) -> Self {
+    /// Buffers for a model with nq position coordinates and n = nv dofs.
+    pub fn new(nq: usize, n: usize) -> Self {
         TransitionJacobians {
-            q_next: vec![0.0; n],
+            q_next: vec![0.0; nq],
             v_next: vec![0.0; n],
             a: DMatrix::zeros(2 * n, 2 * n),
             b: DMatrix::zeros(2 * n, n),
@@ -44,10 +45,9 @@ pub fn transition_jacobians(
 ) -> Result<(), StepError> {
     let n = model.nv();
     check_inputs(model.tree(), (q, v, tau))?;
-    super::one_dof_joints(model)?;
     ws.size_for(model);
-    if out.q_next.len() != n {
-        *out = TransitionJacobians::new(n);
+    if (out.q_next.len(), out.v_next.len()) != (model.nq(), n) {
+        *out = TransitionJacobians::new(model.nq(), n);
     }
     let wrt = Wrt {
         state: true,
@@ -57,6 +57,7 @@ pub fn transition_jacobians(
     let h = model.opt.timestep;
     let mode = (model.opt.passive, h);
     if model.opt.integrator == Integrator::Euler
+        && !super::dual_only(model)
         && accel_derivatives(model, ws, mode, (q, v, tau), &wrt)
     {
         integrate_euler(

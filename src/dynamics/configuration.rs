@@ -62,15 +62,22 @@ pub fn multiply<T: Real>(a: &[T; 4], b: &[T; 4]) -> [T; 4] {
 /// The quaternion turned by the body-frame rotation vector r (axis times
 /// angle): q exp(r / 2), normalised (MuJoCo's mju_quatIntegrate with h = 1).
 pub fn rotate<T: Real>(q: &[T], r: &Vector3<T>) -> [T; 4] {
-    let angle = r.norm();
-    let half = angle / (T::one() + T::one());
-    // sin(angle / 2) / angle, taken to its limit 1/2 at zero
-    let scale = if angle > T::zero() {
-        half.sin() / angle
+    let squared = r.norm_squared();
+    // (cos(t/2), sin(t/2) / t), t = |r|; by their series below t = 1e-6 (exact
+    // there in f64, and free of the square root's infinite slope at zero, so
+    // dual numbers seeded along r from r = 0 carry the derivative)
+    let (cos, scale) = if squared < lift(1e-12) {
+        let (one, eighth) = (T::one(), lift::<T>(0.125));
+        (
+            one - squared * eighth,
+            lift::<T>(0.5) * (one - squared / lift(24.0)),
+        )
     } else {
-        T::one() / (T::one() + T::one())
+        let angle = squared.sqrt();
+        let half = angle / lift(2.0);
+        (half.cos(), half.sin() / angle)
     };
-    let turn = [half.cos(), r.x * scale, r.y * scale, r.z * scale];
+    let turn = [cos, r.x * scale, r.y * scale, r.z * scale];
     normalized(&multiply(&normalized(q), &turn))
 }
 
@@ -131,7 +138,8 @@ pub fn tangent_rate<T: Real>(tree: &Tree<T>, theta: &[T], v: &[T], out: &mut [T]
                 let t = Vector3::new(theta[i], theta[i + 1], theta[i + 2]);
                 let w = Vector3::new(v[i], v[i + 1], v[i + 2]);
                 let cross = t.cross(&w);
-                let rate = w + cross * lift::<T>(0.5) + t.cross(&cross) * second_order(t.norm());
+                let rate =
+                    w + cross * lift::<T>(0.5) + t.cross(&cross) * second_order(t.norm_squared());
                 out[i..i + 3].copy_from_slice(rate.as_slice());
                 i += 3;
             }
@@ -139,13 +147,15 @@ pub fn tangent_rate<T: Real>(tree: &Tree<T>, theta: &[T], v: &[T], out: &mut [T]
     }
 }
 
-/// 1/t^2 - (1 + cos t) / (2 t sin t), by its series below 1e-4 (where the
-/// difference cancels): 1/12 + t^2/720.
-fn second_order<T: Real>(t: T) -> T {
-    if t < lift(1e-4) {
-        lift::<T>(1.0 / 12.0) + t * t / lift(720.0)
+/// 1/t^2 - (1 + cos t) / (2 t sin t) of t^2 = `squared`, by its series
+/// 1/12 + t^2/720 below t = 1e-4 (where the difference cancels, and where
+/// the square root's slope would be infinite for dual numbers at t = 0).
+fn second_order<T: Real>(squared: T) -> T {
+    if squared < lift(1e-8) {
+        lift::<T>(1.0 / 12.0) + squared / lift(720.0)
     } else {
-        T::one() / (t * t) - (T::one() + t.cos()) / (lift::<T>(2.0) * t * t.sin())
+        let t = squared.sqrt();
+        T::one() / squared - (T::one() + t.cos()) / (lift::<T>(2.0) * t * t.sin())
     }
 }
 

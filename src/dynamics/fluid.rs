@@ -21,7 +21,8 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::contact::body_force_to_joints;
 use super::{Data, Tree};
-use crate::model::{Fluid, Spec};
+use crate::model::params::inertia_to_six;
+use crate::model::{Fluid, Param, Spec};
 use crate::spatial::{lift, lift_matrix, lift_vector, Force, Real, Transform};
 
 /// MuJoCo's mjMINVAL: lighter bodies feel no fluid.
@@ -41,10 +42,13 @@ pub struct FluidBody<T: Real> {
 }
 
 /// The bodies of `spec` the fluid acts on (none without a medium), each
-/// carried by node `frames[b]` at the offset given (the tree's body frames).
+/// carried by node `frames[b]` at the offset given (the tree's body frames),
+/// their mass, COM and inertia lifted by `lift_param` (see
+/// [`super::Tree::build_with`]).
 pub fn fluid_bodies<T: Real>(
     spec: &Spec,
     frames: &[(Option<usize>, Transform<T>)],
+    lift_param: &impl Fn(Param, usize, f64) -> T,
 ) -> Vec<FluidBody<T>> {
     if !spec.opt.fluid.acts() {
         return vec![];
@@ -57,19 +61,25 @@ pub fn fluid_bodies<T: Real>(
         if body.mass < MIN_MASS {
             continue;
         }
-        let axes = *body.inertia_frame.matrix();
-        let moments = (axes.transpose() * body.inertia * axes).diagonal();
+        let mass = lift_param(Param::Mass(b), 0, body.mass);
+        let com = Vector3::from_fn(|r, _| lift_param(Param::Com(b), r, body.com[r]));
+        let six = inertia_to_six(&body.inertia);
+        let [xx, yy, zz, xy, xz, yz]: [T; 6] =
+            std::array::from_fn(|r| lift_param(Param::Inertia(b), r, six[r]));
+        let inertia = Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz);
+        let axes: Matrix3<T> = lift_matrix(body.inertia_frame.matrix());
+        let moments = (axes.transpose() * inertia * axes).diagonal();
         let side = |k: usize| {
             let (j, l) = ((k + 1) % 3, (k + 2) % 3);
-            let excess = (moments[j] + moments[l] - moments[k]).max(MIN_MASS);
-            (excess / body.mass * 6.0).sqrt()
+            let excess = (moments[j] + moments[l] - moments[k]).max(lift(MIN_MASS));
+            (excess / mass * lift(6.0)).sqrt()
         };
         out.push(FluidBody {
             node,
             offset,
-            com: lift_vector(&body.com),
-            axes: lift_matrix(&axes),
-            sides: lift_vector(&Vector3::new(side(0), side(1), side(2))),
+            com,
+            axes,
+            sides: Vector3::new(side(0), side(1), side(2)),
         });
     }
     out

@@ -36,15 +36,18 @@ pub enum StepError {
         .0[0], .0[1]
     )]
     NoCollider([usize; 2]),
-    /// Derivatives in the tangent space of ball and free joints are not
-    /// written yet.
+    /// The identification residuals of models with ball or free joints
+    /// (their q residuals would be tangent differences) are not written yet.
     #[error(
-        "derivatives of models with ball or free joints are not supported yet (the model steps; \
-         its Jacobians and identification do not)"
+        "identification of models with ball or free joints is not supported yet (their step \
+         and step Jacobians are)"
     )]
     NoTangentDerivatives,
-    /// Fluid forces are not differentiated yet.
-    #[error("derivatives of models with fluid forces are not supported yet (the model steps)")]
+    /// The identification residuals of models in a fluid are not written yet.
+    #[error(
+        "identification of models with fluid forces is not supported yet (their step and step \
+         Jacobians are)"
+    )]
     NoFluidDerivatives,
     /// The next state is finite but a Jacobian block overflowed.
     #[error("the step Jacobian {block} is not finite (state, forces or parameters too large)")]

@@ -295,7 +295,7 @@ impl<T: Real> Tree<T> {
             }
         }
         tree.medium = model.opt.fluid;
-        tree.fluid = fluid_bodies(model, &tree.body_frames());
+        tree.fluid = fluid_bodies(model, &tree.body_frames(), &lift_param);
         let soft = &model.opt.soft;
         let constants = [
             (Param::ContactStiffness, soft.stiffness),

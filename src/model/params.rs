@@ -559,7 +559,7 @@ impl Model {
             }
         }
         // The fluid's equivalent boxes follow the masses and inertias.
-        tree.fluid = fluid_bodies(&self.spec, &tree.body_frames());
+        tree.fluid = fluid_bodies(&self.spec, &tree.body_frames(), &|_, _, x| x);
         if tree.contact_model == ContactModel::Constraint {
             // MuJoCo's mj_setConst after an edit of inertial values.
             let (body, dof) = invweight0(tree, &self.spec, &|_, _, x| x);

@@ -41,6 +41,7 @@ use crate::derivatives::{
     eliminated_residuals_into, window_residuals_into, Elimination, Impulses, Transition,
     WindowError, WindowFit, Workspace,
 };
+use crate::dynamics::StepError;
 use crate::model::{Model, ParamError, ParamMap};
 
 #[derive(Debug, thiserror::Error)]
@@ -87,6 +88,9 @@ pub enum OsiError {
     /// Closed-loop segments that cannot be simulated or differentiated.
     #[error("{0}")]
     Segment(String),
+    /// A model whose identification residuals are not written yet.
+    #[error(transparent)]
+    Unsupported(StepError),
     #[error(transparent)]
     Param(#[from] ParamError),
     #[error(transparent)]
@@ -124,6 +128,16 @@ impl Problem {
         prior: &[f64],
         scale: &[f64],
     ) -> Result<Problem, OsiError> {
+        let refused = if !model.one_dof_joints() {
+            Some(StepError::NoTangentDerivatives)
+        } else if model.opt.fluid.acts() {
+            Some(StepError::NoFluidDerivatives)
+        } else {
+            None
+        };
+        if let Some(why) = refused {
+            return Err(OsiError::Unsupported(why));
+        }
         let nmu = map.nmu;
         for (what, x, expected) in [
             ("lower", lower, nmu),

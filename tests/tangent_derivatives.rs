@@ -1,0 +1,235 @@
+//! Step Jacobians of models with ball and free joints and fluid forces, in the tangent
+//! space (mjd_transitionFD's layout: nv rows and columns for positions), against central
+//! finite differences taken on the manifold: q moved by q (+) d, q' read as the tangent
+//! of q'_+ against q'_- (mj_differentiatePos). Our free_ball model under Euler, RK4 and in
+//! a wind, and gymnasium's ant as its file runs it (RK4, contacts and limits on, standing
+//! on its floor), parameters included.
+
+mod common;
+
+use diffosi::derivatives::{
+    step_jacobians, transition_jacobians, TransitionJacobians, Workspace, Wrt,
+};
+use diffosi::dynamics::configuration::{integrate, subtract};
+use diffosi::model::{Fluid, Integrator, Model, PassiveMode};
+use nalgebra::{DMatrix, DVector, Vector3};
+
+const H: f64 = 1e-6;
+
+/// (q', v') after one step from (q (+) dq, v + dv) under tau + dtau, with component
+/// `k` of parameter `p` moved by dp.
+fn stepped(
+    model: &Model,
+    x: (&[f64], &[f64], &[f64]),
+    d: (&[f64], &[f64], &[f64]),
+    p: Option<(&str, usize, f64)>,
+) -> (Vec<f64>, Vec<f64>) {
+    let mut model = model.clone();
+    if let Some((name, k, dp)) = p {
+        let mut value = model.get_param(name).unwrap();
+        value[k] += dp;
+        model.set_param(name, &value).unwrap();
+    }
+    let tree = model.tree();
+    let mut q = vec![0.0; x.0.len()];
+    integrate(tree, x.0, d.0, 1.0, &mut q);
+    let v: Vec<f64> = x.1.iter().zip(d.1).map(|(a, b)| a + b).collect();
+    let tau: Vec<f64> = x.2.iter().zip(d.2).map(|(a, b)| a + b).collect();
+    model.step(&mut model.data(), &q, &v, &tau).unwrap()
+}
+
+/// The central difference of the step along one input direction, as (dq' tangent, dv').
+fn difference(
+    model: &Model,
+    x: (&[f64], &[f64], &[f64]),
+    dir: (&[f64], &[f64], &[f64]),
+    p: Option<(&str, usize)>,
+) -> DVector<f64> {
+    let n = model.nv();
+    let scaled = |s: f64| -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        let m = |a: &[f64]| a.iter().map(|x| x * s).collect::<Vec<_>>();
+        (m(dir.0), m(dir.1), m(dir.2))
+    };
+    let (plus, minus) = (scaled(H), scaled(-H));
+    let (qp, vp) = stepped(
+        model,
+        x,
+        (&plus.0, &plus.1, &plus.2),
+        p.map(|(p, k)| (p, k, H)),
+    );
+    let (qm, vm) = stepped(
+        model,
+        x,
+        (&minus.0, &minus.1, &minus.2),
+        p.map(|(p, k)| (p, k, -H)),
+    );
+    let mut dq = vec![0.0; n];
+    subtract(model.tree(), &qp, &qm, &mut dq);
+    DVector::from_iterator(
+        2 * n,
+        dq.iter()
+            .chain(
+                vp.iter()
+                    .zip(&vm)
+                    .map(|(a, b)| a - b)
+                    .collect::<Vec<_>>()
+                    .iter(),
+            )
+            .map(|x| x / (2.0 * H)),
+    )
+}
+
+fn check(name: &str, model: &Model, x: (&[f64], &[f64], &[f64]), params: &[&str]) -> f64 {
+    let n = model.nv();
+    let ids: Vec<_> = params.iter().map(|p| model.param(p).unwrap()).collect();
+    let wrt = Wrt {
+        state: true,
+        control: true,
+        params: &ids,
+    };
+    let j = step_jacobians(model, &mut Workspace::new(model), x, &wrt).unwrap();
+    let (q1, v1) = model.step(&mut model.data(), x.0, x.1, x.2).unwrap();
+    assert!(
+        j.q_next
+            .iter()
+            .zip(&q1)
+            .chain(j.v_next.iter().zip(&v1))
+            .all(|(a, b)| (a - b).abs() < 1e-12),
+        "{name}: next state"
+    );
+    let mut worst = 0.0f64;
+    let zero = vec![0.0; n];
+    let mut compare = |col: DVector<f64>, ours: DVector<f64>, what: String| {
+        let scale = col.amax().max(1.0);
+        let err = (&col - &ours).amax() / scale;
+        assert!(
+            err < 1e-5,
+            "{name} {what}: {err:e}\n fd {col}\n ours {ours}"
+        );
+        worst = worst.max(err);
+    };
+    for k in 0..n {
+        let e: Vec<f64> = (0..n).map(|i| if i == k { 1.0 } else { 0.0 }).collect();
+        let stack = |a: &DMatrix<f64>, b: &DMatrix<f64>| {
+            DVector::from_iterator(2 * n, a.column(k).iter().chain(b.column(k).iter()).copied())
+        };
+        compare(
+            difference(model, x, (&e, &zero, &zero), None),
+            stack(&j.dq_dq, &j.dv_dq),
+            format!("d/dq {k}"),
+        );
+        compare(
+            difference(model, x, (&zero, &e, &zero), None),
+            stack(&j.dq_dv, &j.dv_dv),
+            format!("d/dv {k}"),
+        );
+        compare(
+            difference(model, x, (&zero, &zero, &e), None),
+            stack(&j.dq_dtau, &j.dv_dtau),
+            format!("d/dtau {k}"),
+        );
+    }
+    let components = params
+        .iter()
+        .flat_map(|p| (0..model.get_param(p).unwrap().len()).map(move |k| (*p, k)));
+    for (c, (p, k)) in components.enumerate() {
+        let col = DVector::from_iterator(
+            2 * n,
+            j.dq_dp
+                .column(c)
+                .iter()
+                .chain(j.dv_dp.column(c).iter())
+                .copied(),
+        );
+        compare(
+            difference(model, x, (&zero, &zero, &zero), Some((p, k))),
+            col,
+            format!("d/d {p}[{k}]"),
+        );
+    }
+    // transition_jacobians: the same blocks in MuJoCo's layout
+    let mut t = TransitionJacobians::new(model.nq(), n);
+    transition_jacobians(model, &mut Workspace::new(model), x, &mut t).unwrap();
+    assert_eq!(t.a.view((0, 0), (n, n)), j.dq_dq, "{name}: A");
+    assert_eq!(t.b.view((n, 0), (n, n)), j.dv_dtau, "{name}: B");
+    println!("{name}: Jacobians within {worst:.1e} of central differences on the manifold");
+    worst
+}
+
+/// A state of the model: its reference turned and moved a little, moving.
+fn state(model: &Model) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let n = model.nv();
+    let tangent: Vec<f64> = (0..n).map(|i| 0.3 * (i as f64 + 1.0).sin()).collect();
+    let mut q = vec![0.0; model.nq()];
+    integrate(model.tree(), &model.reference_q(), &tangent, 1.0, &mut q);
+    let v = (0..n).map(|i| (i as f64 + 2.0).cos()).collect();
+    let tau = (0..n).map(|i| 0.5 * (i as f64 + 3.0).sin()).collect();
+    (q, v, tau)
+}
+
+fn free_ball(integrator: Integrator, fluid: Fluid) -> Model {
+    Model::load(common::model_path("reference_models/free_ball.xml"))
+        .unwrap()
+        .edited(|s| {
+            s.opt.integrator = integrator;
+            s.opt.passive = if integrator == Integrator::Euler {
+                PassiveMode::ImplicitDamping
+            } else {
+                PassiveMode::Explicit
+            };
+            s.opt.fluid = fluid;
+        })
+        .unwrap()
+}
+
+#[test]
+fn free_and_ball_jacobians_match_manifold_differences() {
+    let wind = Fluid {
+        density: 1000.0,
+        viscosity: 0.02,
+        wind: Vector3::new(0.5, -1.0, 0.3),
+    };
+    let params = [
+        "body/box/mass",
+        "body/arm/com",
+        "joint/shoulder/damping",
+        "joint/shoulder/stiffness",
+    ];
+    for (name, model) in [
+        (
+            "free_ball Euler",
+            free_ball(Integrator::Euler, Fluid::default()),
+        ),
+        (
+            "free_ball RK4",
+            free_ball(Integrator::Rk4, Fluid::default()),
+        ),
+        ("free_ball RK4 in a wind", free_ball(Integrator::Rk4, wind)),
+    ] {
+        let (q, v, tau) = state(&model);
+        check(name, &model, (&q, &v, &tau), &params);
+    }
+}
+
+#[test]
+fn the_ants_jacobians_in_contact_match_manifold_differences() {
+    let model = Model::load(common::model_path("gymnasium:ant.xml")).unwrap();
+    // standing on its floor: 100 steps from its reference pose
+    let mut data = model.data();
+    let (mut q, mut v) = (model.reference_q(), vec![0.0; model.nv()]);
+    let tau = vec![0.0; model.nv()];
+    for _ in 0..100 {
+        (q, v) = model.step(&mut data, &q, &v, &tau).unwrap();
+    }
+    assert!(
+        !model.contacts(&mut data, &q, &v, &tau).unwrap().is_empty(),
+        "the ant stands"
+    );
+    let tau: Vec<f64> = (0..model.nv()).map(|i| (i as f64).sin()).collect();
+    check(
+        "ant (RK4, in contact)",
+        &model,
+        (&q, &v, &tau),
+        &["body/torso/mass"],
+    );
+}
