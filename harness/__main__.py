@@ -11,6 +11,7 @@ import sys
 COMMANDS = {
     "replay": "harness.replay",
     "gradcheck": "harness.gradcheck",
+    "gradcheck-free": "harness.gradcheck_free",
     "golden": "harness.golden",
     "golden-contact": "harness.golden_contact",
     "golden-free": "harness.golden_free",

@@ -37,6 +37,8 @@ done
 for model in cartpole double_pendulum half_cheetah; do
     $py -m harness gradcheck --model $model
 done
+# Ball and free joints (the ant, the humanoid) and fluid: tangent-space Jacobians vs MuJoCo's.
+$py -m harness gradcheck-free --states 5 --seed 0
 # Contact: the half cheetah on its floor vs MuJoCo and PyBullet; the resting box in all engines.
 $py -m harness contact --steps 500 --samples 200 --seed 0
 # The wiping episode's torques replayed in MuJoCo, PyBullet and DART.

@@ -145,8 +145,10 @@ impl PyModel {
     /// timestep=0.005)`; `contact=False` / `limits=False` switch off the
     /// contacts and joint limits; `contact_model` is "constraint" (MuJoCo's
     /// soft constraints, the default for MJCF files) or "smooth" (the penalty
-    /// model, the default for URDF files). Options not given keep their value.
-    #[pyo3(signature = (*, timestep = None, gravity = None, integrator = None, passive = None, contact = None, limits = None, contact_model = None))]
+    /// model, the default for URDF files); `density` (kg/m^3), `viscosity`
+    /// (Pa s) and `wind` (3, m/s) set the fluid (MuJoCo's inertia-box model).
+    /// Options not given keep their value.
+    #[pyo3(signature = (*, timestep = None, gravity = None, integrator = None, passive = None, contact = None, limits = None, contact_model = None, density = None, viscosity = None, wind = None))]
     #[allow(clippy::too_many_arguments)]
     fn with_options(
         &self,
@@ -157,7 +159,11 @@ impl PyModel {
         contact: Option<bool>,
         limits: Option<bool>,
         contact_model: Option<&str>,
+        density: Option<f64>,
+        viscosity: Option<f64>,
+        wind: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
+        let wind = wind.map(|w| vector(w, "wind", 3, "3")).transpose()?;
         let contact_model = contact_model
             .map(|c| keyword("contact_model", c, &ContactModel::NAMES))
             .transpose()?;
@@ -180,6 +186,12 @@ impl PyModel {
                 s.opt.contact = contact.unwrap_or(s.opt.contact);
                 s.opt.limits = limits.unwrap_or(s.opt.limits);
                 s.opt.contact_model = contact_model.unwrap_or(s.opt.contact_model);
+                let fluid = &mut s.opt.fluid;
+                fluid.density = density.unwrap_or(fluid.density);
+                fluid.viscosity = viscosity.unwrap_or(fluid.viscosity);
+                if let Some(w) = wind {
+                    fluid.wind.copy_from_slice(&w);
+                }
             })
             .map_err(model_error)?;
         Ok(PyModel::new(model))

@@ -147,3 +147,15 @@ def test_jacobians_in_contact_match_ours_and_mujocos_differences(name):
     assert doc["pass"], gcc.markdown(doc)
     rows = {r["block"]: r for r in doc["rows"]}
     assert rows["body/torso/mass"]["ours_fd"] is not None
+
+
+def test_free_and_ball_jacobians_against_mujoco(tmp_path):
+    """Tangent-space step Jacobians of gymnasium's ant and humanoid and of free_ball in a wind
+    against MuJoCo's mjd_transitionFD (harness/gradcheck_free.py); a model of nq != nv."""
+    from harness import gradcheck_free
+
+    assert main(["gradcheck-free", "--states", "2", "--out", str(tmp_path)]) == 0
+    doc = json.loads((tmp_path / "gradcheck-free.json").read_text())
+    ant = doc["cases"]["ant"]
+    assert (ant["nq"], ant["nv"]) == (15, 14) and ant["errors"]["A"] < 1e-8, ant
+    assert all(c["errors"]["A"] <= gradcheck_free.TOLERANCE for c in doc["cases"].values())

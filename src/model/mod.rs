@@ -605,6 +605,16 @@ impl Spec {
         }
         check_soft(&o.soft)?;
         o.solver.check().map_err(ModelError::NotPhysical)?;
+        let f = &o.fluid;
+        if !([f.density, f.viscosity]
+            .iter()
+            .all(|x| x.is_finite() && *x >= 0.0)
+            && f.wind.iter().all(|x| x.is_finite()))
+        {
+            return bad(format!(
+                "fluid density and viscosity must be finite and >= 0, wind finite, got {f:?}"
+            ));
+        }
         let mut next_joint = 0;
         for (i, b) in self.bodies.iter().enumerate().skip(1) {
             if b.parent >= i {
