@@ -52,6 +52,41 @@ fn simulate_writes_the_rollout_with_given_torques() {
 /// floor and its `fn_box_floor` column reads m g (the exact balance, once at
 /// rest, to far below the 1e-9 N asked); while it falls the column is ~0.
 #[test]
+fn simulate_names_each_coordinate_of_free_and_ball_joints() {
+    let out = temp_path("cli", "free_ball.csv");
+    let (ok, _, err) = run_cli(&[
+        "simulate",
+        "reference_models/free_ball.xml",
+        "--steps",
+        "3",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    let csv = std::fs::read_to_string(&out).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    // t, nq = 16 positions, nv = 13 velocities (no geom pairs: contype 0)
+    assert_eq!(header.len(), 1 + 16 + 13, "{header:?}");
+    assert_eq!(
+        header[1..8],
+        [
+            "q_root:x",
+            "q_root:y",
+            "q_root:z",
+            "q_root:qw",
+            "q_root:qx",
+            "q_root:qy",
+            "q_root:qz"
+        ]
+    );
+    assert_eq!(header[17..20], ["v_root:vx", "v_root:vy", "v_root:vz"]);
+    assert!(csv
+        .lines()
+        .skip(1)
+        .all(|l| l.split(',').count() == header.len()));
+}
+
+#[test]
 fn simulate_reports_each_pairs_normal_force() {
     let out = temp_path("cli", "box.csv");
     let (ok, _, err) = run_cli(&[

@@ -57,6 +57,8 @@ fn to_json(model: &Model, params: &[String], j: &StepJacobians) -> serde_json::V
     json!({
         "model": model.name,
         "joint_names": model.joints.iter().map(|j| &j.name).collect::<Vec<_>>(),
+        // the rows and columns of every block: the dofs (positions in the tangent space)
+        "dof_names": model.coordinate_names().1,
         "params": params,
         "q_next": j.q_next,
         "v_next": j.v_next,

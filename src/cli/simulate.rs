@@ -42,12 +42,12 @@ pub fn simulate(
         .map_err(|e| format!("cannot write {}: {e}", output.display()))?;
     let mut out = std::io::BufWriter::new(file);
     let io = |e: std::io::Error| format!("cannot write {}: {e}", output.display());
-    let names = model.joints.iter().map(|j| j.name.as_str());
+    let (q_names, v_names) = model.coordinate_names();
     let pairs = sensed_pairs(&model);
     let geom = |g: usize| model.geoms[g].name.as_str();
     let header: Vec<String> = std::iter::once("t".to_string())
-        .chain(names.clone().map(|n| format!("q_{n}")))
-        .chain(names.map(|n| format!("v_{n}")))
+        .chain(q_names.iter().map(|n| format!("q_{n}")))
+        .chain(v_names.iter().map(|n| format!("v_{n}")))
         .chain(
             pairs
                 .iter()

@@ -562,6 +562,27 @@ impl Spec {
         self.joints.iter().all(|j| j.kind.nv() == 1)
     }
 
+    /// Names of q's coordinates and of the dofs (v's entries): a hinge's or
+    /// slide's joint name; for a ball or free joint its name with a suffix
+    /// (`:qw`, `:qx`, ... for the quaternion, `:x`, `:y`, `:z` for a free
+    /// joint's position; `:wx`, ... and `:vx`, ... for the velocities).
+    pub fn coordinate_names(&self) -> (Vec<String>, Vec<String>) {
+        let (mut q, mut v) = (vec![], vec![]);
+        for j in &self.joints {
+            let (qs, vs): (&[&str], &[&str]) = match j.kind {
+                JointKind::Hinge | JointKind::Slide => (&[""], &[""]),
+                JointKind::Ball => (&[":qw", ":qx", ":qy", ":qz"], &[":wx", ":wy", ":wz"]),
+                JointKind::Free => (
+                    &[":x", ":y", ":z", ":qw", ":qx", ":qy", ":qz"],
+                    &[":vx", ":vy", ":vz", ":wx", ":wy", ":wz"],
+                ),
+            };
+            q.extend(qs.iter().map(|s| format!("{}{s}", j.name)));
+            v.extend(vs.iter().map(|s| format!("{}{s}", j.name)));
+        }
+        (q, v)
+    }
+
     /// Joint j's first position coordinate and first dof.
     pub fn joint_address(&self, j: usize) -> (usize, usize) {
         self.joints[..j].iter().fold((0, 0), |(q, v), joint| {
