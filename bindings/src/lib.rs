@@ -203,10 +203,18 @@ impl PyModel {
         self.model.name.clone()
     }
 
-    /// Joint names, in the order of q and v.
+    /// Joint names, in the order of q and v (one each for hinges and
+    /// slides; see `coordinate_names` for ball and free joints).
     #[getter]
     fn joint_names(&self) -> Vec<String> {
         self.model.joints.iter().map(|j| j.name.clone()).collect()
+    }
+
+    /// (names of q's nq coordinates, names of the nv dofs): a hinge's or
+    /// slide's joint name; a ball's or free joint's with a suffix (`root:qw`,
+    /// `root:x`, `root:vx`, `root:wx`, ...).
+    fn coordinate_names(&self) -> (Vec<String>, Vec<String>) {
+        self.model.coordinate_names()
     }
 
     /// Body names, the world body first.

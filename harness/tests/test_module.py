@@ -379,6 +379,8 @@ def test_free_and_ball_joints_have_nq_above_nv():
     of state, MuJoCo's layout); identification refuses the model clearly."""
     m = diffosi.Model.load(str(MODELS / "free_ball.xml")).with_options(contact=False)
     assert (m.nq, m.nv) == (16, 13)
+    q_names, v_names = m.coordinate_names()
+    assert len(q_names) == 16 and len(v_names) == 13 and q_names[3] == "root:qw" and v_names[3] == "root:wx"
     q0 = m.reference_q()
     assert q0.shape == (16,) and np.allclose(q0[:3], [0.1, 0.2, 1.5])
     assert np.isclose(np.linalg.norm(q0[3:7]), 1.0) and np.allclose(q0[7:11], [1, 0, 0, 0])
