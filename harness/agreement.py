@@ -38,14 +38,16 @@ FEATURES = MODELS.parent / "tests" / "data"
 
 
 def models() -> dict:
-    """The models of the report: name -> (MJCF path, steps); gymnasium's ant and humanoid
-    (free joints) stand and fall under random controls. The wiping arm's episode
+    """The models of the report: name -> (MJCF path, steps); the box dropped on a free
+    joint tumbles to rest, gymnasium's ant and humanoid (free joints) stand and fall under
+    random controls. The wiping arm's episode
     brings its own arm; the feature models (every collider and contact setting, under
     both cones) fall passively for 1.2 s, before their hinge chains near gimbal lock;
     the chain of 50 overlapping spheres (1176 contacts; MuJoCo's converged solve takes
     about a second a step) runs 3 steps."""
     gym = gym_assets_dir()
     return {"half_cheetah": (MODELS / "half_cheetah.xml", 500), "box": (MODELS / "box.xml", 500),
+            "free_box": (MODELS / "free_box.xml", 1000),
             "wiping_arm": (MODELS / "wiping_arm.xml", 2000), "hopper": (gym / "hopper.xml", 500),
             "walker2d": (gym / "walker2d.xml", 500), "ant": (gym / "ant.xml", 300),
             "humanoid": (gym / "humanoid.xml", 300),

@@ -2,7 +2,7 @@
 states in contact, for `cargo test` (tests/golden_contact.rs) to regress our constraint
 model without Python.
 
-For each model of harness/agreement.py (the half cheetah, the box, the wiping arm, gymnasium's
+For each model of harness/agreement.py (the half cheetah, the box on six joints and dropped on a free one, the wiping arm, gymnasium's
 hopper, walker2d, ant and humanoid, the contact-feature models), MuJoCo runs the file from its initial state under seeded controls (the
 wiping arm: a wiping episode's torques, its tool on the table, replayed on
 reference_models/wiping_arm.xml); from --states of its states with a contact (and, where the

@@ -93,7 +93,7 @@ fn steps_and_contact_forces_equal_mujocos() {
         .map(|e| e.path())
         .collect();
     files.sort();
-    assert_eq!(files.len(), 12, "one file per model in {}", dir.display());
+    assert_eq!(files.len(), 13, "one file per model in {}", dir.display());
     let mut limits = 0;
     for file in &files {
         let name = file.file_stem().unwrap().to_string_lossy().to_string();
