@@ -189,8 +189,9 @@ def test_contact_command_reports_finite_numbers(tmp_path):
         assert touching["states"] > 0 and touching["max_error"] <= 1e-9, (name, touching)
     # MuJoCo's contact, model by model: one step from MuJoCo's own states in contact.
     models = {a["model"]: a for a in doc["agreement"]}
-    assert set(models) == {"half_cheetah", "box", "wiping_arm", "hopper", "walker2d",
-                           "features_pyramidal", "features_elliptic", "box_stack", "capsule_box", "overlapping_chain"}
+    assert set(models) == {"half_cheetah", "box", "free_box", "wiping_arm", "hopper", "walker2d", "ant",
+                           "humanoid", "features_pyramidal", "features_elliptic", "box_stack", "capsule_box",
+                           "overlapping_chain"}
     for name, a in models.items():
         assert a["pass"] and a["one_step"]["contact"]["states"] > 0, (name, a["one_step"])
         # the chain: 4704 rows on 50 dofs, the Newton system's conditioning
