@@ -304,6 +304,11 @@ pub fn contacts<T: Real>(
     let pairs = &tree.constraint.pairs;
     for (index, pair) in pairs.iter().enumerate().filter(|(_, p)| p.supported) {
         let geoms = pair.geoms.map(|g| &tree.geoms[g]);
+        // Bounding spheres farther apart than the pair's reach hold no contact
+        // (MuJoCo's broad phase): the colliders need not run.
+        if out_of_reach(pair, geoms, &data.world) {
+            continue;
+        }
         let poses = geoms.map(|g| g.pose(&data.world));
         collide((pairs, index), geoms, poses, (&mut *out, &mut *pre));
     }
