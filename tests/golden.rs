@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::rel_err;
+use common::{rel_err, Rollout};
 use diffosi::dynamics::{bias_forces, crba, Data};
 use diffosi::model::{Fluid, Integrator, Model, PassiveMode};
 use nalgebra::Vector3;
@@ -36,15 +36,6 @@ struct OneStep {
     v_next: Vec<f64>,
     mass_matrix: Vec<Vec<f64>>,
     bias: Vec<f64>,
-}
-
-#[derive(Deserialize)]
-struct Rollout {
-    q0: Vec<f64>,
-    v0: Vec<f64>,
-    taus: Vec<Vec<f64>>,
-    q: Vec<Vec<f64>>,
-    v: Vec<Vec<f64>>,
 }
 
 /// The model as the reference engine ran it: its passive-force convention,
@@ -151,16 +142,7 @@ fn compare(golden: &Golden) -> Errors {
 
 #[test]
 fn agrees_with_reference_engines() {
-    let dir =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("reference_models/golden/dynamics");
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .flatten()
-        .map(|e| e.path())
-        .filter(|p| p.extension().is_some_and(|x| x == "json"))
-        .collect();
-    files.sort();
-    assert!(!files.is_empty(), "no golden data in {}", dir.display());
+    let files = common::golden_files("reference_models/golden/dynamics");
     let mut failures = vec![];
     println!(
         "{:<48} {:>9} {:>9} {:>9} {:>9}",

@@ -85,15 +85,8 @@ fn compare(name: &str, golden: &Golden) -> (f64, f64, usize) {
 
 #[test]
 fn steps_and_contact_forces_equal_mujocos() {
-    let dir =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("reference_models/golden/contact");
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .flatten()
-        .map(|e| e.path())
-        .collect();
-    files.sort();
-    assert_eq!(files.len(), 13, "one file per model in {}", dir.display());
+    let files = common::golden_files("reference_models/golden/contact");
+    assert_eq!(files.len(), 13, "one file per model");
     let mut limits = 0;
     for file in &files {
         let name = file.file_stem().unwrap().to_string_lossy().to_string();

@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::rel_err;
+use common::{rel_err, Rollout};
 use diffosi::model::{Fluid, Integrator, Model, PassiveMode};
 use serde::Deserialize;
 
@@ -38,24 +38,8 @@ struct Step {
     v_next: Vec<f64>,
 }
 
-#[derive(Deserialize)]
-struct Rollout {
-    q0: Vec<f64>,
-    v0: Vec<f64>,
-    taus: Vec<Vec<f64>>,
-    q: Vec<Vec<f64>>,
-    v: Vec<Vec<f64>>,
-}
-
 fn cases() -> Vec<(String, Golden)> {
-    let dir = common::model_path("reference_models/golden/free");
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .flatten()
-        .map(|e| e.path())
-        .collect();
-    files.sort();
-    files
+    common::golden_files("reference_models/golden/free")
         .into_iter()
         .map(|p| {
             let text = std::fs::read_to_string(&p).unwrap();

@@ -20,8 +20,8 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::contact::body_force_to_joints;
+use super::tree::mass_properties;
 use super::{Data, Tree};
-use crate::model::params::inertia_to_six;
 use crate::model::{Fluid, Param, Spec};
 use crate::spatial::{lift, lift_matrix, lift_vector, Force, Real, Transform};
 
@@ -61,12 +61,7 @@ pub fn fluid_bodies<T: Real>(
         if body.mass < MIN_MASS {
             continue;
         }
-        let mass = lift_param(Param::Mass(b), 0, body.mass);
-        let com = Vector3::from_fn(|r, _| lift_param(Param::Com(b), r, body.com[r]));
-        let six = inertia_to_six(&body.inertia);
-        let [xx, yy, zz, xy, xz, yz]: [T; 6] =
-            std::array::from_fn(|r| lift_param(Param::Inertia(b), r, six[r]));
-        let inertia = Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz);
+        let (mass, com, inertia) = mass_properties(b, body, lift_param);
         let axes: Matrix3<T> = lift_matrix(body.inertia_frame.matrix());
         let moments = (axes.transpose() * inertia * axes).diagonal();
         let side = |k: usize| {

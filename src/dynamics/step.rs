@@ -162,13 +162,15 @@ pub fn acceleration<T: Real>(
     }
     let implicit = (mode != PassiveMode::Explicit).then_some(&extra[..]);
     update_transforms(tree, data, q);
-    if !tree.fluid.is_empty() {
+    let constraints = tree.contact_model == ContactModel::Constraint && tree.has_constraints();
+    if constraints || !tree.fluid.is_empty() {
         world_frames(tree, data, v);
+    }
+    if !tree.fluid.is_empty() {
         add_fluid_forces(tree, &tree.medium, data, force);
     }
     let previous = data.constrained.take();
-    if tree.contact_model == ContactModel::Constraint && tree.has_constraints() {
-        world_frames(tree, data, v);
+    if constraints {
         // The last evaluation's buffers, refilled.
         let mut c = previous
             .or_else(|| data.reuse.spare.take())
@@ -394,7 +396,9 @@ fn rk4<T: Real>(
             theta[i] = step_to_next[k] * rate[i];
             v_stage[i] = v[i] + step_to_next[k] * qdd[i];
         }
-        integrate(tree, q, theta, T::one(), q_stage);
+        if k < 3 {
+            integrate(tree, q, theta, T::one(), q_stage);
+        }
     }
     integrate(tree, q, dq, T::one(), q_next);
     data.stage = stage;

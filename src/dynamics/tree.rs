@@ -427,13 +427,23 @@ pub fn body_inertia<T: Real>(
     b: &Body,
     lift_param: impl Fn(Param, usize, f64) -> T,
 ) -> Inertia<T> {
+    let (mass, com, inertia) = mass_properties(index, b, &lift_param);
+    Inertia::from_com(mass, &com, &inertia)
+}
+
+/// Body `index`'s mass, COM and inertia tensor about the COM (body axes),
+/// lifted by `lift_param` (see [`Tree::build_with`]).
+pub fn mass_properties<T: Real>(
+    index: usize,
+    b: &Body,
+    lift_param: &impl Fn(Param, usize, f64) -> T,
+) -> (T, Vector3<T>, Matrix3<T>) {
     let mass = lift_param(Param::Mass(index), 0, b.mass);
     let com = Vector3::from_fn(|r, _| lift_param(Param::Com(index), r, b.com[r]));
     let six = inertia_to_six(&b.inertia);
     let [xx, yy, zz, xy, xz, yz]: [T; 6] =
         std::array::from_fn(|r| lift_param(Param::Inertia(index), r, six[r]));
-    let inertia = Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz);
-    Inertia::from_com(mass, &com, &inertia)
+    (mass, com, Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz))
 }
 
 #[cfg(test)]

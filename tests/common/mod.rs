@@ -313,3 +313,28 @@ pub fn cheetah_walk(truth: &Model, len: usize, seed: u64) -> Vec<Transition> {
         })
         .collect()
 }
+
+/// The JSON files of a golden data directory (relative to the repository), sorted.
+pub fn golden_files(dir: &str) -> Vec<std::path::PathBuf> {
+    let dir = model_path(dir);
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "json"))
+        .collect();
+    files.sort();
+    assert!(!files.is_empty(), "no golden data in {}", dir.display());
+    files
+}
+
+/// A recorded rollout: the start, the generalized forces of each step and the
+/// T + 1 states visited.
+#[derive(serde::Deserialize)]
+pub struct Rollout {
+    pub q0: Vec<f64>,
+    pub v0: Vec<f64>,
+    pub taus: Vec<Vec<f64>>,
+    pub q: Vec<Vec<f64>>,
+    pub v: Vec<Vec<f64>>,
+}
