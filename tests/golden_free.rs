@@ -1,9 +1,10 @@
-//! Ball and free joints and fluid forces against MuJoCo's own steps
+//! Ball and free joints and fluid forces against the reference engines' own steps
 //! (reference_models/golden/free/*.json, written by `python -m harness golden-free --seed 0`):
-//! our free_ball model under Euler and RK4 and in a fluid with wind, and gymnasium's ant,
-//! humanoid, humanoidstandup and swimmer (its fluid) as their files have them, contacts and
-//! limits off. One step to 1e-12 from every recorded state, and the 50-step rollouts to 1e-9
-//! (relative to max(1, |x|)).
+//! MuJoCo on our free_ball model under Euler and RK4 and in a fluid with wind, on the floating
+//! arm, and on gymnasium's ant, humanoid, humanoidstandup and swimmer (its fluid) as their
+//! files have them; PyBullet and DART on the floating arm's URDF twin (their free bases in
+//! MuJoCo's convention). Contacts and limits off. One step to 1e-12 from every recorded
+//! state, and the 50-step rollouts to 1e-9 (relative to max(1, |x|)).
 
 mod common;
 
@@ -13,8 +14,11 @@ use serde::Deserialize;
 
 #[derive(Deserialize)]
 struct Golden {
+    engine: String,
     model: String,
+    passive: String,
     integrator: String,
+    timestep: f64,
     fluid: Medium,
     nq: usize,
     nv: usize,
@@ -49,20 +53,27 @@ fn cases() -> Vec<(String, Golden)> {
         .collect()
 }
 
-/// The case's model as MuJoCo stepped it: contacts and limits off, its integrator and
-/// fluid, MuJoCo's passive convention for it (Euler: damping implicit; RK4: explicit).
+/// The case's model as its engine stepped it: contacts and limits off, its integrator,
+/// timestep, passive convention and fluid.
 fn model(golden: &Golden) -> Model {
     let model = Model::load(common::model_path(&golden.model)).unwrap_or_else(|e| panic!("{e}"));
-    let (integrator, passive) = match golden.integrator.as_str() {
-        "Euler" => (Integrator::Euler, PassiveMode::ImplicitDamping),
-        "RK4" => (Integrator::Rk4, PassiveMode::Explicit),
+    let integrator = match golden.integrator.as_str() {
+        "Euler" => Integrator::Euler,
+        "RK4" => Integrator::Rk4,
         other => panic!("integrator {other}"),
+    };
+    let passive = match golden.passive.as_str() {
+        "explicit" => PassiveMode::Explicit,
+        "implicit_damping" => PassiveMode::ImplicitDamping,
+        "implicit_damping_stiffness" => PassiveMode::ImplicitDampingStiffness,
+        other => panic!("passive mode {other}"),
     };
     model
         .edited(|s| {
             s.opt.contact = false;
             s.opt.limits = false;
             s.opt.integrator = integrator;
+            s.opt.timestep = golden.timestep;
             s.opt.passive = passive;
             s.opt.fluid = Fluid {
                 density: golden.fluid.density,
@@ -78,8 +89,8 @@ fn one_step_equals_mujoco_with_quaternions() {
     let cases = cases();
     assert_eq!(
         cases.len(),
-        7,
-        "free_ball (Euler, RK4, fluid), ant, humanoids, swimmer"
+        10,
+        "free_ball (Euler, RK4, fluid), the floating arm in three engines, ant, humanoids, swimmer"
     );
     for (name, golden) in &cases {
         let model = model(golden);
@@ -93,7 +104,7 @@ fn one_step_equals_mujoco_with_quaternions() {
                 .max(rel_err(&q1, &s.q_next))
                 .max(rel_err(&v1, &s.v_next));
         }
-        println!("{name}: one step within {worst:.1e} of MuJoCo");
+        println!("{name}: one step within {worst:.1e} of {}", golden.engine);
         assert!(worst <= 1e-12, "{name}: {worst:e}");
     }
 }

@@ -2,7 +2,11 @@
 
 Conventions (all adapters): a model's dofs are its one-dof joints (hinge or slide),
 so nq = nv, and every per-dof vector is in `joint_names` order, asserted equal to
-the model's joint order (MJCF document order; the URDF's non-fixed joints). SI units,
+the model's joint order (MJCF document order; the URDF's non-fixed joints). PyBullet and
+DART also take a URDF whose root is a floating joint (`free`: its urdf.FloatingJoint, else None):
+then q, v and tau start with that free joint's 7, 6 and 6 numbers in MuJoCo's convention
+(harness/engines/floating.py), and the per-joint vectors (damping, ...) and `joint_names`
+are the one-dof joints'. SI units,
 angles in rad. `tau` are generalized forces on every dof, applied directly (no
 actuators). `dynamics(q, v)` returns the engine's own M(q) (armature included where
 the engine has it) and bias c(q, v) (Coriolis, centrifugal, gravity; no damping or
@@ -89,7 +93,7 @@ class Engine:
     ({param: {joint: value}}: values of the model file the engine does not simulate,
     which our engine must zero to match), damping, stiffness, springref, q_ref (the
     reference configuration), ranges ((lo, hi) of a limited joint, else None; used only
-    for sampling, limits are off in every engine).
+    for sampling, limits are off in every engine), free (see the module docstring).
     """
 
     name: str
@@ -109,6 +113,7 @@ class Engine:
     springref: np.ndarray
     q_ref: np.ndarray
     ranges: list
+    free = None
 
     def __init__(self):
         self._changed: dict = {}  # parameters changed by set_param, in order, for ours()
@@ -168,8 +173,13 @@ class Engine:
         Q, V = zip(*states)
         return np.array(Q), np.array(V)
 
+    @property
+    def nv(self) -> int:
+        """The number of dofs: the one-dof joints' and a free root's six."""
+        return len(self.joint_names) + (6 if self.free else 0)
+
     def mass_matrix(self, q) -> np.ndarray:
-        return self.dynamics(q, np.zeros(len(self.joint_names)))[0]
+        return self.dynamics(q, np.zeros(self.nv))[0]
 
     def _parse(self, name: str) -> tuple[str, str, str]:
         kind, _, rest = name.partition("/")

@@ -10,6 +10,9 @@ COM, as ours) and DegreeOfFreedom.setDampingCoefficient / setSpringStiffness.
 native=True changes nothing here (DART's implicit passive forces are its own either way;
 it is recorded in the settings). friction={joint: f} is DART's joint Coulomb friction,
 DegreeOfFreedom.setCoulombFriction(f), a constraint of its LCP solver.
+
+A URDF floating joint from `world` (our free root) is DART's FreeJoint; q, v and tau keep
+our convention (harness/engines/floating.py). M and c are not offered for it.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ import dartpy as dart
 import numpy as np
 
 from harness.engines.base import Engine, label_of, nonzero_by_joint, quiet_stdio
+from harness.engines.floating import DartBase
 from harness.engines.urdf import ignored_extras, read_urdf, timestep_gravity, twin_only
 
 
@@ -55,14 +59,15 @@ def strip(skel, urdf: Path) -> None:
         assert dof.getCoulombFriction() == 0.0, f"{urdf}: joint friction"
 
 
-def set_passive(skel, facts: dict, urdf: Path) -> tuple:
+def set_passive(skel, facts: dict, urdf: Path, first: int = 0) -> tuple:
     """Damping from <dynamics damping> (the loader reads it too); stiffness and springref from
-    the diffosi extensions, which DART's loader ignores: given by hand."""
+    the diffosi extensions, which DART's loader ignores: given by hand. The one-dof joints'
+    dofs start at `first` (after a FreeJoint's six)."""
     damping = np.array([j.damping for j in facts["joints"]])
     stiffness = np.array([j.extensions.get("stiffness", 0.0) for j in facts["joints"]])
     springref = np.array([j.extensions.get("springref", 0.0) for j in facts["joints"]])
-    for k in range(skel.getNumDofs()):
-        dof = skel.getDof(k)
+    for k in range(len(damping)):
+        dof = skel.getDof(first + k)
         assert dof.getDampingCoefficient() == damping[k], f"{urdf}: DART read another damping"
         dof.setDampingCoefficient(float(damping[k]))
         dof.setSpringStiffness(float(stiffness[k]))
@@ -87,12 +92,20 @@ class DartEngine(Engine):
         if facts["massless_links"]:
             settings["massless_links"] = {n: "mass 0, inertia 0 (DART default: mass 1, identity inertia)"
                                           for n in facts["massless_links"]}
-        n = skel.getNumDofs()
-        names = self.joint_names = [skel.getDof(i).getName() for i in range(n)]
+        self.free = facts["floating"]
+        first = 6 if self.free else 0
+        if self.free:
+            root = skel.getJoint(0)
+            assert root.getType() == "FreeJoint" and np.allclose(root.getTransformFromChildBodyNode().matrix(),
+                                                                  np.eye(4)), f"{path}: DART's free root"
+            self._base, self._quat = DartBase(root.getTransformFromParentBodyNode().matrix()), self.free.reference()[3:]
+            settings["free_base"] = f"floating joint {self.free.name!r} as DART's FreeJoint"
+        n = skel.getNumDofs() - first
+        names = self.joint_names = [skel.getDof(first + i).getName() for i in range(n)]
         assert names == [j.name for j in facts["joints"]], f"{path}: DART dof order {names}"
         self.body_names = [skel.getBodyNode(i).getName() for i in range(skel.getNumBodyNodes())]
         strip(skel, self.model_path)
-        self.damping, self.stiffness, self.springref = set_passive(skel, facts, self.model_path)
+        self.damping, self.stiffness, self.springref = set_passive(skel, facts, self.model_path, first)
         if self.stiffness.any():
             settings["stiffness_set_by_hand"] = nonzero_by_joint(names, self.stiffness)
             settings["springref_set_by_hand"] = nonzero_by_joint(names, self.springref)
@@ -106,21 +119,37 @@ class DartEngine(Engine):
             settings.setdefault("joint_friction", {})[joint] = f"setCoulombFriction({value})"
         self.settings = settings
         self.passive, self.integrator = "implicit_damping_stiffness", "Euler"
-        self.q_ref, self.ranges = np.zeros(n), [j.limit for j in facts["joints"]]
+        self.q_ref = np.r_[self.free.reference() if self.free else [], np.zeros(n)]
+        self.ranges = [j.limit for j in facts["joints"]]
 
     def set_state(self, q, v):
-        self.skel.setPositions(np.asarray(q, float))
-        self.skel.setVelocities(np.asarray(v, float))
+        q, v = np.asarray(q, float), np.asarray(v, float)
+        if self.free:
+            (positions, velocities), self._quat = self._base.to_engine(q, v), q[3:7]
+            q, v = np.r_[positions, q[7:]], np.r_[velocities, v[6:]]
+        self.skel.setPositions(q)
+        self.skel.setVelocities(v)
 
     def get_state(self):
-        return np.array(self.skel.getPositions()), np.array(self.skel.getVelocities())
+        q, v = np.array(self.skel.getPositions()), np.array(self.skel.getVelocities())
+        if not self.free:
+            return q, v
+        base_q, base_v = self._base.from_engine(q[:6], v[:6], self._quat)
+        self._quat = base_q[3:]
+        return np.r_[base_q, q[6:]], np.r_[base_v, v[6:]]
 
     def step(self, tau):
-        self.skel.setForces(np.asarray(tau, float))  # cleared by the step: set before every step
+        tau = np.asarray(tau, float)
+        if self.free:
+            tau = np.r_[self._base.forces(self.get_state()[0], tau), tau[6:]]
+        self.skel.setForces(tau)  # cleared by the step: set before every step
         self.world.step()
         assert self.world.getLastCollisionResult().getNumContacts() == 0
 
     def dynamics(self, q, v):
+        if self.free:
+            raise NotImplementedError(f"{self.label}: M and c of a FreeJoint are in DART's coordinates "
+                                      "(not converted to ours)")
         saved = self.get_state()
         self.set_state(q, v)
         # M excludes the implicit h D + h^2 K terms (those are getAugMassMatrix);

@@ -38,17 +38,19 @@ def load_mjcf(path: Path):
 
 
 def mjcf_facts(path: Path) -> dict:
-    """Timestep, gravity and per-joint passive parameters of an MJCF file, as MuJoCo compiles it."""
+    """Timestep, gravity and per-joint passive parameters of an MJCF file, as MuJoCo compiles it
+    (a joint's first dof and coordinate stand for a ball or free joint's)."""
     m = load_mjcf(path)
     names = [m.joint(i).name for i in range(m.njnt)]
+    dof, qpos = m.jnt_dofadr, m.jnt_qposadr
     return {
         "timestep": float(m.opt.timestep),
         "gravity": [float(g) for g in m.opt.gravity],
         "joint_names": names,
         "stiffness": dict(zip(names, map(float, m.jnt_stiffness))),
-        "springref": dict(zip(names, map(float, m.qpos_spring))),
-        "armature": dict(zip(names, map(float, m.dof_armature))),
-        "damping": dict(zip(names, map(float, m.dof_damping))),
+        "springref": dict(zip(names, map(float, m.qpos_spring[qpos]))),
+        "armature": dict(zip(names, map(float, m.dof_armature[dof]))),
+        "damping": dict(zip(names, map(float, m.dof_damping[dof]))),
     }
 
 

@@ -17,6 +17,11 @@ velocities; measured: a cart coasting at 1 and 5 m/s slows at 0.08 and 0.24 time
 friction={joint: f} is PyBullet's usual joint friction: the joint's velocity motor with
 target velocity 0 and maximum force f, a constraint that holds the joint still unless
 more than f pushes it (TORQUE_CONTROL forces add to it).
+
+A URDF whose root is a floating joint from `world` (our free root) is loaded as PyBullet's
+own free base: a copy without the world link and that joint, useFixedBase off (the world
+link's collisions go with it). q, v and tau keep our convention (harness/engines/floating.py);
+the base's part of tau is an external force and torque. M and c are not offered for it.
 """
 
 from __future__ import annotations
@@ -29,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from harness.engines.base import Engine, label_of, quiet_stdio
+from harness.engines.floating import PybulletBase
 from harness.engines.urdf import DIFFOSI_NS, ignored_extras, read_urdf, timestep_gravity, twin_only
 
 with quiet_stdio():  # pybullet prints its build time on import
@@ -67,37 +73,63 @@ class PybulletEngine(Engine):
         self._friction = self.check_friction(friction, [j.name for j in facts["joints"]])
         h, self.gravity, self.settings = timestep_gravity(self.model_path, facts)
         self._facts, self._urdf, self._tmp = facts, ET.parse(self.model_path), None
+        self.free = facts["floating"]
         self._load(self.model_path, h, self.settings)
         self.joint_names = [j.name for j in facts["joints"]]
         self.body_names = [link for link in facts["links"] if link != facts["root"]]
         self.damping = np.array([self._p.getJointInfo(self._body, i)[6] for i in self._movable])
         assert np.allclose(self.damping, [j.damping for j in facts["joints"]])
         n = len(self.joint_names)
-        self.stiffness, self.springref, self.q_ref = np.zeros(n), np.zeros(n), np.zeros(n)
+        self.stiffness, self.springref = np.zeros(n), np.zeros(n)
+        self.q_ref = np.r_[self.free.reference() if self.free else [], np.zeros(n)]
         self.ranges = [j.limit for j in facts["joints"]]
         self.passive, self.integrator = "explicit", "Euler"
         self.ignored = self.settings["ignored"] = ignored_extras(facts, understood=set())
         if only_in_twin := twin_only(self.model_path, facts):
             self.settings["mjcf_twin_only"] = only_in_twin
-        self.timestep = stable_explicit_timestep(h, self.damping, self.mass_matrix(np.zeros(n)), self.settings)
+        # PyBullet's M at q = 0: a free base's 6 dofs first, undamped
+        M0 = np.array(self._p.calculateMassMatrix(self._body, [0.0] * n))
+        self.timestep = stable_explicit_timestep(h, np.r_[np.zeros(len(M0) - n), self.damping], M0, self.settings)
         self._p.setTimeStep(self.timestep)
+
+    def _temporary(self, name: str) -> Path:
+        if self._tmp is None:
+            self._tmp = tempfile.TemporaryDirectory(prefix="diffosi-pybullet-")
+        return Path(self._tmp.name) / name
+
+    def _free_base_copy(self, urdf: Path) -> Path:
+        """The URDF without the world link and the floating joint: its child is the root."""
+        tree = ET.parse(urdf)
+        robot = tree.getroot()
+        robot.remove(robot.find("link[@name='world']"))
+        robot.remove(robot.find(f"joint[@name='{self.free.name}']"))
+        copy = self._temporary(f"{urdf.stem}_free_base.urdf")
+        tree.write(copy)
+        return copy
 
     def _load(self, urdf: Path, h: float, settings: dict) -> None:
         """Connect, load and strip; settings records what was switched off."""
         with quiet_stdio():
             p = self._p = BulletClient(connection_mode=pybullet.DIRECT)
             # without URDF_USE_INERTIA_FROM_FILE the inertia is recomputed from collision shapes
-            body = self._body = p.loadURDF(str(urdf), useFixedBase=True, flags=pybullet.URDF_USE_INERTIA_FROM_FILE)
+            body = self._body = p.loadURDF(str(self._free_base_copy(urdf) if self.free else urdf),
+                                           useFixedBase=not self.free, flags=pybullet.URDF_USE_INERTIA_FROM_FILE)
         p.setGravity(*self.gravity)  # PyBullet's gravity defaults to 0
         p.setTimeStep(h)  # default 1/240 s
         p.setPhysicsEngineParameter(numSubSteps=0)
-        settings.update(fixed_base=True, inertia="URDF_USE_INERTIA_FROM_FILE", numSubSteps=0,
+        settings.update(fixed_base=not self.free, inertia="URDF_USE_INERTIA_FROM_FILE", numSubSteps=0,
                         tau_applied_via="TORQUE_CONTROL after VELOCITY_CONTROL with force 0")
+        if self.free:
+            settings["free_base"] = (f"floating joint {self.free.name!r} and link 'world' removed, useFixedBase off; "
+                                     "its forces by applyExternalForce/Torque (WORLD_FRAME)")
+            self._base, self._quat = PybulletBase(*p.getDynamicsInfo(body, -1)[3:5]), self.free.reference()[3:]
         links = list(range(p.getNumJoints(body)))
         self._movable = [i for i in links if p.getJointInfo(body, i)[2] != pybullet.JOINT_FIXED]
         names = [p.getJointInfo(body, i)[1].decode() for i in self._movable]
         assert names == [j.name for j in self._facts["joints"]], f"{urdf}: PyBullet dof order {names}"
         self._link = {p.getJointInfo(body, i)[12].decode(): i for i in links}
+        if self.free:
+            self._link[self.free.child] = -1  # the base
         self._strip(links, settings)
         assert not any(p.getJointInfo(body, i)[7] for i in self._movable), f"{urdf}: joint friction"
 
@@ -137,20 +169,41 @@ class PybulletEngine(Engine):
                                           for n, f in self._friction.items()}
 
     def set_state(self, q, v):
+        q, v = np.asarray(q, float), np.asarray(v, float)
+        if self.free:
+            com, orientation, velocity, omega = self._base.to_engine(q, v)
+            self._p.resetBasePositionAndOrientation(self._body, com, orientation)
+            self._p.resetBaseVelocity(self._body, velocity, omega)
+            self._quat, q, v = q[3:7], q[7:], v[6:]
         for k, i in enumerate(self._movable):
             self._p.resetJointState(self._body, i, q[k], v[k])
 
     def get_state(self):
         s = self._p.getJointStates(self._body, self._movable)
-        return np.array([x[0] for x in s]), np.array([x[1] for x in s])
+        q, v = np.array([x[0] for x in s]), np.array([x[1] for x in s])
+        if not self.free:
+            return q, v
+        base_q, base_v = self._base.from_engine(*self._p.getBasePositionAndOrientation(self._body),
+                                                *self._p.getBaseVelocity(self._body), self._quat)
+        self._quat = base_q[3:]
+        return np.r_[base_q, q], np.r_[base_v, v]
 
     def step(self, tau):
         p = self._p
+        tau = np.asarray(tau, float)
+        if self.free:
+            force, point, torque = self._base.wrench(self.get_state()[0], tau)
+            p.applyExternalForce(self._body, -1, force, point, pybullet.WORLD_FRAME)
+            p.applyExternalTorque(self._body, -1, torque, pybullet.WORLD_FRAME)
+            tau = tau[6:]
         p.setJointMotorControlArray(self._body, self._movable, pybullet.TORQUE_CONTROL, forces=list(map(float, tau)))
         p.stepSimulation()
         assert not p.getContactPoints(self._body), f"{self.label}: contacts"
 
     def dynamics(self, q, v):
+        if self.free:
+            raise NotImplementedError(f"{self.label}: M and c of a free base are in PyBullet's base "
+                                      "coordinates (not converted to ours)")
         # calculateInverseDynamics(q, v, 0) = c(q, v), without joint damping
         q, v = list(map(float, q)), list(map(float, v))
         M = np.array(self._p.calculateMassMatrix(self._body, q))
@@ -181,9 +234,7 @@ class PybulletEngine(Engine):
             raise ValueError("pybullet: no joint springs, so no joint/<j>/stiffness")
         element, attribute = self._element(kind, owner, field)
         element.set(attribute, " ".join(repr(float(x)) for x in value))
-        if self._tmp is None:
-            self._tmp = tempfile.TemporaryDirectory(prefix="diffosi-pybullet-")
-        edited = Path(self._tmp.name) / self.model_path.name
+        edited = self._temporary(self.model_path.name)
         self._urdf.write(edited)
         q, v = self.get_state()
         self._p.disconnect()

@@ -1,7 +1,7 @@
 """Random states and torque scales for an engine's model (shared by golden, replay, tests).
 
-q: uniform in a limited joint's range, else the reference configuration +- 1 (rad or m);
-v: uniform in [-1, 1]; tau_i: uniform in [-1, 1] times tau_scale_i = 10 M_ii(q_ref)
+q: uniform in a limited joint's range, else the reference configuration +- 1 (rad or m;
+a free root's quaternion normalised after); v: uniform in [-1, 1]; tau_i: uniform in [-1, 1] times tau_scale_i = 10 M_ii(q_ref)
 (3 significant digits), i.e. accelerations of order 10.
 """
 
@@ -16,15 +16,18 @@ TAU_ACCEL = 10.0
 
 def sample_q(e: Engine, rng) -> np.ndarray:
     q = e.q_ref + rng.uniform(-1.0, 1.0, len(e.q_ref))
+    first = 7 if e.free else 0
+    if e.free:
+        q[3:7] /= np.linalg.norm(q[3:7])
     for k, r in enumerate(e.ranges):
         if r is not None:
-            q[k] = rng.uniform(r[0], r[1])
+            q[first + k] = rng.uniform(r[0], r[1])
     return q
 
 
 def sample_state(e: Engine, rng) -> tuple:
     """(q, v): q by sample_q, v uniform in [-1, 1]."""
-    return sample_q(e, rng), rng.uniform(-1.0, 1.0, len(e.joint_names))
+    return sample_q(e, rng), rng.uniform(-1.0, 1.0, e.nv)
 
 
 def sample_transition(e: Engine, rng, scale) -> tuple:

@@ -11,7 +11,10 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from harness.engines.base import label_of
+from harness.engines.floating import rpy_quat
 
 MOVABLE = {"revolute": "hinge", "continuous": "hinge", "prismatic": "slide"}
 DIFFOSI_NS = "{urn:diffosi:urdf}"
@@ -28,25 +31,48 @@ class UrdfJoint:
     extensions: dict  # other <dynamics> attributes: diffosi:stiffness, diffosi:springref, ...
 
 
+@dataclass
+class FloatingJoint:
+    """A free root: the floating joint from `world` to the link `child`; xyz and rpy are its
+    <origin>, the base's pose at the reference configuration."""
+
+    name: str
+    child: str
+    xyz: tuple
+    rpy: tuple
+
+    def reference(self) -> np.ndarray:
+        """q[:7] at the reference configuration (ours and MuJoCo's convention)."""
+        return np.r_[self.xyz, rpy_quat(self.rpy)]
+
+
 def local_name(key: str) -> str:
     return key.split("}")[-1]
 
 
 def read_urdf(path: Path) -> dict:
-    """Movable joints in document order (asserted parent-first), links without <inertial>,
-    and the attributes of <diffosi:options>."""
+    """Movable one-dof joints in document order (asserted parent-first), the floating joint
+    (a free root) if any, links without <inertial>, and the attributes of <diffosi:options>."""
     root = ET.parse(path).getroot()
     links = [link.get("name") for link in root.findall("link")]
     children = {j.find("child").get("link") for j in root.findall("joint")}
     roots = [link for link in links if link not in children]
     assert len(roots) == 1, f"{path}: expected one root link, got {roots}"
-    placed, joints = {roots[0]}, []
+    placed, joints, floating = {roots[0]}, [], None
     for j in root.findall("joint"):
         parent, child = j.find("parent").get("link"), j.find("child").get("link")
         assert parent in placed, f"{path}: joint {j.get('name')} comes before its parent link"
         placed.add(child)
         kind = j.get("type")
         if kind == "fixed":
+            continue
+        if kind == "floating":
+            assert floating is None and not joints and parent == roots[0] == "world", \
+                f"{path}: a floating joint must be the first joint, from the root link 'world'"
+            origin = j.find("origin")
+            pose = [tuple(float(x) for x in (origin.get(k, "0 0 0") if origin is not None else "0 0 0").split())
+                    for k in ("xyz", "rpy")]
+            floating = FloatingJoint(j.get("name"), child, *pose)
             continue
         assert kind in MOVABLE, f"{path}: joint type {kind} is not supported"
         lim = j.find("limit")
@@ -63,8 +89,8 @@ def read_urdf(path: Path) -> dict:
     massless = [link.get("name") for link in root.findall("link")
                 if link.find("inertial") is None and link.get("name") != roots[0]]
     options = root.find(f"{DIFFOSI_NS}options")
-    return {"root": roots[0], "links": links, "joints": joints, "massless_links": massless,
-            "options": dict(options.attrib) if options is not None else {}}
+    return {"root": roots[0], "links": links, "joints": joints, "floating": floating,
+            "massless_links": massless, "options": dict(options.attrib) if options is not None else {}}
 
 
 def mjcf_twin_facts(urdf: Path) -> dict | None:

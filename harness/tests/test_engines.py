@@ -13,7 +13,7 @@ import pytest
 
 from harness import engines
 from harness.engines.numpy_step import step_error
-from harness.engines.sampling import sample_rollout, sample_transitions, tau_scale
+from harness.engines.sampling import sample_rollout, sample_state, sample_transition, sample_transitions, tau_scale
 from harness.golden import ROLLOUT_TAU_FRACTION, case_seed
 
 MODELS = ["cartpole", "pendulum", "double_pendulum", "half_cheetah", "wiping_arm"]
@@ -137,3 +137,66 @@ def test_model_names_and_paths():
         engines.load("bullet", "cartpole")
     with pytest.raises(ValueError, match="no model file"):
         engines.load("mujoco", "no_such_model")
+
+
+@pytest.mark.parametrize("engine", ["pybullet", "dart"])
+def test_a_free_base_speaks_mujocos_convention(engine):
+    """The floating arm's URDF twin: PyBullet's free base and DART's FreeJoint read and
+    written in MuJoCo's convention (harness/engines/floating.py) take our engine's steps, and
+    keep doing so after the base's mass and a link's COM change. The base turns by more
+    than DART's series threshold in every step (see the test below)."""
+    with engines.load(engine, "floating_arm") as e:
+        assert (e.free.name, len(e.q_ref), e.nv) == ("root", 9, 8)
+        rng = case_seed(7, engine)
+        q, v = sample_state(e, rng)
+        q[3:7] *= -1 if q[3] > 0 else 1  # w < 0: the sign a user gave is the sign read back
+        e.set_state(q, v)
+        back_q, back_v = e.get_state()
+        assert np.abs(back_q - q).max() < 1e-15 and np.abs(back_v - v).max() < 1e-14
+        assert worst_free_step(e, e.ours(), rng) <= ONE_STEP_TOL
+        q0, v0, taus = sample_rollout(e, rng, FREE_TAU * ROLLOUT_TAU_FRACTION, STEPS)
+        v0[3:6] = turning(rng)
+        Q, V = e.ours().rollout(q0, v0, taus)
+        E = e.rollout(q0, v0, taus)
+        assert max(step_error(*ours, *theirs) for ours, theirs in zip(zip(Q, V), zip(*E))) <= ROLLOUT_TOL
+        for name, value in {"body/base/mass": 6.0, "body/lower/com": [0.12, 0.0, 0.03]}.items():
+            e.set_param(name, value)
+            np.testing.assert_array_equal(e.get_param(name), np.atleast_1d(value), err_msg=name)
+        assert worst_free_step(e, e.ours(), rng) <= ONE_STEP_TOL
+        with pytest.raises(NotImplementedError, match="not converted"):
+            e.mass_matrix(e.q_ref)
+
+
+FREE_TAU = np.r_[[60.0] * 3, [1.0] * 3, [1.0] * 2]  # the floating arm's forces (N), torques (N m)
+
+
+def turning(rng) -> np.ndarray:
+    """A base angular velocity of 1 to 2 rad/s: |w| h >= 2e-3 at h = 0.002."""
+    w = rng.normal(size=3)
+    return w / np.linalg.norm(w) * rng.uniform(1.0, 2.0)
+
+
+def worst_free_step(e, ours, rng, n=SAMPLES):
+    worst = 0.0
+    for _ in range(n):
+        q, v, tau = sample_transition(e, rng, FREE_TAU)
+        v[3:6] = turning(rng)
+        e.reset()
+        e.set_state(q, v)
+        e.step(tau)
+        worst = max(worst, step_error(*ours.step(q, v, tau), *e.get_state()))
+    return worst
+
+
+def test_dart_turns_a_slow_free_base_by_a_series():
+    """DART's FreeJoint turns by a truncated series when |w| h < 1e-3: the quaternion then
+    parts from MuJoCo's (and ours) by about (|w| h)^3 / 20, and agrees to rounding above."""
+    with engines.load("dart", "floating_arm") as e:
+        ours = e.ours()
+        q = e.q_ref.copy()
+        for angle, low, high in [(5e-4, 1e-12, 1e-11), (2e-3, 0.0, 1e-15)]:
+            v = np.r_[0.0, 0.0, 0.0, 0.48, 0.6, -0.64, 0.0, 0.0] * angle / e.timestep  # |w| h = angle
+            e.set_state(q, v)
+            e.step(np.zeros(8))
+            error = np.abs(e.get_state()[0] - ours.step(q, v, np.zeros(8))[0]).max()
+            assert low <= error <= high, f"|w| h = {angle}: {error:.1e}"
