@@ -40,7 +40,7 @@ use num_dual::Dual64;
 
 use crate::dynamics::collision::{contact_geometry, ConstraintContact, Pre, MINVAL};
 use crate::dynamics::constraint::{mixing, Mixing, RowKind, Rows};
-use crate::dynamics::solver::{add_outer, Zone};
+use crate::dynamics::solver::Zone;
 use crate::dynamics::{Constrained, Data, Tree};
 use crate::model::{Cone, Shape};
 use crate::spatial::{Force, Motion, Transform};
@@ -101,10 +101,10 @@ pub(super) fn add_row_partials(
     let zone = &c.solution.zone;
     let mut jar = std::mem::take(&mut scratch.jar);
     jar.clear();
-    jar.extend((0..rows.len()).map(|i| dot(rows.row(i), a) - rows.aref[i]));
+    jar.extend((0..rows.len()).map(|i| rows.dot(i, a) - rows.aref[i]));
     let quadratic = |i: &usize| zone[*i] == Zone::Quadratic;
     for i in (0..rows.len()).filter(quadratic) {
-        add_outer(r_v, rows.damping[i] / rows.r[i], rows.row(i));
+        rows.add_outer(r_v, rows.damping[i] / rows.r[i], i);
     }
     let contacts_start = rows.contact_rows.first().map_or(rows.len(), |r| r.0);
     for i in (0..contacts_start).filter(quadratic) {

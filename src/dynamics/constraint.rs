@@ -97,6 +97,11 @@ pub struct Rows<T: Real> {
     /// J, row-major: row i is `j[i nv..(i + 1) nv]` ([`Rows::row`]).
     pub j: Vec<T>,
     pub nv: usize,
+    /// Per row, the dofs it can move, ascending: `dofs[span.0..span.1]`
+    /// ([`Rows::support`]); its other entries of J are zero. A contact's
+    /// rows share one span: the dofs on its bodies' paths to the world.
+    pub dofs: Vec<usize>,
+    pub span: Vec<(usize, usize)>,
     pub kind: Vec<RowKind>,
     pub aref: Vec<T>,
     pub r: Vec<T>,
@@ -121,6 +126,8 @@ impl<T: Real> Default for Rows<T> {
         Rows {
             j: vec![],
             nv: 0,
+            dofs: vec![],
+            span: vec![],
             kind: vec![],
             aref: vec![],
             r: vec![],
@@ -139,6 +146,8 @@ impl<T: Real> Rows<T> {
     fn clear(&mut self, nv: usize) {
         self.nv = nv;
         self.j.clear();
+        self.dofs.clear();
+        self.span.clear();
         self.kind.clear();
         self.aref.clear();
         self.r.clear();
@@ -152,6 +161,50 @@ impl<T: Real> Rows<T> {
 
     pub fn row(&self, i: usize) -> &[T] {
         &self.j[i * self.nv..(i + 1) * self.nv]
+    }
+
+    /// The dofs row i can move, ascending.
+    pub fn support(&self, i: usize) -> &[usize] {
+        let (start, end) = self.span[i];
+        &self.dofs[start..end]
+    }
+
+    /// J_i x, summed over the row's support in ascending order (the dense
+    /// sum's value: the other terms are zero).
+    pub fn dot(&self, i: usize, x: &[T]) -> T {
+        let row = self.row(i);
+        self.support(i)
+            .iter()
+            .fold(T::zero(), |s, &k| s + row[k] * x[k])
+    }
+
+    /// out -= J_i^T f.
+    pub fn sub_transposed(&self, i: usize, f: T, out: &mut [T]) {
+        let row = self.row(i);
+        for &k in self.support(i) {
+            out[k] -= row[k] * f;
+        }
+    }
+
+    /// h += w J_i^T J_i (h: nv x nv, column-major), over the row's support.
+    pub fn add_outer(&self, h: &mut [T], w: T, i: usize) {
+        let (row, n) = (self.row(i), self.nv);
+        let support = self.support(i);
+        for &c in support {
+            let x = row[c];
+            for &r in support {
+                h[c * n + r] += w * row[r] * x;
+            }
+        }
+    }
+
+    /// Declares the dofs (given descending, distinct) of the next `count` rows.
+    fn moving(&mut self, count: usize, dofs: impl IntoIterator<Item = usize>) {
+        let start = self.dofs.len();
+        self.dofs.extend(dofs);
+        self.dofs[start..].reverse();
+        let span = (start, self.dofs.len());
+        self.span.extend(std::iter::repeat_n(span, count));
     }
 
     pub fn len(&self) -> usize {
@@ -442,8 +495,7 @@ impl<T: Real> Rows<T> {
         let dmax = sol.solimp[1];
         let first = self.len();
         for (k, &kind) in block.kind.iter().enumerate() {
-            let row = self.row(first + k);
-            let vel = row.iter().zip(v).fold(T::zero(), |s, (a, b)| s + *a * *b);
+            let vel = self.dot(first + k, v);
             let elliptic_friction = matches!(kind, RowKind::ConeRest);
             let solref = match friction_ref {
                 Some(r) if elliptic_friction && r != [T::zero(); 2] => {
@@ -499,6 +551,7 @@ pub fn rows<T: Real>(
     let unit = |rows: &mut Rows<T>, i: usize, sign: T| {
         rows.j
             .extend((0..n).map(|k| if k == i { sign } else { T::zero() }));
+        rows.moving(1, [i]);
     };
     for i in 0..n {
         let (floss, sol) = consts.frictionloss[i];
@@ -629,6 +682,7 @@ fn contact_rows<T: Real>(
         floss: T::zero(),
     };
     rows.contact_rows.push((first, count));
+    rows.moving(count, path_dofs(tree, [b1, b2]));
     rows.push(block, v, consts, Some(c.params.solreffriction));
     if dim == 1 {
         return;
@@ -651,6 +705,22 @@ fn contact_rows<T: Real>(
             *r = rpy;
         }
     }
+}
+
+/// The dofs on the paths from two bodies to the world, descending, each once.
+fn path_dofs<T: Real>(tree: &Tree<T>, bodies: [usize; 2]) -> impl Iterator<Item = usize> + '_ {
+    // Each path descends (a parent's dof comes before its children's): merge.
+    let path = |b: usize| std::iter::successors(tree.body[b].node, |&i| tree.parent[i]);
+    let (mut a, mut b) = (path(bodies[0]).peekable(), path(bodies[1]).peekable());
+    std::iter::from_fn(move || match (a.peek(), b.peek()) {
+        (Some(&x), Some(&y)) if x == y => {
+            b.next();
+            a.next()
+        }
+        (Some(&x), Some(&y)) if x < y => b.next(),
+        (Some(_), _) => a.next(),
+        (None, _) => b.next(),
+    })
 }
 
 /// A contact's friction coefficients as its rows use them (at least 1e-5).

@@ -13,8 +13,9 @@
 //!   T)^2 in the scaled coordinates N = mu jar_0, T = |friction_k jar_k|).
 //!
 //! The cost is strictly convex (M positive definite), so its minimiser is
-//! unique: the answer depends on nothing but the problem (no warm start, no
-//! row order). The constraint forces are f = -ds/djar and M (a - a0) = J^T f.
+//! unique: the answer depends on nothing but the problem (not on the start,
+//! not on the row order), to rounding. The constraint forces are f = -ds/djar
+//! and M (a - a0) = J^T f.
 //!
 //! Newton's method: H = M + J^T (d^2 s) J built on the zones at the current
 //! point, direction -H^-1 grad. The full step minimises the cost with those
@@ -245,7 +246,7 @@ fn dot<T: Real>(a: &[T], b: &[T]) -> T {
 fn apply_rows<T: Real>(rows: &Rows<T>, x: &[T], offset: Option<&[T]>, out: &mut Vec<T>) {
     out.clear();
     out.extend((0..rows.len()).map(|i| {
-        let jx = dot(rows.row(i), x);
+        let jx = rows.dot(i, x);
         offset.map_or(jx, |o| jx - o[i])
     }));
 }
@@ -262,20 +263,32 @@ fn mass_product<T: Real>(m: &DMatrix<T>, x: &[T], out: &mut Vec<T>) {
     }
 }
 
+/// Where Newton's method starts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Start {
+    /// At a0, the acceleration without constraints.
+    Unconstrained,
+    /// At the solution `out` holds, of a problem close to this one (the
+    /// previous stage of an RK4 step).
+    Previous,
+}
+
 /// Minimises the constrained cost (see the module documentation) for the
 /// mass matrix `m`, the unconstrained acceleration `a0` and the rows into
-/// `out`; `iterations` bounds the Newton steps.
+/// `out`, from `start`; `iterations` bounds the Newton steps.
 pub fn solve<T: Real>(
     m: &DMatrix<T>,
     a0: &[T],
     rows: &Rows<T>,
-    iterations: usize,
+    (iterations, start): (usize, Start),
     (out, s): (&mut Solution<T>, &mut Scratch<T>),
 ) {
     let n = a0.len();
     let a = &mut out.qacc;
-    a.clear();
-    a.extend_from_slice(a0);
+    if start == Start::Unconstrained || a.len() != n {
+        a.clear();
+        a.extend_from_slice(a0);
+    }
     out.hessian.resize(n * n, T::zero());
     out.converged = false;
     let mut factored = false;
@@ -357,10 +370,8 @@ fn gradient<T: Real>(
     delta.clear();
     delta.extend(a.iter().zip(a0).map(|(x, y)| *x - *y));
     mass_product(m, delta, grad);
-    for k in 0..rows.len() {
-        for (g, j) in grad.iter_mut().zip(rows.row(k)) {
-            *g -= *j * force[k];
-        }
+    for (k, &f) in force.iter().enumerate() {
+        rows.sub_transposed(k, f, grad);
     }
 }
 
@@ -388,19 +399,7 @@ fn hessian<T: Real>(m: &DMatrix<T>, rows: &Rows<T>, eval: &Eval<T>, h: &mut [T])
 /// in its middle zone.
 pub fn add_quadratic_rows<T: Real>(h: &mut [T], rows: &Rows<T>, zone: &[Zone]) {
     for k in (0..rows.len()).filter(|&k| zone[k] == Zone::Quadratic) {
-        add_outer(h, T::one() / rows.r[k], rows.row(k));
-    }
-}
-
-/// h += w row^T row (h: n x n column-major, n = row's length), the columns
-/// of row's nonzero entries; entry (i, j) adds (w row_i) row_j.
-pub fn add_outer<T: Real>(h: &mut [T], w: T, row: &[T]) {
-    let n = row.len();
-    for (j, &x) in row.iter().enumerate().filter(|(_, x)| **x != T::zero()) {
-        let column = &mut h[j * n..(j + 1) * n];
-        for (hij, &y) in column.iter_mut().zip(row) {
-            *hij += w * y * x;
-        }
+        rows.add_outer(h, T::one() / rows.r[k], k);
     }
 }
 
@@ -500,7 +499,13 @@ mod tests {
 
     fn solve(m: &DMatrix<f64>, a0: &[f64], rows: &Rows<f64>, iterations: usize) -> Solution<f64> {
         let mut out = Solution::default();
-        super::solve(m, a0, rows, iterations, (&mut out, &mut Scratch::default()));
+        super::solve(
+            m,
+            a0,
+            rows,
+            (iterations, Start::Unconstrained),
+            (&mut out, &mut Scratch::default()),
+        );
         out
     }
 
@@ -514,6 +519,8 @@ mod tests {
             aref: vec![aref],
             r: vec![r],
             floss: vec![floss],
+            dofs: vec![0],
+            span: vec![(0, 1)],
             ..Rows::default()
         }
     }
@@ -559,6 +566,8 @@ mod tests {
                 ..Rows::default()
             };
             for k in order {
+                r.span.push((r.dofs.len(), r.dofs.len() + 2));
+                r.dofs.extend([0, 1]);
                 r.j.extend(all[k].0);
                 r.kind.push(RowKind::Unilateral);
                 r.aref.push(all[k].1);
@@ -571,5 +580,26 @@ mod tests {
         let b = solve(&m, &[-1.0, -2.0], &rows([2, 0, 1]), 100);
         assert!(a.converged && b.converged);
         assert!((a.qacc[0] - b.qacc[0]).abs() < 1e-15 && (a.qacc[1] - b.qacc[1]).abs() < 1e-15);
+        // Nor on where Newton's method starts.
+        for guess in [
+            [30.0, -40.0],
+            [0.0, 0.0],
+            b.qacc.clone().try_into().unwrap(),
+        ] {
+            let mut c = Solution {
+                qacc: guess.to_vec(),
+                ..Solution::default()
+            };
+            let start = (100, Start::Previous);
+            super::solve(
+                &m,
+                &[-1.0, -2.0],
+                &rows([0, 1, 2]),
+                start,
+                (&mut c, &mut Scratch::default()),
+            );
+            assert!(c.converged && c.zone == a.zone, "from {guess:?}");
+            assert!((c.qacc[0] - a.qacc[0]).abs() < 1e-15 && (c.qacc[1] - a.qacc[1]).abs() < 1e-15);
+        }
     }
 }

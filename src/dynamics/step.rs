@@ -6,7 +6,7 @@ use super::collision::{ConstraintContact, Pre};
 use super::configuration::{integrate, tangent_rate};
 use super::constraint::{rows, unreachable_pair, world_frames, Rows};
 use super::fluid::add_fluid_forces;
-use super::solver::{solve, Scratch, Solution};
+use super::solver::{solve, Scratch, Solution, Start};
 use super::{
     aba_with_transforms, add_soft_forces_with_transforms, bias_forces_with_transforms,
     crba_with_transforms, ltdl_factor, ltdl_solve, passive_forces, stretch, update_transforms,
@@ -171,6 +171,11 @@ pub fn acceleration<T: Real>(
     }
     let previous = data.constrained.take();
     if constraints {
+        // From the previous RK4 stage's solution if it had one.
+        let start = match previous {
+            Some(_) => data.reuse.start,
+            None => Start::Unconstrained,
+        };
         // The last evaluation's buffers, refilled.
         let mut c = previous
             .or_else(|| data.reuse.spare.take())
@@ -179,7 +184,7 @@ pub fn acceleration<T: Real>(
         rows(tree, data, (q, v), (&mut c.contacts, &mut c.rows, &mut pre));
         data.reuse.pre = pre;
         if !c.rows.is_empty() {
-            constrained(tree, data, v, force, implicit, &mut c, qdd);
+            constrained(tree, data, (v, start), force, implicit, &mut c, qdd);
             data.constrained = Some(c);
             data.scratch = scratch;
             return;
@@ -213,9 +218,12 @@ impl<T: Real> Default for Constrained<T> {
 /// The constraint model's buffers, kept in [`Data`] so that a step allocates
 /// nothing once they have grown: a last evaluation without rows (whose
 /// vectors the next one refills), the colliders' and the solver's scratch,
-/// a factored mass matrix and a vector of length nv.
+/// a factored mass matrix and a vector of length nv; and where the next
+/// solve starts: at the last solution only between the stages of one RK4
+/// step ([`rk4`]), so that a step depends on its arguments alone.
 #[derive(Clone, Debug)]
 pub struct Reuse<T: Real> {
+    start: Start,
     spare: Option<Constrained<T>>,
     pre: Vec<Pre<T>>,
     solver: Scratch<T>,
@@ -231,6 +239,7 @@ impl<T: Real> Reuse<T> {
 
     pub fn new(nv: usize) -> Self {
         Reuse {
+            start: Start::Unconstrained,
             spare: None,
             pre: vec![],
             solver: Scratch::default(),
@@ -255,7 +264,7 @@ impl<T: Real> Reuse<T> {
 fn constrained<T: Real>(
     tree: &Tree<T>,
     data: &mut Data<T>,
-    v: &[T],
+    (v, start): (&[T], Start),
     force: &mut [T],
     implicit: Option<&[T]>,
     c: &mut Constrained<T>,
@@ -278,7 +287,7 @@ fn constrained<T: Real>(
         mass,
         &r.a0,
         &c.rows,
-        iterations,
+        (iterations, start),
         (&mut c.solution, &mut r.solver),
     );
     match implicit {
@@ -381,6 +390,12 @@ fn rk4<T: Real>(
     ];
     for k in 0..4 {
         let stage_state = (&q_stage[..], &v_stage[..], tau);
+        // Stages 2 to 4 start their solve from the stage before's solution.
+        data.reuse.start = if k == 0 {
+            Start::Unconstrained
+        } else {
+            Start::Previous
+        };
         acceleration(
             tree,
             data,
@@ -401,5 +416,6 @@ fn rk4<T: Real>(
         }
     }
     integrate(tree, q, dq, T::one(), q_next);
+    data.reuse.start = Start::Unconstrained;
     data.stage = stage;
 }
