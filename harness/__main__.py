@@ -24,6 +24,7 @@ COMMANDS = {
     "robustness": "harness.robustness",
     "contact": "harness.contact",
     "wiping-replay": "harness.wiping_replay",
+    "sweep": "harness.sweep",
 }
 
 

@@ -1,9 +1,15 @@
-"""A gymnasium environment: the paper's cartpole (Section 4.2) on our engine.
+"""Gymnasium environments of the paper's tasks on our engine: the cartpole (Section 4.2), the
+half cheetah (4.3) and the wiping arm (4.4).
 
-`import harness.gym_env` registers it as "diffosi/CartPole-v0":
+`import harness.gym_env` registers "diffosi/CartPole-v0", "diffosi/HalfCheetah-v0" and
+"diffosi/Wiping-v0"; each is also vectorised by gymnasium (`gymnasium.make_vec(id, num_envs=8,
+vectorization_mode="sync" | "async")`; "async" steps the copies in processes of their own):
 
     import gymnasium, harness.gym_env
     env = gymnasium.make("diffosi/CartPole-v0", mu=0.3)
+    envs = gymnasium.make_vec("diffosi/HalfCheetah-v0", num_envs=8)   # mu drawn per reset
+
+The cartpole (CartPoleEnv below):
 
 Conventions (SI units, angles in radians):
 - dynamics: reference_models/cartpole.xml through `diffosi.Model`, one physics
@@ -83,4 +89,112 @@ class CartPoleEnv(gymnasium.Env):
         return self._observation(), 0.0 if terminated else 1.0, terminated, truncated, {}
 
 
+
+
+class HalfCheetahEnv(gymnasium.Env):
+    """The paper's half cheetah, diffosi.Task("half_cheetah") (src/tasks/half_cheetah.rs has its
+    conventions, gymnasium HalfCheetah-v5's): observation (17) the torso's height and pitch, the
+    six leg joints, then every velocity; action six motor controls in [-1, 1] (clipped), held for
+    the task's 5 physics steps of 0.01 s; reward the forward speed minus 0.1 |a|^2 (the task
+    metric: the return is the paper's task performance); never terminated, truncated after
+    1000 steps. mu (kg) is the torso mass: fixed if given (in [1, 50]), else drawn uniformly
+    from [1, 50] at every reset (domain randomisation); info["mu"] says which. reset(seed=...)
+    seeds the mu draw and the task's reset noise."""
+
+    metadata = {"render_modes": []}
+
+    def __init__(self, mu=None):
+        self.task = diffosi.Task("half_cheetah")
+        self.mu_range = tuple(float(b[0]) for b in self.task.mu_range)
+        if mu is not None and not self.mu_range[0] <= mu <= self.mu_range[1]:
+            raise ValueError(f"mu = {mu} kg: the torso mass lies in {list(self.mu_range)}")
+        self.fixed_mu = None if mu is None else float(mu)
+        big = np.finfo(np.float64).max
+        self.observation_space = spaces.Box(-big, big, shape=(self.task.obs_dim,), dtype=np.float64)
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(self.task.act_dim,), dtype=np.float64)
+        self.mu, self.model, self._q, self._v, self._steps = None, None, None, None, 0
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        self.mu = self.fixed_mu if self.fixed_mu is not None else float(self.np_random.uniform(*self.mu_range))
+        self.model = self.task.model([self.mu])
+        self._q, self._v = self.task.reset(int(self.np_random.integers(2**63)))
+        self._steps = 0
+        return self.task.observe(self._q, self._v), {"mu": self.mu}
+
+    def step(self, action):
+        action = np.clip(np.asarray(action, dtype=np.float64).reshape(self.action_space.shape), -1.0, 1.0)
+        tau = self.task.forces(action)
+        q, v = self._q, self._v
+        for _ in range(self.task.substeps):
+            q, v = self.model.step(q, v, tau)
+        reward = self.task.metric(self._q, self._v, action, q, v)
+        self._q, self._v = q, v
+        self._steps += 1
+        terminated = self.task.terminated(q, v)
+        truncated = self._steps >= self.task.horizon
+        return self.task.observe(q, v), float(reward), terminated, truncated, {"mu": self.mu}
+
+
+class WipingEnv(gymnasium.Env):
+    """The wiping task, diffosi.Wiping (src/tasks/wiping/: a KUKA iiwa pressing a compliant tool
+    on a table while it strokes back and forth), with the admittance controller's gains as the
+    action, chosen anew at every 1 ms control step: a in [-1, 1]^2 (clipped) maps log-uniformly
+    onto the task's gain box, (k_tau, k_xi) = exp(ln lo + (a + 1) / 2 (ln hi - ln lo)).
+    Observation (19): q (8: the arm's seven joints, the tool's slide), v (8), the admittance
+    offset xi (m), the normal force sensed over the last step (N) and the time (s). Reward
+    -(F - 3 N)^2 per step of the strokes (t >= 0.5 s; a lost contact counts as F = 0), 0 during
+    the approach: the mean over the steps in contact is the task metric. Truncated after the
+    task's 3000 steps; terminated (reward -F_goal^2 for the rest) if a step fails. mu = the
+    tool's (k_p in N/cm, k_d in N s/m), each in [1, 100]: fixed if given, else drawn uniformly
+    at every reset; info["mu"] says which."""
+
+    metadata = {"render_modes": []}
+
+    def __init__(self, mu=None):
+        self.task = diffosi.Wiping(2)
+        self.mu_range = tuple(np.asarray(b, float) for b in self.task.mu_range)
+        if mu is not None:
+            mu = np.asarray(mu, float)
+            if mu.shape != (2,) or not np.all((self.mu_range[0] <= mu) & (mu <= self.mu_range[1])):
+                raise ValueError(f"mu = {mu}: (k_p, k_d), each in [1, 100]")
+        self.fixed_mu = mu
+        lo, hi = self.task.gains_range
+        self._log_lo, self._log_hi = np.log(lo), np.log(hi)
+        big = np.finfo(np.float64).max
+        self.observation_space = spaces.Box(-big, big, shape=(19,), dtype=np.float64)
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float64)
+        self.mu, self.run = None, None
+
+    def gains(self, action) -> np.ndarray:
+        """(k_tau, k_xi) of an action."""
+        a = np.clip(np.asarray(action, dtype=np.float64).reshape(2), -1.0, 1.0)
+        return np.exp(self._log_lo + (a + 1.0) / 2.0 * (self._log_hi - self._log_lo))
+
+    def _observation(self):
+        run = self.run
+        return np.concatenate([run.q, run.v, [run.xi, run.force, run.k * run.timestep]])
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        self.mu = self.fixed_mu if self.fixed_mu is not None else self.np_random.uniform(*self.mu_range)
+        self.run = self.task.run(self.mu)
+        return self._observation(), {"mu": self.mu.copy()}
+
+    def step(self, action):
+        run, goal = self.run, self.task.force_goal
+        stroking = run.stroking
+        try:
+            force = run.step(self.gains(action))
+        except ValueError as e:  # the step failed: the state stays, the episode ends
+            left = run.steps - run.k
+            return self._observation(), -goal**2 * left, True, False, {"mu": self.mu.copy(), "error": str(e)}
+        touching = force > self.task.contact_force
+        reward = -((force if touching else 0.0) - goal) ** 2 if stroking else 0.0
+        return self._observation(), float(reward), False, run.k >= run.steps, {"mu": self.mu.copy()}
+
+
+HALF_CHEETAH_ID, WIPING_ID = "diffosi/HalfCheetah-v0", "diffosi/Wiping-v0"
 gymnasium.register(id=ENV_ID, entry_point=CartPoleEnv)
+gymnasium.register(id=HALF_CHEETAH_ID, entry_point=HalfCheetahEnv)
+gymnasium.register(id=WIPING_ID, entry_point=WipingEnv)

@@ -320,26 +320,33 @@ def summarize(episodes: list[dict]) -> dict:
     return out
 
 
-def run_methods(setup: Setup, target: str, plot_episodes: int) -> dict:
-    """Every method on one target (or SOURCE), with progress per (method, policy seed) batch."""
+def run_batch(setup: Setup, target: str, method: str, seed: int, plot_episodes: int) -> list[dict]:
+    """One method with one policy seed on one target (or SOURCE): every episode, the first
+    `plot_episodes` with their fed-mu traces. (A sweep runs these as its units.)"""
+    return [run_episode(setup, target, method, seed, k, k < plot_episodes) for k in range(len(setup.mu))]
+
+
+def run_methods(setup: Setup, target: str, plot_episodes: int, batch=run_batch) -> dict:
+    """Every method on one target (or SOURCE), with progress per (method, policy seed) batch;
+    the first policy seed's first `plot_episodes` episodes keep their traces."""
     results = {}
     for method in setup.spec.methods:
         episodes = []
         for seed in setup.seeds:
             start = time.perf_counter()
-            batch = [run_episode(setup, target, method, seed, k, seed == setup.seeds[0] and k < plot_episodes)
-                     for k in range(len(setup.mu))]
-            episodes += batch
-            print(f"  {target:8s} {method:10s} policy seed {seed}: {len(batch)} episodes, task performance "
-                  f"{np.mean([e['score'] for e in batch]):6.1f}  ({time.perf_counter() - start:.1f} s)", flush=True)
+            batch_episodes = batch(setup, target, method, seed, plot_episodes if seed == setup.seeds[0] else 0)
+            episodes += batch_episodes
+            print(f"  {target:8s} {method:10s} policy seed {seed}: {len(batch_episodes)} episodes, task performance "
+                  f"{np.mean([e['score'] for e in batch_episodes]):6.1f}  ({time.perf_counter() - start:.1f} s)",
+                  flush=True)
         results[method] = {"summary": summarize(episodes), "episodes": episodes}
     return results
 
 
-def run_target(setup: Setup, target: str, plot_episodes: int, source: dict) -> dict:
+def run_target(setup: Setup, target: str, plot_episodes: int, source: dict, batch=run_batch) -> dict:
     """Every method on one target; `source` holds the same episodes' results in our engine
     (kept: the summaries, and UC-DiffOSI's episodes without their traces)."""
-    results = run_methods(setup, target, plot_episodes)
+    results = run_methods(setup, target, plot_episodes, batch)
     oracle = results["UC-Oracle"]["summary"]["score"][0]
     identified = "UC-DiffOSI" in results
     ratio = (results["UC-DiffOSI"]["summary"]["score"][0] / oracle if oracle else float("nan")) if identified else None
@@ -822,6 +829,14 @@ def run_task(args) -> int:
         wiping_transfer.run_targets(targets, args.runs, args.seed, args.out,
                                     line + (f" --seed {args.seed}" if args.seed else ""))
         return 0
+    run_targets(args, targets, run_batch, unmodelled)
+    return 0
+
+
+def run_targets(args, targets: list[str], batch=run_batch, unmodelled: list[str] = ()) -> None:
+    """The reports of one task: our engine (the source), then each target, then the summary;
+    `batch` gives a (target, method, policy seed)'s episodes (run here, or a sweep's)."""
+    unmodelled = list(unmodelled)
     setup = Setup(args, unmodelled)
     suffix = "".join(f"-{u}" for u in unmodelled)
     meta = {"task": args.task, "command": command(args, unmodelled), "episodes": len(setup.mu),
@@ -831,12 +846,12 @@ def run_task(args) -> int:
             "prior": float(setup.prior[0]), "environment": setup.spec.environment,
             "stems": {t: f"transfer-{args.task}-{t}{suffix}" for t in targets}}
     print(f"transfer: {args.task} in our engine (the source: no gap)", flush=True)
-    source = run_methods(setup, SOURCE, 0)
+    source = run_methods(setup, SOURCE, 0, batch)
     write_report = cheetah_markdown if args.task.startswith("half_cheetah") else markdown
     docs = {}
     for target in targets:
         print(f"transfer: {args.task} -> {target}{gap_words(meta)}", flush=True)
-        doc = docs[target] = run_target(setup, target, args.plot_episodes, source)
+        doc = docs[target] = run_target(setup, target, args.plot_episodes, source, batch)
         stem = args.out / meta["stems"][target]
         png = plot(stem.with_suffix(".png"), doc, meta)
         write_json(stem.with_suffix(".json"), {"meta": meta, **doc})
@@ -854,4 +869,3 @@ def run_task(args) -> int:
                                                "targets": summary})
         write_markdown(stem.with_suffix(".md"), summary_markdown(docs, meta, png.name))
         print(f"wrote {stem}.md, .json, .png")
-    return 0

@@ -286,20 +286,25 @@ impl PyModel {
             Array2::zeros((steps + 1, nq)),
             Array2::zeros((steps + 1, nv)),
         );
-        let (mut q, mut v) = (q0, v0);
-        for t in 0..=steps {
-            qs.row_mut(t).assign(&numpy::ndarray::ArrayView1::from(&q));
-            vs.row_mut(t).assign(&numpy::ndarray::ArrayView1::from(&v));
-            if t == steps {
-                break;
+        let (model, data) = (&self.model, &mut self.data);
+        // Other Python threads run while this one steps.
+        py.detach(|| {
+            let (mut q, mut v) = (q0, v0);
+            for t in 0..=steps {
+                qs.row_mut(t).assign(&numpy::ndarray::ArrayView1::from(&q));
+                vs.row_mut(t).assign(&numpy::ndarray::ArrayView1::from(&v));
+                if t == steps {
+                    break;
+                }
+                let tau = taus.row(t);
+                let tau = tau.as_slice().expect("rows of a standard-layout array");
+                (q, v) = model
+                    .step(data, &q, &v, tau)
+                    .map_err(|e| format!("rollout step {t}: {e}"))?;
             }
-            let tau = taus.row(t);
-            let tau = tau.as_slice().expect("rows of a standard-layout array");
-            (q, v) = self
-                .model
-                .step(&mut self.data, &q, &v, tau)
-                .map_err(|e| PyValueError::new_err(format!("rollout step {t}: {e}")))?;
-        }
+            Ok::<(), String>(())
+        })
+        .map_err(PyValueError::new_err)?;
         let qs = PyArray2::from_owned_array(py, qs);
         let vs = PyArray2::from_owned_array(py, vs);
         PyTuple::new(py, [qs, vs])
@@ -326,7 +331,9 @@ impl PyModel {
             control: true,
             params: &params,
         };
-        let j = step_jacobians(&self.model, &mut self.ws, (&q, &v, &tau), &wrt)
+        let (model, ws) = (&self.model, &mut self.ws);
+        let j = py
+            .detach(|| step_jacobians(model, ws, (&q, &v, &tau), &wrt))
             .map_err(|e| PyValueError::new_err(format!("step_jacobians: {e}")))?;
         let out = PyDict::new(py);
         // Interned keys: a hot call, and the eight strings are the same every time.
@@ -359,7 +366,8 @@ impl PyModel {
     ) -> PyResult<MatrixPair<'py>> {
         let (q, v, tau) = self.state(q, v, tau)?;
         let x = (&q[..], &v[..], &tau[..]);
-        transition_jacobians(&self.model, &mut self.ws, x, &mut self.transition)
+        let (model, ws, out) = (&self.model, &mut self.ws, &mut self.transition);
+        py.detach(|| transition_jacobians(model, ws, x, out))
             .map_err(|e| PyValueError::new_err(format!("transition_jacobians: {e}")))?;
         let (a, b) = (&self.transition.a, &self.transition.b);
         Ok((
@@ -668,7 +676,7 @@ impl PyDiffOsi {
             },
         };
         let mut adam = Adam::default();
-        let identifier: &mut dyn Identifier = match self.method {
+        let identifier: &mut (dyn Identifier + Send) = match self.method {
             Method::Lm => &mut lm,
             Method::Adam => &mut adam,
         };
@@ -954,7 +962,7 @@ impl Osi {
     fn identify<'py>(
         &mut self,
         py: Python<'py>,
-        identifier: &mut dyn Identifier,
+        identifier: &mut (dyn Identifier + Send),
         q: &Bound<'py, PyAny>,
         v: &Bound<'py, PyAny>,
         tau: &Bound<'py, PyAny>,
@@ -1009,8 +1017,9 @@ impl Osi {
             }
             None => self.problem.prior().to_vec(),
         };
-        let estimate = identifier
-            .identify(&mut self.problem, &window, &start)
+        let problem = &mut self.problem;
+        let estimate = py
+            .detach(|| identifier.identify(problem, &window, &start))
             .map_err(|e| osi_error("identify", e))?;
         estimate_dict(py, estimate, "params")
     }
@@ -1211,6 +1220,7 @@ fn diffosi(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<task::PyTask>()?;
     m.add_class::<task::PyPolicy>()?;
     m.add_class::<wiping::PyWiping>()?;
+    m.add_class::<wiping::PyWipingRun>()?;
     m.add_class::<task::PyOnlineOsi>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

@@ -15,14 +15,14 @@ use engine::osi::{
     Adam, ChangeDetection, Identifier, Lm, LmOptions, Loss, Online, Problem, Sampling,
     HUBER_THRESHOLD,
 };
-use engine::rl::{Policy, PolicyKind};
+use engine::rl::{self as rl, Policy, PolicyKind, PpoConfig};
 use engine::tasks::{self, Task};
 use numpy::ndarray::Array2;
 use numpy::PyArray1;
 use numpy::PyArray2;
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyTuple};
+use pyo3::types::{PyDict, PyList, PyTuple};
 use rand::rngs::StdRng;
 use rand::SeedableRng;
 
@@ -264,6 +264,73 @@ impl PyPolicy {
         Ok(PyPolicy { policy })
     }
 
+    /// Trains a policy of `kind` ("uc" or "dr") on `task` with PPO, from a
+    /// network initialised from `seed`, for `steps` environment steps
+    /// (default: the budget of the shipped policies, `diffosi train`'s).
+    /// Other Python threads run meanwhile (the GIL is released). Returns
+    /// (policy, curve): curve one dict per PPO iteration with "iteration",
+    /// "env_steps", "episodes", "mean_return" and "mean_metric" (of the last
+    /// finished training episodes; NaN before the first ends). The same task,
+    /// kind, seed and steps give the same policy, bit for bit.
+    #[staticmethod]
+    #[pyo3(signature = (task, kind, seed = 0, steps = None))]
+    fn train<'py>(
+        py: Python<'py>,
+        task: &PyTask,
+        kind: &str,
+        seed: u64,
+        steps: Option<usize>,
+    ) -> PyResult<(Self, Bound<'py, PyList>)> {
+        let kind = match kind {
+            "uc" => PolicyKind::Uc,
+            "dr" => PolicyKind::Dr,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "kind '{other}': expected 'uc' or 'dr'"
+                )))
+            }
+        };
+        let t = task.task.as_ref();
+        let mut config = PpoConfig {
+            seed,
+            ..PpoConfig::for_task(t.name())
+        };
+        if let Some(steps) = steps {
+            if steps == 0 {
+                return Err(PyValueError::new_err("steps must be at least 1"));
+            }
+            config.total_steps = steps;
+        }
+        let trained = py
+            .detach(|| rl::train(t, kind, &config, |_| {}))
+            .map_err(|e| PyValueError::new_err(format!("train: {e}")))?;
+        let curve = PyList::empty(py);
+        for row in &trained.curve {
+            let d = PyDict::new(py);
+            d.set_item("iteration", row.iteration)?;
+            d.set_item("env_steps", row.env_steps)?;
+            d.set_item("episodes", row.episodes)?;
+            d.set_item("mean_return", row.mean_return)?;
+            d.set_item("mean_metric", row.mean_metric)?;
+            curve.append(d)?;
+        }
+        let policy = PyPolicy {
+            policy: trained.policy,
+        };
+        Ok((policy, curve))
+    }
+
+    /// Writes the policy as `diffosi train` does (a `diffosi-policy/1` JSON
+    /// file that `Policy.load` reads back); OSError if it cannot.
+    fn save(&self, path: std::path::PathBuf) -> PyResult<()> {
+        self.policy.save(&path).map_err(PyOSError::new_err)
+    }
+
+    /// The actor network's weights and biases, layer by layer, as float32.
+    fn parameters<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f32>> {
+        PyArray1::from_slice(py, self.policy.actor.params())
+    }
+
     #[getter]
     fn kind(&self) -> &'static str {
         match self.policy.kind {
@@ -448,11 +515,11 @@ impl PyOnlineOsi {
             q_next: vector(q_next, "q_next", nv, "nq")?,
             v_next: vector(v_next, "v_next", nv, "nv")?,
         };
-        let estimate = self
-            .online
-            .push(transition)
+        let online = &mut self.online;
+        let estimate = py
+            .detach(|| online.push(transition).cloned())
             .map_err(|e| osi_error("push", e))?;
-        estimate_dict(py, estimate.clone(), "mu")
+        estimate_dict(py, estimate, "mu")
     }
 
     /// The current mu estimate: the prior (the middle of the range) before

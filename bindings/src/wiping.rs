@@ -6,11 +6,16 @@
 //! steps; mu = (tool k_p in N/cm, k_d in N s/m, then the study's extra
 //! unknowns), each in [1, 100]; gains = (k_tau in 1/s^2, k_xi in m/(N s)).
 
-use engine::control::admittance::Gains;
+use engine::control::admittance::{Admittance, Gains, F_GOAL};
+use engine::dynamics::Data;
 use engine::experiments::wiping::Uc;
+use engine::model::Model;
 use engine::model::State;
 use engine::osi::{CmaEs, CmaEsOptions, Lm};
-use engine::tasks::wiping::{tip_target, Segments, Unknown, Wiping, CANONICAL};
+use engine::tasks::wiping::{
+    closed_loop_step, tip_target, LoopState, Segments, Unknown, Wiping, APPROACH, CANONICAL,
+    CONTACT_FORCE, GAINS_LOWER, GAINS_UPPER, STEPS,
+};
 use numpy::ndarray::Array2;
 use numpy::{PyArray1, PyArray2};
 use pyo3::exceptions::{PyOSError, PyValueError};
@@ -36,7 +41,8 @@ use crate::{estimate_dict, matrix, osi_error, vector};
 /// `flags`. `act(k, q, v, xi, force, gains=None)` is one step of the
 /// controller on a force sensed elsewhere (to run it on another engine),
 /// returning the torques and the next xi; `uc_gains(path, mu)` the
-/// Universal Controller's gains.
+/// Universal Controller's gains; `run(mu)` an episode driven step by step
+/// (`WipingRun`).
 #[pyclass(name = "Wiping", module = "diffosi", frozen)]
 pub(crate) struct PyWiping {
     task: Wiping,
@@ -96,6 +102,25 @@ impl PyWiping {
         (CANONICAL.k_tau, CANONICAL.k_xi)
     }
 
+    /// The box the gains are searched in, ((k_tau, k_xi) lower, upper).
+    #[getter]
+    fn gains_range(&self) -> ((f64, f64), (f64, f64)) {
+        let pair = |g: Gains| (g.k_tau, g.k_xi);
+        (pair(GAINS_LOWER), pair(GAINS_UPPER))
+    }
+
+    /// The normal force the controller holds the tool to (N).
+    #[getter]
+    fn force_goal(&self) -> f64 {
+        F_GOAL
+    }
+
+    /// A sensed force above this is contact (N); the task metric counts those steps.
+    #[getter]
+    fn contact_force(&self) -> f64 {
+        CONTACT_FORCE
+    }
+
     #[pyo3(signature = (mu, gains = None, steps = 3000))]
     fn episode<'py>(
         &self,
@@ -106,9 +131,9 @@ impl PyWiping {
     ) -> PyResult<Bound<'py, PyDict>> {
         let mu = vector(mu, "mu", self.nmu(), "nmu")?;
         let gains = gains_of(gains)?;
-        let e = self
-            .task
-            .episode(&mu, gains, steps)
+        let task = &self.task;
+        let e = py
+            .detach(|| task.episode(&mu, gains, steps))
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         let out = PyDict::new(py);
         let table = |x: Vec<Vec<f64>>| PyArray2::from_vec2(py, &x);
@@ -157,16 +182,16 @@ impl PyWiping {
             .map_err(PyValueError::new_err)?;
         let mut problem = self.task.problem();
         let prior = self.task.prior();
+        let mut cmaes = CmaEs {
+            options: CmaEsOptions {
+                max_evaluations,
+                seed,
+                ..CmaEsOptions::default()
+            },
+        };
         let estimate = match method {
-            "lm" => Lm::default().identify_on(&mut problem, &segments, &prior),
-            "cmaes" => CmaEs {
-                options: CmaEsOptions {
-                    max_evaluations,
-                    seed,
-                    ..CmaEsOptions::default()
-                },
-            }
-            .identify_on(&mut problem, &segments, &prior),
+            "lm" => py.detach(|| Lm::default().identify_on(&mut problem, &segments, &prior)),
+            "cmaes" => py.detach(|| cmaes.identify_on(&mut problem, &segments, &prior)),
             other => {
                 return Err(PyValueError::new_err(format!(
                     "method '{other}': expected 'lm' or 'cmaes'"
@@ -234,7 +259,127 @@ impl PyWiping {
         Ok((g.k_tau, g.k_xi))
     }
 
+    /// An episode at mu from the task's start state, driven one control
+    /// step at a time with gains of the caller's choosing (`WipingRun`).
+    fn run(&self, mu: &Bound<'_, PyAny>) -> PyResult<PyWipingRun> {
+        let mu = vector(mu, "mu", self.nmu(), "nmu")?;
+        let model = self
+            .task
+            .model_at(&mu)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let (q, v) = self.task.start();
+        Ok(PyWipingRun {
+            data: model.data(),
+            ctrl: self.task.controller(CANONICAL),
+            next: (vec![0.0; model.nv()], vec![0.0; model.nv()]),
+            tau: vec![0.0; model.nv()],
+            model,
+            k: 0,
+            state: (q, v),
+            carry: LoopState {
+                xi: 0.0,
+                force: 0.0,
+            },
+        })
+    }
+
     fn __repr__(&self) -> String {
         format!("Wiping(unknowns={}: {:?})", self.nmu(), self.unknowns())
+    }
+}
+
+/// One closed-loop episode of the wiping task at a fixed mu
+/// (`Wiping.run(mu)`): `step(gains)` runs the admittance controller with
+/// `gains` (k_tau, k_xi) for one control step (1 ms) from the current state
+/// and returns the sensed normal force over it (N); `q`, `v`, `xi` (the
+/// admittance offset, m), `force` (the last sensed force) and `k` (steps
+/// done; step k starts at t = k h) describe where the episode is. The
+/// episode `Wiping.episode` runs is these steps with fixed gains.
+#[pyclass(name = "WipingRun", module = "diffosi")]
+pub(crate) struct PyWipingRun {
+    model: Model,
+    data: Data<f64>,
+    ctrl: Admittance<f64>,
+    k: usize,
+    state: State,
+    next: State,
+    tau: Vec<f64>,
+    carry: LoopState<f64>,
+}
+
+#[pymethods]
+impl PyWipingRun {
+    /// One control step under `gains`; ValueError for gains outside
+    /// (0, inf) or a step that fails (the state is then unchanged).
+    fn step(&mut self, gains: &Bound<'_, PyAny>) -> PyResult<f64> {
+        self.ctrl.gains = gains_of(Some(gains))?;
+        let (q, v) = (&self.state.0, &self.state.1);
+        let (q1, v1) = (&mut self.next.0, &mut self.next.1);
+        let step = (self.k, q.as_slice(), v.as_slice(), self.carry);
+        self.carry = closed_loop_step(
+            (self.model.tree(), &self.model),
+            &mut self.data,
+            &mut self.ctrl,
+            step,
+            &mut self.tau,
+            (q1, v1),
+        )
+        .map_err(|e| PyValueError::new_err(format!("step {}: {e}", self.k)))?;
+        std::mem::swap(&mut self.state, &mut self.next);
+        self.k += 1;
+        Ok(self.carry.force)
+    }
+
+    #[getter]
+    fn q<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.state.0)
+    }
+
+    #[getter]
+    fn v<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.state.1)
+    }
+
+    #[getter]
+    fn xi(&self) -> f64 {
+        self.carry.xi
+    }
+
+    #[getter]
+    fn force(&self) -> f64 {
+        self.carry.force
+    }
+
+    #[getter]
+    fn k(&self) -> usize {
+        self.k
+    }
+
+    /// The steps of the task's episode (3000: 3 s).
+    #[getter]
+    fn steps(&self) -> usize {
+        STEPS
+    }
+
+    /// The time step (s).
+    #[getter]
+    fn timestep(&self) -> f64 {
+        self.model.opt.timestep
+    }
+
+    /// Whether step k is in the strokes (t >= 0.5 s), past the approach.
+    #[getter]
+    fn stroking(&self) -> bool {
+        self.k as f64 * self.model.opt.timestep >= APPROACH
+    }
+
+    /// The tool tip's target at the start of step k (world frame, m).
+    fn target<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let t = self.k as f64 * self.model.opt.timestep;
+        PyArray1::from_slice(py, tip_target(t).as_slice())
+    }
+
+    fn __repr__(&self) -> String {
+        format!("<diffosi.WipingRun step {} of {STEPS}>", self.k)
     }
 }

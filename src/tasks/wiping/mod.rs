@@ -61,11 +61,11 @@ pub const TIP_RADIUS: f64 = 0.02;
 /// of the goal (the soft contact pushes a little before touching).
 pub const CONTACT_FORCE: f64 = 0.03;
 /// Where the strokes are centred, their amplitude and period (m, m, s), and
-/// the approach's duration and height (s, m).
+/// the approach's duration and height (s, m): the strokes start at t = APPROACH.
 const CENTRE: f64 = 0.55;
 const AMPLITUDE: f64 = 0.1;
 const PERIOD: f64 = 1.5;
-const APPROACH: f64 = 0.5;
+pub const APPROACH: f64 = 0.5;
 const HEIGHT: f64 = 0.03;
 
 /// Link lengths of the arm in its vertical plane (m): shoulder height (a2's
