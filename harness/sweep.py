@@ -28,8 +28,9 @@ serially, on a local Ray runtime or on a cluster. The driver writes each unit's 
 engines, not this checkout's files), and trained policies to <out>/policies/<task>/; a
 rerun skips finished units. A unit that raises is retried (--retries), then reported in
 <out>/failed.json, with the units that needed it; the exit status is then 1. --report
-writes harness transfer's reports from the units into <out>/reports/: the same files the
-main job writes, over the sweep's seeds.
+writes into <out>/reports/ harness transfer's reports from the transfer units, and `diffosi
+reproduce`'s tables over the trained policies (UC and DR of seeds 0..n-1 of the cartpole or
+the half cheetah): the same files the main job writes, over the sweep's seeds.
 
     python -m harness sweep sweeps/small.toml                  # local Ray, every core
     python -m harness sweep sweeps/small.toml --workers 1      # local Ray, one worker
@@ -43,6 +44,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
+import subprocess
 import sys
 import tempfile
 import time
@@ -59,6 +62,7 @@ KINDS = ("uc", "dr")
 TRAIN_KEYS = {"tasks", "kinds", "seeds", "steps"}
 TRANSFER_KEYS = {"tasks", "targets", "methods", "policy_seeds", "policies", "episodes", "seed", "window",
                  "horizon", "plot_episodes"}
+TABLES = {"cartpole": "cartpole", "half_cheetah": "cheetah"}  # diffosi reproduce's name of a task's tables
 PLOT_EPISODES = 3  # episodes per unit that keep their fed-mu trace (harness transfer plots them)
 # What a worker does not need of the checkout (it needs harness/ and reference_models/).
 WORKER_EXCLUDES = [".git", ".venv", "target", "reports", "policies", "sweeps", "src", "tests", "benches",
@@ -390,6 +394,32 @@ def report(name: str, units: list[Unit], store: Store) -> None:
         transfer.run_targets(transfer_args(p, seeds, folder, store.out / "reports", target), targets, batch)
 
 
+def tables(units: list[Unit], store: Store) -> None:
+    """`diffosi reproduce`'s tables of each task whose UC and DR the sweep trained for seeds
+    0..n-1, over those n models (the main job's files: Tables 1 and 4 and the window study for
+    the cartpole, Table 2 and its window study for the half cheetah). Their UC-MLP rows use the
+    shipped UC-MLP weights, copied next to the sweep's policies."""
+    from harness import transfer
+
+    binary = REPO / "target" / "release" / "diffosi"
+    trained: dict = {}
+    for u in units:
+        if u.kind == "train":
+            trained.setdefault(u.p["task"], set()).add((u.p["policy"], u.p["seed"]))
+    for task, made in trained.items():
+        n = len({seed for _, seed in made})
+        if task not in TABLES or made != {(kind, s) for kind in KINDS for s in range(n)}:
+            print(f"sweep: no tables for {task}: they need UC and DR of seeds 0..n-1 of cartpole or half_cheetah")
+            continue
+        if not binary.exists():
+            raise SystemExit(f"sweep: {binary} is missing: `make setup` builds it")
+        for weights in (transfer.POLICIES / task).glob("uc-mlp*.json"):
+            shutil.copyfile(weights, store.out / "policies" / task / weights.name)
+        print(f"sweep: diffosi reproduce {TABLES[task]} over the sweep's {n} models of each kind", flush=True)
+        subprocess.run([str(binary), "reproduce", TABLES[task], "--policies", str(store.out / "policies"),
+                        "--reports", str(store.out / "reports"), "--models", str(n)], check=True)
+
+
 def run(args) -> int:
     try:
         name, units = load_spec(args.spec)
@@ -416,4 +446,5 @@ def run(args) -> int:
         return 1
     if args.report:
         report(name, units, store)
+        tables(units, store)
     return 0

@@ -1,6 +1,6 @@
-"""harness sweep: the same spec gives the same results serially and on a real Ray cluster; a
-rerun skips finished units; a failing unit is retried, then reported with the units that
-needed it; a bad spec is refused. The cluster is a Ray head started here on 127.0.0.1 (its
+"""harness sweep: the same spec gives the same results serially, on a local Ray runtime and on a
+real Ray cluster; a rerun skips finished units and writes the main job's reports from them; a
+failing unit is retried, then reported with the units that needed it; a bad spec is refused. The cluster is a Ray head started here on 127.0.0.1 (its
 own port, temporary directory and token), stopped at the end. Run with `make test`."""
 
 import json
@@ -79,6 +79,14 @@ def test_a_sweep_on_a_ray_cluster_equals_a_serial_run(tmp_path, ray_cluster):
     assert policies == ["dr-seed0.json", "dr-seed1.json", "uc-seed0.json", "uc-seed1.json"]
 
 
+def test_a_local_ray_runtime_gives_the_serial_results(tmp_path):
+    local = sweep(SMALL, "--workers", "2", "--out", tmp_path / "local")
+    assert local.returncode == 0, local.stdout + local.stderr
+    assert f"{UNITS} of {UNITS} units done on 2 workers" in local.stdout
+    serial = sweep(SMALL, "--serial", "--out", tmp_path / "serial")
+    assert results(tmp_path / "local") == results(tmp_path / "serial")
+
+
 def test_a_rerun_skips_finished_units_and_reports_from_them(tmp_path):
     out = tmp_path / "sweep"
     first = sweep(SMALL, "--serial", "--out", out)
@@ -91,6 +99,9 @@ def test_a_rerun_skips_finished_units_and_reports_from_them(tmp_path):
     # the transfer report of harness transfer, over the sweep's two policy seeds
     report = json.loads((out / "reports" / "transfer-cartpole-mujoco.json").read_text())
     assert report["meta"]["seeds"] == [0, 1] and len(report["methods"]["UC-Oracle"]["episodes"]) == 6
+    # diffosi reproduce's Table 1 over the sweep's two trained models of each kind
+    table1 = json.loads((out / "reports" / "table1-cartpole.json").read_text())
+    assert table1["models"] == ["seed0", "seed1"]
 
 
 def test_a_failing_unit_is_retried_then_reported_with_its_dependents(tmp_path):
