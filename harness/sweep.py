@@ -78,7 +78,8 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--workers", type=int, default=os.cpu_count(),
                     help="the local Ray runtime's CPUs (default: every core)")
     ap.add_argument("--retries", type=int, default=2, help="retries of a unit that raises (default %(default)s)")
-    ap.add_argument("--report", action="store_true", help="then write the transfer reports into <out>/reports/")
+    ap.add_argument("--report", action="store_true",
+                    help="then write the main job's transfer reports and tables into <out>/reports/")
 
 
 # ---- the spec
@@ -133,6 +134,11 @@ def load_spec(path: Path) -> tuple[str, list[Unit]]:
         return s
 
     train, move = section("train", TRAIN_KEYS), section("transfer", TRANSFER_KEYS)
+    for task in train.get("tasks", []):
+        if task not in transfer.TASKS:
+            raise ValueError(f"{path}: [train] task {task!r}: one of {', '.join(transfer.TASKS)}")
+    if bad := set(train.get("kinds", KINDS)) - set(KINDS):
+        raise ValueError(f"{path}: [train] kinds are {' and '.join(KINDS)}, not {sorted(bad)}")
     units = [unit("train", task=t, policy=k, seed=int(s), steps=train.get("steps"))
              for t in train.get("tasks", []) for k in train.get("kinds", KINDS) for s in train.get("seeds", [0])]
     for task in move.get("tasks", []):
@@ -148,12 +154,17 @@ def load_spec(path: Path) -> tuple[str, list[Unit]]:
         policies = move.get("policies", "trained")
         if policies not in ("trained", "shipped"):
             raise ValueError(f"{path}: policies = 'trained' (this sweep's) or 'shipped', not {policies!r}")
+        seeds = [int(s) for s in move.get("policy_seeds", [0, 1, 2])]
+        if policies == "shipped":
+            files = [transfer.POLICIES / task / f"{k}-seed{s}.json" for k in KINDS for s in seeds]
+            if missing := [str(f) for f in files if not f.exists()]:
+                raise ValueError(f"{path}: no shipped policies {missing}")
         common = dict(task=task, policies=policies, episodes=int(move.get("episodes", spec_t.episodes)),
                       seed=int(move.get("seed", 0)), window=int(move.get("window", 4)),
                       horizon=move.get("horizon"), plot_episodes=int(move.get("plot_episodes", PLOT_EPISODES)),
                       steps=train.get("steps") if policies == "trained" else None)
-        units += [unit("transfer", target=target, method=method, policy_seed=int(s), **common)
-                  for target in targets for method in methods for s in move.get("policy_seeds", [0, 1, 2])]
+        units += [unit("transfer", target=target, method=method, policy_seed=s, **common)
+                  for target in targets for method in methods for s in seeds]
     trained = {u for u in units if u.kind == "train"}
     for u in units:
         if missing := [n.name for n in u.needs() if n not in trained]:

@@ -119,7 +119,9 @@ def test_a_failing_unit_is_retried_then_reported_with_its_dependents(tmp_path):
 @pytest.mark.parametrize("text, words", [
     ("name = 'x'\n[train]\ntask = ['cartpole']\n", "does not take ['task']"),
     ("name = 'x'\n[transfer]\ntasks = ['pendulum']\n", "task 'pendulum'"),
+    ("name = 'x'\n[train]\ntasks = ['cartpole']\nkinds = ['mlp']\n", "not ['mlp']"),
     ("name = 'x'\n[transfer]\ntasks = ['cartpole']\npolicy_seeds = [0]\n", "runs policies [train] does not make"),
+    ("name = 'x'\n[transfer]\ntasks = ['cartpole']\npolicies = 'shipped'\npolicy_seeds = [7]\n", "no shipped"),
     ("[train]\n", "a sweep has a name"),
     ("name = \n", "Invalid"),
 ])
