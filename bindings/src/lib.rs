@@ -886,7 +886,6 @@ impl PyCmaEs {
 struct Osi {
     problem: Problem,
     names: Vec<String>,
-    nv: usize,
 }
 
 impl Osi {
@@ -953,7 +952,6 @@ impl Osi {
         Ok(Osi {
             problem,
             names: params,
-            nv,
         })
     }
 
@@ -970,12 +968,12 @@ impl Osi {
         v_next: &Bound<'py, PyAny>,
         init: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let nv = self.nv;
+        let (nq, nv) = (self.problem.nq(), self.problem.nv());
         let arrays = [
-            matrix(q, "q", nv, "nq")?,
+            matrix(q, "q", nq, "nq")?,
             matrix(v, "v", nv, "nv")?,
             matrix(tau, "tau", nv, "nv")?,
-            matrix(q_next, "q_next", nv, "nq")?,
+            matrix(q_next, "q_next", nq, "nq")?,
             matrix(v_next, "v_next", nv, "nv")?,
         ];
         let w = arrays[0].nrows();

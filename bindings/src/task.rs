@@ -507,12 +507,12 @@ impl PyOnlineOsi {
         q_next: &Bound<'py, PyAny>,
         v_next: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let nv = self.online.problem().nv();
+        let (nq, nv) = (self.online.problem().nq(), self.online.problem().nv());
         let transition = Transition {
-            q: vector(q, "q", nv, "nq")?,
+            q: vector(q, "q", nq, "nq")?,
             v: vector(v, "v", nv, "nv")?,
             tau: vector(tau, "tau", nv, "nv")?,
-            q_next: vector(q_next, "q_next", nv, "nq")?,
+            q_next: vector(q_next, "q_next", nq, "nq")?,
             v_next: vector(v_next, "v_next", nv, "nv")?,
         };
         let online = &mut self.online;

@@ -376,7 +376,8 @@ def test_free_and_ball_joints_have_nq_above_nv():
     """A model with free and ball joints: q is nq long (quaternions w, x, y, z), v and tau nv;
     the reference configuration is MuJoCo's qpos0; a step returns unit quaternions; a q of
     length nv is refused naming nq; the step Jacobians are in the tangent space (2 nv columns
-    of state, MuJoCo's layout); identification refuses the model clearly."""
+    of state, MuJoCo's layout); identification takes nq-long q and q_next and recovers a mass
+    from the model's own steps, and refuses unknown constraints on it clearly."""
     m = diffosi.Model.load(str(MODELS / "free_ball.xml")).with_options(contact=False)
     assert (m.nq, m.nv) == (16, 13)
     q_names, v_names = m.coordinate_names()
@@ -392,6 +393,14 @@ def test_free_and_ball_joints_have_nq_above_nv():
         m.step(np.zeros(13), np.zeros(13), np.zeros(13))
     A, B = m.transition_jacobians(q0, np.zeros(13), np.zeros(13))
     assert A.shape == (26, 26) and B.shape == (26, 13) and np.isfinite(A).all()
+    truth = m.with_options()
+    truth.set_param("body/box/mass", 2.5)
+    taus = np.random.default_rng(0).uniform(-5.0, 5.0, (4, 13))
+    Q, V = truth.rollout(q0, np.full(13, 0.3), taus)
+    osi = diffosi.DiffOsi(m, params=["body/box/mass"], lower=[1.0], upper=[3.0])
+    est = osi.identify(Q[:-1], V[:-1], taus, Q[1:], V[1:])
+    assert abs(est["params"][0] - 2.5) < 1e-6 and not est["flags"]
+    with pytest.raises(ValueError, match="nq"):
+        osi.identify(V[:-1], V[:-1], taus, Q[1:], V[1:])
     with pytest.raises(ValueError, match="ball or free joints"):
-        diffosi.DiffOsi(m, params=["body/box/mass"], lower=[1.0], upper=[3.0]).identify(
-            q0[None], np.zeros((1, 13)), np.zeros((1, 13)), q0[None], np.zeros((1, 13)))
+        diffosi.DiffOsi(m, params=["body/box/mass"], lower=[1.0], upper=[3.0], constraints="unknown")

@@ -267,7 +267,7 @@ pub fn eliminated_residuals_into(
         directions(model, map, &mut ws.window.columns);
     }
     for (t, tr) in window.iter().enumerate() {
-        check_transition(t, tr, n)?;
+        check_transition(t, tr, (n, n))?;
         transition_rows(model, ws, (t, tr), elimination, jacobian, fit);
     }
     fit.finish();

@@ -53,9 +53,9 @@ fn dual_only(model: &Model) -> bool {
     !model.one_dof_joints() || model.opt.fluid.acts()
 }
 
-/// Refuses, for the identification residuals (which index q and v alike and
-/// differentiate analytically), a model with ball or free joints or fluid
-/// forces.
+/// Refuses, for the residuals with unknown constraints (which index q and v
+/// alike and differentiate analytically), a model with ball or free joints
+/// or fluid forces.
 fn one_dof_joints(model: &Model) -> Result<(), StepError> {
     if !model.one_dof_joints() {
         Err(StepError::NoTangentDerivatives)

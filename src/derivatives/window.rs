@@ -10,8 +10,9 @@
 //! factors that pass left behind: no mass matrix, no state Jacobian. The
 //! inertia derivatives of a column are taken once per evaluation, not per
 //! transition. Contact and limit forces depend on no inertial or joint
-//! parameter, so they change the step but not dR/dmu. Under RK4, or when mu
-//! moves a contact parameter, each transition goes through [`step_jacobians`].
+//! parameter, so they change the step but not dR/dmu. Under RK4, with ball
+//! or free joints or fluid forces, or when mu moves a contact parameter,
+//! each transition goes through [`step_jacobians`].
 //! Buffers live in the [`Workspace`] and in the [`WindowFit`] filled, so an
 //! evaluation into a reused fit allocates nothing.
 
@@ -19,6 +20,7 @@ use nalgebra::{DMatrix, DVector};
 
 use super::params::{add_body_force, joint_derivative, node_inertia_derivative};
 use super::step::{step_jacobians, Workspace, Wrt};
+use crate::dynamics::configuration::{subtract, tangent_rate};
 use crate::dynamics::{acceleration, implicit_terms, integrate_euler, Data, StepError, Tree};
 use crate::model::{Integrator, Model, Param, ParamError, ParamMap, PassiveMode};
 use crate::spatial::{Force, Inertia, Motion};
@@ -62,7 +64,10 @@ pub enum WindowError {
 }
 
 /// Residuals r (2 nv per transition: q then v, divided by `scale`), their
-/// Jacobian dr/dmu, the loss sum r^2 and its gradient 2 J^T r.
+/// Jacobian dr/dmu, the loss sum r^2 and its gradient 2 J^T r. The q
+/// residual is the tangent vector from the observed q' to the predicted one
+/// (mj_differentiatePos: a ball or free joint's rotation as a body-frame
+/// rotation vector), the plain difference for hinges and slides.
 #[derive(Clone, Debug, PartialEq)]
 pub struct WindowFit {
     pub residuals: DVector<f64>,
@@ -133,26 +138,26 @@ pub fn window_residuals_into(
     jacobian: bool,
     fit: &mut WindowFit,
 ) -> Result<(), WindowError> {
-    let n = model.nv();
-    super::one_dof_joints(model).map_err(|source| WindowError::Step { t: 0, source })?;
+    let (nq, n) = (model.nq(), model.nv());
     if scale.len() != 2 * n || scale.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
         return Err(WindowError::Scale { expected: 2 * n });
     }
     map.apply(model, mu)?;
     ws.size_for(model);
     fit.size(2 * n * window.len(), if jacobian { map.nmu } else { 0 });
-    // The contact parameters' columns need tau_soft's derivatives, and the
-    // constraint model's rows its solver's: those windows go through
-    // step_jacobians.
+    // The contact parameters' columns need tau_soft's derivatives, the
+    // constraint model's rows its solver's, and ball and free joints and
+    // fluid forces dual numbers: those windows go through step_jacobians.
     let tree = model.tree();
     let euler = model.opt.integrator == Integrator::Euler
         && !tree.has_constraints()
+        && !super::dual_only(model)
         && !map.targets.iter().any(|(p, ..)| p.is_contact());
     if jacobian && euler {
         directions(model, map, &mut ws.window.columns);
     }
     for (t, tr) in window.iter().enumerate() {
-        check_transition(t, tr, n)?;
+        check_transition(t, tr, (nq, n))?;
         let rows = 2 * n * t..2 * n * (t + 1);
         let step = if euler {
             euler_rows(model, ws, tr, scale, jacobian, fit, rows)
@@ -260,7 +265,7 @@ fn euler_rows(
         return Err(StepError::Diverged);
     }
     let predicted = (&scratch.q_next[..], &scratch.v_next[..]);
-    put_residuals(fit, rows.clone(), predicted, tr, scale);
+    put_residuals(tree, fit, rows.clone(), predicted, tr, scale);
     if !jacobian {
         return Ok(());
     }
@@ -312,21 +317,23 @@ pub(super) fn residual_column(
     }
 }
 
-/// Writes one transition's scaled residuals (predicted - observed) / scale,
-/// q then v, into `rows` of the fit.
+/// Writes one transition's scaled residuals (predicted (-) observed) /
+/// scale, q then v, into `rows` of the fit.
 fn put_residuals(
+    tree: &Tree<f64>,
     fit: &mut WindowFit,
     rows: std::ops::Range<usize>,
     (q_next, v_next): (&[f64], &[f64]),
     tr: &Transition,
     scale: &[f64],
 ) {
-    let predicted = q_next.iter().chain(v_next);
-    let observed = tr.q_next.iter().chain(&tr.v_next);
-    let mut r = fit.residuals.rows_range_mut(rows);
-    for (((r, p), o), s) in r.iter_mut().zip(predicted).zip(observed).zip(scale) {
-        *r = (p - o) / s;
+    let n = tree.nv();
+    let r = &mut fit.residuals.as_mut_slice()[rows];
+    subtract(tree, q_next, &tr.q_next, &mut r[..n]);
+    for (r, (p, o)) in r[n..].iter_mut().zip(v_next.iter().zip(&tr.v_next)) {
+        *r = p - o;
     }
+    r.iter_mut().zip(scale).for_each(|(r, s)| *r /= s);
 }
 
 /// Solves (M + diag(extra)) x = b in place with the factors an
@@ -377,11 +384,25 @@ fn general_rows(
         ..Wrt::default()
     };
     let j = step_jacobians(model, ws, (&tr.q, &tr.v, &tr.tau), &wrt)?;
-    put_residuals(fit, rows.clone(), (&j.q_next, &j.v_next), tr, scale);
+    let tree = model.tree();
+    put_residuals(tree, fit, rows.clone(), (&j.q_next, &j.v_next), tr, scale);
     if jacobian {
         let dp_dmu = map.jacobian();
+        let mut dq = &j.dq_dp * &dp_dmu;
+        if !model.one_dof_joints() {
+            // The q residual r = log(q_obs^-1 q') moves by J_r(r)^-1 dq' when q'
+            // turns by dq' about its own axes.
+            let r: Vec<f64> = (0..n)
+                .map(|i| fit.residuals[rows.start + i] * scale[i])
+                .collect();
+            let mut turned = vec![0.0; n];
+            for mut column in dq.column_iter_mut() {
+                tangent_rate(tree, &r, column.as_slice(), &mut turned);
+                column.copy_from_slice(&turned);
+            }
+        }
         let mut block = fit.jacobian.rows_mut(rows.start, 2 * n);
-        block.rows_mut(0, n).copy_from(&(&j.dq_dp * &dp_dmu));
+        block.rows_mut(0, n).copy_from(&dq);
         block.rows_mut(n, n).copy_from(&(&j.dv_dp * &dp_dmu));
         for (i, s) in scale.iter().enumerate() {
             block.row_mut(i).unscale_mut(*s);
@@ -390,21 +411,26 @@ fn general_rows(
     Ok(())
 }
 
-pub(super) fn check_transition(t: usize, tr: &Transition, n: usize) -> Result<(), WindowError> {
+/// Names a transition's field whose length is not (nq or nv) or that is not finite.
+pub(super) fn check_transition(
+    t: usize,
+    tr: &Transition,
+    (nq, n): (usize, usize),
+) -> Result<(), WindowError> {
     let fields = [
-        ("q", &tr.q),
-        ("v", &tr.v),
-        ("tau", &tr.tau),
-        ("q_next", &tr.q_next),
-        ("v_next", &tr.v_next),
+        ("q", &tr.q, nq),
+        ("v", &tr.v, n),
+        ("tau", &tr.tau, n),
+        ("q_next", &tr.q_next, nq),
+        ("v_next", &tr.v_next, n),
     ];
-    for (what, x) in fields {
-        if x.len() != n {
+    for (what, x, expected) in fields {
+        if x.len() != expected {
             return Err(WindowError::Length {
                 t,
                 what,
                 got: x.len(),
-                expected: n,
+                expected,
             });
         }
         if x.iter().any(|xi| !xi.is_finite()) {

@@ -36,17 +36,17 @@ pub enum StepError {
         .0[0], .0[1]
     )]
     NoCollider([usize; 2]),
-    /// The identification residuals of models with ball or free joints
-    /// (their q residuals would be tangent differences) are not written yet.
+    /// The residuals with unknown constraints (analytic, q and v indexed
+    /// alike) of models with ball or free joints are not written yet.
     #[error(
-        "identification of models with ball or free joints is not supported yet (their step \
-         and step Jacobians are)"
+        "identification with unknown constraints of models with ball or free joints is not \
+         supported yet (their identification with modelled constraints is)"
     )]
     NoTangentDerivatives,
-    /// The identification residuals of models in a fluid are not written yet.
+    /// The same for models in a fluid.
     #[error(
-        "identification of models with fluid forces is not supported yet (their step and step \
-         Jacobians are)"
+        "identification with unknown constraints of models with fluid forces is not supported \
+         yet (their identification with modelled constraints is)"
     )]
     NoFluidDerivatives,
     /// The next state is finite but a Jacobian block overflowed.

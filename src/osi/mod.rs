@@ -128,16 +128,6 @@ impl Problem {
         prior: &[f64],
         scale: &[f64],
     ) -> Result<Problem, OsiError> {
-        let refused = if !model.one_dof_joints() {
-            Some(StepError::NoTangentDerivatives)
-        } else if model.opt.fluid.acts() {
-            Some(StepError::NoFluidDerivatives)
-        } else {
-            None
-        };
-        if let Some(why) = refused {
-            return Err(OsiError::Unsupported(why));
-        }
         let nmu = map.nmu;
         for (what, x, expected) in [
             ("lower", lower, nmu),
@@ -198,13 +188,24 @@ impl Problem {
     /// from each transition's residual (module `derivatives::eliminated`),
     /// whose nv values are generalized forces divided by `force_scale`
     /// (N or N m), `impulses` the target's convention. Refuses a bad margin
-    /// or scale and a model that does not integrate with Euler.
+    /// or scale, a model that does not integrate with Euler, and one with
+    /// ball or free joints or fluid forces.
     pub fn with_unknown_constraints(
         mut self,
         margin: f64,
         force_scale: &[f64],
         impulses: Impulses,
     ) -> Result<Problem, OsiError> {
+        let refused = if !self.model.one_dof_joints() {
+            Some(StepError::NoTangentDerivatives)
+        } else if self.model.opt.fluid.acts() {
+            Some(StepError::NoFluidDerivatives)
+        } else {
+            None
+        };
+        if let Some(why) = refused {
+            return Err(OsiError::Unsupported(why));
+        }
         let elimination = Elimination::new(&self.model, margin, force_scale, impulses)?;
         self.elimination = Some(elimination);
         Ok(self)
@@ -225,6 +226,10 @@ impl Problem {
 
     pub fn nv(&self) -> usize {
         self.model.nv()
+    }
+
+    pub fn nq(&self) -> usize {
+        self.model.nq()
     }
 
     pub fn lower(&self) -> &[f64] {
@@ -303,20 +308,21 @@ impl Problem {
         if window.is_empty() {
             return Err(OsiError::EmptyWindow);
         }
+        let (nq, nv) = (self.nq(), self.nv());
         window.iter().enumerate().try_for_each(|(t, tr)| {
-            for (what, x) in [
-                ("q", &tr.q),
-                ("v", &tr.v),
-                ("tau", &tr.tau),
-                ("q_next", &tr.q_next),
-                ("v_next", &tr.v_next),
+            for (what, x, expected) in [
+                ("q", &tr.q, nq),
+                ("v", &tr.v, nv),
+                ("tau", &tr.tau, nv),
+                ("q_next", &tr.q_next, nq),
+                ("v_next", &tr.v_next, nv),
             ] {
-                if x.len() != self.nv() {
+                if x.len() != expected {
                     return Err(WindowError::Length {
                         t,
                         what,
                         got: x.len(),
-                        expected: self.nv(),
+                        expected,
                     }
                     .into());
                 }
