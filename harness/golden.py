@@ -172,10 +172,19 @@ def twin_check(urdf: Path, seed: int) -> dict:
     return out
 
 
+def one_dof(path: Path) -> bool:
+    """Whether a model has hinges and slides only (nq = nv); ball and free joints are
+    golden-free's (harness/golden_free.py)."""
+    import diffosi
+
+    m = diffosi.Model.load(str(path))
+    return m.nq == m.nv
+
+
 def cases(models: Path) -> dict[str, Callable[[], Engine]]:
     """name -> engine factory, in a stable order."""
     out: dict[str, Callable[[], Engine]] = {}
-    for xml in sorted(models.glob("*.xml")):
+    for xml in filter(one_dof, sorted(models.glob("*.xml"))):
         stem = xml.stem
         out[f"mujoco_{stem}"] = lambda p=xml: engines.load("mujoco", p)
         out[f"mujoco_{stem}_explicit"] = lambda p=xml: engines.load("mujoco", p, eulerdamp=False)
@@ -184,7 +193,7 @@ def cases(models: Path) -> dict[str, Callable[[], Engine]]:
     assets = gym_assets_dir()
     for name in GYM_ASSETS:
         out[f"mujoco_gym_{name}"] = lambda n=name: engines.load("mujoco", assets / f"{n}.xml")
-    for urdf in sorted(models.glob("*.urdf")):
+    for urdf in filter(one_dof, sorted(models.glob("*.urdf"))):
         stem = urdf.stem
         out[f"pybullet_{stem}"] = lambda p=urdf: engines.load("pybullet", p)
         out[f"dart_{stem}"] = lambda p=urdf: engines.load("dart", p)
@@ -201,7 +210,7 @@ def run(args) -> int:
         print("golden: give --seed and either --all or --only NAME...", file=sys.stderr)
         return 2
     chosen = [n for n in table if args.all or any(s in n for s in args.only)]
-    urdfs = sorted(models.glob("*.urdf"))
+    urdfs = [u for u in sorted(models.glob("*.urdf")) if one_dof(u)]
     if not urdfs or not any(models.glob("*.xml")):
         print(f"note: no MJCF/URDF models of ours in {label_of(models)} yet", file=sys.stderr)
 

@@ -354,10 +354,10 @@ def run_ray(units: list[Unit], store: Store, results: dict, progress: Progress, 
         ray.init(num_cpus=args.workers, runtime_env=runtime, include_dashboard=False, log_to_driver=False)
     try:
         task = ray.remote(max_retries=args.retries, retry_exceptions=True)(execute)
-        refs = {}
+        refs, known = {}, dict(results)  # known: a result, or Ray's ref to it
         for u in units:
             if u not in results:
-                refs[u] = task.remote(u, *inputs(u, {**results, **refs}))
+                refs[u] = known[u] = task.remote(u, *inputs(u, known))
         pending, by_ref, failed = list(refs.values()), {r: u for u, r in refs.items()}, {}
         while pending:
             ready, pending = ray.wait(pending, num_returns=1)

@@ -65,17 +65,8 @@ fn as_run_by(golden: &Golden) -> Model {
             .unwrap_or_default();
     model
         .edited(|s| {
-            s.opt.passive = match golden.passive.as_str() {
-                "explicit" => PassiveMode::Explicit,
-                "implicit_damping" => PassiveMode::ImplicitDamping,
-                "implicit_damping_stiffness" => PassiveMode::ImplicitDampingStiffness,
-                other => panic!("unknown passive mode {other}"),
-            };
-            s.opt.integrator = match golden.integrator.as_str() {
-                "euler" => Integrator::Euler,
-                "rk4" => Integrator::Rk4,
-                other => panic!("unknown integrator {other}"),
-            };
+            s.opt.passive = common::named(&PassiveMode::NAMES, &golden.passive);
+            s.opt.integrator = common::named(&Integrator::NAMES, &golden.integrator);
             s.opt.timestep = golden.timestep;
             s.opt.gravity = Vector3::from(golden.gravity);
             // The reference engines ran with contacts and limits off, and the

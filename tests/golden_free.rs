@@ -57,17 +57,8 @@ fn cases() -> Vec<(String, Golden)> {
 /// timestep, passive convention and fluid.
 fn model(golden: &Golden) -> Model {
     let model = Model::load(common::model_path(&golden.model)).unwrap_or_else(|e| panic!("{e}"));
-    let integrator = match golden.integrator.as_str() {
-        "Euler" => Integrator::Euler,
-        "RK4" => Integrator::Rk4,
-        other => panic!("integrator {other}"),
-    };
-    let passive = match golden.passive.as_str() {
-        "explicit" => PassiveMode::Explicit,
-        "implicit_damping" => PassiveMode::ImplicitDamping,
-        "implicit_damping_stiffness" => PassiveMode::ImplicitDampingStiffness,
-        other => panic!("passive mode {other}"),
-    };
+    let integrator = common::named(&Integrator::NAMES, &golden.integrator);
+    let passive = common::named(&PassiveMode::NAMES, &golden.passive);
     model
         .edited(|s| {
             s.opt.contact = false;

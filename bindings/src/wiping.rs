@@ -373,12 +373,6 @@ impl PyWipingRun {
         self.k as f64 * self.model.opt.timestep >= APPROACH
     }
 
-    /// The tool tip's target at the start of step k (world frame, m).
-    fn target<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        let t = self.k as f64 * self.model.opt.timestep;
-        PyArray1::from_slice(py, tip_target(t).as_slice())
-    }
-
     fn __repr__(&self) -> String {
         format!("<diffosi.WipingRun step {} of {STEPS}>", self.k)
     }

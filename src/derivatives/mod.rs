@@ -41,6 +41,7 @@ pub use eliminated::{eliminated_residuals_into, Elimination, Impulses};
 pub use rnea::{rnea_derivatives, Sweep};
 pub use step::{step_jacobians, StepJacobians, Workspace, Wrt};
 pub use transition::{transition_jacobians, TransitionJacobians};
+pub(crate) use window::check_transition;
 pub use window::{window_residuals, window_residuals_into, Transition, WindowError, WindowFit};
 
 use crate::dynamics::StepError;
@@ -56,7 +57,7 @@ fn dual_only(model: &Model) -> bool {
 /// Refuses, for the residuals with unknown constraints (which index q and v
 /// alike and differentiate analytically), a model with ball or free joints
 /// or fluid forces.
-fn one_dof_joints(model: &Model) -> Result<(), StepError> {
+pub(crate) fn one_dof_joints(model: &Model) -> Result<(), StepError> {
     if !model.one_dof_joints() {
         Err(StepError::NoTangentDerivatives)
     } else if model.opt.fluid.acts() {

@@ -49,8 +49,13 @@ pub enum WindowError {
         got: usize,
         expected: usize,
     },
-    #[error("transition {t}: {what} is not finite")]
-    NotFinite { t: usize, what: &'static str },
+    #[error("transition {t}: {what}[{i}] = {value} is not finite")]
+    NotFinite {
+        t: usize,
+        what: &'static str,
+        i: usize,
+        value: f64,
+    },
     #[error("scale must hold 2 nv = {expected} positive values")]
     Scale { expected: usize },
     #[error("the force scale of unknown constraints must hold nv = {expected} positive values")]
@@ -412,7 +417,7 @@ fn general_rows(
 }
 
 /// Names a transition's field whose length is not (nq or nv) or that is not finite.
-pub(super) fn check_transition(
+pub(crate) fn check_transition(
     t: usize,
     tr: &Transition,
     (nq, n): (usize, usize),
@@ -433,8 +438,8 @@ pub(super) fn check_transition(
                 expected,
             });
         }
-        if x.iter().any(|xi| !xi.is_finite()) {
-            return Err(WindowError::NotFinite { t, what });
+        if let Some((i, &value)) = x.iter().enumerate().find(|(_, x)| !x.is_finite()) {
+            return Err(WindowError::NotFinite { t, what, i, value });
         }
     }
     Ok(())

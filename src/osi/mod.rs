@@ -38,8 +38,8 @@ pub use online::{Online, Sampling};
 pub use trivial::{Average, Oracle, Random};
 
 use crate::derivatives::{
-    eliminated_residuals_into, window_residuals_into, Elimination, Impulses, Transition,
-    WindowError, WindowFit, Workspace,
+    check_transition, eliminated_residuals_into, one_dof_joints, window_residuals_into,
+    Elimination, Impulses, Transition, WindowError, WindowFit, Workspace,
 };
 use crate::dynamics::StepError;
 use crate::model::{Model, ParamError, ParamMap};
@@ -196,16 +196,7 @@ impl Problem {
         force_scale: &[f64],
         impulses: Impulses,
     ) -> Result<Problem, OsiError> {
-        let refused = if !self.model.one_dof_joints() {
-            Some(StepError::NoTangentDerivatives)
-        } else if self.model.opt.fluid.acts() {
-            Some(StepError::NoFluidDerivatives)
-        } else {
-            None
-        };
-        if let Some(why) = refused {
-            return Err(OsiError::Unsupported(why));
-        }
+        one_dof_joints(&self.model).map_err(OsiError::Unsupported)?;
         let elimination = Elimination::new(&self.model, margin, force_scale, impulses)?;
         self.elimination = Some(elimination);
         Ok(self)
@@ -308,30 +299,11 @@ impl Problem {
         if window.is_empty() {
             return Err(OsiError::EmptyWindow);
         }
-        let (nq, nv) = (self.nq(), self.nv());
-        window.iter().enumerate().try_for_each(|(t, tr)| {
-            for (what, x, expected) in [
-                ("q", &tr.q, nq),
-                ("v", &tr.v, nv),
-                ("tau", &tr.tau, nv),
-                ("q_next", &tr.q_next, nq),
-                ("v_next", &tr.v_next, nv),
-            ] {
-                if x.len() != expected {
-                    return Err(WindowError::Length {
-                        t,
-                        what,
-                        got: x.len(),
-                        expected,
-                    }
-                    .into());
-                }
-                if let Some((i, &value)) = x.iter().enumerate().find(|(_, x)| !x.is_finite()) {
-                    return Err(OsiError::NotFinite { t, what, i, value });
-                }
-            }
-            Ok(())
-        })
+        let sizes = (self.nq(), self.nv());
+        window
+            .iter()
+            .enumerate()
+            .try_for_each(|(t, tr)| check_transition(t, tr, sizes).map_err(OsiError::from))
     }
 
     fn check_mu(&self, what: &'static str, mu: &[f64]) -> Result<(), OsiError> {

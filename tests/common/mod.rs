@@ -338,3 +338,13 @@ pub struct Rollout {
     pub q: Vec<Vec<f64>>,
     pub v: Vec<Vec<f64>>,
 }
+
+/// The value a golden file's name stands for, in the library's table of
+/// names (`Integrator::NAMES`, `PassiveMode::NAMES`), case aside.
+pub fn named<T: Copy>(names: &[(&str, T)], name: &str) -> T {
+    names
+        .iter()
+        .find(|(n, _)| n.eq_ignore_ascii_case(name))
+        .unwrap_or_else(|| panic!("unknown name {name}"))
+        .1
+}
