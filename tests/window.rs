@@ -255,7 +255,10 @@ fn bad_windows_are_clear_errors() {
     let mut ws = Workspace::new(&model);
     data[1].v_next[0] = f64::NAN;
     let err = window_residuals(&mut model, &mut ws, &map, &[0.0], &data, &SCALE).unwrap_err();
-    assert_eq!(err.to_string(), "transition 1: v_next[0] = NaN is not finite");
+    assert_eq!(
+        err.to_string(),
+        "transition 1: v_next[0] = NaN is not finite"
+    );
     data[1].v_next = vec![0.0];
     let err = window_residuals(&mut model, &mut ws, &map, &[0.0], &data, &SCALE).unwrap_err();
     assert_eq!(
