@@ -1,6 +1,5 @@
-//! Tasks, trained policies and online identification for Python: the engine's
-//! `tasks::Task`, `rl::Policy` and `osi::Online`, so that the harness runs the
-//! same task, controllers and identifier as `diffosi eval`.
+//! `Task`: a control task of the engine (`tasks::Task`), so that the harness
+//! runs the same task as `diffosi eval`.
 //!
 //! Conventions are the engine's (src/tasks/mod.rs): a state is (q, v) in SI
 //! units; an action has `act_dim` components meaningful in [-1, 1];
@@ -9,27 +8,20 @@
 //! mapped affinely onto named physical parameters (`mu_params`), drawn
 //! uniformly in `mu_range`.
 
-use engine::derivatives::Transition;
 use engine::model::State;
-use engine::osi::{
-    Adam, ChangeDetection, Identifier, Lm, LmOptions, Loss, Online, Problem, Sampling,
-    HUBER_THRESHOLD,
-};
-use engine::rl::{self as rl, Policy, PolicyKind, PpoConfig};
 use engine::tasks::{self, Task};
 use numpy::ndarray::Array2;
 use numpy::PyArray1;
 use numpy::PyArray2;
-use pyo3::exceptions::{PyOSError, PyValueError};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList, PyTuple};
+use pyo3::types::{PyDict, PyTuple};
 use rand::rngs::StdRng;
 use rand::SeedableRng;
 
-use crate::{
-    default_scale, estimate_dict, loss_name, osi_error, param_error, robust_loss, vector,
-    with_constraints, PyModel, DEFAULT_MARGIN,
-};
+use crate::convert::vector;
+use crate::errors::param_error;
+use crate::model::PyModel;
 
 /// A control task by name: `Task("cartpole")`.
 ///
@@ -39,12 +31,12 @@ use crate::{
 /// `observe`, `forces`, `terminated` and `metric` are the task's own.
 #[pyclass(name = "Task", module = "diffosi", frozen)]
 pub(crate) struct PyTask {
-    task: Box<dyn Task>,
+    pub(crate) task: Box<dyn Task>,
 }
 
 impl PyTask {
     /// Converts and checks a state of the task's model.
-    fn state(&self, q: &Bound<'_, PyAny>, v: &Bound<'_, PyAny>) -> PyResult<State> {
+    pub(crate) fn state(&self, q: &Bound<'_, PyAny>, v: &Bound<'_, PyAny>) -> PyResult<State> {
         let m = self.task.model();
         Ok((vector(q, "q", m.nq(), "nq")?, vector(v, "v", m.nv(), "nv")?))
     }
@@ -104,7 +96,7 @@ impl PyTask {
 
     /// Components of mu.
     #[getter]
-    fn nmu(&self) -> usize {
+    pub(crate) fn nmu(&self) -> usize {
         self.task.mu_map().nmu
     }
 
@@ -235,331 +227,6 @@ impl PyTask {
             self.task.name(),
             self.task.horizon(),
             self.nmu()
-        )
-    }
-}
-
-/// A trained policy: `Policy.load(path)` reads a `diffosi-policy/1` JSON file
-/// (src/rl/policy.rs). `kind` is "uc" (Universal Controller: it is fed mu)
-/// or "dr" (domain-randomised: mu is ignored). `act(task, q, v, mu)` gives
-/// the deterministic action (the Gaussian's mean, clamped to [-1, 1]).
-#[pyclass(name = "Policy", module = "diffosi", frozen)]
-pub(crate) struct PyPolicy {
-    policy: Policy,
-}
-
-#[pymethods]
-impl PyPolicy {
-    /// A missing or unreadable file raises OSError; a file that is not a
-    /// policy raises ValueError.
-    #[staticmethod]
-    fn load(path: std::path::PathBuf) -> PyResult<Self> {
-        if let Err(e) = std::fs::metadata(&path) {
-            return Err(PyOSError::new_err(format!(
-                "cannot read {}: {e}",
-                path.display()
-            )));
-        }
-        let policy = Policy::load(&path).map_err(PyValueError::new_err)?;
-        Ok(PyPolicy { policy })
-    }
-
-    /// Trains a policy of `kind` ("uc" or "dr") on `task` with PPO, from a
-    /// network initialised from `seed`, for `steps` environment steps
-    /// (default: the budget of the shipped policies, `diffosi train`'s).
-    /// Other Python threads run meanwhile (the GIL is released). Returns
-    /// (policy, curve): curve one dict per PPO iteration with "iteration",
-    /// "env_steps", "episodes", "mean_return" and "mean_metric" (of the last
-    /// finished training episodes; NaN before the first ends). The same task,
-    /// kind, seed and steps give the same policy, bit for bit.
-    #[staticmethod]
-    #[pyo3(signature = (task, kind, seed = 0, steps = None))]
-    fn train<'py>(
-        py: Python<'py>,
-        task: &PyTask,
-        kind: &str,
-        seed: u64,
-        steps: Option<usize>,
-    ) -> PyResult<(Self, Bound<'py, PyList>)> {
-        let kind = match kind {
-            "uc" => PolicyKind::Uc,
-            "dr" => PolicyKind::Dr,
-            other => {
-                return Err(PyValueError::new_err(format!(
-                    "kind '{other}': expected 'uc' or 'dr'"
-                )))
-            }
-        };
-        let t = task.task.as_ref();
-        let mut config = PpoConfig {
-            seed,
-            ..PpoConfig::for_task(t.name())
-        };
-        if let Some(steps) = steps {
-            if steps == 0 {
-                return Err(PyValueError::new_err("steps must be at least 1"));
-            }
-            config.total_steps = steps;
-        }
-        let trained = py
-            .detach(|| rl::train(t, kind, &config, |_| {}))
-            .map_err(|e| PyValueError::new_err(format!("train: {e}")))?;
-        let curve = PyList::empty(py);
-        for row in &trained.curve {
-            let d = PyDict::new(py);
-            d.set_item("iteration", row.iteration)?;
-            d.set_item("env_steps", row.env_steps)?;
-            d.set_item("episodes", row.episodes)?;
-            d.set_item("mean_return", row.mean_return)?;
-            d.set_item("mean_metric", row.mean_metric)?;
-            curve.append(d)?;
-        }
-        let policy = PyPolicy {
-            policy: trained.policy,
-        };
-        Ok((policy, curve))
-    }
-
-    /// Writes the policy as `diffosi train` does (a `diffosi-policy/1` JSON
-    /// file that `Policy.load` reads back); OSError if it cannot.
-    fn save(&self, path: std::path::PathBuf) -> PyResult<()> {
-        self.policy.save(&path).map_err(PyOSError::new_err)
-    }
-
-    /// The actor network's weights and biases, layer by layer, as float32.
-    fn parameters<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f32>> {
-        PyArray1::from_slice(py, self.policy.actor.params())
-    }
-
-    #[getter]
-    fn kind(&self) -> &'static str {
-        match self.policy.kind {
-            PolicyKind::Uc => "uc",
-            PolicyKind::Dr => "dr",
-        }
-    }
-
-    /// The task the policy was trained on.
-    #[getter]
-    fn task(&self) -> String {
-        self.policy.task.clone()
-    }
-
-    /// The action at (q, v); a "uc" policy needs mu (length nmu), a "dr"
-    /// policy ignores it.
-    #[pyo3(signature = (task, q, v, mu = None))]
-    fn act<'py>(
-        &self,
-        py: Python<'py>,
-        task: &PyTask,
-        q: &Bound<'py, PyAny>,
-        v: &Bound<'py, PyAny>,
-        mu: Option<&Bound<'py, PyAny>>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let t = task.task.as_ref();
-        if self.policy.task != t.name() {
-            return Err(PyValueError::new_err(format!(
-                "the policy was trained on task '{}', not '{}'",
-                self.policy.task,
-                t.name()
-            )));
-        }
-        let state = task.state(q, v)?;
-        let mu = match (self.policy.kind, mu) {
-            (PolicyKind::Dr, _) => vec![],
-            (PolicyKind::Uc, Some(mu)) => vector(mu, "mu", task.nmu(), "nmu")?,
-            (PolicyKind::Uc, None) => {
-                return Err(PyValueError::new_err("a 'uc' policy needs mu"));
-            }
-        };
-        let input = self.policy.observation(t, &state, &mu);
-        if input.len() != self.policy.actor.inputs() {
-            return Err(PyValueError::new_err(format!(
-                "the policy takes {} inputs, the task gives {}",
-                self.policy.actor.inputs(),
-                input.len()
-            )));
-        }
-        Ok(PyArray1::from_vec(py, self.policy.act(&input)))
-    }
-
-    fn __repr__(&self) -> String {
-        format!(
-            "<diffosi.Policy kind='{}' task='{}'>",
-            self.kind(),
-            self.policy.task
-        )
-    }
-}
-
-/// The solver behind an `OnlineOsi`, chosen at run time.
-type Solver = Box<dyn Identifier + Send + Sync>;
-
-/// Online DiffOSI of a task's mu (src/osi/online.rs):
-/// `OnlineOsi(task, window=1, method="lm", change_detection=False, seed=0,
-/// scale=None, loss="squared", huber=1.345, constraints="modelled",
-/// margin=0.02, force_scale=None, impulses="model", restarts=8)`.
-///
-/// Each `push(q, v, tau, q_next, v_next)` of one observed transition (tau the
-/// generalized forces, length nv) re-identifies mu on the `window` most recent
-/// transitions, warm-started from the last estimate (the middle of the task's
-/// mu range before the first), within the task's mu range, on the task's
-/// nominal model. `method` "lm" (bounded Levenberg-Marquardt; `seed` seeds
-/// its restarts) or "adam"; `change_detection=True` empties the window when a
-/// transition no longer fits (the engine's default rule); `scale`, `loss`,
-/// `huber`, `constraints`, `margin`, `force_scale` and `impulses` as in `DiffOsi`
-/// (constraints="unknown": the target's contact law is not ours); `restarts`:
-/// how many other starts "lm" tries when a fit leaves a misfit (useless
-/// when mu enters the residuals linearly, as masses and armatures do with
-/// constraints="unknown"). Returns a dict: "mu", "std", "loss", "iterations",
-/// "evaluations", "flags" (a list drawn from "unexcited", "at_bound",
-/// "not_converged", "misfit", "changed").
-#[pyclass(name = "OnlineOsi", module = "diffosi")]
-pub(crate) struct PyOnlineOsi {
-    online: Online<Solver>,
-    method: &'static str,
-    window: usize,
-    loss: Loss,
-}
-
-#[pymethods]
-impl PyOnlineOsi {
-    #[new]
-    #[pyo3(signature = (task, window = 1, method = "lm", change_detection = false, seed = 0, scale = None, loss = "squared", huber = HUBER_THRESHOLD, constraints = "modelled", margin = DEFAULT_MARGIN, force_scale = None, impulses = "model", restarts = LmOptions::default().restarts))]
-    #[allow(clippy::too_many_arguments)]
-    fn new(
-        task: &PyTask,
-        window: usize,
-        method: &str,
-        change_detection: bool,
-        seed: u64,
-        scale: Option<&Bound<'_, PyAny>>,
-        loss: &str,
-        huber: f64,
-        constraints: &str,
-        margin: f64,
-        force_scale: Option<&Bound<'_, PyAny>>,
-        impulses: &str,
-        restarts: usize,
-    ) -> PyResult<Self> {
-        let t = task.task.as_ref();
-        let loss = robust_loss(loss, huber, method == "lm")?;
-        let (solver, method): (Solver, &'static str) = match method {
-            "lm" => {
-                let options = LmOptions {
-                    seed,
-                    loss,
-                    restarts,
-                    ..LmOptions::default()
-                };
-                (Box::new(Lm { options }), "lm")
-            }
-            "adam" => (Box::new(Adam::default()), "adam"),
-            other => {
-                return Err(PyValueError::new_err(format!(
-                    "method must be 'lm' or 'adam', got '{other}'"
-                )))
-            }
-        };
-        let model = t.model();
-        let scale = match scale {
-            Some(s) => {
-                let s = vector(s, "scale", 2 * model.nv(), "2 nv")?;
-                if let Some(i) = s.iter().position(|x| *x <= 0.0) {
-                    return Err(PyValueError::new_err(format!(
-                        "scale[{i}] = {} must be positive",
-                        s[i]
-                    )));
-                }
-                s
-            }
-            None => default_scale(model),
-        };
-        let (lo, hi) = t.mu_range();
-        let prior = tasks::average_mu(t);
-        let problem = Problem::new(model, t.mu_map().clone(), lo, hi, &prior, &scale)
-            .map_err(|e| osi_error("OnlineOsi", e))?;
-        let unknown = (margin, force_scale, impulses);
-        let problem = with_constraints(problem, constraints, unknown, "OnlineOsi")?;
-        let mut online = Online::new(problem, solver, window, Sampling::Recent, seed)
-            .map_err(|e| osi_error("OnlineOsi", e))?;
-        if change_detection {
-            online = online
-                .with_change_detection(ChangeDetection::default())
-                .map_err(|e| osi_error("OnlineOsi", e))?;
-        }
-        Ok(PyOnlineOsi {
-            online,
-            method,
-            window,
-            loss,
-        })
-    }
-
-    /// Adds one observed transition and returns the new estimate (see the
-    /// class docs). A bad transition raises ValueError and changes nothing.
-    fn push<'py>(
-        &mut self,
-        py: Python<'py>,
-        q: &Bound<'py, PyAny>,
-        v: &Bound<'py, PyAny>,
-        tau: &Bound<'py, PyAny>,
-        q_next: &Bound<'py, PyAny>,
-        v_next: &Bound<'py, PyAny>,
-    ) -> PyResult<Bound<'py, PyDict>> {
-        let (nq, nv) = (self.online.problem().nq(), self.online.problem().nv());
-        let transition = Transition {
-            q: vector(q, "q", nq, "nq")?,
-            v: vector(v, "v", nv, "nv")?,
-            tau: vector(tau, "tau", nv, "nv")?,
-            q_next: vector(q_next, "q_next", nq, "nq")?,
-            v_next: vector(v_next, "v_next", nv, "nv")?,
-        };
-        let online = &mut self.online;
-        let estimate = py
-            .detach(|| online.push(transition).cloned())
-            .map_err(|e| osi_error("push", e))?;
-        estimate_dict(py, estimate, "mu")
-    }
-
-    /// The current mu estimate: the prior (the middle of the range) before
-    /// the first push.
-    #[getter]
-    fn mu<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        let mu = match self.online.estimate() {
-            Some(e) => e.mu.as_slice(),
-            None => self.online.problem().prior(),
-        };
-        PyArray1::from_slice(py, mu)
-    }
-
-    #[getter]
-    fn window(&self) -> usize {
-        self.window
-    }
-
-    #[getter]
-    fn method(&self) -> &'static str {
-        self.method
-    }
-
-    /// "squared" or "huber" (see `DiffOsi`).
-    #[getter]
-    fn loss(&self) -> &'static str {
-        loss_name(self.loss)
-    }
-
-    #[getter]
-    fn change_detection(&self) -> bool {
-        self.online.change_detection().is_some()
-    }
-
-    fn __repr__(&self) -> String {
-        format!(
-            "<diffosi.OnlineOsi method='{}' window={} change_detection={}>",
-            self.method,
-            self.window,
-            self.change_detection()
         )
     }
 }

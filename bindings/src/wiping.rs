@@ -6,15 +6,12 @@
 //! steps; mu = (tool k_p in N/cm, k_d in N s/m, then the study's extra
 //! unknowns), each in [1, 100]; gains = (k_tau in 1/s^2, k_xi in m/(N s)).
 
-use engine::control::admittance::{Admittance, Gains, F_GOAL};
-use engine::dynamics::Data;
+use engine::control::admittance::{Gains, F_GOAL};
 use engine::experiments::wiping::Uc;
-use engine::model::Model;
 use engine::model::State;
 use engine::osi::{CmaEs, CmaEsOptions, Lm};
 use engine::tasks::wiping::{
-    closed_loop_step, tip_target, LoopState, Segments, Unknown, Wiping, APPROACH, CANONICAL,
-    CONTACT_FORCE, GAINS_LOWER, GAINS_UPPER, STEPS,
+    tip_target, Segments, Unknown, Wiping, CANONICAL, CONTACT_FORCE, GAINS_LOWER, GAINS_UPPER,
 };
 use numpy::ndarray::Array2;
 use numpy::{PyArray1, PyArray2};
@@ -24,7 +21,10 @@ use pyo3::types::PyDict;
 use rand::rngs::StdRng;
 use rand::SeedableRng;
 
-use crate::{estimate_dict, matrix, osi_error, vector};
+use crate::convert::{matrix, vector};
+use crate::errors::osi_error;
+use crate::identification::estimate_dict;
+use crate::wiping_run::PyWipingRun;
 
 /// The wiping task: `Wiping(unknowns=2)` (2 to 6 unknowns: the tool's k_p and
 /// k_d, then a6's damping and stiffness, then a4's).
@@ -48,7 +48,7 @@ pub(crate) struct PyWiping {
     task: Wiping,
 }
 
-fn gains_of(gains: Option<&Bound<'_, PyAny>>) -> PyResult<Gains> {
+pub(crate) fn gains_of(gains: Option<&Bound<'_, PyAny>>) -> PyResult<Gains> {
     let Some(g) = gains else {
         return Ok(CANONICAL);
     };
@@ -267,113 +267,11 @@ impl PyWiping {
             .task
             .model_at(&mu)
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
-        let (q, v) = self.task.start();
-        Ok(PyWipingRun {
-            data: model.data(),
-            ctrl: self.task.controller(CANONICAL),
-            next: (vec![0.0; model.nv()], vec![0.0; model.nv()]),
-            tau: vec![0.0; model.nv()],
-            model,
-            k: 0,
-            state: (q, v),
-            carry: LoopState {
-                xi: 0.0,
-                force: 0.0,
-            },
-        })
+        let ctrl = self.task.controller(CANONICAL);
+        Ok(PyWipingRun::start(model, ctrl, self.task.start()))
     }
 
     fn __repr__(&self) -> String {
         format!("Wiping(unknowns={}: {:?})", self.nmu(), self.unknowns())
-    }
-}
-
-/// One closed-loop episode of the wiping task at a fixed mu
-/// (`Wiping.run(mu)`): `step(gains)` runs the admittance controller with
-/// `gains` (k_tau, k_xi) for one control step (1 ms) from the current state
-/// and returns the sensed normal force over it (N); `q`, `v`, `xi` (the
-/// admittance offset, m), `force` (the last sensed force) and `k` (steps
-/// done; step k starts at t = k h) describe where the episode is. The
-/// episode `Wiping.episode` runs is these steps with fixed gains.
-#[pyclass(name = "WipingRun", module = "diffosi")]
-pub(crate) struct PyWipingRun {
-    model: Model,
-    data: Data<f64>,
-    ctrl: Admittance<f64>,
-    k: usize,
-    state: State,
-    next: State,
-    tau: Vec<f64>,
-    carry: LoopState<f64>,
-}
-
-#[pymethods]
-impl PyWipingRun {
-    /// One control step under `gains`; ValueError for gains outside
-    /// (0, inf) or a step that fails (the state is then unchanged).
-    fn step(&mut self, gains: &Bound<'_, PyAny>) -> PyResult<f64> {
-        self.ctrl.gains = gains_of(Some(gains))?;
-        let (q, v) = (&self.state.0, &self.state.1);
-        let (q1, v1) = (&mut self.next.0, &mut self.next.1);
-        let step = (self.k, q.as_slice(), v.as_slice(), self.carry);
-        self.carry = closed_loop_step(
-            (self.model.tree(), &self.model),
-            &mut self.data,
-            &mut self.ctrl,
-            step,
-            &mut self.tau,
-            (q1, v1),
-        )
-        .map_err(|e| PyValueError::new_err(format!("step {}: {e}", self.k)))?;
-        std::mem::swap(&mut self.state, &mut self.next);
-        self.k += 1;
-        Ok(self.carry.force)
-    }
-
-    #[getter]
-    fn q<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        PyArray1::from_slice(py, &self.state.0)
-    }
-
-    #[getter]
-    fn v<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        PyArray1::from_slice(py, &self.state.1)
-    }
-
-    #[getter]
-    fn xi(&self) -> f64 {
-        self.carry.xi
-    }
-
-    #[getter]
-    fn force(&self) -> f64 {
-        self.carry.force
-    }
-
-    #[getter]
-    fn k(&self) -> usize {
-        self.k
-    }
-
-    /// The steps of the task's episode (3000: 3 s).
-    #[getter]
-    fn steps(&self) -> usize {
-        STEPS
-    }
-
-    /// The time step (s).
-    #[getter]
-    fn timestep(&self) -> f64 {
-        self.model.opt.timestep
-    }
-
-    /// Whether step k is in the strokes (t >= 0.5 s), past the approach.
-    #[getter]
-    fn stroking(&self) -> bool {
-        self.k as f64 * self.model.opt.timestep >= APPROACH
-    }
-
-    fn __repr__(&self) -> String {
-        format!("<diffosi.WipingRun step {} of {STEPS}>", self.k)
     }
 }

@@ -1,0 +1,492 @@
+//! `Model`: a loaded model, its options and parameters, and its step,
+//! rollouts, step Jacobians and contacts, for Python.
+
+use engine::derivatives::{
+    step_jacobians, transition_jacobians, TransitionJacobians, Workspace, Wrt,
+};
+use engine::dynamics::{body_contact_forces, Contact, Data};
+use engine::model::{ContactModel, Integrator, Param, PassiveMode};
+use engine::Model;
+use numpy::ndarray::Array2;
+use numpy::{PyArray1, PyArray2, PyUntypedArrayMethods};
+use pyo3::exceptions::PyValueError;
+use pyo3::intern;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList, PyTuple};
+
+use crate::convert::{
+    entries, float_array, keyword, matrix, name_of, shape, to_numpy, vector, MatrixPair,
+};
+use crate::errors::{model_error, param_error};
+
+/// A rigid-body model with its simulation buffers.
+///
+/// `Model.load(path)` reads MJCF (`.xml`) or URDF (`.urdf`). States are
+/// (q, v) with q of length nq and v of length nv (MuJoCo's qpos and qvel);
+/// tau are generalized forces of length nv. nq > nv with ball joints (a
+/// quaternion w, x, y, z for 3 dofs: body-frame angular velocity) and free
+/// joints (world position and quaternion for 6 dofs: world linear, then
+/// body-frame angular velocity). Parameters are named as in `param_names()`.
+#[pyclass(name = "Model", module = "diffosi")]
+pub(crate) struct PyModel {
+    pub(crate) model: Model,
+    /// Scratch for `step`; rebuilt whenever the model changes.
+    data: Data<f64>,
+    /// Scratch for `step_jacobians`; rebuilt whenever the model changes.
+    ws: Workspace,
+    /// `transition_jacobians`' result, reused.
+    transition: TransitionJacobians,
+}
+
+impl PyModel {
+    pub(crate) fn new(model: Model) -> Self {
+        let data = model.data();
+        let ws = Workspace::new(&model);
+        let transition = TransitionJacobians::new(model.nq(), model.nv());
+        PyModel {
+            model,
+            data,
+            ws,
+            transition,
+        }
+    }
+
+    /// Resolves parameter names, failing on the first unknown one.
+    fn params(&self, names: &[String]) -> PyResult<Vec<Param>> {
+        names
+            .iter()
+            .map(|name| self.model.param(name).map_err(param_error))
+            .collect()
+    }
+}
+
+#[pymethods]
+impl PyModel {
+    /// Loads a model: `.xml` as MJCF, `.urdf` as URDF. A missing or unreadable
+    /// file raises OSError; a file we cannot accept raises ValueError naming
+    /// the element and line.
+    #[staticmethod]
+    fn load(path: std::path::PathBuf) -> PyResult<Self> {
+        Model::load(&path).map(PyModel::new).map_err(model_error)
+    }
+
+    /// Number of generalized positions.
+    #[getter]
+    fn nq(&self) -> usize {
+        self.model.nq()
+    }
+
+    /// Number of generalized velocities (the length of tau).
+    #[getter]
+    fn nv(&self) -> usize {
+        self.model.nv()
+    }
+
+    /// The configuration (length nq) at which every body sits at its
+    /// modelled pose: MuJoCo's qpos0 (a free joint's body position and
+    /// quaternion, a ball's identity quaternion).
+    fn reference_q<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_vec(py, self.model.reference_q())
+    }
+
+    /// Number of actuators.
+    #[getter]
+    fn nu(&self) -> usize {
+        self.model.nu()
+    }
+
+    /// Integration timestep in seconds.
+    #[getter]
+    fn timestep(&self) -> f64 {
+        self.model.opt.timestep
+    }
+
+    /// Gravity (x, y, z) in m/s^2, in the world frame.
+    #[getter]
+    fn gravity<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.model.opt.gravity.as_slice())
+    }
+
+    /// "Euler" (semi-implicit) or "RK4".
+    #[getter]
+    fn integrator(&self) -> &'static str {
+        name_of(&Integrator::NAMES, self.model.opt.integrator)
+    }
+
+    /// How joint damping and stiffness enter an Euler step: "explicit"
+    /// (PyBullet), "implicit_damping" (MuJoCo) or "implicit_damping_stiffness"
+    /// (DART).
+    #[getter]
+    fn passive(&self) -> &'static str {
+        name_of(&PassiveMode::NAMES, self.model.opt.passive)
+    }
+
+    /// The law contacts, limits and dry friction follow: "constraint" (MuJoCo's
+    /// soft constraints, the default for MJCF files) or "smooth" (the penalty
+    /// model, the default for URDF files).
+    #[getter]
+    fn contact_model(&self) -> &'static str {
+        name_of(&ContactModel::NAMES, self.model.opt.contact_model)
+    }
+
+    /// A copy run with other options, e.g. the conventions of the engine it is
+    /// compared with: `m.with_options(passive="implicit_damping_stiffness",
+    /// timestep=0.005)`; `contact=False` / `limits=False` switch off the
+    /// contacts and joint limits; `contact_model` is "constraint" (MuJoCo's
+    /// soft constraints, the default for MJCF files) or "smooth" (the penalty
+    /// model, the default for URDF files); `density` (kg/m^3), `viscosity`
+    /// (Pa s) and `wind` (3, m/s) set the fluid (MuJoCo's inertia-box model).
+    /// Options not given keep their value.
+    #[pyo3(signature = (*, timestep = None, gravity = None, integrator = None, passive = None, contact = None, limits = None, contact_model = None, density = None, viscosity = None, wind = None))]
+    #[allow(clippy::too_many_arguments)]
+    fn with_options(
+        &self,
+        timestep: Option<f64>,
+        gravity: Option<&Bound<'_, PyAny>>,
+        integrator: Option<&str>,
+        passive: Option<&str>,
+        contact: Option<bool>,
+        limits: Option<bool>,
+        contact_model: Option<&str>,
+        density: Option<f64>,
+        viscosity: Option<f64>,
+        wind: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let wind = wind.map(|w| vector(w, "wind", 3, "3")).transpose()?;
+        let contact_model = contact_model
+            .map(|c| keyword("contact_model", c, &ContactModel::NAMES))
+            .transpose()?;
+        let gravity = gravity.map(|g| vector(g, "gravity", 3, "3")).transpose()?;
+        let integrator = integrator
+            .map(|i| keyword("integrator", i, &Integrator::NAMES))
+            .transpose()?;
+        let passive = passive
+            .map(|p| keyword("passive", p, &PassiveMode::NAMES))
+            .transpose()?;
+        let model = self
+            .model
+            .edited(|s| {
+                s.opt.timestep = timestep.unwrap_or(s.opt.timestep);
+                if let Some(g) = gravity {
+                    s.opt.gravity.copy_from_slice(&g);
+                }
+                s.opt.integrator = integrator.unwrap_or(s.opt.integrator);
+                s.opt.passive = passive.unwrap_or(s.opt.passive);
+                s.opt.contact = contact.unwrap_or(s.opt.contact);
+                s.opt.limits = limits.unwrap_or(s.opt.limits);
+                s.opt.contact_model = contact_model.unwrap_or(s.opt.contact_model);
+                let fluid = &mut s.opt.fluid;
+                fluid.density = density.unwrap_or(fluid.density);
+                fluid.viscosity = viscosity.unwrap_or(fluid.viscosity);
+                if let Some(w) = wind {
+                    fluid.wind.copy_from_slice(&w);
+                }
+            })
+            .map_err(model_error)?;
+        Ok(PyModel::new(model))
+    }
+
+    /// The model's name (from the file).
+    #[getter]
+    fn name(&self) -> String {
+        self.model.name.clone()
+    }
+
+    /// Joint names, in the order of q and v (one each for hinges and
+    /// slides; see `coordinate_names` for ball and free joints).
+    #[getter]
+    fn joint_names(&self) -> Vec<String> {
+        self.model.joints.iter().map(|j| j.name.clone()).collect()
+    }
+
+    /// (names of q's nq coordinates, names of the nv dofs): a hinge's or
+    /// slide's joint name; a ball's or free joint's with a suffix (`root:qw`,
+    /// `root:x`, `root:vx`, `root:wx`, ...).
+    fn coordinate_names(&self) -> (Vec<String>, Vec<String>) {
+        self.model.coordinate_names()
+    }
+
+    /// Body names, the world body first.
+    #[getter]
+    fn body_names(&self) -> Vec<String> {
+        self.model.bodies.iter().map(|b| b.name.clone()).collect()
+    }
+
+    /// Names of every identifiable parameter.
+    fn param_names(&self) -> Vec<String> {
+        self.model.param_names()
+    }
+
+    /// The current value of a parameter as a 1-D float64 array.
+    fn get_param<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let value = self.model.get_param(name).map_err(param_error)?;
+        Ok(PyArray1::from_vec(py, value))
+    }
+
+    /// Sets a parameter from a number or array-like. Unknown names, wrong
+    /// lengths and non-physical values raise ValueError and leave the model
+    /// unchanged.
+    fn set_param(&mut self, name: &str, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        let value = float_array(value, "value")?;
+        if value.ndim() > 1 {
+            return Err(PyValueError::new_err(format!(
+                "value for parameter '{name}' must be a number or 1-D, got shape {}",
+                shape(value.shape())
+            )));
+        }
+        let value = entries(&value);
+        self.model.set_param(name, &value).map_err(param_error)?;
+        self.data = self.model.data();
+        self.ws = Workspace::new(&self.model);
+        Ok(())
+    }
+
+    /// One step from (q, v) under generalized forces tau; returns (q1, v1).
+    fn step<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        v: &Bound<'py, PyAny>,
+        tau: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        let (q, v, tau) = self.state(q, v, tau)?;
+        let (q1, v1) = self
+            .model
+            .step(&mut self.data, &q, &v, &tau)
+            .map_err(|e| PyValueError::new_err(format!("step: {e}")))?;
+        PyTuple::new(py, [PyArray1::from_vec(py, q1), PyArray1::from_vec(py, v1)])
+    }
+
+    /// Steps from (q0, v0) under each row of taus (shape (T, nv)); returns the
+    /// visited states as arrays of shapes (T+1, nq) and (T+1, nv).
+    fn rollout<'py>(
+        &mut self,
+        py: Python<'py>,
+        q0: &Bound<'py, PyAny>,
+        v0: &Bound<'py, PyAny>,
+        taus: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        let q0 = vector(q0, "q0", self.model.nq(), "nq")?;
+        let v0 = vector(v0, "v0", self.model.nv(), "nv")?;
+        let taus = matrix(taus, "taus", self.model.nv(), "nv")?;
+        let (nq, nv) = (self.model.nq(), self.model.nv());
+        let steps = taus.nrows();
+        let (mut qs, mut vs) = (
+            Array2::zeros((steps + 1, nq)),
+            Array2::zeros((steps + 1, nv)),
+        );
+        let (model, data) = (&self.model, &mut self.data);
+        // Other Python threads run while this one steps.
+        py.detach(|| {
+            let (mut q, mut v) = (q0, v0);
+            for t in 0..=steps {
+                qs.row_mut(t).assign(&numpy::ndarray::ArrayView1::from(&q));
+                vs.row_mut(t).assign(&numpy::ndarray::ArrayView1::from(&v));
+                if t == steps {
+                    break;
+                }
+                let tau = taus.row(t);
+                let tau = tau.as_slice().expect("rows of a standard-layout array");
+                (q, v) = model
+                    .step(data, &q, &v, tau)
+                    .map_err(|e| format!("rollout step {t}: {e}"))?;
+            }
+            Ok::<(), String>(())
+        })
+        .map_err(PyValueError::new_err)?;
+        let qs = PyArray2::from_owned_array(py, qs);
+        let vs = PyArray2::from_owned_array(py, vs);
+        PyTuple::new(py, [qs, vs])
+    }
+
+    /// One step with its exact Jacobians: a dict of 2-D float64 arrays
+    /// dq_dq, dq_dv, dv_dq, dv_dv (n x n), dq_dtau, dv_dtau (n x n) and
+    /// dq_dp, dv_dp (n x total length of `params`, columns in the order of
+    /// the flattened parameters); n = nv, positions in the tangent space
+    /// (see `transition_jacobians`).
+    #[pyo3(signature = (q, v, tau, params = None))]
+    fn step_jacobians<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        v: &Bound<'py, PyAny>,
+        tau: &Bound<'py, PyAny>,
+        params: Option<Vec<String>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let params = self.params(params.as_deref().unwrap_or_default())?;
+        let (q, v, tau) = self.state(q, v, tau)?;
+        let wrt = Wrt {
+            state: true,
+            control: true,
+            params: &params,
+        };
+        let (model, ws) = (&self.model, &mut self.ws);
+        let j = py
+            .detach(|| step_jacobians(model, ws, (&q, &v, &tau), &wrt))
+            .map_err(|e| PyValueError::new_err(format!("step_jacobians: {e}")))?;
+        let out = PyDict::new(py);
+        // Interned keys: a hot call, and the eight strings are the same every time.
+        for (key, m) in [
+            (intern!(py, "dq_dq"), &j.dq_dq),
+            (intern!(py, "dq_dv"), &j.dq_dv),
+            (intern!(py, "dq_dtau"), &j.dq_dtau),
+            (intern!(py, "dv_dq"), &j.dv_dq),
+            (intern!(py, "dv_dv"), &j.dv_dv),
+            (intern!(py, "dv_dtau"), &j.dv_dtau),
+            (intern!(py, "dq_dp"), &j.dq_dp),
+            (intern!(py, "dv_dp"), &j.dv_dp),
+        ] {
+            out.set_item(key, to_numpy(py, m.shape(), m.as_slice()))?;
+        }
+        Ok(out)
+    }
+
+    /// One step's Jacobians in MuJoCo's layout (mjd_transitionFD's A and B,
+    /// here exact): A = d(q', v')/d(q, v), 2 nv x 2 nv, rows q' then v',
+    /// columns q then v; B = d(q', v')/d tau, 2 nv x nv. Two float64 arrays.
+    /// Positions in the tangent space, as mjd_transitionFD has them: a ball's
+    /// or free joint's rotation as its body-frame rotation vector.
+    fn transition_jacobians<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        v: &Bound<'py, PyAny>,
+        tau: &Bound<'py, PyAny>,
+    ) -> PyResult<MatrixPair<'py>> {
+        let (q, v, tau) = self.state(q, v, tau)?;
+        let x = (&q[..], &v[..], &tau[..]);
+        let (model, ws, out) = (&self.model, &mut self.ws, &mut self.transition);
+        py.detach(|| transition_jacobians(model, ws, x, out))
+            .map_err(|e| PyValueError::new_err(format!("transition_jacobians: {e}")))?;
+        let (a, b) = (&self.transition.a, &self.transition.b);
+        Ok((
+            to_numpy(py, a.shape(), a.as_slice()),
+            to_numpy(py, b.shape(), b.as_slice()),
+        ))
+    }
+
+    /// The contacts at (q, v), with the forces a step from (q, v) under the
+    /// generalized forces `tau` (default zero) applies: a list of dicts, one
+    /// per contact point. Under the smooth model (forces independent of tau)
+    /// every geom pair within reach (depth > -30 activation widths; `depth`
+    /// < 0 is a separation, whose force is tiny but not zero); under the
+    /// constraint model MuJoCo's contacts within their margin, with the
+    /// solver's forces (mj_contactForce in world coordinates, torsional and
+    /// rolling moments left out). World frame, SI units. Keys: `geoms` and
+    /// `bodies` (names of a and b; b is the plane when there is one, else the
+    /// geom first in MuJoCo's shape order), `point` (halfway between the
+    /// surfaces), `normal` (unit, from b into a: the direction of the normal
+    /// force on a), `depth` (m, > 0 overlapping), `normal_force` (N along
+    /// `normal` on a; negative only while separating fast under the smooth
+    /// model), `friction` (3-vector, N, tangential force on a) and `force`
+    /// (the total force on a, normal_force * normal + friction), `torque`
+    /// (3-vector, N m: torsional and rolling friction moments on a, condim 4
+    /// and 6), `frame` (3 x 3, rows: the normal and two tangents, MuJoCo's
+    /// contact frame) and `frame_force` (6: normal, tangential, torsional and
+    /// rolling components in that frame, mj_contactForce's); b feels the
+    /// opposite. Empty when contacts are off. NaN or infinite input raises
+    /// ValueError.
+    #[pyo3(signature = (q, v, tau = None))]
+    fn contacts<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        v: &Bound<'py, PyAny>,
+        tau: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyList>> {
+        let contacts = self.contact_list(q, v, tau)?;
+        let out = PyList::empty(py);
+        for c in contacts {
+            let d = PyDict::new(py);
+            let geoms = c.geoms.map(|g| self.model.geoms[g].name.clone());
+            let bodies = c.bodies.map(|b| self.model.bodies[b].name.clone());
+            d.set_item("geoms", PyTuple::new(py, geoms)?)?;
+            d.set_item("bodies", PyTuple::new(py, bodies)?)?;
+            d.set_item("point", PyArray1::from_slice(py, c.point.as_slice()))?;
+            d.set_item("normal", PyArray1::from_slice(py, c.normal.as_slice()))?;
+            d.set_item("depth", c.depth)?;
+            d.set_item("normal_force", c.normal_force)?;
+            d.set_item("friction", PyArray1::from_slice(py, c.friction.as_slice()))?;
+            d.set_item("force", PyArray1::from_slice(py, c.force().as_slice()))?;
+            d.set_item("torque", PyArray1::from_slice(py, c.torque.as_slice()))?;
+            let frame = Array2::from_shape_fn((3, 3), |(r, k)| c.frame[(r, k)]);
+            d.set_item("frame", PyArray2::from_owned_array(py, frame))?;
+            d.set_item("frame_force", PyArray1::from_slice(py, &c.in_frame()))?;
+            out.append(d)?;
+        }
+        Ok(out)
+    }
+
+    /// The net contact force on each body at (q, v) under `tau` (default
+    /// zero): an array of shape (number of bodies, 3), rows in `body_names`
+    /// order (the world first), world frame, N: the sum of the forces of
+    /// `contacts(q, v, tau)` on the body (no moments). The rows sum to zero.
+    #[pyo3(signature = (q, v, tau = None))]
+    fn body_contact_forces<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        v: &Bound<'py, PyAny>,
+        tau: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let contacts = self.contact_list(q, v, tau)?;
+        let forces = body_contact_forces(&contacts, self.model.bodies.len());
+        let a = Array2::from_shape_fn((forces.len(), 3), |(b, k)| forces[b][k]);
+        Ok(PyArray2::from_owned_array(py, a))
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "<diffosi.Model '{}' nq={} nv={} nu={}>",
+            self.model.name,
+            self.model.nq(),
+            self.model.nv(),
+            self.model.nu()
+        )
+    }
+}
+
+impl PyModel {
+    /// The contacts at (q, v), checked: ValueError if a force overflows.
+    fn contact_list(
+        &mut self,
+        q: &Bound<'_, PyAny>,
+        v: &Bound<'_, PyAny>,
+        tau: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Vec<Contact<f64>>> {
+        let q = vector(q, "q", self.model.nq(), "nq")?;
+        let v = vector(v, "v", self.model.nv(), "nv")?;
+        let tau = match tau {
+            Some(t) => vector(t, "tau", self.model.nv(), "nv")?,
+            None => vec![0.0; self.model.nv()],
+        };
+        let contacts = self
+            .model
+            .contacts(&mut self.data, &q, &v, &tau)
+            .map_err(|e| PyValueError::new_err(format!("contacts: {e}")))?;
+        let finite = |c: &Contact<f64>| {
+            c.point.iter().chain(&c.force()).all(|x| x.is_finite()) && c.depth.is_finite()
+        };
+        if !contacts.iter().all(finite) {
+            return Err(PyValueError::new_err(
+                "contacts: a contact force is not finite (state too large)",
+            ));
+        }
+        Ok(contacts)
+    }
+
+    /// Converts and checks (q, v, tau).
+    fn state(
+        &self,
+        q: &Bound<'_, PyAny>,
+        v: &Bound<'_, PyAny>,
+        tau: &Bound<'_, PyAny>,
+    ) -> PyResult<(Vec<f64>, Vec<f64>, Vec<f64>)> {
+        let (nq, nv) = (self.model.nq(), self.model.nv());
+        Ok((
+            vector(q, "q", nq, "nq")?,
+            vector(v, "v", nv, "nv")?,
+            vector(tau, "tau", nv, "nv")?,
+        ))
+    }
+}
