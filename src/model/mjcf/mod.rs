@@ -3,31 +3,43 @@
 //!
 //! Read: `<compiler>` (angle, eulerseq, inertiafromgeom, inertiagrouprange,
 //! autolimits, settotalmass, boundmass, boundinertia, balanceinertia),
-//! `<option>` (timestep, gravity, integrator, `<flag eulerdamp>`), `<default>`
-//! classes for joints, geoms and actuators, `<worldbody>` with nested `<body>`,
-//! `<joint>` (hinge, slide), `<inertial>`, `<geom>` (plane, sphere, capsule,
-//! cylinder, box, ellipsoid), and `<actuator>` `<motor>`/`<general>` on joints.
+//! `<option>` (timestep, gravity, integrator, the solver's cone, impratio and
+//! iterations, the medium's density, viscosity and wind, and `<flag>`s: see
+//! `options.rs`), `<default>` classes for joints, geoms, pairs, tendons and
+//! actuators, `<worldbody>` with nested `<body>`, `<joint>` (hinge, slide,
+//! ball, free) and `<freejoint>`, `<inertial>`, `<geom>` (plane, sphere,
+//! capsule, cylinder, box, ellipsoid, with their contact settings),
+//! `<contact>` (`<pair>` and `<exclude>`), `<actuator>` `<motor>`/`<general>`
+//! on hinges and slides, and `<custom>`'s `diffosi:` settings (the contact
+//! model, the smooth model's constants). The medium's forces are MuJoCo's
+//! inertia-box model (`dynamics/fluid.rs`).
 //!
-//! Ignored, since they do not change the smooth dynamics: visual, asset, size,
-//! statistic, custom, keyframe, sensor, contact (pairs and exclusions), site,
-//! camera, light, and contact/solver/limit attributes.
+//! Ignored, since they do not change the dynamics: visual, asset, size,
+//! statistic, keyframe, sensor, other custom data, site, camera, light, fixed
+//! tendons that only measure, and the solver settings that only tune how the
+//! answer is approached (`options.rs`).
 //!
 //! Rejected with [`ModelError::Invalid`] naming the element and its line:
-//! - what changes the dynamics beyond a tree of one-dof joints with linear
-//!   passive forces and motors: free and ball joints, tendons, equalities,
-//!   fluid forces (option density/viscosity, fluidshape), gravcomp, mocap
-//!   bodies, the `implicit` integrator, disabling springs, dampers, actuation
-//!   or control clamping, polynomial or springdamper joint
-//!   parameters, joint actuator-force limits, and actuators other than motors
-//!   on joints (servos, muscles, tendon/site/body transmissions, gains with
-//!   bias or dynamics, force limits, actuator damping/armature/delay);
+//! - what changes the dynamics beyond a tree of joints with linear passive
+//!   forces, motors, contacts, limits, dry friction and the inertia-box fluid:
+//!   limits and dry friction on ball and free joints, a free joint that is not
+//!   the only joint of a child of the world, spatial tendons and fixed tendons
+//!   that act (limit, spring, damping, dry friction, armature), equalities,
+//!   flexes and skins, the ellipsoid fluid model (fluidshape), gravcomp,
+//!   mocap bodies, the `implicit` integrator, noslip iterations, the
+//!   `override` flag, disabling springs, dampers, actuation or control
+//!   clamping, polynomial or springdamper joint parameters, joint
+//!   actuator-force limits, and actuators other than motors on hinges and
+//!   slides (servos, muscles, ball/free-joint/tendon/site/body transmissions,
+//!   gains with bias or dynamics, force limits, actuator
+//!   damping/armature/delay, disabled actuator groups);
 //! - what builds the model from elsewhere: include, frame, replicate,
-//!   composite, flexcomp, attach, plugins, meshes, height fields, shell
+//!   composite, flexcomp, attach, plugins, meshes, height fields, SDFs, shell
 //!   inertia, fusestatic, global coordinates;
 //! - what MuJoCo rejects: unknown elements and attributes, malformed or
-//!   miscounted numbers, unknown classes and joints, repeated names, zero axes
-//!   and quaternions, bad ranges, non-physical inertias, moving bodies without
-//!   mass;
+//!   miscounted numbers, unknown classes, joints, geoms and bodies, repeated
+//!   names, zero axes and quaternions, bad ranges, non-physical inertias,
+//!   moving bodies without mass;
 //! - stricter than MuJoCo (which clamps or accepts them): negative masses and
 //!   inertias, negative damping, stiffness, armature and frictionloss.
 //!
@@ -37,7 +49,8 @@
 //! conventions (MuJoCo's unless said otherwise) are stated where they are
 //! applied: numbering and names in `tree.rs`, angles in `compiler.rs`, default
 //! classes in `defaults.rs`, orientations in `orientation.rs`, inertia in
-//! `inertial.rs`, options in `options.rs`, actuators in `actuators.rs`.
+//! `inertial.rs`, joints in `joints.rs`, options in `options.rs`, contact
+//! pairs in `contact.rs`, tendons in `tendons.rs`, actuators in `actuators.rs`.
 //!
 //! [`write`] goes the other way, from a [`super::Spec`] to an MJCF document.
 
