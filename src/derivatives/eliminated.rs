@@ -46,7 +46,8 @@ use super::window::{
     WindowError, WindowFit,
 };
 use crate::dynamics::collision::{ConstraintContact, Pre};
-use crate::dynamics::constraint::{contacts, world_frames};
+use crate::dynamics::constraint::contacts;
+use crate::dynamics::world_frames;
 use crate::dynamics::{
     aba_with_transforms, implicit_terms, passive_forces, rnea, update_transforms, Data,
 };

@@ -14,7 +14,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::dynamics::contact::body_force_to_joints;
+use crate::dynamics::body_force_to_joints;
 use crate::dynamics::{Data, Tree};
 use crate::model::params::inertia_from_six;
 use crate::model::{Body, Model, Param, PassiveMode};

@@ -28,7 +28,7 @@
 //! no gravity, accelerations y: c = -S_j x ay_p, dv = 0.
 
 #[cfg(doc)]
-use crate::dynamics::{constraint::world_frames, rnea};
+use crate::dynamics::{rnea, world_frames};
 use crate::dynamics::{Data, Tree};
 use crate::spatial::{Force, Inertia, Motion};
 
@@ -250,7 +250,7 @@ pub fn rnea_derivatives(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dynamics::constraint::world_frames;
+    use crate::dynamics::world_frames;
     use crate::dynamics::{crba, rnea};
     use crate::Model;
     use nalgebra::{DMatrix, DVector};

@@ -12,8 +12,8 @@ use super::rnea::{rnea_derivatives, Sweep};
 use super::soft::{subtract_soft_derivatives, Columns};
 use super::window::WindowScratch;
 use crate::dynamics::cholesky;
-use crate::dynamics::constraint::world_frames;
 use crate::dynamics::solver::add_quadratic_rows;
+use crate::dynamics::world_frames;
 use crate::dynamics::{
     acceleration, check_inputs, crba, implicit_terms, integrate_euler, ltdl_factor, ltdl_inverse,
     ltdl_solve_columns, rnea, rnea_with_transforms, step,

@@ -25,9 +25,10 @@
 //!   dmax; timeconst is at least 2 timesteps (`refsafe`); friction rows (dry
 //!   friction, an elliptic cone's tangents) have K = 0.
 
-use nalgebra::{DMatrix, Matrix3, Vector3};
+use nalgebra::{Matrix3, Vector3};
 
 use super::collision::{collide, out_of_reach, CollisionPair, ConstraintContact, Pre, MINVAL};
+use super::kinematics::{point_jacobian, world_frames};
 use super::{crba, ltdl_factor, ltdl_solve, Contact, Data, Tree};
 use crate::model::{Cone, JointKind, Param, SolParams, SolverOptions, Spec};
 use crate::spatial::{lift, Real};
@@ -309,41 +310,6 @@ fn slides_only(spec: &Spec, b: usize) -> bool {
         && joints
             .iter()
             .all(|j| j.kind == JointKind::Slide && j.anchor == Vector3::zeros() && aligned(&j.axis))
-}
-
-/// Fills `data.world`, `data.world_axis` and `data.world_vel` (see [`Data`])
-/// from `data.x_up`.
-pub fn world_frames<T: Real>(tree: &Tree<T>, data: &mut Data<T>, v: &[T]) {
-    for i in 0..tree.nv() {
-        let parent = tree.parent[i].map(|p| (data.world[p], data.world_vel[p]));
-        let (world, vel) = parent.unwrap_or((
-            crate::spatial::Transform::identity(),
-            crate::spatial::Motion::zero(),
-        ));
-        data.world[i] = data.x_up[i].compose(&world);
-        data.world_axis[i] = data.world[i].inverse_apply_motion(&tree.joint[i].s);
-        data.world_vel[i] = vel + data.world_axis[i] * v[i];
-    }
-}
-
-/// The translational and rotational Jacobians (3 x nv, world coordinates)
-/// of the point `p` (world coordinates) fixed to node `node` (none: the world).
-pub fn point_jacobian<T: Real>(
-    tree: &Tree<T>,
-    data: &Data<T>,
-    node: usize,
-    p: &Vector3<T>,
-) -> (DMatrix<T>, DMatrix<T>) {
-    let n = tree.nv();
-    let (mut jp, mut jr) = (DMatrix::zeros(3, n), DMatrix::zeros(3, n));
-    let mut k = Some(node);
-    while let Some(i) = k {
-        let s = &data.world_axis[i];
-        jp.set_column(i, &(s.lin + s.ang.cross(p)));
-        jr.set_column(i, &s.ang);
-        k = tree.parent[i];
-    }
-    (jp, jr)
 }
 
 /// The contacts at the current state into `out` (`data.world` filled by

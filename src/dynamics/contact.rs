@@ -49,7 +49,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::collision::make_frame;
 
-use super::{update_transforms, Data, Tree};
+use super::{update_transforms, world_frames, Data, Tree};
 #[cfg(doc)]
 use crate::model::Options;
 use crate::model::{Shape, SoftOptions, Spec};
@@ -255,14 +255,8 @@ pub fn add_soft_forces_with_transforms<T: Real>(
     if tree.pairs.is_empty() {
         return;
     }
-    for i in 0..tree.nv() {
-        let parent = tree.parent[i].map(|p| (data.world[p], data.world_vel[p]));
-        let (world, vel) = parent.unwrap_or((Transform::identity(), Motion::zero()));
-        data.world[i] = data.x_up[i].compose(&world);
-        data.world_axis[i] = data.world[i].inverse_apply_motion(&tree.joint[i].s);
-        data.world_vel[i] = vel + data.world_axis[i] * v[i];
-        data.world_force[i] = Force::zero();
-    }
+    world_frames(tree, data, v);
+    data.world_force.fill(Force::zero());
     let cutoff = CUTOFF_WIDTHS * tree.soft.width;
     for pair in &tree.pairs {
         let geoms = pair.geoms.map(|g| &tree.geoms[g]);
@@ -529,23 +523,4 @@ fn closest_points<T: Real>(a: &Segment<T>, b: &Segment<T>) -> (Vector3<T>, Vecto
     let t = clamp(cos * s + wr, b.half_length);
     let s = clamp(cos * t - ur, a.half_length);
     (a.centre + a.axis * s, b.centre + b.axis * t)
-}
-
-/// Adds the joint forces S_k . F_k that a force `f` on node `node` (in its
-/// frame) causes along its path to the root, with the transforms `x_up`.
-pub fn body_force_to_joints<T: Real>(
-    tree: &Tree<T>,
-    x_up: &[Transform<T>],
-    node: usize,
-    f: Force<T>,
-    out: &mut [T],
-) {
-    let mut f = f;
-    let mut k = node;
-    loop {
-        out[k] += tree.joint[k].s.dot(&f);
-        let Some(p) = tree.parent[k] else { break };
-        f = x_up[k].inverse_apply_force(&f);
-        k = p;
-    }
 }

@@ -19,9 +19,8 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::contact::body_force_to_joints;
 use super::tree::mass_properties;
-use super::{Data, Tree};
+use super::{body_force_to_joints, Data, Tree};
 use crate::model::{Fluid, Param, Spec};
 use crate::spatial::{lift, lift_matrix, lift_vector, Force, Real, Transform};
 
@@ -81,7 +80,7 @@ pub fn fluid_bodies<T: Real>(
 }
 
 /// Adds the fluid's generalized forces to `out` (`data.world` and
-/// `data.world_vel` filled by [`super::constraint::world_frames`], `data.x_up`
+/// `data.world_vel` filled by [`super::world_frames`], `data.x_up`
 /// at q).
 pub fn add_fluid_forces<T: Real>(tree: &Tree<T>, medium: &Fluid, data: &Data<T>, out: &mut [T]) {
     let (rho, beta): (T, T) = (lift(medium.density), lift(medium.viscosity));

@@ -34,7 +34,9 @@ mod tree;
 pub use aba::{aba, aba_with_transforms};
 pub use contact::{add_soft_forces, add_soft_forces_with_transforms, body_contact_forces, Contact};
 pub use crba::{crba, crba_with_transforms};
-pub use kinematics::{body_poses, update_transforms};
+pub use kinematics::{
+    body_force_to_joints, body_poses, point_jacobian, update_transforms, world_frames,
+};
 pub use ltdl::{ltdl_factor, ltdl_inverse, ltdl_solve, ltdl_solve_columns};
 pub use passive::{passive_forces, stretch};
 pub use rnea::{bias_forces, bias_forces_with_transforms, rnea, rnea_with_transforms};

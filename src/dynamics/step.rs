@@ -4,13 +4,13 @@ use nalgebra::DMatrix;
 
 use super::collision::{ConstraintContact, Pre};
 use super::configuration::{integrate, tangent_rate};
-use super::constraint::{rows, unreachable_pair, world_frames, Rows};
+use super::constraint::{rows, unreachable_pair, Rows};
 use super::fluid::add_fluid_forces;
 use super::solver::{solve, Scratch, Solution, Start};
 use super::{
     aba_with_transforms, add_soft_forces_with_transforms, bias_forces_with_transforms,
     crba_with_transforms, ltdl_factor, ltdl_solve, passive_forces, stretch, update_transforms,
-    Data, Tree,
+    world_frames, Data, Tree,
 };
 use crate::model::{ContactModel, Integrator, Options, PassiveMode};
 use crate::spatial::{lift, Real};
