@@ -66,10 +66,10 @@ pub struct Data<T: Real> {
     pub u: Vec<T>,
     pub composite: Vec<Inertia<T>>,
     pub mass_matrix: DMatrix<T>,
-    /// Filled by [`add_soft_forces`] for a tree with contact pairs: from the
-    /// world to node i's frame; node i's motion axis S_i and spatial velocity
-    /// in world coordinates; the contact forces on node i's subtree (world
-    /// coordinates, about the world origin).
+    /// Filled by [`world_frames`]: from the world to node i's frame; node i's
+    /// motion axis S_i and spatial velocity in world coordinates. Filled by
+    /// [`add_soft_forces`] for a tree with contact pairs: the contact forces
+    /// on node i's subtree (world coordinates, about the world origin).
     pub world: Vec<Transform<T>>,
     pub world_axis: Vec<Motion<T>>,
     pub world_vel: Vec<Motion<T>>,
