@@ -27,7 +27,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::collision::{collide, out_of_reach, CollisionPair, ConstraintContact, Pre, MINVAL};
+use super::collision::{apart, collide, CollisionPair, ConstraintContact, Pre, MINVAL};
 use super::kinematics::{point_jacobian, world_frames};
 use super::{crba, ltdl_factor, ltdl_solve, Contact, Data, Tree};
 use crate::model::{Cone, JointKind, Param, SolParams, SolverOptions, Spec};
@@ -325,7 +325,12 @@ pub fn contacts<T: Real>(
         let geoms = pair.geoms.map(|g| &tree.geoms[g]);
         // Bounding spheres farther apart than the pair's reach hold no contact
         // (MuJoCo's broad phase): the colliders need not run.
-        if out_of_reach(pair, geoms, &data.world) {
+        if apart(
+            geoms[0],
+            geoms[1],
+            &data.world,
+            pair.params.margin + pair.params.gap,
+        ) {
             continue;
         }
         let poses = geoms.map(|g| g.pose(&data.world));
@@ -780,7 +785,12 @@ pub fn unreachable_pair<T: Real>(tree: &Tree<T>, data: &Data<T>) -> Option<[usiz
         .filter(|p| !p.supported)
         .find(|p| {
             let geoms = p.geoms.map(|g| &tree.geoms[g]);
-            !out_of_reach(p, geoms, &data.world)
+            !apart(
+                geoms[0],
+                geoms[1],
+                &data.world,
+                p.params.margin + p.params.gap,
+            )
         })
         .map(|p| p.geoms.map(|g| tree.geoms[g].geom))
 }

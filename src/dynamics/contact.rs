@@ -47,7 +47,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::collision::make_frame;
+use super::collision::{apart, candidates, make_frame, Filter, GeomFrame};
 
 use super::{update_transforms, world_frames, Data, Tree};
 #[cfg(doc)]
@@ -86,18 +86,6 @@ impl<T: Real> Soft<T> {
             limit_width: soft.limit_width,
         }
     }
-}
-
-/// A geom that takes part in a contact pair, placed in its node's frame.
-#[derive(Clone, Debug, PartialEq)]
-pub struct GeomFrame<T: Real> {
-    /// Index of the geom in the model, and its body.
-    pub geom: usize,
-    pub body: usize,
-    pub node: Option<usize>,
-    /// From the node's frame (or the world's) to the geom's frame.
-    pub offset: Transform<T>,
-    pub shape: Shape,
 }
 
 /// A pair of geoms that may touch: indices into the tree's geoms (b the
@@ -165,49 +153,24 @@ pub fn body_contact_forces<T: Real>(contacts: &[Contact<T>], nbody: usize) -> Ve
 }
 
 /// The geom pairs that may touch, as model geom indices [a, b] (b the plane
-/// when there is one), in model order; empty when contacts are off.
+/// when there is one), in model order: the candidates under the smooth
+/// model's [`Filter`] whose shapes its law supports; empty when contacts
+/// are off.
 pub fn contact_pairs(spec: &Spec) -> Vec<[usize; 2]> {
-    if !spec.opt.contact {
-        return vec![];
-    }
-    // The rigid body each body moves with: itself, or its parent's if welded.
-    let mut weld = vec![0; spec.bodies.len()];
-    for (b, body) in spec.bodies.iter().enumerate().skip(1) {
-        weld[b] = if body.joints.is_empty() {
-            weld[body.parent]
-        } else {
-            b
-        };
-    }
-    let weld_parent = |w: usize| weld[spec.bodies[w].parent];
-    let mut pairs = vec![];
-    for (i, gi) in spec.geoms.iter().enumerate() {
-        for (j, gj) in spec.geoms.iter().enumerate().skip(i + 1) {
-            let (wi, wj) = (weld[gi.body], weld[gj.body]);
-            let masks = gi.contype & gj.conaffinity != 0 || gj.contype & gi.conaffinity != 0;
-            let related = wi == wj
-                || (wi != 0 && wj != 0 && (wi == weld_parent(wj) || wj == weld_parent(wi)));
-            if !masks || related {
-                continue;
+    candidates(spec, Filter::SMOOTH)
+        .into_iter()
+        .filter_map(|[i, j]| match (spec.geoms[i].shape, spec.geoms[j].shape) {
+            (Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. }, Shape::Plane)
+            | (
+                Shape::Sphere { .. } | Shape::Capsule { .. },
+                Shape::Sphere { .. } | Shape::Capsule { .. },
+            ) => Some([i, j]),
+            (Shape::Plane, Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. }) => {
+                Some([j, i])
             }
-            match (gi.shape, gj.shape) {
-                (
-                    Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. },
-                    Shape::Plane,
-                )
-                | (
-                    Shape::Sphere { .. } | Shape::Capsule { .. },
-                    Shape::Sphere { .. } | Shape::Capsule { .. },
-                ) => pairs.push([i, j]),
-                (
-                    Shape::Plane,
-                    Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. },
-                ) => pairs.push([j, i]),
-                _ => {}
-            }
-        }
-    }
-    pairs
+            _ => None,
+        })
+        .collect()
 }
 
 /// softplus of width w and its derivative: (w ln(1 + e^(d/w)), sigmoid(d/w)),
@@ -332,62 +295,6 @@ pub fn pair_contacts<T: Real, U: Real>(
         let tangent = rel - c.normal * normal_speed;
         let norm = (tangent.norm_squared() + slip * slip).sqrt();
         c.friction = tangent * (-mu * elastic / norm);
-    }
-}
-
-impl<T: Real> GeomFrame<T> {
-    /// From the world to the geom's frame, given each node's `world` transform.
-    pub fn pose(&self, world: &[Transform<T>]) -> Transform<T> {
-        match self.node {
-            Some(n) => self.offset.compose(&world[n]),
-            None => self.offset,
-        }
-    }
-
-    /// The geom's centre in world coordinates.
-    fn centre(&self, world: &[Transform<T>]) -> Vector3<T> {
-        match self.node {
-            Some(n) => world[n].trans + world[n].rot.tr_mul(&self.offset.trans),
-            None => self.offset.trans,
-        }
-    }
-}
-
-/// The radius of a sphere about a shape's centre that holds it (infinite for
-/// a plane).
-fn reach(shape: &Shape) -> f64 {
-    match *shape {
-        Shape::Plane => f64::INFINITY,
-        Shape::Sphere { radius } => radius,
-        Shape::Capsule {
-            radius,
-            half_length,
-        }
-        | Shape::Cylinder {
-            radius,
-            half_length,
-        } => radius + half_length,
-        Shape::Box { half } => half.norm(),
-        Shape::Ellipsoid { radii } => radii.max(),
-    }
-}
-
-/// Whether geom a (never a plane) is farther than `cutoff` from geom b by
-/// their bounding spheres (b's: its plane when it is one).
-pub(crate) fn apart<T: Real>(
-    a: &GeomFrame<T>,
-    b: &GeomFrame<T>,
-    world: &[Transform<T>],
-    cutoff: f64,
-) -> bool {
-    let gap = a.centre(world) - b.centre(world);
-    let limit: T = lift(reach(&a.shape) + cutoff);
-    match b.shape {
-        Shape::Plane => {
-            let x = b.pose(world);
-            x.rot.row(2).transpose().dot(&gap) > limit
-        }
-        _ => gap.norm() > limit + lift::<T>(reach(&b.shape)),
     }
 }
 

@@ -14,8 +14,6 @@
 #![allow(clippy::needless_range_loop)]
 
 mod aba;
-mod box_box;
-mod capsule_box;
 pub mod cholesky;
 pub mod collision;
 pub mod configuration;
