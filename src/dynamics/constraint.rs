@@ -743,10 +743,9 @@ impl<T: Real> std::ops::Deref for Mixing<T> {
     }
 }
 
-/// The force of each contact from the rows' forces, in the smooth model's
-/// [`Contact`] form (MuJoCo's mj_contactForce, also in world coordinates): a
-/// is geom 2 and b geom 1, the normal from b into a, depth = -dist; in the
-/// contact frame, a pyramid's normal force is the sum of its edge forces and
+/// The force of each contact from the rows' forces, as a [`Contact`]
+/// (MuJoCo's mj_contactForce, in world coordinates): in the contact frame,
+/// a pyramid's normal force is the sum of its edge forces and
 /// its k-th frictional component mu_k (f+ - f-) of edge pair k; an elliptic
 /// cone's are its row forces. Tangential forces and torsional and rolling
 /// moments go to world coordinates through the frame.
@@ -762,11 +761,11 @@ pub fn contact_forces<T: Real>(
             let local = in_frame(c, &force[first..first + count]);
             let row = |k: usize| c.frame.row(k).transpose();
             Contact {
-                geoms: [c.geoms[1], c.geoms[0]],
-                bodies: [c.bodies[1], c.bodies[0]],
-                point: c.pos,
+                geoms: c.geoms,
+                bodies: c.bodies,
+                pos: c.pos,
                 normal: row(0),
-                depth: -c.dist,
+                dist: c.dist,
                 normal_force: local[0],
                 friction: row(1) * local[1] + row(2) * local[2],
                 torque: row(0) * local[3] + row(1) * local[4] + row(2) * local[5],

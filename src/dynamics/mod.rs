@@ -30,7 +30,8 @@ mod step;
 mod tree;
 
 pub use aba::{aba, aba_with_transforms};
-pub use contact::{add_soft_forces, add_soft_forces_with_transforms, body_contact_forces, Contact};
+pub use collision::{body_contact_forces, Contact};
+pub use contact::{add_soft_forces, add_soft_forces_with_transforms};
 pub use crba::{crba, crba_with_transforms};
 pub use kinematics::{
     body_force_to_joints, body_poses, point_jacobian, update_transforms, world_frames,

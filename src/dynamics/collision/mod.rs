@@ -77,12 +77,14 @@ mod geom;
 mod mixing;
 pub mod pairs;
 mod plane;
+mod record;
 mod shape;
 mod sphere;
 
 pub use geom::{apart, GeomFrame};
 pub use pairs::{candidates, collision_pairs, Filter};
 pub use plane::fixed_sphere;
+pub use record::{body_contact_forces, Contact};
 
 /// MuJoCo's mjMINVAL: lengths below it count as zero.
 pub const MINVAL: f64 = 1e-15;
