@@ -2,7 +2,7 @@
 //! geom pairs may touch (fixed when the model is built, [`pairs`]), the broad
 //! phase ([`apart`]), and the contacts of a pair at a state: one table of
 //! colliders indexed by the two geoms' types, one file per collider family
-//! ([`plane`], [`sphere`], [`capsule`], [`box_box`]). The smooth model
+//! (plane.rs, sphere.rs, capsule.rs, box_box.rs). The smooth model
 //! ([`super::contact`]) shares the placed geoms, the broad phase and the
 //! candidate pairs; its contact geometry is part of its force law.
 //!
@@ -23,7 +23,7 @@
 //!   twice, torsional, rolling twice).
 //! - Colliders work in world coordinates on [`Placed`] geoms (centre and
 //!   axes) and push [`Pre`] contacts: normal from geom 1 to geom 2, with an
-//!   optional tangent hint for the frame ([`make_frame`]).
+//!   optional tangent hint for the frame (`make_frame`).
 //!
 //! Pairs: explicit pairs (MJCF `<pair>`) always; other geoms of different
 //! bodies when their bitmasks match (contype of one & conaffinity of the

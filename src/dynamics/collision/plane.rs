@@ -169,6 +169,7 @@ pub fn fixed_sphere(shape: &Shape, pose: &Transform<f64>) -> Option<(f64, Vector
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dynamics::collision::{collider, GeomType};
     use nalgebra::Matrix3;
 
     fn floor() -> Placed<f64> {
@@ -232,8 +233,7 @@ mod tests {
             let mut placed = Placed::of(&pose);
             placed.pos.z = 0.05 - 0.01;
             let mut out = vec![];
-            let pair = super::super::collider::<f64>(super::super::GeomType::Plane, shape.kind())
-                .expect("a plane collider");
+            let pair = collider::<f64>(GeomType::Plane, shape.kind()).expect("a plane collider");
             pair((&Shape::Plane, &floor()), (&shape, &placed), 0.0, &mut out);
             assert!(!out.is_empty());
             let (r, hint) = fixed_sphere(&shape, &pose).expect("a fixed sphere");
