@@ -237,8 +237,8 @@ pub fn step_jacobians(
             let h = mode.1;
             integrate_euler(tree, h, (q, v, &ws.qdd), (&mut q_next, &mut v_next));
             let mut jacobian = DMatrix::zeros(2 * n, ws.dqdd.ncols());
-            let columns = jacobian.as_mut_slice().chunks_exact_mut(2 * n);
-            euler_columns(ws.dqdd.as_slice(), (h, n), analytic_wrt.state, columns);
+            let targets = [jacobian.as_mut_slice()];
+            euler_columns(ws.dqdd.as_slice(), (h, n), analytic_wrt.state, targets);
             jacobian
         })
     } else {
@@ -341,16 +341,21 @@ fn block_columns(n: usize, total: usize, wrt: &Wrt) -> [(usize, usize); 4] {
 }
 
 /// The Euler step's Jacobian columns from d qdd's (n rows each, in the
-/// order [q, v, tau, p] of `dqdd`), each into a column of 2n rows of
-/// `targets` (d q' above d v'): v' = v + h qdd and q' = q + h v' give
-/// d v' = h d qdd (+ I on v) and d q' = h d v' (+ h I on v, I on q), the
-/// identity blocks where `state` (the first 2n columns are the state's).
-pub(super) fn euler_columns<'a>(
+/// order [q, v, tau, p] of `dqdd`), each into the next column of 2n rows of
+/// the column-major `targets` in turn (d q' above d v'): v' = v + h qdd and
+/// q' = q + h v' give d v' = h d qdd (+ I on v) and d q' = h d v' (+ h I
+/// on v, I on q), the identity blocks where `state` (the first 2n columns
+/// are the state's).
+pub(super) fn euler_columns<const N: usize>(
     dqdd: &[f64],
     (h, n): (f64, usize),
     state: bool,
-    targets: impl Iterator<Item = &'a mut [f64]>,
+    targets: [&mut [f64]; N],
 ) {
+    if n == 0 {
+        return;
+    }
+    let targets = targets.into_iter().flat_map(|t| t.chunks_exact_mut(2 * n));
     for (column, (target, source)) in targets.zip(dqdd.chunks_exact(n)).enumerate() {
         let (dq, dv) = target.split_at_mut(n);
         for i in 0..n {

@@ -3,9 +3,8 @@
 //! column-major, q' above v' in the rows and q before v in A's columns.
 //!
 //! Under semi-implicit Euler with the analytic derivatives they are written
-//! straight from d qdd (v' = v + h qdd, q' = q + h v': dv' = h dqdd + I on v,
-//! dq' = h dv' + I on q); otherwise assembled from [`step_jacobians`]'
-//! blocks. Either way the same numbers as those blocks, bit for bit.
+//! straight from d qdd as [`step_jacobians`] writes them; otherwise they are
+//! its state and tau columns. Either way the same numbers, bit for bit.
 
 use nalgebra::DMatrix;
 
@@ -76,9 +75,8 @@ pub fn transition_jacobians(
                 return Err(StepError::JacobianNotFinite { block });
             }
         }
-        let columns = out.a.as_mut_slice().chunks_exact_mut(2 * n);
-        let columns = columns.chain(out.b.as_mut_slice().chunks_exact_mut(2 * n));
-        euler_columns(ws.dqdd.as_slice(), (h, n), true, columns);
+        let targets = [out.a.as_mut_slice(), out.b.as_mut_slice()];
+        euler_columns(ws.dqdd.as_slice(), (h, n), true, targets);
     } else {
         // Checked as step_jacobians checks its blocks.
         let j = step_jacobians(model, ws, (q, v, tau), &wrt)?;
