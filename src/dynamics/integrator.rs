@@ -18,7 +18,7 @@ pub fn euler(opt: &Options) -> Option<(PassiveMode, f64)> {
     (opt.integrator == Integrator::Euler).then_some((opt.passive, opt.timestep))
 }
 
-/// The options' Runge-Kutta tableau; None under Euler.
+/// The integrator's Runge-Kutta tableau; None for Euler.
 pub fn tableau(integrator: Integrator) -> Option<&'static Tableau> {
     match integrator {
         Integrator::Euler => None,
@@ -57,6 +57,8 @@ pub struct Tableau {
     /// Row i holds a_ij for j < i (row 0 empty).
     pub a: &'static [&'static [Rational]],
     pub b: &'static [Rational],
+    /// The stages' times (the sums of a's rows); no force depends on time
+    /// within a step yet (tau is held), so only the tests read them.
     pub c: &'static [Rational],
 }
 
