@@ -333,7 +333,7 @@ mod tests {
     /// RK4's entries times h are today's h / 2, h, h / 6 and h / 3 bit for
     /// bit, and its rows sum to its nodes.
     #[test]
-    fn rk4_entries_are_exact_quotients() {
+    fn the_rk4_tableau_gives_exact_quotients() {
         for h in [0.002, 0.01, 1.0 / 3.0, 0.0123456789] {
             let b: Vec<f64> = RK4.b.iter().map(|b| b.times(h).unwrap()).collect();
             assert_eq!(b, [h / 6.0, h / 3.0, h / 3.0, h / 6.0]);
