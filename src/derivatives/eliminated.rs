@@ -39,7 +39,6 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::params::implicit_diagonal_derivative;
 use super::step::Workspace;
 use super::window::{
     articulated_solve, check_transition, directions, residual_column, Term, Transition,
@@ -47,11 +46,12 @@ use super::window::{
 };
 use crate::dynamics::collision::{ConstraintContact, Pre};
 use crate::dynamics::constraint::contacts;
+use crate::dynamics::integrator::{euler, ImplicitPassive};
 use crate::dynamics::world_frames;
 use crate::dynamics::{
     aba_with_transforms, implicit_terms, passive_forces, rnea, update_transforms, Data,
 };
-use crate::model::{ContactModel, Integrator, Model, ParamMap, PassiveMode};
+use crate::model::{ContactModel, Model, ParamMap, PassiveMode};
 use crate::spatial::{Force, Motion};
 
 /// Below this fraction of its own norm, what is left of a constraint
@@ -115,7 +115,7 @@ impl Elimination {
                 expected: model.nv(),
             });
         }
-        if model.opt.integrator != Integrator::Euler {
+        if euler(&model.opt).is_none() {
             return Err(WindowError::NotEuler);
         }
         let detect = model
@@ -346,7 +346,9 @@ fn free_acceleration(
     jacobian: bool,
 ) -> (DVector<f64>, DMatrix<f64>) {
     let n = tree.nv();
-    let implicit = (mode != PassiveMode::Explicit).then_some(&ws.extra[..]);
+    let implicit = ImplicitPassive::new(mode, h)
+        .acts()
+        .then_some(&ws.extra[..]);
     update_transforms(tree, &mut ws.data, q);
     aba_with_transforms(tree, &mut ws.data, v, force, implicit, &mut ws.qdd);
     let qdd = DVector::from_column_slice(&ws.qdd);
@@ -369,12 +371,11 @@ fn free_acceleration(
 
 /// The implicit diagonal's change along a mu column: (dof, dE_i / d mu_j).
 fn implicit_diagonal(column: &[Term], (mode, h): (PassiveMode, f64)) -> Vec<(usize, f64)> {
+    let implicit = ImplicitPassive::new(mode, h);
     column
         .iter()
         .filter_map(|term| match term {
-            Term::Joint { param, gain } => {
-                implicit_diagonal_derivative((mode, h), *param).map(|(i, de)| (i, gain * de))
-            }
+            Term::Joint { param, gain } => implicit.partial(*param).map(|(i, de)| (i, gain * de)),
             Term::Inertia { .. } => None,
         })
         .collect()

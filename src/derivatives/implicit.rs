@@ -661,14 +661,14 @@ mod tests {
                         let mut duals = Default::default();
                         let (dq, dv) = dual_columns(&model, &mut duals, x, &wrt).unwrap();
                         let analytic = [
-                            (&j.dq_dq, 0, &dq),
-                            (&j.dq_dv, n, &dq),
-                            (&j.dq_dtau, 2 * n, &dq),
-                            (&j.dq_dp, 3 * n, &dq),
-                            (&j.dv_dq, 0, &dv),
-                            (&j.dv_dv, n, &dv),
-                            (&j.dv_dtau, 2 * n, &dv),
-                            (&j.dv_dp, 3 * n, &dv),
+                            (j.dq_dq(), 0, &dq),
+                            (j.dq_dv(), n, &dq),
+                            (j.dq_dtau(), 2 * n, &dq),
+                            (j.dq_dp(), 3 * n, &dq),
+                            (j.dv_dq(), 0, &dv),
+                            (j.dv_dv(), n, &dv),
+                            (j.dv_dtau(), 2 * n, &dv),
+                            (j.dv_dp(), 3 * n, &dv),
                         ];
                         for (block, start, dual) in analytic {
                             let dual = dual.columns(start, block.ncols());

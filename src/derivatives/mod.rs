@@ -29,6 +29,7 @@
 
 mod constrained;
 mod eliminated;
+mod gemm;
 mod implicit;
 mod params;
 mod rnea;
