@@ -9,8 +9,8 @@ use super::integrator::{euler_step, implicit_terms, runge_kutta, tableau, Implic
 use super::solver::{solve, Scratch, Solution, Start};
 use super::{
     aba_with_transforms, add_soft_forces_with_transforms, bias_forces_with_transforms,
-    crba_with_transforms, ltdl_factor, ltdl_solve, passive_forces, update_transforms,
-    world_frames, Data, Tree,
+    crba_with_transforms, ltdl_factor, ltdl_solve, passive_forces, update_transforms, world_frames,
+    Data, Tree,
 };
 use crate::model::{ContactModel, Options, PassiveMode};
 use crate::spatial::{lift, Real};
