@@ -27,7 +27,6 @@ mod kinematics;
 mod ltdl;
 mod passive;
 mod rnea;
-pub mod solver;
 mod step;
 mod tree;
 
