@@ -21,18 +21,18 @@
 //! d f / dv = -D B J; and R is proportional to an invweight0 constant of its
 //! kind's (see [`add_invweight_partials`]).
 
-use crate::dynamics::collision::{Pre, MINVAL};
-use crate::dynamics::constraint::solver::Zone;
-use crate::dynamics::constraint::{ConstraintKind, Origin};
-use crate::dynamics::{Constrained, Data, Tree};
-use crate::spatial::Motion;
-use num_dual::Dual64;
-
 mod contact;
 mod friction;
 mod limit;
 mod slopes;
 
+use num_dual::Dual64;
+
+use crate::dynamics::collision::{Pre, MINVAL};
+use crate::dynamics::constraint::solver::Zone;
+use crate::dynamics::constraint::{ConstraintKind, Origin};
+use crate::dynamics::{Constrained, Data, Tree};
+use crate::spatial::Motion;
 use slopes::{find_slopes, Slopes};
 
 /// Whether the derivative of this module applies: every row of a kind with
