@@ -66,7 +66,9 @@
 //!    Jacobians then come from dual numbers, exact), then its file there
 //!    (`equality.rs`: the rows' partials in q and in the invweight0
 //!    constants) and its arms in the dispatch. The eliminated constraints
-//!    (`crate::derivatives::eliminated`) say which directions it may push.
+//!    (`crate::derivatives::eliminated`, `Elimination::pushes_dof`) learn
+//!    which directions it may push (a connect: a wrench on each of its
+//!    bodies, as a contact's).
 
 use std::ops::Range;
 
