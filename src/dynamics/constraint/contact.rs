@@ -8,10 +8,10 @@
 //!   3 torsional, 4, 5 rolling; torsional and rolling rows use the angular
 //!   Jacobian); elliptic cones condim rows (normal, tangents, then angular).
 //! - A_ii from the two bodies' body_invweight0 (translation, rotation); the
-//!   impedance from the distance (see [`super::impedance`]). A contact's
-//!   frictional rows take R_normal / impratio; a pyramid's rows all take
-//!   2 mu^2 R_normal with mu = friction_1 / sqrt(impratio); an elliptic
-//!   cone's friction row k takes R_1 mu_1^2 / mu_k^2.
+//!   impedance from the distance (see [`impedance`](mod@super::impedance)).
+//!   A contact's frictional rows take R_normal / impratio; a pyramid's rows
+//!   all take 2 mu^2 R_normal with mu = friction_1 / sqrt(impratio); an
+//!   elliptic cone's friction row k takes R_1 mu_1^2 / mu_k^2.
 
 use super::impedance::Block;
 use super::{At, ConstraintKind, Origin, RowKind, Rows};
@@ -258,7 +258,8 @@ pub fn contact_forces<T: Real>(
 }
 
 /// The first geom pair without a collider that is within reach at the
-/// current state (`data.world` filled by [`world_frames`](crate::dynamics::world_frames)), as model geom indices.
+/// current state (`data.world` filled by
+/// [`world_frames`](crate::dynamics::world_frames)), as model geom indices.
 pub fn unreachable_pair<T: Real>(tree: &Tree<T>, data: &Data<T>) -> Option<[usize; 2]> {
     tree.constraint
         .pairs

@@ -1,7 +1,8 @@
 //! Dry friction rows (MuJoCo's mj_instantiateFriction, efc_type
 //! mjCNSTR_FRICTION_DOF): one row J = e_i per dof i with `frictionloss` > 0,
 //! its force bounded by the frictionloss; A_ii = dof_invweight0 of dof i;
-//! no distance (dist = margin = 0), and K = 0 (see [`super::impedance`]).
+//! no distance (dist = margin = 0), and K = 0 (see
+//! [`impedance`](mod@super::impedance)).
 
 use super::impedance::Block;
 use super::{At, ConstraintKind, Origin, RowKind, Rows};

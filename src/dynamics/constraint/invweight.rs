@@ -2,8 +2,8 @@
 //! diagonal of J M^-1 J^T over its COM's translational and rotational
 //! Jacobians (body_invweight0), per dof the diagonal of M^-1
 //! (dof_invweight0), at the reference configuration; 1 / mass for MuJoCo's
-//! "simple" bodies ([`slides_only`]). They stand for A_ii in the rows' R
-//! ([`super::impedance`]).
+//! "simple" bodies (`slides_only`). They stand for A_ii in the rows' R
+//! ([`impedance`](mod@super::impedance)).
 
 use nalgebra::{Matrix3, Vector3};
 

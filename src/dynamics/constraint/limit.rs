@@ -2,7 +2,7 @@
 //! mjCNSTR_LIMIT_JOINT) of hinges and slides: per limited dof i, one row
 //! per side within the margin: J = +e_i below the range (dist = q - lo) and
 //! -e_i above it (dist = hi - q), while dist < margin; A_ii =
-//! dof_invweight0 of dof i (see [`super::impedance`]).
+//! dof_invweight0 of dof i (see [`impedance`](mod@super::impedance)).
 
 use super::impedance::Block;
 use super::{At, ConstraintKind, Origin, RowKind, Rows};

@@ -14,7 +14,8 @@
 //!   per side within the margin, [`limit`]), contacts in collision order
 //!   ([`contact`]). Each kind's file states its rows' J, distance and A_ii.
 //! - R and aref from the rows' distance and solver parameters as
-//!   [`impedance`] states; A_ii from the invweight0 constants ([`invweight`]).
+//!   [`impedance`](mod@impedance) states; A_ii from the invweight0
+//!   constants ([`invweight`]).
 //!
 //! # Adding a constraint-row kind
 //!
@@ -77,11 +78,11 @@ use super::{Data, Tree};
 use crate::model::{SolParams, SolverOptions};
 use crate::spatial::{lift, Real};
 
-mod contact;
-mod friction;
-mod impedance;
-mod invweight;
-mod limit;
+pub mod contact;
+pub mod friction;
+pub mod impedance;
+pub mod invweight;
+pub mod limit;
 pub mod solver;
 
 pub use contact::{contact_forces, contacts, mixing, unreachable_pair, Mixing};
