@@ -1,20 +1,20 @@
 //! Step Jacobians: d(q', v') / d(q, v), d(q', v') / d tau and d(q', v') / d p:
 //! analytic through the articulated dynamics, the smooth model and the
-//! constraint model's solver ([`super::implicit`]); by dual numbers for the
+//! constraint model's solver ([`super::constraint`]); by dual numbers for the
 //! constraint model's contact parameters ([`super::constrained`]).
 
 use nalgebra::{DMatrix, DMatrixView};
 
 use super::constrained::{dual_columns, DualTrees};
+use super::constraint::{add_invweight_partials, add_row_partials, differentiable, Scratch};
 use super::gemm::gemm;
-use super::implicit::{add_invweight_partials, add_row_partials, differentiable, Scratch};
 use super::params::{mass_product_derivative, residual_derivative};
 use super::rnea::{rnea_derivatives, Sweep};
 use super::soft::{subtract_soft_derivatives, Columns};
 use super::window::WindowScratch;
 use crate::dynamics::cholesky;
+use crate::dynamics::constraint::solver::add_quadratic_rows;
 use crate::dynamics::integrator::{euler, tableau, weighted_sum, ImplicitPassive, Tableau};
-use crate::dynamics::solver::add_quadratic_rows;
 use crate::dynamics::world_frames;
 use crate::dynamics::{
     acceleration, check_inputs, crba, implicit_terms, integrate_euler, ltdl_factor, ltdl_inverse,
@@ -557,7 +557,7 @@ fn add_passive_partials(
 /// The derivatives of the constraint model's acceleration in the state and
 /// tau (`wrt` asks for no parameters), its rows and solution `c` at the
 /// point (`ws.data` as the step left it: M, world frames). The solver's
-/// acceleration a: da = -H^-1 dg ([`super::implicit`]); MuJoCo's implicit
+/// acceleration a: da = -H^-1 dg ([`super::constraint`]); MuJoCo's implicit
 /// passive solve (M + E) qdd = M a (E = `ws.extra`) then gives
 /// (M + E) dqdd = M da + d(M y) with y = a - qdd, so
 /// dqdd = -G dg + (M + E)^-1 d(M y), G = (M + E)^-1 M H^-1 = H^-1 - (M + E)^-1 E H^-1

@@ -4,7 +4,7 @@
 //! (`crate::derivatives`) read both from here.
 
 use super::configuration::{integrate, tangent_rate};
-use super::solver::Start;
+use super::constraint::solver::Start;
 use super::{acceleration, stretch, Data, Tree};
 use crate::model::{Integrator, Options, Param, PassiveMode};
 use crate::spatial::{lift, Real};

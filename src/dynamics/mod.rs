@@ -28,7 +28,6 @@ mod kinematics;
 mod ltdl;
 mod passive;
 mod rnea;
-pub mod solver;
 mod step;
 mod tree;
 

@@ -3,10 +3,10 @@
 use nalgebra::DMatrix;
 
 use super::collision::{ConstraintContact, Pre};
+use super::constraint::solver::{solve, Scratch, Solution, Start};
 use super::constraint::{rows, unreachable_pair, Rows};
 use super::fluid::add_fluid_forces;
 use super::integrator::{euler_step, implicit_terms, runge_kutta, tableau, ImplicitPassive};
-use super::solver::{solve, Scratch, Solution, Start};
 use super::{
     aba_with_transforms, add_soft_forces_with_transforms, bias_forces_with_transforms,
     crba_with_transforms, ltdl_factor, ltdl_solve, passive_forces, update_transforms, world_frames,
@@ -257,7 +257,7 @@ impl<T: Real> Reuse<T> {
 /// 1. collision and constraint rows at (q, v) ([`super::constraint`]; with
 ///    none, the step is the plain articulated dynamics, bit for bit);
 /// 2. a0 = M^-1 (tau + tau_passive - c), M from CRBA (armature included);
-/// 3. the constrained acceleration and forces f ([`super::solver`]);
+/// 3. the constrained acceleration and forces f ([`super::constraint::solver`]);
 /// 4. with implicit passive terms (MuJoCo's Euler), the acceleration is
 ///    solved again with them: (M + diag(extra)) qdd = tau + tau_passive - c
 ///    + J^T f; otherwise qdd is the solver's.
