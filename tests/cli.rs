@@ -219,10 +219,10 @@ fn jacobian_prints_the_library_result_as_json() {
     for (r, row) in matrix("dv_dp").iter().enumerate() {
         assert_eq!(row.len(), 4);
         for (c, x) in row.iter().enumerate() {
-            assert_eq!(*x, j.dv_dp[(r, c)]);
+            assert_eq!(*x, j.dv_dp()[(r, c)]);
         }
     }
-    assert_eq!(matrix("dq_dtau")[1][1], j.dq_dtau[(1, 1)]);
+    assert_eq!(matrix("dq_dtau")[1][1], j.dq_dtau()[(1, 1)]);
     let v_next: Vec<f64> = serde_json::from_value(json["v_next"].clone()).unwrap();
     assert_eq!(v_next, j.v_next);
 }

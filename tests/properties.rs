@@ -149,8 +149,8 @@ proptest! {
         }
         let column = |x: &[f64]| DVector::from_column_slice(x);
         let (dq, dv, dtau, dp) = (column(dq), column(dv), column(dtau), column(&dp));
-        let jd_q = &j.dq_dq * &dq + &j.dq_dv * &dv + &j.dq_dtau * &dtau + &j.dq_dp * &dp;
-        let jd_v = &j.dv_dq * &dq + &j.dv_dv * &dv + &j.dv_dtau * &dtau + &j.dv_dp * &dp;
+        let jd_q = j.dq_dq() * &dq + j.dq_dv() * &dv + j.dq_dtau() * &dtau + j.dq_dp() * &dp;
+        let jd_v = j.dv_dq() * &dq + j.dv_dv() * &dv + j.dv_dtau() * &dtau + j.dv_dp() * &dp;
         let eps = 1e-6;
         let shifted = |e: f64| {
             let moved = |x: &[f64], d: &DVector<f64>| -> Vec<f64> {

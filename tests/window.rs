@@ -153,7 +153,7 @@ fn assert_rows_match(
         let predicted = q_next.iter().chain(&v_next);
         let observed = tr.q_next.iter().chain(&tr.v_next);
         let expected = DMatrix::from_fn(2 * n, map.nmu, |i, c| {
-            let block = if i < n { &j.dq_dp } else { &j.dv_dp };
+            let block = if i < n { j.dq_dp() } else { j.dv_dp() };
             (block.row(i % n) * gains.column(c))[0] / scale[i]
         });
         let rows = fit.jacobian.rows(2 * n * t, 2 * n);

@@ -327,15 +327,16 @@ impl PyModel {
         let out = PyDict::new(py);
         // Interned keys: a hot call, and the eight strings are the same every time.
         for (key, m) in [
-            (intern!(py, "dq_dq"), &j.dq_dq),
-            (intern!(py, "dq_dv"), &j.dq_dv),
-            (intern!(py, "dq_dtau"), &j.dq_dtau),
-            (intern!(py, "dv_dq"), &j.dv_dq),
-            (intern!(py, "dv_dv"), &j.dv_dv),
-            (intern!(py, "dv_dtau"), &j.dv_dtau),
-            (intern!(py, "dq_dp"), &j.dq_dp),
-            (intern!(py, "dv_dp"), &j.dv_dp),
+            (intern!(py, "dq_dq"), j.dq_dq()),
+            (intern!(py, "dq_dv"), j.dq_dv()),
+            (intern!(py, "dq_dtau"), j.dq_dtau()),
+            (intern!(py, "dv_dq"), j.dv_dq()),
+            (intern!(py, "dv_dv"), j.dv_dv()),
+            (intern!(py, "dv_dtau"), j.dv_dtau()),
+            (intern!(py, "dq_dp"), j.dq_dp()),
+            (intern!(py, "dv_dp"), j.dv_dp()),
         ] {
+            let m = m.into_owned();
             out.set_item(key, to_numpy(py, m.shape(), m.as_slice()))?;
         }
         Ok(out)

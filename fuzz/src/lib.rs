@@ -343,14 +343,14 @@ pub fn check_step_and_jacobians(
 
 fn assert_finite_jacobians(j: &StepJacobians) {
     let blocks = [
-        ("dq_dq", &j.dq_dq),
-        ("dq_dv", &j.dq_dv),
-        ("dq_dtau", &j.dq_dtau),
-        ("dq_dp", &j.dq_dp),
-        ("dv_dq", &j.dv_dq),
-        ("dv_dv", &j.dv_dv),
-        ("dv_dtau", &j.dv_dtau),
-        ("dv_dp", &j.dv_dp),
+        ("dq_dq", j.dq_dq()),
+        ("dq_dv", j.dq_dv()),
+        ("dq_dtau", j.dq_dtau()),
+        ("dq_dp", j.dq_dp()),
+        ("dv_dq", j.dv_dq()),
+        ("dv_dv", j.dv_dv()),
+        ("dv_dtau", j.dv_dtau()),
+        ("dv_dp", j.dv_dp()),
     ];
     for (name, m) in blocks {
         assert!(m.iter().all(|x| x.is_finite()), "{name} not finite: {m}");

@@ -2,7 +2,7 @@
 
 use diffosi::derivatives::{step_jacobians, StepJacobians, Workspace, Wrt};
 use diffosi::Model;
-use nalgebra::DMatrix;
+use nalgebra::DMatrixView;
 use serde_json::json;
 
 /// The point of the step.
@@ -49,7 +49,7 @@ pub fn jacobian(
     Ok(())
 }
 
-fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
+fn rows(m: DMatrixView<f64>) -> Vec<Vec<f64>> {
     m.row_iter().map(|r| r.iter().copied().collect()).collect()
 }
 
@@ -62,28 +62,28 @@ fn to_json(model: &Model, params: &[String], j: &StepJacobians) -> serde_json::V
         "params": params,
         "q_next": j.q_next,
         "v_next": j.v_next,
-        "dq_dq": rows(&j.dq_dq),
-        "dq_dv": rows(&j.dq_dv),
-        "dq_dtau": rows(&j.dq_dtau),
-        "dv_dq": rows(&j.dv_dq),
-        "dv_dv": rows(&j.dv_dv),
-        "dv_dtau": rows(&j.dv_dtau),
-        "dq_dp": rows(&j.dq_dp),
-        "dv_dp": rows(&j.dv_dp),
+        "dq_dq": rows(j.dq_dq()),
+        "dq_dv": rows(j.dq_dv()),
+        "dq_dtau": rows(j.dq_dtau()),
+        "dv_dq": rows(j.dv_dq()),
+        "dv_dv": rows(j.dv_dv()),
+        "dv_dtau": rows(j.dv_dtau()),
+        "dq_dp": rows(j.dq_dp()),
+        "dv_dp": rows(j.dv_dp()),
     })
 }
 
 fn print_tables(j: &StepJacobians) {
     println!("q_next = {:?}\nv_next = {:?}", j.q_next, j.v_next);
     let blocks = [
-        ("dq/dq", &j.dq_dq),
-        ("dq/dv", &j.dq_dv),
-        ("dq/dtau", &j.dq_dtau),
-        ("dv/dq", &j.dv_dq),
-        ("dv/dv", &j.dv_dv),
-        ("dv/dtau", &j.dv_dtau),
-        ("dq/dp", &j.dq_dp),
-        ("dv/dp", &j.dv_dp),
+        ("dq/dq", j.dq_dq()),
+        ("dq/dv", j.dq_dv()),
+        ("dq/dtau", j.dq_dtau()),
+        ("dv/dq", j.dv_dq()),
+        ("dv/dv", j.dv_dv()),
+        ("dv/dtau", j.dv_dtau()),
+        ("dq/dp", j.dq_dp()),
+        ("dv/dp", j.dv_dp()),
     ];
     for (name, m) in blocks.into_iter().filter(|(_, m)| m.ncols() > 0) {
         println!("{name}:");

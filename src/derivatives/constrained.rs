@@ -12,7 +12,7 @@
 //! friction between stick and slip) the derivative is the one-sided
 //! derivative on the side of the zones at the point itself. Cost: one dual
 //! step per column. It gives the contact parameters' columns, and every
-//! column where the analytic derivative ([`super::implicit`]) does not
+//! column where the analytic derivative ([`super::constraint`]) does not
 //! apply; that one is tested against it.
 //!
 //! Positions are differentiated in the tangent space (mjd_transitionFD's

@@ -39,19 +39,19 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::params::implicit_diagonal_derivative;
 use super::step::Workspace;
 use super::window::{
     articulated_solve, check_transition, directions, residual_column, Term, Transition,
     WindowError, WindowFit,
 };
 use crate::dynamics::collision::{ConstraintContact, Pre};
-use crate::dynamics::constraint::contacts;
+use crate::dynamics::constraint::{contacts, ConstraintKind};
+use crate::dynamics::integrator::{euler, ImplicitPassive};
 use crate::dynamics::world_frames;
 use crate::dynamics::{
     aba_with_transforms, implicit_terms, passive_forces, rnea, update_transforms, Data,
 };
-use crate::model::{ContactModel, Integrator, Model, ParamMap, PassiveMode};
+use crate::model::{ContactModel, Joint, Model, ParamMap, PassiveMode};
 use crate::spatial::{Force, Motion};
 
 /// Below this fraction of its own norm, what is left of a constraint
@@ -115,7 +115,7 @@ impl Elimination {
                 expected: model.nv(),
             });
         }
-        if model.opt.integrator != Integrator::Euler {
+        if euler(&model.opt).is_none() {
             return Err(WindowError::NotEuler);
         }
         let detect = model
@@ -181,9 +181,10 @@ impl Elimination {
     }
 
     /// The orthonormal basis of the scaled constraint directions at a
-    /// transition whose frames at q `data` holds (world axes): a wrench on
-    /// each touching body, a force on each dof near a range end or with dry
-    /// friction.
+    /// transition whose frames at q `data` holds (world axes), by the kinds
+    /// of the constraint rows ([`ConstraintKind`]): a wrench on each touching
+    /// body (contacts), then dof by dof a force on each dof a constraint may
+    /// push ([`Elimination::pushes_dof`]).
     fn constraint_directions(
         &self,
         model: &Model,
@@ -206,18 +207,32 @@ impl Elimination {
             }
         }
         for (d, joint) in model.joints.iter().enumerate() {
-            let near = |x: f64| {
-                joint
-                    .range
-                    .is_some_and(|(lo, hi)| x < lo + self.margin || x > hi - self.margin)
-            };
-            if joint.frictionloss > 0.0 || near(tr.q[d]) || near(tr.q_next[d]) {
+            let at = (tr.q[d], tr.q_next[d]);
+            let pushes = |kind: &ConstraintKind| self.pushes_dof(*kind, joint, at);
+            if ConstraintKind::ORDER.iter().any(pushes) {
                 let mut g = DVector::zeros(n);
                 g[d] = 1.0 / scale[d];
                 add_direction(&mut basis, g);
             }
         }
         basis
+    }
+
+    /// Whether a constraint of `kind` may push on the dof of `joint` at a
+    /// transition taking its coordinate from x to x_next: dry friction
+    /// always, a limit within `margin` of an end of its range at x or
+    /// x_next; contacts push on bodies ([`Elimination::touching`]).
+    fn pushes_dof(&self, kind: ConstraintKind, joint: &Joint, (x, x_next): (f64, f64)) -> bool {
+        let near = |x: f64| {
+            joint
+                .range
+                .is_some_and(|(lo, hi)| x < lo + self.margin || x > hi - self.margin)
+        };
+        match kind {
+            ConstraintKind::DofFriction => joint.frictionloss > 0.0,
+            ConstraintKind::JointLimit => near(x) || near(x_next),
+            ConstraintKind::Contact => false,
+        }
     }
 
     /// Takes transition `t`'s directions out of `x` (P x).
@@ -346,7 +361,9 @@ fn free_acceleration(
     jacobian: bool,
 ) -> (DVector<f64>, DMatrix<f64>) {
     let n = tree.nv();
-    let implicit = (mode != PassiveMode::Explicit).then_some(&ws.extra[..]);
+    let implicit = ImplicitPassive::new(mode, h)
+        .acts()
+        .then_some(&ws.extra[..]);
     update_transforms(tree, &mut ws.data, q);
     aba_with_transforms(tree, &mut ws.data, v, force, implicit, &mut ws.qdd);
     let qdd = DVector::from_column_slice(&ws.qdd);
@@ -369,12 +386,11 @@ fn free_acceleration(
 
 /// The implicit diagonal's change along a mu column: (dof, dE_i / d mu_j).
 fn implicit_diagonal(column: &[Term], (mode, h): (PassiveMode, f64)) -> Vec<(usize, f64)> {
+    let implicit = ImplicitPassive::new(mode, h);
     column
         .iter()
         .filter_map(|term| match term {
-            Term::Joint { param, gain } => {
-                implicit_diagonal_derivative((mode, h), *param).map(|(i, de)| (i, gain * de))
-            }
+            Term::Joint { param, gain } => implicit.partial(*param).map(|(i, de)| (i, gain * de)),
             Term::Inertia { .. } => None,
         })
         .collect()

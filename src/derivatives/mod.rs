@@ -15,7 +15,7 @@
 //! Contact and joint-limit forces add -tau_soft(q, v; k, c, mu) to R; their
 //! derivatives come from dual numbers through the scalar-generic force code
 //! (module `soft`), exact as the rest. Under the constraint model the
-//! solver's acceleration is differentiated implicitly (module `implicit`:
+//! solver's acceleration is differentiated implicitly (module `constraint`:
 //! state, tau, body and joint parameters), the contact parameters by dual
 //! numbers through the whole step (module `constrained`): exact for the
 //! solver's converged zones, one-sided where they switch.
@@ -28,8 +28,9 @@
 #![allow(clippy::needless_range_loop)]
 
 mod constrained;
+mod constraint;
 mod eliminated;
-mod implicit;
+mod gemm;
 mod params;
 mod rnea;
 mod soft;

@@ -15,6 +15,7 @@
 use nalgebra::{Matrix3, Vector3};
 
 use crate::dynamics::body_force_to_joints;
+use crate::dynamics::integrator::ImplicitPassive;
 use crate::dynamics::{Data, Tree};
 use crate::model::params::inertia_from_six;
 use crate::model::{Body, Model, Param, PassiveMode};
@@ -74,20 +75,6 @@ pub fn mass_product_derivative(
     }
 }
 
-/// The change of a semi-implicit Euler step's implicit diagonal (see
-/// [`crate::dynamics::implicit_terms`]) with a joint parameter: (dof, value).
-pub fn implicit_diagonal_derivative(
-    (mode, h): (PassiveMode, f64),
-    param: Param,
-) -> Option<(usize, f64)> {
-    match (mode, param) {
-        (PassiveMode::Explicit, _) => None,
-        (_, Param::Damping(i)) => Some((i, h)),
-        (PassiveMode::ImplicitDampingStiffness, Param::Stiffness(i)) => Some((i, h * h)),
-        _ => None,
-    }
-}
-
 /// dR_i / d(joint parameter) for the joint i it belongs to: (i, value).
 /// Panics on a body parameter.
 pub fn joint_derivative(
@@ -95,22 +82,16 @@ pub fn joint_derivative(
     (stretch, v, a): (&[f64], &[f64], &[f64]),
     param: Param,
 ) -> (usize, f64) {
+    // The implicit diagonal's change times a, and the explicit force's.
+    let implicit = ImplicitPassive::new(mode, h);
     match param {
         Param::Damping(i) => {
-            let implicit = if mode == PassiveMode::Explicit {
-                0.0
-            } else {
-                h
-            };
-            (i, implicit * a[i] + v[i])
+            let de = implicit.damping_weight().unwrap_or(0.0);
+            (i, de * a[i] + v[i])
         }
         Param::Stiffness(i) => {
-            let implicit = if mode == PassiveMode::ImplicitDampingStiffness {
-                h * h
-            } else {
-                0.0
-            };
-            (i, implicit * a[i] + stretch[i])
+            let de = implicit.stiffness_weight().unwrap_or(0.0);
+            (i, de * a[i] + stretch[i])
         }
         Param::Armature(i) => (i, a[i]),
         _ => unreachable!("{param:?} is not a joint parameter"),

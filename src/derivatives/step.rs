@@ -1,25 +1,27 @@
 //! Step Jacobians: d(q', v') / d(q, v), d(q', v') / d tau and d(q', v') / d p:
 //! analytic through the articulated dynamics, the smooth model and the
-//! constraint model's solver ([`super::implicit`]); by dual numbers for the
+//! constraint model's solver ([`super::constraint`]); by dual numbers for the
 //! constraint model's contact parameters ([`super::constrained`]).
 
-use nalgebra::{DMatrix, DMatrixView, DMatrixViewMut};
+use nalgebra::{DMatrix, DMatrixView};
 
 use super::constrained::{dual_columns, DualTrees};
-use super::implicit::{add_invweight_partials, add_row_partials, differentiable, Scratch};
-use super::params::{implicit_diagonal_derivative, mass_product_derivative, residual_derivative};
+use super::constraint::{add_invweight_partials, add_row_partials, differentiable, Scratch};
+use super::gemm::gemm;
+use super::params::{mass_product_derivative, residual_derivative};
 use super::rnea::{rnea_derivatives, Sweep};
 use super::soft::{subtract_soft_derivatives, Columns};
 use super::window::WindowScratch;
 use crate::dynamics::cholesky;
-use crate::dynamics::solver::add_quadratic_rows;
+use crate::dynamics::constraint::solver::add_quadratic_rows;
+use crate::dynamics::integrator::{euler, tableau, weighted_sum, ImplicitPassive, Tableau};
 use crate::dynamics::world_frames;
 use crate::dynamics::{
     acceleration, check_inputs, crba, implicit_terms, integrate_euler, ltdl_factor, ltdl_inverse,
     ltdl_solve_columns, rnea, rnea_with_transforms, step,
 };
 use crate::dynamics::{Constrained, Data, StepError};
-use crate::model::{Integrator, Model, Param, PassiveMode};
+use crate::model::{Model, Param, PassiveMode};
 
 /// Which Jacobian blocks to compute; blocks not asked for cost nothing.
 #[derive(Clone, Copy, Debug, Default)]
@@ -32,20 +34,98 @@ pub struct Wrt<'a> {
     pub params: &'a [Param],
 }
 
-/// The next state and the requested Jacobian blocks (n x n, n x n and
-/// n x (total length of the parameters)); blocks not requested have no columns.
+/// The next state and the step's Jacobian in mjd_transitionFD's layout:
+/// 2 nv rows, d q' (in the tangent space at q') above d v'; columns the
+/// blocks [`Wrt`] asks for, in order: the state (q in the tangent space at
+/// q, then v: 2 nv), tau (nv), the parameters (their total length). A block
+/// not asked for has no columns. The named views ([`StepJacobians::dq_dq`],
+/// ...) are its blocks.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StepJacobians {
     pub q_next: Vec<f64>,
     pub v_next: Vec<f64>,
-    pub dq_dq: DMatrix<f64>,
-    pub dq_dv: DMatrix<f64>,
-    pub dv_dq: DMatrix<f64>,
-    pub dv_dv: DMatrix<f64>,
-    pub dq_dtau: DMatrix<f64>,
-    pub dv_dtau: DMatrix<f64>,
-    pub dq_dp: DMatrix<f64>,
-    pub dv_dp: DMatrix<f64>,
+    pub jacobian: DMatrix<f64>,
+    /// The first column and the width of the q, v, tau and parameter blocks.
+    columns: [(usize, usize); 4],
+}
+
+/// The column blocks of [`StepJacobians`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Block {
+    Q,
+    V,
+    Tau,
+    Params,
+}
+
+impl StepJacobians {
+    /// The rows of q' (`next_v` false) or v' against the columns of `block`.
+    fn block(&self, next_v: bool, block: Block) -> DMatrixView<'_, f64> {
+        let n = self.v_next.len();
+        let (start, len) = self.columns[block as usize];
+        self.jacobian
+            .view((if next_v { n } else { 0 }, start), (n, len))
+    }
+
+    pub fn dq_dq(&self) -> DMatrixView<'_, f64> {
+        self.block(false, Block::Q)
+    }
+
+    pub fn dq_dv(&self) -> DMatrixView<'_, f64> {
+        self.block(false, Block::V)
+    }
+
+    pub fn dv_dq(&self) -> DMatrixView<'_, f64> {
+        self.block(true, Block::Q)
+    }
+
+    pub fn dv_dv(&self) -> DMatrixView<'_, f64> {
+        self.block(true, Block::V)
+    }
+
+    pub fn dq_dtau(&self) -> DMatrixView<'_, f64> {
+        self.block(false, Block::Tau)
+    }
+
+    pub fn dv_dtau(&self) -> DMatrixView<'_, f64> {
+        self.block(true, Block::Tau)
+    }
+
+    /// Columns in the order of the flattened parameters.
+    pub fn dq_dp(&self) -> DMatrixView<'_, f64> {
+        self.block(false, Block::Params)
+    }
+
+    pub fn dv_dp(&self) -> DMatrixView<'_, f64> {
+        self.block(true, Block::Params)
+    }
+
+    /// d(q', v') / d(q, v): the state columns, 2 nv x 2 nv (mjd_transitionFD's A).
+    pub fn state(&self) -> DMatrixView<'_, f64> {
+        let (start, len) = self.columns[Block::Q as usize];
+        self.jacobian.columns(start, 2 * len)
+    }
+
+    /// d(q', v') / d tau: the tau columns, 2 nv x nv (mjd_transitionFD's B).
+    pub fn tau(&self) -> DMatrixView<'_, f64> {
+        let (start, len) = self.columns[Block::Tau as usize];
+        self.jacobian.columns(start, len)
+    }
+
+    /// The name of the first block with an entry that is not finite.
+    fn not_finite(&self) -> Option<&'static str> {
+        let blocks = [Block::Q, Block::V, Block::Tau, Block::Params];
+        let named = |next_v: bool, names: [&'static str; 4]| {
+            blocks
+                .into_iter()
+                .zip(names)
+                .map(move |(b, name)| (next_v, b, name))
+        };
+        named(false, ["dq_dq", "dq_dv", "dq_dtau", "dq_dp"])
+            .chain(named(true, ["dv_dq", "dv_dv", "dv_dtau", "dv_dp"]))
+            .find(|&(next_v, b, _)| self.block(next_v, b).iter().any(|x| !x.is_finite()))
+            .map(|(.., name)| name)
+    }
 }
 
 /// Buffers reused across calls; sized for a model's nv (and resized by
@@ -148,84 +228,84 @@ pub fn step_jacobians(
             ..*wrt
         }
     };
-    let analytic = match model.opt.integrator {
-        _ if !wrt.state && !wrt.control && analytic_wrt.params.is_empty() => None,
-        _ if super::dual_only(model) => None,
-        Integrator::Euler => {
-            let h = model.opt.timestep;
-            let mode = (model.opt.passive, h);
-            accel_derivatives(model, ws, mode, (q, v, tau), &analytic_wrt).then(|| {
-                integrate_euler(tree, h, (q, v, &ws.qdd), (&mut q_next, &mut v_next));
-                euler_blocks(&ws.dqdd, h, n, &analytic_wrt)
-            })
-        }
-        Integrator::Rk4 => {
-            let next = (&mut q_next[..], &mut v_next[..]);
-            step(tree, &model.opt, &mut ws.data, (q, v, tau), next)?;
-            rk4(model, ws, (q, v, tau), &analytic_wrt).map(|(dq, dv)| {
-                let (dq_dq, dq_dv, dq_dtau, dq_dp) = split(&dq, n, &analytic_wrt);
-                let (dv_dq, dv_dv, dv_dtau, dv_dp) = split(&dv, n, &analytic_wrt);
-                [dq_dq, dq_dv, dq_dtau, dq_dp, dv_dq, dv_dv, dv_dtau, dv_dp]
-            })
-        }
+    let analytic = if !wrt.state && !wrt.control && analytic_wrt.params.is_empty()
+        || super::dual_only(model)
+    {
+        None
+    } else if let Some(mode) = euler(&model.opt) {
+        accel_derivatives(model, ws, mode, (q, v, tau), &analytic_wrt).then(|| {
+            let h = mode.1;
+            integrate_euler(tree, h, (q, v, &ws.qdd), (&mut q_next, &mut v_next));
+            let mut jacobian = DMatrix::zeros(2 * n, ws.dqdd.ncols());
+            let targets = [jacobian.as_mut_slice()];
+            euler_columns(ws.dqdd.as_slice(), (h, n), analytic_wrt.state, targets);
+            jacobian
+        })
+    } else {
+        let tableau = tableau(model.opt.integrator).expect("not Euler");
+        let next = (&mut q_next[..], &mut v_next[..]);
+        step(tree, &model.opt, &mut ws.data, (q, v, tau), next)?;
+        runge_kutta(model, ws, tableau, (q, v, tau), &analytic_wrt)
     };
-    let blocks = match analytic {
-        Some(mut blocks) if !dual_params.is_empty() => {
+    let jacobian = match analytic {
+        Some(analytic) if !dual_params.is_empty() => {
             let params = Wrt {
                 params: &dual_params,
                 ..Wrt::default()
             };
-            let (dq, dv) = dual_columns(model, &mut ws.duals, (q, v, tau), &params)?;
-            blocks[3] = interleave(wrt.params, (&blocks[3], &dq), is_dual);
-            blocks[7] = interleave(wrt.params, (&blocks[7], &dv), is_dual);
-            blocks
+            let dual = dual_columns(model, &mut ws.duals, (q, v, tau), &params)?;
+            interleave(wrt.params, (&analytic, &stacked(dual)), is_dual)
         }
-        Some(blocks) => blocks,
+        Some(analytic) => analytic,
         None => {
             // The value from the plain step: the dual steps' agrees to rounding only
             // (nalgebra's products sum f64 and dual numbers in different orders).
             let next = (&mut q_next[..], &mut v_next[..]);
             step(tree, &model.opt, &mut ws.data, (q, v, tau), next)?;
-            let (dq, dv) = dual_columns(model, &mut ws.duals, (q, v, tau), wrt)?;
-            let (dq_dq, dq_dv, dq_dtau, dq_dp) = split(&dq, n, wrt);
-            let (dv_dq, dv_dv, dv_dtau, dv_dp) = split(&dv, n, wrt);
-            [dq_dq, dq_dv, dq_dtau, dq_dp, dv_dq, dv_dv, dv_dtau, dv_dp]
+            stacked(dual_columns(model, &mut ws.duals, (q, v, tau), wrt)?)
         }
     };
     if !q_next.iter().chain(&v_next).all(|x| x.is_finite()) {
         return Err(StepError::Diverged);
     }
-    const NAMES: [&str; 8] = [
-        "dq_dq", "dq_dv", "dq_dtau", "dq_dp", "dv_dq", "dv_dv", "dv_dtau", "dv_dp",
-    ];
-    let finite = |m: &DMatrix<f64>| m.as_slice().iter().all(|x| x.is_finite());
-    if let Some(k) = blocks.iter().position(|m| !finite(m)) {
-        return Err(StepError::JacobianNotFinite { block: NAMES[k] });
-    }
-    let [dq_dq, dq_dv, dq_dtau, dq_dp, dv_dq, dv_dv, dv_dtau, dv_dp] = blocks;
-    Ok(StepJacobians {
+    let columns = block_columns(n, jacobian.ncols(), wrt);
+    let out = StepJacobians {
         q_next,
         v_next,
-        dq_dq,
-        dq_dv,
-        dv_dq,
-        dv_dv,
-        dq_dtau,
-        dv_dtau,
-        dq_dp,
-        dv_dp,
-    })
+        jacobian,
+        columns,
+    };
+    match out.not_finite() {
+        Some(block) => Err(StepError::JacobianNotFinite { block }),
+        None => Ok(out),
+    }
 }
 
-/// The parameter columns in the order of `params` from the columns of the
-/// analytic ones and of the dual ones (`is_dual` tells which a parameter is).
+/// The rows d q' above d v', from their n-row halves.
+fn stacked((dq, dv): (DMatrix<f64>, DMatrix<f64>)) -> DMatrix<f64> {
+    let mut out = DMatrix::zeros(2 * dq.nrows(), dq.ncols());
+    out.rows_mut(0, dq.nrows()).copy_from(&dq);
+    out.rows_mut(dq.nrows(), dv.nrows()).copy_from(&dv);
+    out
+}
+
+/// The analytic Jacobian with its parameter columns, the last ones, and the
+/// dual ones (`is_dual` tells which a parameter is) in the order of `params`.
 fn interleave(
     params: &[Param],
     (analytic, dual): (&DMatrix<f64>, &DMatrix<f64>),
     is_dual: impl Fn(Param) -> bool,
 ) -> DMatrix<f64> {
+    let n_analytic: usize = params
+        .iter()
+        .filter(|p| !is_dual(**p))
+        .map(|p| p.size())
+        .sum();
+    let leading = analytic.ncols() - n_analytic;
     let mut out = DMatrix::zeros(analytic.nrows(), analytic.ncols() + dual.ncols());
-    let (mut a, mut d, mut col) = (0, 0, 0);
+    out.columns_mut(0, leading)
+        .copy_from(&analytic.columns(0, leading));
+    let (mut a, mut d, mut col) = (leading, 0, leading);
     for &p in params {
         let (from, next) = if is_dual(p) {
             (dual, &mut d)
@@ -260,66 +340,68 @@ fn block_columns(n: usize, total: usize, wrt: &Wrt) -> [(usize, usize); 4] {
     ]
 }
 
-/// Splits [q, v, tau, p] columns into their blocks.
-fn split(
-    m: &DMatrix<f64>,
-    n: usize,
-    wrt: &Wrt,
-) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
-    let [a, b, c, d] =
-        block_columns(n, m.ncols(), wrt).map(|(start, len)| m.columns(start, len).into_owned());
-    (a, b, c, d)
-}
-
-/// Semi-implicit Euler: v' = v + h qdd, q' = q + h v', so d v' = h d qdd
-/// (+ I on v) and d q' = h d v' (+ I on q). Returns the eight blocks
-/// [dq_dq, dq_dv, dq_dtau, dq_dp, dv_dq, dv_dv, dv_dtau, dv_dp].
-fn euler_blocks(dqdd: &DMatrix<f64>, h: f64, n: usize, wrt: &Wrt) -> [DMatrix<f64>; 8] {
-    // Scaled over contiguous slices: nalgebra's scalar products of views
-    // walk them entry by entry.
-    let scaled =
-        |m: &[f64], len: usize, by: f64| DMatrix::from_iterator(n, len, m.iter().map(|x| x * by));
-    let columns = block_columns(n, dqdd.ncols(), wrt);
-    let dv =
-        columns.map(|(start, len)| scaled(&dqdd.as_slice()[start * n..(start + len) * n], len, h));
-    let [mut dq_dq, mut dq_dv, dq_dtau, dq_dp] =
-        dv.each_ref().map(|m| scaled(m.as_slice(), m.ncols(), h));
-    let [dv_dq, mut dv_dv, dv_dtau, dv_dp] = dv;
-    if wrt.state {
+/// The Euler step's Jacobian columns from d qdd's (n rows each, in the
+/// order [q, v, tau, p] of `dqdd`), each into the next column of 2n rows of
+/// the column-major `targets` in turn (d q' above d v'): v' = v + h qdd and
+/// q' = q + h v' give d v' = h d qdd (+ I on v) and d q' = h d v' (+ h I
+/// on v, I on q), the identity blocks where `state` (the first 2n columns
+/// are the state's).
+pub(super) fn euler_columns<const N: usize>(
+    dqdd: &[f64],
+    (h, n): (f64, usize),
+    state: bool,
+    targets: [&mut [f64]; N],
+) {
+    if n == 0 {
+        return;
+    }
+    let targets = targets.into_iter().flat_map(|t| t.chunks_exact_mut(2 * n));
+    for (column, (target, source)) in targets.zip(dqdd.chunks_exact(n)).enumerate() {
+        let (dq, dv) = target.split_at_mut(n);
         for i in 0..n {
-            dv_dv[(i, i)] += 1.0;
-            dq_dv[(i, i)] += h;
-            dq_dq[(i, i)] += 1.0;
+            dv[i] = source[i] * h;
+            dq[i] = dv[i] * h;
+        }
+        if !state {
+            continue;
+        }
+        if column < n {
+            dq[column] += 1.0;
+        } else if column < 2 * n {
+            dv[column - n] += 1.0;
+            dq[column - n] += h;
         }
     }
-    [dq_dq, dq_dv, dq_dtau, dq_dp, dv_dq, dv_dv, dv_dtau, dv_dp]
 }
 
-/// Classic RK4 on x = (q, v), differentiated stage by stage: with x_1 = x,
-/// k_i = f(x_i), x_{i+1} = x + c_i k_i and x' = x + sum w_i k_i,
-/// d k_i = F_x(x_i) d x_i + F_u(x_i) for the inputs u = (tau, p).
-fn rk4(
+/// An explicit Runge-Kutta step ([`crate::dynamics::integrator`]) on
+/// x = (q, v), differentiated stage by stage: with x_1 = x, k_i = f(x_i),
+/// x_i = x + sum_j h a_ij k_j and x' = x + sum_i h b_i k_i,
+/// d k_i = F_x(x_i) d x_i + F_u(x_i) for the inputs u = (tau, p). Rows
+/// (q', v'); columns (q, v) if asked for, then the inputs. Hinges and
+/// slides only (q indexed as v).
+fn runge_kutta(
     model: &Model,
     ws: &mut Workspace,
+    tableau: &Tableau,
     (q, v, tau): (&[f64], &[f64], &[f64]),
     wrt: &Wrt,
-) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
+) -> Option<DMatrix<f64>> {
     let n = model.nv();
     let h = model.opt.timestep;
     let full = Wrt {
         state: true,
         ..*wrt
     };
-    // Columns of the result: (q, v) if asked for, then the inputs.
     let n_state = if wrt.state { 2 * n } else { 0 };
     let mut n_cols = 0;
-    let c = [h / 2.0, h / 2.0, h];
-    let w = [h / 6.0, h / 3.0, h / 3.0, h / 6.0];
     // d x_i / d(columns): starts as the identity on the state columns.
     let mut dx_stage = DMatrix::zeros(2 * n, 0);
     let mut total = DMatrix::zeros(2 * n, 0);
     let (mut qs, mut vs) = (q.to_vec(), v.to_vec());
-    for k in 0..4 {
+    // Per stage: d k, v (the rate of q) and qdd.
+    let (mut dk, mut rates, mut qdds) = (vec![], vec![], vec![]);
+    for k in 0..tableau.stages() {
         let mode = (PassiveMode::Explicit, h);
         if !accel_derivatives(model, ws, mode, (&qs, &vs, tau), &full) {
             return None;
@@ -337,26 +419,39 @@ fn rk4(
             total = dx_stage.clone();
         }
         // d k = [d v_stage; d qdd], with d qdd = Qx d x_stage + (direct input terms).
-        let mut dk = DMatrix::zeros(2 * n, n_cols);
-        dk.rows_mut(0, n).copy_from(&dx_stage.rows(n, n));
+        let mut dk_stage = DMatrix::zeros(2 * n, n_cols);
+        dk_stage.rows_mut(0, n).copy_from(&dx_stage.rows(n, n));
         let mut dqdd = d_state * &dx_stage;
         let mut inputs = dqdd.columns_mut(n_state, n_cols - n_state);
         inputs += d_inputs;
-        dk.rows_mut(n, n).copy_from(&dqdd);
-        total += &dk * w[k];
-        if k < 3 {
-            let mut next = &dk * c[k];
+        dk_stage.rows_mut(n, n).copy_from(&dqdd);
+        if let Some(w) = tableau.b[k].times(h) {
+            total += &dk_stage * w;
+        }
+        dk.push(dk_stage);
+        rates.push(vs.clone());
+        qdds.push(ws.qdd.clone());
+        if k + 1 < tableau.stages() {
+            let terms = || tableau.stage_terms(k + 1, h);
+            let mut next = DMatrix::zeros(2 * n, n_cols);
+            for (m, (j, a)) in terms().enumerate() {
+                if m == 0 {
+                    next = &dk[j] * a;
+                } else {
+                    next += &dk[j] * a;
+                }
+            }
             for i in 0..n_state {
                 next[(i, i)] += 1.0;
             }
             dx_stage = next;
             for i in 0..n {
-                qs[i] = q[i] + c[k] * vs[i];
-                vs[i] = v[i] + c[k] * ws.qdd[i];
+                qs[i] = q[i] + weighted_sum(terms(), &rates, i);
+                vs[i] = v[i] + weighted_sum(terms(), &qdds, i);
             }
         }
     }
-    Some((total.rows(0, n).into_owned(), total.rows(n, n).into_owned()))
+    Some(total)
 }
 
 /// The acceleration at (q, v, tau) under (mode, h) into `ws.qdd`, and its
@@ -452,11 +547,7 @@ fn add_passive_partials(
 ) {
     let tree = model.tree();
     let n = model.nv();
-    let spring_v = if mode == PassiveMode::ImplicitDampingStiffness {
-        h
-    } else {
-        0.0
-    };
+    let spring_v = ImplicitPassive::new(mode, h).spring_step();
     for i in 0..n {
         r_q[i * n + i] += tree.stiffness[i];
         r_v[i * n + i] += tree.damping[i] + spring_v * tree.stiffness[i];
@@ -466,7 +557,7 @@ fn add_passive_partials(
 /// The derivatives of the constraint model's acceleration in the state and
 /// tau (`wrt` asks for no parameters), its rows and solution `c` at the
 /// point (`ws.data` as the step left it: M, world frames). The solver's
-/// acceleration a: da = -H^-1 dg ([`super::implicit`]); MuJoCo's implicit
+/// acceleration a: da = -H^-1 dg ([`super::constraint`]); MuJoCo's implicit
 /// passive solve (M + E) qdd = M a (E = `ws.extra`) then gives
 /// (M + E) dqdd = M da + d(M y) with y = a - qdd, so
 /// dqdd = -G dg + (M + E)^-1 d(M y), G = (M + E)^-1 M H^-1 = H^-1 - (M + E)^-1 E H^-1
@@ -484,7 +575,7 @@ fn constrained_derivatives(
     let n = model.nv();
     let tree = model.tree();
     let a = &c.solution.qacc;
-    let implicit = mode != PassiveMode::Explicit;
+    let implicit = ImplicitPassive::new(mode, h).acts();
     // G into ws.gain (H^-1 from the solver's factor of H, when it is on the
     // final zones); (M + E)^-1 into ws.inverse (from the step's factor).
     let factor = ws.matrix.as_mut_slice();
@@ -510,7 +601,7 @@ fn constrained_derivatives(
                 *x = e * h;
             }
         }
-        product(
+        gemm(
             ws.gain.columns_mut(0, n),
             -1.0,
             &ws.inverse,
@@ -535,10 +626,10 @@ fn constrained_derivatives(
         add_passive_partials(model, (mode, h), (r_q, r_v));
         add_row_partials(tree, &ws.data, (v, a), c, (r_q, r_v), &mut ws.rows);
         let state = ws.dqdd.columns_mut(0, 2 * n);
-        product(state, -1.0, &ws.gain, ws.r.columns(0, 2 * n), 0.0);
+        gemm(state, -1.0, &ws.gain, ws.r.columns(0, 2 * n), 0.0);
         if implicit {
             let q_columns = ws.dqdd.columns_mut(0, n);
-            product(q_columns, 1.0, &ws.inverse, ws.dmy.columns(0, n), 1.0);
+            gemm(q_columns, 1.0, &ws.inverse, ws.dmy.columns(0, n), 1.0);
         }
     }
     if wrt.control {
@@ -550,101 +641,14 @@ fn constrained_derivatives(
         parameter_derivatives(model, ws, (mode, h), (v, &y), c, wrt);
         let start = columns - n_p;
         let p_columns = ws.dqdd.columns_mut(start, n_p);
-        product(p_columns, -1.0, &ws.gain, ws.r.columns(start, n_p), 0.0);
+        gemm(p_columns, -1.0, &ws.gain, ws.r.columns(start, n_p), 0.0);
         if implicit {
             let p_columns = ws.dqdd.columns_mut(start, n_p);
-            product(p_columns, 1.0, &ws.inverse, ws.dmy.columns(0, n_p), 1.0);
+            gemm(p_columns, 1.0, &ws.inverse, ws.dmy.columns(0, n_p), 1.0);
         }
     }
     ws.y = y;
     true
-}
-
-/// out = alpha a b + beta out, column by column over a's contiguous
-/// columns, skipping b's zeros (nalgebra's gemm goes through
-/// matrixmultiply, whose packing allocates: slower on matrices this small).
-/// Each output entry is summed from beta out over a's columns in order, in
-/// blocks of `BLOCK` rows held in registers, two blocks per pass over b;
-/// the last block overlaps the one before it when `BLOCK` does not divide
-/// the rows (an entry's sum is the same in either), and both are formed
-/// in one pass, from the entries before either is written.
-fn product(
-    mut out: DMatrixViewMut<f64>,
-    alpha: f64,
-    a: &DMatrix<f64>,
-    b: DMatrixView<f64>,
-    beta: f64,
-) {
-    let n = a.nrows();
-    let a = a.as_slice();
-    let terms = (alpha, a, beta);
-    for (mut column, b) in out.column_iter_mut().zip(b.column_iter()) {
-        let (column, b) = (column.as_mut_slice(), b.as_slice());
-        if n < BLOCK {
-            for (i, x) in column.iter_mut().enumerate() {
-                let mut sum = scaled(*x, beta);
-                for (k, &bk) in b.iter().enumerate().filter(|(_, bk)| **bk != 0.0) {
-                    sum += alpha * bk * a[k * n + i];
-                }
-                *x = sum;
-            }
-            continue;
-        }
-        let start = |block: usize| (block * BLOCK).min(n - BLOCK);
-        let mut blocks = n.div_ceil(BLOCK);
-        while blocks >= 2 {
-            let pair = [start(blocks - 2), start(blocks - 1)];
-            let sums = block_product(column, terms, b, pair);
-            for (s, sum) in pair.into_iter().zip(sums) {
-                column[s..s + BLOCK].copy_from_slice(&sum);
-            }
-            blocks -= 2;
-        }
-        if blocks == 1 {
-            let [sum] = block_product(column, terms, b, [0]);
-            column[..BLOCK].copy_from_slice(&sum);
-        }
-    }
-}
-
-/// Rows per block of [`product`].
-const BLOCK: usize = 8;
-
-/// beta x, with beta = 0 giving 0 and beta = 1 giving x exactly.
-fn scaled(x: f64, beta: f64) -> f64 {
-    if beta == 0.0 {
-        0.0
-    } else if beta == 1.0 {
-        x
-    } else {
-        x * beta
-    }
-}
-
-/// The blocks of rows start..start + BLOCK (for each start) of
-/// alpha a b + beta out, for one column b of length n and its output
-/// column `out`.
-#[inline(always)]
-fn block_product<const BLOCKS: usize>(
-    out: &[f64],
-    (alpha, a, beta): (f64, &[f64], f64),
-    b: &[f64],
-    starts: [usize; BLOCKS],
-) -> [[f64; BLOCK]; BLOCKS] {
-    let n = b.len();
-    let mut sums = starts.map(|s| std::array::from_fn(|r| scaled(out[s + r], beta)));
-    for (k, &bk) in b.iter().enumerate() {
-        if bk != 0.0 {
-            let s = alpha * bk;
-            for (sum, start) in sums.iter_mut().zip(starts) {
-                let a = &a[k * n + start..k * n + start + BLOCK];
-                for r in 0..BLOCK {
-                    sum[r] += s * a[r];
-                }
-            }
-        }
-    }
-    sums
 }
 
 /// The parameters' columns of dg into the last columns of `ws.r`: RNEA's
@@ -689,7 +693,8 @@ fn parameter_derivatives(
         }
         ws.r.column_mut(start + k).copy_from_slice(&ws.tau);
     }
-    if mode == PassiveMode::Explicit {
+    let implicit = ImplicitPassive::new(mode, h);
+    if !implicit.acts() {
         return;
     }
     reset(&mut ws.dmy, n, param_columns.len());
@@ -705,7 +710,7 @@ fn parameter_derivatives(
             (param, component),
             &mut ws.tau,
         );
-        if let Some((i, de)) = implicit_diagonal_derivative((mode, h), param) {
+        if let Some((i, de)) = implicit.partial(param) {
             ws.tau[i] -= de * ws.qdd[i];
         }
         ws.dmy.column_mut(k).copy_from_slice(&ws.tau);
@@ -718,40 +723,5 @@ fn reset(m: &mut DMatrix<f64>, rows: usize, cols: usize) {
         m.as_mut_slice().fill(0.0);
     } else {
         *m = DMatrix::zeros(rows, cols);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The blocked product equals the plain sum in the same order, bit for
-    /// bit, for sizes below, at and between multiples of the block, with
-    /// zeros in b and every kind of beta.
-    #[test]
-    fn product_sums_in_order() {
-        for n in [1, 3, 7, 8, 9, 16, 17, 20] {
-            let a = DMatrix::from_fn(n, n, |i, j| ((3 * i + 5 * j) % 7) as f64 / 7.0 - 0.3);
-            let b = DMatrix::from_fn(n, 3, |i, j| {
-                if (i + j) % 3 == 0 {
-                    0.0
-                } else {
-                    0.1 * (i as f64 - j as f64).sin()
-                }
-            });
-            let start = DMatrix::from_fn(n, 3, |i, j| (i + 2 * j) as f64 / 5.0);
-            for beta in [0.0, 1.0, -0.5] {
-                let mut out = start.clone();
-                product(out.columns_mut(0, 3), -1.5, &a, b.columns(0, 3), beta);
-                let expected = DMatrix::from_fn(n, 3, |i, j| {
-                    let mut sum = scaled(start[(i, j)], beta);
-                    for k in (0..n).filter(|&k| b[(k, j)] != 0.0) {
-                        sum += -1.5 * b[(k, j)] * a[(i, k)];
-                    }
-                    sum
-                });
-                assert_eq!(out, expected, "n = {n}, beta = {beta}");
-            }
-        }
     }
 }

@@ -3,15 +3,14 @@
 //! column-major, q' above v' in the rows and q before v in A's columns.
 //!
 //! Under semi-implicit Euler with the analytic derivatives they are written
-//! straight from d qdd (v' = v + h qdd, q' = q + h v': dv' = h dqdd + I on v,
-//! dq' = h dv' + I on q); otherwise assembled from [`step_jacobians`]'
-//! blocks. Either way the same numbers as those blocks, bit for bit.
+//! straight from d qdd as [`step_jacobians`] writes them; otherwise they are
+//! its state and tau columns. Either way the same numbers, bit for bit.
 
 use nalgebra::DMatrix;
 
-use super::step::{accel_derivatives, step_jacobians, Workspace, Wrt};
-use crate::dynamics::{check_inputs, integrate_euler, StepError};
-use crate::model::{Integrator, Model};
+use super::step::{accel_derivatives, euler_columns, step_jacobians, Workspace, Wrt};
+use crate::dynamics::{check_inputs, integrate_euler, integrator, StepError};
+use crate::model::Model;
 
 /// The next state and A, B of the module documentation; reused across
 /// calls (resized when the model's size changes).
@@ -54,12 +53,10 @@ pub fn transition_jacobians(
         control: true,
         params: &[],
     };
-    let h = model.opt.timestep;
-    let mode = (model.opt.passive, h);
-    if model.opt.integrator == Integrator::Euler
-        && !super::dual_only(model)
-        && accel_derivatives(model, ws, mode, (q, v, tau), &wrt)
+    let euler = integrator::euler(&model.opt).filter(|_| !super::dual_only(model));
+    if let Some(mode) = euler.filter(|&mode| accel_derivatives(model, ws, mode, (q, v, tau), &wrt))
     {
+        let h = mode.1;
         integrate_euler(
             model.tree(),
             h,
@@ -78,40 +75,17 @@ pub fn transition_jacobians(
                 return Err(StepError::JacobianNotFinite { block });
             }
         }
-        euler(ws.dqdd.as_slice(), h, n, out);
+        let targets = [out.a.as_mut_slice(), out.b.as_mut_slice()];
+        euler_columns(ws.dqdd.as_slice(), (h, n), true, targets);
     } else {
         // Checked as step_jacobians checks its blocks.
         let j = step_jacobians(model, ws, (q, v, tau), &wrt)?;
-        let blocks = [(0, 0, &j.dq_dq), (0, n, &j.dq_dv), (n, 0, &j.dv_dq)];
-        for (row, col, block) in blocks.into_iter().chain([(n, n, &j.dv_dv)]) {
-            out.a.view_mut((row, col), (n, n)).copy_from(block);
-        }
-        out.b.view_mut((0, 0), (n, n)).copy_from(&j.dq_dtau);
-        out.b.view_mut((n, 0), (n, n)).copy_from(&j.dv_dtau);
+        out.a.copy_from(&j.state());
+        out.b.copy_from(&j.tau());
         out.q_next.copy_from_slice(&j.q_next);
         out.v_next.copy_from_slice(&j.v_next);
     }
     Ok(())
-}
-
-/// A and B from d qdd (n x 3n column-major: q, v, tau columns) under Euler,
-/// in the order of operations of the Euler blocks of [`step_jacobians`].
-fn euler(dqdd: &[f64], h: f64, n: usize, out: &mut TransitionJacobians) {
-    let targets = out.a.as_mut_slice().chunks_exact_mut(2 * n);
-    let targets = targets.chain(out.b.as_mut_slice().chunks_exact_mut(2 * n));
-    for (column, (target, source)) in targets.zip(dqdd.chunks_exact(n)).enumerate() {
-        let (dq, dv) = target.split_at_mut(n);
-        for i in 0..n {
-            dv[i] = source[i] * h;
-            dq[i] = dv[i] * h;
-        }
-        if column < n {
-            dq[column] += 1.0;
-        } else if column < 2 * n {
-            dv[column - n] += 1.0;
-            dq[column - n] += h;
-        }
-    }
 }
 
 #[cfg(test)]
@@ -152,19 +126,15 @@ mod tests {
             let mut t = TransitionJacobians::default();
             transition_jacobians(&model, &mut ws, (&q, &v, &tau), &mut t).unwrap();
             let blocks = [
-                (t.a.view((0, 0), (n, n)), &j.dq_dq),
-                (t.a.view((0, n), (n, n)), &j.dq_dv),
-                (t.a.view((n, 0), (n, n)), &j.dv_dq),
-                (t.a.view((n, n), (n, n)), &j.dv_dv),
-                (t.b.view((0, 0), (n, n)), &j.dq_dtau),
-                (t.b.view((n, 0), (n, n)), &j.dv_dtau),
+                (t.a.view((0, 0), (n, n)), j.dq_dq()),
+                (t.a.view((0, n), (n, n)), j.dq_dv()),
+                (t.a.view((n, 0), (n, n)), j.dv_dq()),
+                (t.a.view((n, n), (n, n)), j.dv_dv()),
+                (t.b.view((0, 0), (n, n)), j.dq_dtau()),
+                (t.b.view((n, 0), (n, n)), j.dv_dtau()),
             ];
             for (k, (ours, theirs)) in blocks.into_iter().enumerate() {
-                assert_eq!(
-                    ours,
-                    theirs.view((0, 0), (n, n)),
-                    "{file} {integrator:?} block {k}"
-                );
+                assert_eq!(ours, theirs, "{file} {integrator:?} block {k}");
             }
             assert_eq!((&t.q_next, &t.v_next), (&j.q_next, &j.v_next));
             let mut bad = q.clone();

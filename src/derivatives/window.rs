@@ -21,8 +21,9 @@ use nalgebra::{DMatrix, DVector};
 use super::params::{add_body_force, joint_derivative, node_inertia_derivative};
 use super::step::{step_jacobians, Workspace, Wrt};
 use crate::dynamics::configuration::{subtract, tangent_rate};
+use crate::dynamics::integrator;
 use crate::dynamics::{acceleration, implicit_terms, integrate_euler, Data, StepError, Tree};
-use crate::model::{Integrator, Model, Param, ParamError, ParamMap, PassiveMode};
+use crate::model::{Model, Param, ParamError, ParamMap, PassiveMode};
 use crate::spatial::{Force, Inertia, Motion};
 
 /// One observed transition (q, v) --tau--> (q_next, v_next).
@@ -154,7 +155,7 @@ pub fn window_residuals_into(
     // constraint model's rows its solver's, and ball and free joints and
     // fluid forces dual numbers: those windows go through step_jacobians.
     let tree = model.tree();
-    let euler = model.opt.integrator == Integrator::Euler
+    let euler = integrator::euler(&model.opt).is_some()
         && !tree.has_constraints()
         && !super::dual_only(model)
         && !map.targets.iter().any(|(p, ..)| p.is_contact());
@@ -393,7 +394,7 @@ fn general_rows(
     put_residuals(tree, fit, rows.clone(), (&j.q_next, &j.v_next), tr, scale);
     if jacobian {
         let dp_dmu = map.jacobian();
-        let mut dq = &j.dq_dp * &dp_dmu;
+        let mut dq = j.dq_dp() * &dp_dmu;
         if !model.one_dof_joints() {
             // The q residual r = log(q_obs^-1 q') moves by J_r(r)^-1 dq' when q'
             // turns by dq' about its own axes.
@@ -408,7 +409,7 @@ fn general_rows(
         }
         let mut block = fit.jacobian.rows_mut(rows.start, 2 * n);
         block.rows_mut(0, n).copy_from(&dq);
-        block.rows_mut(n, n).copy_from(&(&j.dv_dp * &dp_dmu));
+        block.rows_mut(n, n).copy_from(&(j.dv_dp() * &dp_dmu));
         for (i, s) in scale.iter().enumerate() {
             block.row_mut(i).unscale_mut(*s);
         }

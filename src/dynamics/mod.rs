@@ -21,11 +21,11 @@ pub mod constraint;
 pub mod contact;
 mod crba;
 pub mod fluid;
+pub mod integrator;
 mod kinematics;
 mod ltdl;
 mod passive;
 mod rnea;
-pub mod solver;
 mod step;
 mod tree;
 
@@ -33,15 +33,14 @@ pub use aba::{aba, aba_with_transforms};
 pub use collision::{body_contact_forces, Contact};
 pub use contact::{add_soft_forces, add_soft_forces_with_transforms};
 pub use crba::{crba, crba_with_transforms};
+pub use integrator::{implicit_terms, integrate_euler};
 pub use kinematics::{
     body_force_to_joints, body_poses, point_jacobian, update_transforms, world_frames,
 };
 pub use ltdl::{ltdl_factor, ltdl_inverse, ltdl_solve, ltdl_solve_columns};
 pub use passive::{passive_forces, stretch};
 pub use rnea::{bias_forces, bias_forces_with_transforms, rnea, rnea_with_transforms};
-pub use step::{
-    acceleration, check_inputs, implicit_terms, integrate_euler, step, Constrained, StepError,
-};
+pub use step::{acceleration, check_inputs, step, Constrained, StepError};
 pub use tree::{body_inertia, BodyFrame, NodeJoint, Tree};
 
 use crate::spatial::{ArticulatedInertia, Force, Inertia, Motion, Real, Transform};
@@ -77,11 +76,9 @@ pub struct Data<T: Real> {
     pub contacts: Vec<Contact<T>>,
     /// The constraint model's last evaluation: its contacts, rows and solution.
     pub constrained: Option<Constrained<T>>,
-    /// Scratch vectors: the acceleration's (nv each), and RK4's stages
-    /// (qdd, q, v, the position step, the stage's tangent offset and rate:
-    /// nv, nq, then nv each).
+    /// Scratch vectors: the acceleration's (nv each), and the integrator's.
     scratch: [Vec<T>; 3],
-    stage: [Vec<T>; 6],
+    stage: integrator::Stages<T>,
     /// The constraint model's buffers.
     reuse: step::Reuse<T>,
 }
@@ -116,7 +113,7 @@ impl<T: Real> Data<T> {
             contacts: vec![],
             constrained: None,
             scratch: std::array::from_fn(|_| vec![T::zero(); n]),
-            stage: std::array::from_fn(|k| vec![T::zero(); if k == 1 { tree.nq() } else { n }]),
+            stage: integrator::Stages::new(tree),
             reuse: step::Reuse::new(n),
         }
     }

@@ -3,16 +3,16 @@
 use nalgebra::DMatrix;
 
 use super::collision::{ConstraintContact, Pre};
-use super::configuration::{integrate, tangent_rate};
+use super::constraint::solver::{solve, Scratch, Solution, Start};
 use super::constraint::{rows, unreachable_pair, Rows};
 use super::fluid::add_fluid_forces;
-use super::solver::{solve, Scratch, Solution, Start};
+use super::integrator::{euler_step, implicit_terms, runge_kutta, tableau, ImplicitPassive};
 use super::{
     aba_with_transforms, add_soft_forces_with_transforms, bias_forces_with_transforms,
-    crba_with_transforms, ltdl_factor, ltdl_solve, passive_forces, stretch, update_transforms,
-    world_frames, Data, Tree,
+    crba_with_transforms, ltdl_factor, ltdl_solve, passive_forces, update_transforms, world_frames,
+    Data, Tree,
 };
-use crate::model::{ContactModel, Integrator, Options, PassiveMode};
+use crate::model::{ContactModel, Options, PassiveMode};
 use crate::spatial::{lift, Real};
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -67,9 +67,10 @@ pub enum StepError {
 /// - `ImplicitDampingStiffness`: (M + hD + h^2 K) qdd = tau - c - D v - K (s(q) + h v),
 ///   i.e. damping at v' and the spring at q' (DART)
 ///
-/// RK4 integrates dq/dt = v, dv/dt = M^-1 (tau - c - D v - K s(q)) classically,
-/// its stages and result moved along the manifold as MuJoCo's mj_RungeKutta
-/// does.
+/// RK4 integrates dq/dt = v, dv/dt = M^-1 (tau - c - D v - K s(q)) classically
+/// by its Butcher tableau, its stages and result moved along the manifold as
+/// MuJoCo's mj_RungeKutta does ([`super::integrator`], which holds the
+/// implicit passive term too).
 ///
 /// Contact and joint-limit forces ([`super::contact`]) join tau on the right:
 /// explicit in the Euler step (evaluated at (q, v)), at each stage under RK4.
@@ -103,10 +104,10 @@ pub fn step<T: Real>(
             return Err(StepError::NoCollider(pair));
         }
     }
-    let h = opt.timestep;
-    match opt.integrator {
-        Integrator::Euler => euler(tree, opt.passive, h, data, (q, v, tau), (q_next, v_next)),
-        Integrator::Rk4 => rk4(tree, h, data, (q, v, tau), (q_next, v_next)),
+    let (state, next) = ((q, v, tau), (&mut *q_next, &mut *v_next));
+    match tableau(opt.integrator) {
+        None => euler_step(tree, (opt.passive, opt.timestep), data, state, next),
+        Some(t) => runge_kutta(tree, (t, opt.timestep), data, state, next),
     }
     if q_next.iter().chain(v_next.iter()).all(|x| x.is_finite()) {
         Ok(())
@@ -160,7 +161,8 @@ pub fn acceleration<T: Real>(
     for i in 0..tree.nv() {
         force[i] += tau[i];
     }
-    let implicit = (mode != PassiveMode::Explicit).then_some(&extra[..]);
+    let implicit = ImplicitPassive::new(mode, lift::<T>(h)).acts();
+    let implicit = implicit.then_some(&extra[..]);
     update_transforms(tree, data, q);
     let constraints = tree.contact_model == ContactModel::Constraint && tree.has_constraints();
     if constraints || !tree.fluid.is_empty() {
@@ -219,11 +221,12 @@ impl<T: Real> Default for Constrained<T> {
 /// nothing once they have grown: a last evaluation without rows (whose
 /// vectors the next one refills), the colliders' and the solver's scratch,
 /// a factored mass matrix and a vector of length nv; and where the next
-/// solve starts: at the last solution only between the stages of one RK4
-/// step ([`rk4`]), so that a step depends on its arguments alone.
+/// solve starts: at the last solution only between the stages of one
+/// Runge-Kutta step ([`super::integrator`]), so that a step depends on its
+/// arguments alone.
 #[derive(Clone, Debug)]
 pub struct Reuse<T: Real> {
-    start: Start,
+    pub(super) start: Start,
     spare: Option<Constrained<T>>,
     pre: Vec<Pre<T>>,
     solver: Scratch<T>,
@@ -254,7 +257,7 @@ impl<T: Real> Reuse<T> {
 /// 1. collision and constraint rows at (q, v) ([`super::constraint`]; with
 ///    none, the step is the plain articulated dynamics, bit for bit);
 /// 2. a0 = M^-1 (tau + tau_passive - c), M from CRBA (armature included);
-/// 3. the constrained acceleration and forces f ([`super::solver`]);
+/// 3. the constrained acceleration and forces f ([`super::constraint::solver`]);
 /// 4. with implicit passive terms (MuJoCo's Euler), the acceleration is
 ///    solved again with them: (M + diag(extra)) qdd = tau + tau_passive - c
 ///    + J^T f; otherwise qdd is the solver's.
@@ -307,115 +310,4 @@ fn constrained<T: Real>(
             ltdl_solve(tree, &r.factor, qdd);
         }
     }
-}
-
-/// For a semi-implicit Euler step: the springs' stretch where they act, and
-/// the diagonal added to M by the implicit passive terms (see [`step`]).
-pub fn implicit_terms<T: Real>(
-    tree: &Tree<T>,
-    (mode, h): (PassiveMode, f64),
-    (q, v): (&[T], &[T]),
-    stretched: &mut [T],
-    extra: &mut [T],
-) {
-    let h: T = lift(h);
-    stretch(tree, q, stretched);
-    for i in 0..tree.nv() {
-        let (d, k) = (tree.damping[i], tree.stiffness[i]);
-        extra[i] = match mode {
-            PassiveMode::Explicit => T::zero(),
-            PassiveMode::ImplicitDamping => h * d,
-            PassiveMode::ImplicitDampingStiffness => {
-                stretched[i] += h * v[i];
-                h * d + h * h * k
-            }
-        };
-    }
-}
-
-fn euler<T: Real>(
-    tree: &Tree<T>,
-    mode: PassiveMode,
-    h: f64,
-    data: &mut Data<T>,
-    (q, v, tau): (&[T], &[T], &[T]),
-    (q_next, v_next): (&mut [T], &mut [T]),
-) {
-    let mut qdd = std::mem::take(&mut data.stage[0]);
-    acceleration(tree, data, (mode, h), (q, v, tau), &mut qdd);
-    integrate_euler(tree, h, (q, v, &qdd), (q_next, v_next));
-    data.stage[0] = qdd;
-}
-
-/// v' = v + h qdd, q' = q (+) h v'.
-pub fn integrate_euler<T: Real>(
-    tree: &Tree<T>,
-    h: f64,
-    (q, v, qdd): (&[T], &[T], &[T]),
-    (q_next, v_next): (&mut [T], &mut [T]),
-) {
-    let h: T = lift(h);
-    for i in 0..v.len() {
-        v_next[i] = v[i] + h * qdd[i];
-    }
-    integrate(tree, q, v_next, h, q_next);
-}
-
-/// Classic RK4 on (q, v) with explicit passive forces. The weighted sums of the
-/// stage derivatives accumulate in (q_next, v_next).
-fn rk4<T: Real>(
-    tree: &Tree<T>,
-    timestep: f64,
-    data: &mut Data<T>,
-    (q, v, tau): (&[T], &[T], &[T]),
-    (q_next, v_next): (&mut [T], &mut [T]),
-) {
-    let h: T = lift(timestep);
-    let two = T::one() + T::one();
-    let mut stage = std::mem::take(&mut data.stage);
-    let [qdd, q_stage, v_stage, dq, theta, rate] = &mut stage;
-    q_stage.copy_from_slice(q);
-    v_stage.copy_from_slice(v);
-    v_next.copy_from_slice(v);
-    dq.fill(T::zero());
-    theta.fill(T::zero());
-    // Stage k is evaluated at (q (+) theta, v + step[k-1] qdd_(k-1)), theta =
-    // step[k-1] times the previous stage's tangent rate.
-    let step_to_next = [h / two, h / two, h, T::zero()];
-    let weight = [
-        h / (two * lift(3.0)),
-        h / lift(3.0),
-        h / lift(3.0),
-        h / (two * lift(3.0)),
-    ];
-    for k in 0..4 {
-        let stage_state = (&q_stage[..], &v_stage[..], tau);
-        // Stages 2 to 4 start their solve from the stage before's solution.
-        data.reuse.start = if k == 0 {
-            Start::Unconstrained
-        } else {
-            Start::Previous
-        };
-        acceleration(
-            tree,
-            data,
-            (PassiveMode::Explicit, timestep),
-            stage_state,
-            qdd,
-        );
-        // The stage derivative is (tangent rate, qdd).
-        tangent_rate(tree, theta, v_stage, rate);
-        for i in 0..tree.nv() {
-            dq[i] += weight[k] * rate[i];
-            v_next[i] += weight[k] * qdd[i];
-            theta[i] = step_to_next[k] * rate[i];
-            v_stage[i] = v[i] + step_to_next[k] * qdd[i];
-        }
-        if k < 3 {
-            integrate(tree, q, theta, T::one(), q_stage);
-        }
-    }
-    integrate(tree, q, dq, T::one(), q_next);
-    data.reuse.start = Start::Unconstrained;
-    data.stage = stage;
 }

@@ -3,10 +3,13 @@
 //!
 //! `Euler` and `RK4` map to [`Integrator::Euler`] and [`Integrator::Rk4`].
 //! `implicitfast` differs from Euler only by treating velocity-dependent forces
-//! implicitly; with joint damping the only such force here, that is Euler with
+//! implicitly (their velocity derivative, MuJoCo's qDeriv, joins the mass
+//! matrix); with joint damping the only such force here, that is Euler with
 //! implicit damping, so it loads as [`Integrator::Euler`] with
-//! [`PassiveMode::ImplicitDamping`]. `implicit` also linearises Coriolis forces
-//! (an O(h) difference) and is rejected. Passive forces are explicit under RK4
+//! [`PassiveMode::ImplicitDamping`]. In a fluid (density or viscosity
+//! nonzero) MuJoCo's qDeriv holds the fluid forces' derivative too, so
+//! `implicitfast` is rejected there. `implicit` also linearises Coriolis
+//! forces (an O(h) difference) and is rejected. Passive forces are explicit under RK4
 //! or when `<flag eulerdamp="disable">` (Euler only), else damping is implicit.
 //! `<flag gravity="disable">` loads as zero gravity; `<flag contact="disable">`
 //! and `<flag limit="disable">` switch off [`Options::contact`] and
@@ -68,6 +71,8 @@ struct Flags {
 pub fn read(file: &str, root: Node) -> Result<Options> {
     let mut opt = Options::default();
     let mut integrator = "Euler";
+    // The element that names the integrator.
+    let mut named = root;
     let mut flags = Flags {
         eulerdamp: true,
         gravity: true,
@@ -88,7 +93,9 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
             opt.timestep = h;
         }
         opt.gravity = a.vector("gravity")?.unwrap_or(opt.gravity);
-        integrator = read_integrator(&a)?.unwrap_or(integrator);
+        if let Some(name) = read_integrator(&a)? {
+            (integrator, named) = (name, node);
+        }
         read_solver(&a, &mut opt.solver)?;
         read_fluid(&a, &mut opt.fluid)?;
         check_unsupported(&a)?;
@@ -98,6 +105,14 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
             }
             read_flags(file, flag, &mut flags)?;
         }
+    }
+    if integrator == "implicitfast" && opt.fluid.acts() {
+        let (rho, mu) = (opt.fluid.density, opt.fluid.viscosity);
+        let msg = format!(
+            "integrator \"implicitfast\" is not supported in a fluid (density {rho}, viscosity \
+             {mu}): it takes the fluid forces' velocity derivative implicitly; use Euler or RK4"
+        );
+        return Err(xml::invalid(file, named, msg));
     }
     if !flags.gravity {
         opt.gravity = Vector3::zeros();
@@ -307,6 +322,40 @@ mod tests {
             "",
         ));
         assert_eq!(m.opt.gravity, Vector3::zeros());
+    }
+
+    /// implicitfast in a fluid is refused at the element naming it (its
+    /// fluid derivative is not computed); without a fluid it loads.
+    #[test]
+    fn implicitfast_in_a_fluid_is_refused() {
+        let fluid = r#"<option density="1.2"/>"#;
+        let implicitfast = "\n<option integrator=\"implicitfast\" viscosity=\"0\"/>";
+        let xml = model(&format!("{fluid}{implicitfast}"), &body(""), "");
+        let (line, element, message) = error(&xml);
+        let named = xml
+            .lines()
+            .position(|l| l.contains("implicitfast"))
+            .unwrap()
+            + 1;
+        assert_eq!((line as usize, element.as_str()), (named, "option"));
+        assert!(
+            message.contains("implicitfast") && message.contains("fluid"),
+            "{message}"
+        );
+        let viscous = model(
+            r#"<option integrator="implicitfast" viscosity="1e-5"/>"#,
+            &body(""),
+            "",
+        );
+        assert!(error(&viscous).2.contains("viscosity 0.00001"));
+        let m = load(&model(implicitfast, &body(""), ""));
+        assert_eq!(m.opt.passive, PassiveMode::ImplicitDamping);
+        let m = load(&model(
+            &format!("{fluid}<option integrator=\"RK4\"/>"),
+            &body(""),
+            "",
+        ));
+        assert_eq!(m.opt.fluid.density, 1.2);
     }
 
     #[test]

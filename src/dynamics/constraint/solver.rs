@@ -28,8 +28,8 @@
 
 use nalgebra::DMatrix;
 
-use super::cholesky;
-use super::constraint::{RowKind, Rows};
+use super::{RowKind, Rows};
+use crate::dynamics::cholesky;
 use crate::spatial::{lift, Real};
 
 /// Where a row (or a cone) is on its cost.

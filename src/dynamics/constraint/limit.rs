@@ -1,0 +1,55 @@
+//! Joint limit rows (MuJoCo's mj_instantiateLimit, efc_type
+//! mjCNSTR_LIMIT_JOINT) of hinges and slides: per limited dof i, one row
+//! per side within the margin: J = +e_i below the range (dist = q - lo) and
+//! -e_i above it (dist = hi - q), while dist < margin; A_ii =
+//! dof_invweight0 of dof i (see [`impedance`](mod@super::impedance)).
+
+use super::impedance::Block;
+use super::{At, ConstraintKind, Origin, RowKind, Rows};
+use crate::model::SolParams;
+use crate::spatial::{lift, Real};
+
+/// A joint limit: the range, the margin within which its rows exist, and
+/// its solver parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Limit<T: Real> {
+    pub range: (f64, f64),
+    pub margin: f64,
+    pub sol: SolParams<T>,
+}
+
+/// Appends the limit rows, dof by dof, the lower side first.
+pub(super) fn append<T: Real>(at: &At<T>, rows: &mut Rows<T>) {
+    let (tree, consts) = (at.tree, &at.tree.constraint);
+    for i in 0..tree.nv() {
+        let Some(Limit {
+            range: (lo, hi),
+            margin,
+            sol,
+        }) = consts.limits[i]
+        else {
+            continue;
+        };
+        let x = at.q[tree.joint[i]
+            .coordinate()
+            .expect("limits are on hinges and slides")];
+        for (dist, sign) in [(x - lift(lo), T::one()), (lift::<T>(hi) - x, -T::one())] {
+            if dist < lift(margin) {
+                rows.unit(i, sign);
+                let block = Block {
+                    origin: Origin {
+                        kind: ConstraintKind::JointLimit,
+                        id: i,
+                    },
+                    kind: &[RowKind::Unilateral],
+                    diag: &[consts.dof_invweight[i]],
+                    dist,
+                    margin,
+                    sol,
+                    floss: T::zero(),
+                };
+                rows.push(block, at.v, consts, None);
+            }
+        }
+    }
+}
