@@ -93,13 +93,13 @@ fn geoms_touch_where_their_shapes_say() {
                 &vec![0.0; n],
             )
             .unwrap();
-        let touching: Vec<_> = contacts.iter().filter(|c| c.depth > 0.0).collect();
+        let touching: Vec<_> = contacts.iter().filter(|c| c.dist < 0.0).collect();
         assert_eq!(touching.len(), count, "{shape}");
         for c in touching {
-            assert!((c.depth - 0.005).abs() < 1e-12, "{shape}: {}", c.depth);
+            assert!((-c.dist - 0.005).abs() < 1e-12, "{shape}: {}", -c.dist);
             assert!((c.normal - nalgebra::Vector3::z()).norm() < 1e-12);
-            assert!((c.point.z + 0.0025).abs() < 1e-12, "{shape}: midpoint");
-            assert_eq!(model.bodies[c.bodies[0]].name, "thing");
+            assert!((c.pos.z + 0.0025).abs() < 1e-12, "{shape}: midpoint");
+            assert_eq!(model.bodies[c.bodies[1]].name, "thing");
         }
     }
 }
@@ -140,7 +140,7 @@ fn a_pair_rubs_with_its_larger_friction_times_the_scale() {
 #[test]
 fn spheres_and_capsules_touch_at_their_closest_points() {
     // (shape, centre) -> the expected contact point, depth. The bar is geom
-    // a: the normal points from the thing into it.
+    // 2 (the law's a): the normal points from the thing into it.
     let cases = [
         // A capsule along x below the bar, crossing it: the axes are 0.095
         // apart, the point halfway into the overlap under the bar's axis.
@@ -176,19 +176,15 @@ fn spheres_and_capsules_touch_at_their_closest_points() {
         };
         assert_eq!(
             c.bodies.map(|b| model.bodies[b].name.as_str()),
-            ["bar", "thing"]
+            ["thing", "bar"]
         );
         assert!(
-            (c.depth - depth).abs() < 1e-12,
+            (-c.dist - depth).abs() < 1e-12,
             "{shape}: depth {}",
-            c.depth
+            -c.dist
         );
         let expected = nalgebra::Vector3::from(point);
-        assert!(
-            (c.point - expected).norm() < 1e-12,
-            "{shape}: {:?}",
-            c.point
-        );
+        assert!((c.pos - expected).norm() < 1e-12, "{shape}: {:?}", c.pos);
         let into_bar = (expected - nalgebra::Vector3::from(at)).normalize();
         assert!(
             (c.normal - into_bar).norm() < 1e-12,
@@ -258,7 +254,7 @@ fn steps_depend_on_their_inputs_only() {
     let contacts = model
         .contacts(&mut data, &q, &v, &vec![0.0; v.len()])
         .unwrap();
-    assert!(contacts.iter().any(|c| c.depth > 0.0), "in contact");
+    assert!(contacts.iter().any(|c| c.dist < 0.0), "in contact");
     assert_eq!(n, 9);
 }
 
@@ -274,7 +270,7 @@ fn the_half_cheetah_lands_and_stands() {
     let contacts = model
         .contacts(&mut data, &q, &v, &vec![0.0; v.len()])
         .unwrap();
-    let deepest = contacts.iter().map(|c| c.depth).fold(f64::MIN, f64::max);
+    let deepest = contacts.iter().map(|c| -c.dist).fold(f64::MIN, f64::max);
     let forces = body_contact_forces(&contacts, model.bodies.len());
     let lift: f64 = forces[1..].iter().map(|f| f.z).sum();
     let weight = 14.0 * 9.81;

@@ -317,7 +317,7 @@ fn at_depth(model: &Model, seed: u64, height: usize, depth: f64) -> (Vec<f64>, V
     let contacts = model
         .contacts(&mut model.data(), &q, &v, &vec![0.0; v.len()])
         .unwrap();
-    let deepest = contacts.iter().map(|c| c.depth).fold(f64::MIN, f64::max);
+    let deepest = contacts.iter().map(|c| -c.dist).fold(f64::MIN, f64::max);
     // Contacts beyond the cutoff are not listed: start from a touching pose.
     assert!(deepest > -0.02, "seed {seed}: no contact to move from");
     q[height] += deepest - depth;
@@ -360,7 +360,7 @@ fn jacobians_through_contact_match_finite_differences() {
                     &vec![0.0; state.1.len()],
                 )
                 .unwrap();
-            let deepest = contacts.iter().map(|c| c.depth).fold(f64::MIN, f64::max);
+            let deepest = contacts.iter().map(|c| -c.dist).fold(f64::MIN, f64::max);
             assert!(
                 (deepest - depth).abs() < 1e-9,
                 "{name} seed {seed}: {deepest}"
@@ -406,8 +406,8 @@ fn jacobians_through_capsule_contact_match_finite_differences() {
             let [c] = &contacts[..] else {
                 panic!("case {k}: one contact, got {}", contacts.len())
             };
-            assert_eq!(c.depth > 0.0, gap < 0.0, "case {k}: depth {}", c.depth);
-            let label = format!("case {k} seed {seed} depth {}", c.depth);
+            assert_eq!(c.dist < 0.0, gap < 0.0, "case {k}: depth {}", -c.dist);
+            let label = format!("case {k} seed {seed} depth {}", -c.dist);
             check_state_against_fd(&model, (q, v, tau), &label);
         }
     }

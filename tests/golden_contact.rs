@@ -65,13 +65,12 @@ fn compare(name: &str, golden: &Golden) -> (f64, f64, usize) {
         let ours = model.contacts(&mut data, &s.q, &s.v, &s.tau).unwrap();
         assert_eq!(ours.len(), s.contacts.len(), "{name} state {k}: contacts");
         for theirs in &s.contacts {
-            // Ours name geom 2 first (the geom the normal force pushes).
             let c = ours
                 .iter()
                 .find(|c| {
-                    let [a, b] = c.geoms.map(|g| model.geoms[g].name.as_str());
-                    [b, a] == [theirs.geoms[0].as_str(), theirs.geoms[1].as_str()]
-                        && (-c.depth - theirs.dist).abs() < 1e-12
+                    let [g1, g2] = c.geoms.map(|g| model.geoms[g].name.as_str());
+                    [g1, g2] == [theirs.geoms[0].as_str(), theirs.geoms[1].as_str()]
+                        && (c.dist - theirs.dist).abs() < 1e-12
                 })
                 .unwrap_or_else(|| panic!("{name} state {k}: no contact {:?}", theirs.geoms));
             // mj_contactForce: normal, tangential, torsional, rolling, in the frame.

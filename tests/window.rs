@@ -338,7 +338,7 @@ fn rows_match_through_contact() {
                 &vec![0.0; window[0].v.len()],
             )
             .unwrap();
-        assert!(contacts.iter().any(|c| c.depth > 0.0));
+        assert!(contacts.iter().any(|c| c.dist < 0.0));
         let mut ws = Workspace::new(&model);
         let fit = assert_rows_match(&mut model, &mut ws, (&map, &mu), (&window, &scale));
         assert!(

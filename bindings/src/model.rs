@@ -399,13 +399,15 @@ impl PyModel {
         let out = PyList::empty(py);
         for c in contacts {
             let d = PyDict::new(py);
-            let geoms = c.geoms.map(|g| self.model.geoms[g].name.clone());
-            let bodies = c.bodies.map(|b| self.model.bodies[b].name.clone());
+            // Python's a and b are geoms 2 and 1, its depth -dist.
+            let [g1, g2] = c.geoms.map(|g| self.model.geoms[g].name.clone());
+            let [b1, b2] = c.bodies.map(|b| self.model.bodies[b].name.clone());
+            let (geoms, bodies) = ([g2, g1], [b2, b1]);
             d.set_item("geoms", PyTuple::new(py, geoms)?)?;
             d.set_item("bodies", PyTuple::new(py, bodies)?)?;
-            d.set_item("point", PyArray1::from_slice(py, c.point.as_slice()))?;
+            d.set_item("point", PyArray1::from_slice(py, c.pos.as_slice()))?;
             d.set_item("normal", PyArray1::from_slice(py, c.normal.as_slice()))?;
-            d.set_item("depth", c.depth)?;
+            d.set_item("depth", -c.dist)?;
             d.set_item("normal_force", c.normal_force)?;
             d.set_item("friction", PyArray1::from_slice(py, c.friction.as_slice()))?;
             d.set_item("force", PyArray1::from_slice(py, c.force().as_slice()))?;
@@ -466,7 +468,7 @@ impl PyModel {
             .contacts(&mut self.data, &q, &v, &tau)
             .map_err(|e| PyValueError::new_err(format!("contacts: {e}")))?;
         let finite = |c: &Contact<f64>| {
-            c.point.iter().chain(&c.force()).all(|x| x.is_finite()) && c.depth.is_finite()
+            c.pos.iter().chain(&c.force()).all(|x| x.is_finite()) && c.dist.is_finite()
         };
         if !contacts.iter().all(finite) {
             return Err(PyValueError::new_err(

@@ -88,7 +88,8 @@ pub fn simulate(
     Ok(())
 }
 
-/// The geom pairs [a, b] that may touch, as the contacts name them.
+/// The geom pairs that may touch, as [geom 2, geom 1] of their contacts
+/// (the geom the normal force pushes first; the smooth model's [a, b]).
 fn sensed_pairs(model: &Model) -> Vec<[usize; 2]> {
     match model.opt.contact_model {
         ContactModel::Smooth => contact_pairs(model),
@@ -112,7 +113,8 @@ fn normal_forces(
         return Ok(out);
     }
     for c in model.contacts(data, q, v, tau)? {
-        if let Some(k) = pairs.iter().position(|&p| p == c.geoms) {
+        let [g1, g2] = c.geoms;
+        if let Some(k) = pairs.iter().position(|&p| p == [g2, g1]) {
             out[k] += c.normal_force;
         }
     }

@@ -23,7 +23,8 @@
 use nalgebra::{DMatrix, Matrix3};
 use num_dual::Dual64;
 
-use crate::dynamics::contact::{pair_contacts, softplus, Contact, Pair, Soft, CUTOFF_WIDTHS};
+use crate::dynamics::collision::Contact;
+use crate::dynamics::contact::{pair_contacts, softplus, Pair, Soft, CUTOFF_WIDTHS};
 use crate::dynamics::{Data, Tree};
 use crate::model::{Model, Param};
 use crate::spatial::{Force, Motion, Transform};
@@ -60,7 +61,7 @@ pub(super) fn subtract_soft_derivatives(
     let mut next = 0;
     for pair in &tree.pairs {
         let geoms = pair.geoms.map(|g| &tree.geoms[g]);
-        let ids = geoms.map(|g| g.geom);
+        let ids = [geoms[1].geom, geoms[0].geom];
         let count = data.contacts[next..]
             .iter()
             .take_while(|c| c.geoms == ids)
@@ -70,7 +71,7 @@ pub(super) fn subtract_soft_derivatives(
             let mut add = |col: usize, contacts: &[Contact<Dual64>]| {
                 for c in contacts {
                     let f = c.force();
-                    let d = Force::new(c.point.cross(&f).map(|x| x.eps), f.map(|x| x.eps));
+                    let d = Force::new(c.pos.cross(&f).map(|x| x.eps), f.map(|x| x.eps));
                     if let Some(k) = geoms[0].node {
                         df[k * width + col] += d;
                     }

@@ -4,11 +4,12 @@
 //! inputs (no solver, no warm start, no contact cache).
 //!
 //! Conventions:
-//! - A contact between geoms a and b has a world point `point` (halfway
-//!   between the two surfaces along the normal), a unit `normal` in world
-//!   coordinates pointing from b into a (the direction of the force on a), and
-//!   a penetration `depth` d (> 0 overlapping, < 0 at a separation of -d).
-//!   When one geom is a plane it is b.
+//! - A contact between geoms a and b has a world point (halfway between the
+//!   two surfaces along the normal), a unit normal n in world coordinates
+//!   pointing from b into a (the direction of the force on a), and a
+//!   penetration depth d (> 0 overlapping, < 0 at a separation of -d). When
+//!   one geom is a plane it is b. The [`Contact`] record names them in
+//!   MuJoCo's convention: geom 1 is b, geom 2 is a, `dist` = -d.
 //! - Normal force on a, with s(d) = w ln(1 + e^(d/w)) (softplus of width w,
 //!   s' = sigmoid(d/w)) and the penetration rate d' = -n . (v_a - v_b) at the point:
 //!   N = k s(d) + c s'(d) d'. It can pull (N < 0) while separating fast: the
@@ -45,9 +46,9 @@
 //! closest point on the other segment exactly at its end), and where two
 //! segments touch (distance 0: no normal).
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Vector3;
 
-use super::collision::make_frame;
+use super::collision::{apart, candidates, make_frame, Contact, Filter, GeomFrame};
 
 use super::{update_transforms, world_frames, Data, Tree};
 #[cfg(doc)]
@@ -88,18 +89,6 @@ impl<T: Real> Soft<T> {
     }
 }
 
-/// A geom that takes part in a contact pair, placed in its node's frame.
-#[derive(Clone, Debug, PartialEq)]
-pub struct GeomFrame<T: Real> {
-    /// Index of the geom in the model, and its body.
-    pub geom: usize,
-    pub body: usize,
-    pub node: Option<usize>,
-    /// From the node's frame (or the world's) to the geom's frame.
-    pub offset: Transform<T>,
-    pub shape: Shape,
-}
-
 /// A pair of geoms that may touch: indices into the tree's geoms (b the
 /// plane when there is one), and max(mu_a, mu_b), the larger of their
 /// sliding friction coefficients (before the scale `contact/friction`).
@@ -109,105 +98,25 @@ pub struct Pair {
     pub friction: f64,
 }
 
-/// One contact at a state; see the module documentation for the frame.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Contact<T: Real> {
-    /// Model indices of the geoms a and b, and of their bodies.
-    pub geoms: [usize; 2],
-    pub bodies: [usize; 2],
-    pub point: Vector3<T>,
-    pub normal: Vector3<T>,
-    pub depth: T,
-    /// N, along `normal` on a (N).
-    pub normal_force: T,
-    /// F_t on a, world coordinates (N).
-    pub friction: Vector3<T>,
-    /// The torsional and rolling friction moments on a, world coordinates
-    /// (N m; the constraint model's condim 4 and 6, else zero).
-    pub torque: Vector3<T>,
-    /// The contact frame, rows: `normal` and two tangents (MuJoCo's frame:
-    /// the collider's, or from the normal by MuJoCo's rule).
-    pub frame: Matrix3<T>,
-}
-
-impl<T: Real> Contact<T> {
-    /// The total force on geom a (world coordinates); b feels its opposite.
-    pub fn force(&self) -> Vector3<T> {
-        self.normal * self.normal_force + self.friction
-    }
-
-    /// Force and moment on a in the contact frame, as MuJoCo's mj_contactForce
-    /// gives them: normal, the two tangential forces, the torsional moment
-    /// and the two rolling moments.
-    pub fn in_frame(&self) -> [T; 6] {
-        let row = |k: usize| self.frame.row(k).transpose();
-        [
-            self.normal_force,
-            row(1).dot(&self.friction),
-            row(2).dot(&self.friction),
-            row(0).dot(&self.torque),
-            row(1).dot(&self.torque),
-            row(2).dot(&self.torque),
-        ]
-    }
-}
-
-/// The net contact force on each body (world coordinates, N), from a list of
-/// contacts; `nbody` is the model's number of bodies.
-pub fn body_contact_forces<T: Real>(contacts: &[Contact<T>], nbody: usize) -> Vec<Vector3<T>> {
-    let mut out = vec![Vector3::zeros(); nbody];
-    for c in contacts {
-        let f = c.force();
-        out[c.bodies[0]] += f;
-        out[c.bodies[1]] -= f;
-    }
-    out
-}
-
 /// The geom pairs that may touch, as model geom indices [a, b] (b the plane
-/// when there is one), in model order; empty when contacts are off.
+/// when there is one), in model order: the candidates under the smooth
+/// model's [`Filter`] whose shapes its law supports; empty when contacts
+/// are off.
 pub fn contact_pairs(spec: &Spec) -> Vec<[usize; 2]> {
-    if !spec.opt.contact {
-        return vec![];
-    }
-    // The rigid body each body moves with: itself, or its parent's if welded.
-    let mut weld = vec![0; spec.bodies.len()];
-    for (b, body) in spec.bodies.iter().enumerate().skip(1) {
-        weld[b] = if body.joints.is_empty() {
-            weld[body.parent]
-        } else {
-            b
-        };
-    }
-    let weld_parent = |w: usize| weld[spec.bodies[w].parent];
-    let mut pairs = vec![];
-    for (i, gi) in spec.geoms.iter().enumerate() {
-        for (j, gj) in spec.geoms.iter().enumerate().skip(i + 1) {
-            let (wi, wj) = (weld[gi.body], weld[gj.body]);
-            let masks = gi.contype & gj.conaffinity != 0 || gj.contype & gi.conaffinity != 0;
-            let related = wi == wj
-                || (wi != 0 && wj != 0 && (wi == weld_parent(wj) || wj == weld_parent(wi)));
-            if !masks || related {
-                continue;
+    candidates(spec, Filter::SMOOTH)
+        .into_iter()
+        .filter_map(|[i, j]| match (spec.geoms[i].shape, spec.geoms[j].shape) {
+            (Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. }, Shape::Plane)
+            | (
+                Shape::Sphere { .. } | Shape::Capsule { .. },
+                Shape::Sphere { .. } | Shape::Capsule { .. },
+            ) => Some([i, j]),
+            (Shape::Plane, Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. }) => {
+                Some([j, i])
             }
-            match (gi.shape, gj.shape) {
-                (
-                    Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. },
-                    Shape::Plane,
-                )
-                | (
-                    Shape::Sphere { .. } | Shape::Capsule { .. },
-                    Shape::Sphere { .. } | Shape::Capsule { .. },
-                ) => pairs.push([i, j]),
-                (
-                    Shape::Plane,
-                    Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. },
-                ) => pairs.push([j, i]),
-                _ => {}
-            }
-        }
-    }
-    pairs
+            _ => None,
+        })
+        .collect()
 }
 
 /// softplus of width w and its derivative: (w ln(1 + e^(d/w)), sigmoid(d/w)),
@@ -269,7 +178,7 @@ pub fn add_soft_forces_with_transforms<T: Real>(
         pair_contacts(&tree.soft, pair, geoms, (poses, vels), &mut data.contacts);
         for c in &data.contacts[start..] {
             let f = c.force();
-            let world = Force::new(c.point.cross(&f), f);
+            let world = Force::new(c.pos.cross(&f), f);
             if let Some(n) = geoms[0].node {
                 data.world_force[n] += world;
             }
@@ -307,11 +216,11 @@ pub fn pair_contacts<T: Real, U: Real>(
     let mut emit = |point, normal, depth: T| {
         if depth > cutoff {
             contacts.push(Contact {
-                geoms: [ga.geom, gb.geom],
-                bodies: [ga.body, gb.body],
-                point,
+                geoms: [gb.geom, ga.geom],
+                bodies: [gb.body, ga.body],
+                pos: point,
                 normal,
-                depth,
+                dist: -depth,
                 normal_force: T::zero(),
                 friction: Vector3::zeros(),
                 torque: Vector3::zeros(),
@@ -323,71 +232,15 @@ pub fn pair_contacts<T: Real, U: Real>(
     let mu = soft.friction * lift::<T>(pair.friction);
     let slip: T = lift(soft.slip);
     for c in &mut contacts[start..] {
-        let at = |m: &Motion<T>| m.lin + m.ang.cross(&c.point);
+        let at = |m: &Motion<T>| m.lin + m.ang.cross(&c.pos);
         let rel = at(&vels[0]) - at(&vels[1]);
         let normal_speed = c.normal.dot(&rel);
-        let (s, ds) = softplus(c.depth, soft.width);
+        let (s, ds) = softplus(-c.dist, soft.width);
         let elastic = soft.stiffness * s;
         c.normal_force = elastic - soft.damping * ds * normal_speed;
         let tangent = rel - c.normal * normal_speed;
         let norm = (tangent.norm_squared() + slip * slip).sqrt();
         c.friction = tangent * (-mu * elastic / norm);
-    }
-}
-
-impl<T: Real> GeomFrame<T> {
-    /// From the world to the geom's frame, given each node's `world` transform.
-    pub fn pose(&self, world: &[Transform<T>]) -> Transform<T> {
-        match self.node {
-            Some(n) => self.offset.compose(&world[n]),
-            None => self.offset,
-        }
-    }
-
-    /// The geom's centre in world coordinates.
-    fn centre(&self, world: &[Transform<T>]) -> Vector3<T> {
-        match self.node {
-            Some(n) => world[n].trans + world[n].rot.tr_mul(&self.offset.trans),
-            None => self.offset.trans,
-        }
-    }
-}
-
-/// The radius of a sphere about a shape's centre that holds it (infinite for
-/// a plane).
-fn reach(shape: &Shape) -> f64 {
-    match *shape {
-        Shape::Plane => f64::INFINITY,
-        Shape::Sphere { radius } => radius,
-        Shape::Capsule {
-            radius,
-            half_length,
-        }
-        | Shape::Cylinder {
-            radius,
-            half_length,
-        } => radius + half_length,
-        Shape::Box { half } => half.norm(),
-        Shape::Ellipsoid { radii } => radii.max(),
-    }
-}
-
-/// Whether geom a (never a plane) is farther than `cutoff` from geom b by
-/// their bounding spheres (b's: its plane when it is one).
-pub(crate) fn apart<T: Real>(
-    a: &GeomFrame<T>,
-    b: &GeomFrame<T>,
-    world: &[Transform<T>],
-    cutoff: f64,
-) -> bool {
-    let gap = a.centre(world) - b.centre(world);
-    let limit: T = lift(reach(&a.shape) + cutoff);
-    match b.shape {
-        Shape::Plane => {
-            let x = b.pose(world);
-            x.rot.row(2).transpose().dot(&gap) > limit
-        }
-        _ => gap.norm() > limit + lift::<T>(reach(&b.shape)),
     }
 }
 

@@ -14,8 +14,6 @@
 #![allow(clippy::needless_range_loop)]
 
 mod aba;
-mod box_box;
-mod capsule_box;
 pub mod cholesky;
 pub mod collision;
 pub mod configuration;
@@ -32,7 +30,8 @@ mod step;
 mod tree;
 
 pub use aba::{aba, aba_with_transforms};
-pub use contact::{add_soft_forces, add_soft_forces_with_transforms, body_contact_forces, Contact};
+pub use collision::{body_contact_forces, Contact};
+pub use contact::{add_soft_forces, add_soft_forces_with_transforms};
 pub use crba::{crba, crba_with_transforms};
 pub use integrator::{implicit_terms, integrate_euler};
 pub use kinematics::{

@@ -12,10 +12,10 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::collision::{collision_pairs, CollisionPair};
+use super::collision::{collision_pairs, CollisionPair, GeomFrame};
 use super::configuration::{rotation_matrix, Coordinates};
 use super::constraint::{invweight0, ConstraintConsts, Limit};
-use super::contact::{contact_pairs, GeomFrame, Pair, Soft};
+use super::contact::{contact_pairs, Pair, Soft};
 use super::fluid::{fluid_bodies, FluidBody};
 use crate::model::params::inertia_to_six;
 use crate::model::{Body, ContactModel, Fluid, JointKind, Param, SoftOptions, Spec};
@@ -367,13 +367,12 @@ impl<T: Real> Tree<T> {
         }
         let geom = &model.geoms[g];
         let frame = self.body[geom.body];
-        self.geoms.push(GeomFrame {
-            geom: g,
-            body: geom.body,
-            node: frame.node,
-            offset: Transform::from_pose_f64(&geom.rot, &geom.pos).compose(&frame.offset),
-            shape: geom.shape,
-        });
+        let offset = Transform::from_pose_f64(&geom.rot, &geom.pos).compose(&frame.offset);
+        self.geoms.push(GeomFrame::new(
+            (g, geom.body, frame.node),
+            offset,
+            geom.shape,
+        ));
         self.geoms.len() - 1
     }
 

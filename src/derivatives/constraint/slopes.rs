@@ -8,7 +8,7 @@
 use nalgebra::{Matrix3, Vector3};
 use num_dual::Dual64;
 
-use crate::dynamics::collision::{contact_geometry, ConstraintContact, Pre, MINVAL};
+use crate::dynamics::collision::{contact_geometry, fixed_sphere, ConstraintContact, Pre, MINVAL};
 use crate::dynamics::{Data, Tree};
 use crate::model::Shape;
 use crate::spatial::Transform;
@@ -162,17 +162,6 @@ impl OnPlane {
             de,
             ddist,
         }
-    }
-}
-
-/// The radius r and the hint h (zero for none) of [`OnPlane`] for a sphere,
-/// a capsule or a box at `pose`; None for other shapes.
-fn fixed_sphere(shape: &Shape, pose: &Transform<f64>) -> Option<(f64, Vector3<f64>)> {
-    match *shape {
-        Shape::Sphere { radius } => Some((radius, Vector3::zeros())),
-        Shape::Capsule { radius, .. } => Some((radius, pose.axes().column(2).into())),
-        Shape::Box { .. } => Some((0.0, Vector3::zeros())),
-        _ => None,
     }
 }
 

@@ -15,7 +15,7 @@
 
 use super::impedance::Block;
 use super::{At, ConstraintKind, Origin, RowKind, Rows};
-use crate::dynamics::collision::{collide, out_of_reach, ConstraintContact, Pre};
+use crate::dynamics::collision::{apart, collide, ConstraintContact, Pre};
 use crate::dynamics::{Contact, Data, Tree};
 use crate::model::Cone;
 use crate::spatial::{lift, Real};
@@ -33,7 +33,12 @@ pub fn contacts<T: Real>(
         let geoms = pair.geoms.map(|g| &tree.geoms[g]);
         // Bounding spheres farther apart than the pair's reach hold no contact
         // (MuJoCo's broad phase): the colliders need not run.
-        if out_of_reach(pair, geoms, &data.world) {
+        if apart(
+            geoms[0],
+            geoms[1],
+            &data.world,
+            pair.params.margin + pair.params.gap,
+        ) {
             continue;
         }
         let poses = geoms.map(|g| g.pose(&data.world));
@@ -224,10 +229,9 @@ impl<T: Real> std::ops::Deref for Mixing<T> {
     }
 }
 
-/// The force of each contact from the rows' forces, in the smooth model's
-/// [`Contact`] form (MuJoCo's mj_contactForce, also in world coordinates): a
-/// is geom 2 and b geom 1, the normal from b into a, depth = -dist; in the
-/// contact frame, a pyramid's normal force is the sum of its edge forces and
+/// The force of each contact from the rows' forces, as a [`Contact`]
+/// (MuJoCo's mj_contactForce, in world coordinates): in the contact frame,
+/// a pyramid's normal force is the sum of its edge forces and
 /// its k-th frictional component mu_k (f+ - f-) of edge pair k; an elliptic
 /// cone's are its row forces. Tangential forces and torsional and rolling
 /// moments go to world coordinates through the frame.
@@ -243,11 +247,11 @@ pub fn contact_forces<T: Real>(
             let local = in_frame(c, &force[first..first + count]);
             let row = |k: usize| c.frame.row(k).transpose();
             Contact {
-                geoms: [c.geoms[1], c.geoms[0]],
-                bodies: [c.bodies[1], c.bodies[0]],
-                point: c.pos,
+                geoms: c.geoms,
+                bodies: c.bodies,
+                pos: c.pos,
                 normal: row(0),
-                depth: -c.dist,
+                dist: c.dist,
                 normal_force: local[0],
                 friction: row(1) * local[1] + row(2) * local[2],
                 torque: row(0) * local[3] + row(1) * local[4] + row(2) * local[5],
@@ -267,7 +271,12 @@ pub fn unreachable_pair<T: Real>(tree: &Tree<T>, data: &Data<T>) -> Option<[usiz
         .filter(|p| !p.supported)
         .find(|p| {
             let geoms = p.geoms.map(|g| &tree.geoms[g]);
-            !out_of_reach(p, geoms, &data.world)
+            !apart(
+                geoms[0],
+                geoms[1],
+                &data.world,
+                p.params.margin + p.params.gap,
+            )
         })
         .map(|p| p.geoms.map(|g| tree.geoms[g].geom))
 }

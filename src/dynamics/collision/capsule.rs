@@ -1,18 +1,84 @@
-//! Capsule against box, as MuJoCo computes it: the point of the capsule's
-//! segment closest to the box (from the segment's ends against the box's
-//! faces, and the segment against each of the box's 12 edges), a second point
-//! along the segment where the capsule lies along a face or across an edge,
-//! and a sphere of the capsule's radius against the box at each.
+//! Capsule against capsule and against box, as MuJoCo computes them.
 //!
-//! Work happens in the box's frame. The closest-feature code (`kind`) is
-//! MuJoCo's: -3 or -1, an end of the segment (-1 or +1) nearest a face; 0-8,
-//! an edge, with kind / 3 telling where on the box's edge (0 its lower
-//! corner, 1 inside, 2 its upper corner) and kind % 3 where on the segment.
+//! Capsule-capsule: the closest points of the segments (clamped as MuJoCo
+//! clamps them) as two spheres; (nearly) parallel axes give up to two
+//! contacts from the segments' ends.
+//!
+//! Capsule-box: the point of the capsule's segment closest to the box (from
+//! the segment's ends against the box's faces, and the segment against each
+//! of the box's 12 edges), a second point along the segment where the
+//! capsule lies along a face or across an edge, and a sphere of the capsule's
+//! radius against the box at each. Work happens in the box's frame. The
+//! closest-feature code (`kind`) is MuJoCo's: -3 or -1, an end of the segment
+//! (-1 or +1) nearest a face; 0-8, an edge, with kind / 3 telling where on
+//! the box's edge (0 its lower corner, 1 inside, 2 its upper corner) and
+//! kind % 3 where on the segment.
 
 use nalgebra::Vector3;
 
-use super::collision::{sphere_box, Placed, Pre, MINVAL};
+use super::sphere::{ball_box, balls};
+use super::{clip, Placed, Pre, MINVAL};
+use crate::model::Shape;
 use crate::spatial::{lift, Real};
+
+/// MuJoCo's capsule-capsule (see the module documentation).
+pub(super) fn capsule<T: Real>(
+    (s1, p1): (&Shape, &Placed<T>),
+    (s2, p2): (&Shape, &Placed<T>),
+    margin: T,
+    out: &mut Vec<Pre<T>>,
+) {
+    let ([r1, h1, _], [r2, h2, _]) = (s1.size(), s2.size());
+    let (r1, r2): (T, T) = (lift(r1), lift(r2));
+    let axis1 = p1.axis(2) * lift::<T>(h1);
+    let axis2 = p2.axis(2) * lift::<T>(h2);
+    let dif = p1.pos - p2.pos;
+    let ma = axis1.dot(&axis1);
+    let mb = -axis1.dot(&axis2);
+    let mc = axis2.dot(&axis2);
+    let u = -axis1.dot(&dif);
+    let v = axis2.dot(&dif);
+    let det = ma * mc - mb * mb;
+    let one = T::one();
+    let at = |p: &Placed<T>, axis: &Vector3<T>, x: T| Placed {
+        pos: p.pos + axis * x,
+        mat: p.mat,
+    };
+    if det.abs() >= lift(MINVAL) {
+        let mut x1 = (mc * u - mb * v) / det;
+        let mut x2 = (ma * v - mb * u) / det;
+        if x1 > one {
+            x1 = one;
+            x2 = (v - mb) / mc;
+        } else if x1 < -one {
+            x1 = -one;
+            x2 = (v + mb) / mc;
+        }
+        if x2 > one {
+            x2 = one;
+            x1 = clip((u - mb) / ma, -one, one);
+        } else if x2 < -one {
+            x2 = -one;
+            x1 = clip((u + mb) / ma, -one, one);
+        }
+        let (s1, s2) = (at(p1, &axis1, x1), at(p2, &axis2, x2));
+        return balls(&s1, r1, &s2, r2, margin, out);
+    }
+    let start = out.len();
+    for end in [one, -one] {
+        let x2 = clip((v - mb * end) / mc, -one, one);
+        let (s1, s2) = (at(p1, &axis1, end), at(p2, &axis2, x2));
+        balls(&s1, r1, &s2, r2, margin, out);
+    }
+    for end in [one, -one] {
+        if out.len() - start >= 2 {
+            return;
+        }
+        let x1 = clip((u - mb * end) / ma, -one, one);
+        let (s1, s2) = (at(p1, &axis1, x1), at(p2, &axis2, end));
+        balls(&s1, r1, &s2, r2, margin, out);
+    }
+}
 
 /// The closest feature found so far.
 struct Closest<T: Real> {
@@ -26,13 +92,15 @@ struct Closest<T: Real> {
     edge: usize,
 }
 
-/// The contacts of a capsule (radius, half-length) against a box, appended to `out`.
-pub(super) fn collide<T: Real>(
-    (capsule, [radius, half_length]): (&Placed<T>, [f64; 2]),
-    (cube, half): (&Placed<T>, &Vector3<f64>),
+/// MuJoCo's capsule-box (see the module documentation).
+pub(super) fn cuboid<T: Real>(
+    (s1, capsule): (&Shape, &Placed<T>),
+    (s2, cube): (&Shape, &Placed<T>),
     margin: T,
     out: &mut Vec<Pre<T>>,
 ) {
+    let ([radius, half_length, _], half) = (s1.size(), Vector3::from(s2.size()));
+    let half = &half;
     let size: Vector3<T> = half.map(lift);
     let (r, len): (T, T) = (lift(radius), lift(half_length));
     let pos = cube.mat.tr_mul(&(capsule.pos - cube.pos));
@@ -62,9 +130,9 @@ pub(super) fn collide<T: Real>(
         pos: cube.mat * (pos + halfaxis * s) + cube.pos,
         mat: capsule.mat,
     };
-    sphere_box(&sphere_at(best.segment), r, cube, half, margin, out);
+    ball_box(&sphere_at(best.segment), r, cube, half, margin, out);
     if let Some(second) = second {
-        sphere_box(
+        ball_box(
             &sphere_at(second + best.segment),
             r,
             cube,
@@ -298,12 +366,43 @@ mod tests {
             mat: lying,
         };
         let mut out: Vec<Pre<f64>> = vec![];
-        let half = Vector3::new(0.3, 0.3, 0.1);
-        collide((&capsule, [0.05, 0.2]), (&cube, &half), 0.0, &mut out);
+        let shapes = (
+            Shape::Capsule {
+                radius: 0.05,
+                half_length: 0.2,
+            },
+            Shape::Box {
+                half: Vector3::new(0.3, 0.3, 0.1),
+            },
+        );
+        cuboid((&shapes.0, &capsule), (&shapes.1, &cube), 0.0, &mut out);
         assert_eq!(out.len(), 2);
         for c in &out {
             assert!((c.dist + 0.001).abs() < 1e-15, "{}", c.dist);
             assert!((c.normal + Vector3::z()).norm() < 1e-15); // from the capsule into the box
+        }
+    }
+
+    #[test]
+    fn parallel_capsules_touch_at_two_points() {
+        let lying = Matrix3::new(0.0, 0.0, 1.0, 0.0, 1.0, 0.0, -1.0, 0.0, 0.0);
+        let a = Placed {
+            pos: Vector3::zeros(),
+            mat: lying,
+        };
+        let b = Placed {
+            pos: Vector3::new(0.1, 0.0, 0.09),
+            mat: lying,
+        };
+        let shape = Shape::Capsule {
+            radius: 0.05,
+            half_length: 0.2,
+        };
+        let mut out: Vec<Pre<f64>> = vec![];
+        capsule((&shape, &a), (&shape, &b), 0.0, &mut out);
+        assert_eq!(out.len(), 2);
+        for c in &out {
+            assert!((c.dist + 0.01).abs() < 1e-15 && (c.normal - Vector3::z()).norm() < 1e-15);
         }
     }
 }

@@ -11,7 +11,8 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::collision::{clip, normalize, Pre};
+use super::{clip, normalize, Placed, Pre, MINVAL};
+use crate::model::Shape;
 use crate::spatial::{lift, Real};
 
 /// Slack of the separation tests, times the summed half-sizes.
@@ -24,19 +25,19 @@ const SGN_EPS: f64 = 1e-9;
 const DUP_EPS: f64 = 1e-14;
 /// Relative penalty of an edge axis against the best face axis on near-ties.
 const EDGE_BIAS: f64 = 1e-6;
-const MINVAL: f64 = 1e-15;
 /// Vertex capacity of the clipped polygon.
 const MAX_VERT: usize = 12;
 
-/// The contacts of box 1 (centre, axes as columns, half-sizes) against box 2
-/// within `margin`, appended to `out`.
-pub(super) fn collide<T: Real>(
-    (pos1, mat1, half1): (Vector3<T>, Matrix3<T>, &Vector3<f64>),
-    (pos2, mat2, half2): (Vector3<T>, Matrix3<T>, &Vector3<f64>),
+/// The contacts of box 1 against box 2 within `margin`, appended to `out`.
+pub(super) fn cuboid<T: Real>(
+    (b1, p1): (&Shape, &Placed<T>),
+    (b2, p2): (&Shape, &Placed<T>),
     margin: T,
     out: &mut Vec<Pre<T>>,
 ) {
-    let (s1, s2): (Vector3<T>, Vector3<T>) = (half1.map(lift), half2.map(lift));
+    let (pos1, mat1, pos2, mat2) = (p1.pos, p1.mat, p2.pos, p2.mat);
+    let (s1, s2): (Vector3<T>, Vector3<T>) =
+        (b1.size().map(lift).into(), b2.size().map(lift).into());
     let pos21 = mat1.tr_mul(&(pos2 - pos1));
     let pos12 = mat2.tr_mul(&(pos1 - pos2));
     let rot = mat1.tr_mul(&mat2);
@@ -255,33 +256,33 @@ fn face<T: Real>(g: &Faces<T>, code: usize, margin: T, out: &mut Vec<Pre<T>>) {
     cx[2] = sgn * cx[2] - size_ref[a];
     du[2] *= sgn;
     dv[2] *= sgn;
-    let mut poly: Vec<Vector3<T>> = [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)]
-        .into_iter()
-        .map(|(su, sv)| cx + du * lift::<T>(su) + dv * lift::<T>(sv))
-        .collect();
+    let mut poly = Polygon::empty();
+    for (su, sv) in [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)] {
+        poly.push(cx + du * lift::<T>(su) + dv * lift::<T>(sv));
+    }
     for (coord, sign, limit) in [
         (0, 1.0, size_ref[ax]),
         (0, -1.0, size_ref[ax]),
         (1, 1.0, size_ref[ay]),
         (1, -1.0, size_ref[ay]),
     ] {
-        poly = clip_half_plane(poly, coord, lift(sign), limit);
+        poly = clip_half_plane(&poly, coord, lift(sign), limit);
     }
     let dupe2 = lift::<T>(DUP_EPS) * (size_ref[ax] * size_ref[ax] + size_ref[ay] * size_ref[ay]);
-    let mut accepted: Vec<Vector3<T>> = vec![];
-    for v in poly {
+    let mut accepted = Polygon::empty();
+    for &v in poly.vertices() {
         let near = |q: &Vector3<T>| {
             let (dx, dy) = (q.x - v.x, q.y - v.y);
             dx * dx + dy * dy < dupe2
         };
-        if v.z <= margin && !accepted.iter().any(near) {
+        if v.z <= margin && !accepted.vertices().iter().any(near) {
             accepted.push(v);
         }
     }
     let nsign = if ref1 { sgn } else { -sgn };
     let normal = mat_ref.column(a) * nsign;
     let half: T = lift(0.5);
-    for v in accepted {
+    for &v in accepted.vertices() {
         let mut local = Vector3::zeros();
         local[ax] = v.x;
         local[ay] = v.y;
@@ -295,29 +296,52 @@ fn face<T: Real>(g: &Faces<T>, code: usize, margin: T, out: &mut Vec<Pre<T>>) {
     }
 }
 
+/// A polygon of at most [`MAX_VERT`] vertices (x, y, height), on the stack.
+#[derive(Clone, Copy)]
+struct Polygon<T: Real> {
+    vertices: [Vector3<T>; MAX_VERT],
+    len: usize,
+}
+
+impl<T: Real> Polygon<T> {
+    fn empty() -> Self {
+        Polygon {
+            vertices: [Vector3::zeros(); MAX_VERT],
+            len: 0,
+        }
+    }
+
+    fn vertices(&self) -> &[Vector3<T>] {
+        &self.vertices[..self.len]
+    }
+
+    /// Appends `v`; a full polygon keeps its vertices.
+    fn push(&mut self, v: Vector3<T>) {
+        if self.len < MAX_VERT {
+            self.vertices[self.len] = v;
+            self.len += 1;
+        }
+    }
+}
+
 /// The polygon clipped to sign * v[coord] <= limit (vertices' heights
 /// interpolated along the cut edges); unchanged when wholly inside.
-fn clip_half_plane<T: Real>(
-    poly: Vec<Vector3<T>>,
-    coord: usize,
-    sign: T,
-    limit: T,
-) -> Vec<Vector3<T>> {
-    let d: Vec<T> = poly.iter().map(|p| sign * p[coord] - limit).collect();
-    if d.iter().all(|x| *x <= T::zero()) {
-        return poly;
+fn clip_half_plane<T: Real>(poly: &Polygon<T>, coord: usize, sign: T, limit: T) -> Polygon<T> {
+    let beyond = |p: &Vector3<T>| sign * p[coord] - limit;
+    if poly.vertices().iter().all(|p| beyond(p) <= T::zero()) {
+        return *poly;
     }
-    let n = poly.len();
-    let mut out = Vec::with_capacity(MAX_VERT);
+    let n = poly.len;
+    let mut out = Polygon::empty();
     for k in 0..n {
         let k1 = (k + 1) % n;
-        let (p, dp, dq) = (poly[k], d[k], d[k1]);
-        if dp <= T::zero() && out.len() < MAX_VERT {
+        let (p, q) = (poly.vertices[k], poly.vertices[k1]);
+        let (dp, dq) = (beyond(&p), beyond(&q));
+        if dp <= T::zero() {
             out.push(p);
         }
         let crosses = (dp < T::zero() && dq > T::zero()) || (dp > T::zero() && dq < T::zero());
-        if crosses && out.len() < MAX_VERT {
-            let q = poly[k1];
+        if crosses {
             let t = dp / (dp - dq);
             out.push(p + (q - p) * t);
         }
@@ -331,13 +355,21 @@ mod tests {
     use nalgebra::Rotation3;
 
     fn boxes(pos2: [f64; 3], rot1: Rotation3<f64>, rot2: Rotation3<f64>) -> Vec<Pre<f64>> {
-        let half = Vector3::new(0.1, 0.1, 0.1);
+        let cube = Shape::Box {
+            half: Vector3::new(0.1, 0.1, 0.1),
+        };
         let mut out = vec![];
         let (b1, b2) = (
-            (Vector3::zeros(), *rot1.matrix(), &half),
-            (Vector3::from(pos2), *rot2.matrix(), &half),
+            Placed {
+                pos: Vector3::zeros(),
+                mat: *rot1.matrix(),
+            },
+            Placed {
+                pos: Vector3::from(pos2),
+                mat: *rot2.matrix(),
+            },
         );
-        collide(b1, b2, 0.0, &mut out);
+        cuboid((&cube, &b1), (&cube, &b2), 0.0, &mut out);
         out
     }
 

@@ -1,0 +1,82 @@
+//! The geoms of a tree's pairs, placed on their nodes, and the broad phase:
+//! whether two geoms' bounding spheres are apart.
+
+use nalgebra::Vector3;
+
+use crate::model::Shape;
+use crate::spatial::{lift, Real, Transform};
+
+/// A geom that takes part in a pair, placed in its node's frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GeomFrame<T: Real> {
+    /// Index of the geom in the model, and its body.
+    pub geom: usize,
+    pub body: usize,
+    pub node: Option<usize>,
+    /// From the node's frame (or the world's) to the geom's frame.
+    pub offset: Transform<T>,
+    pub shape: Shape,
+    /// The shape's bounding radius ([`Shape::rbound`]), computed once.
+    pub rbound: f64,
+}
+
+impl<T: Real> GeomFrame<T> {
+    /// Model geom `geom` of body `body`, fixed to `node` by `offset`.
+    pub fn new(
+        (geom, body, node): (usize, usize, Option<usize>),
+        offset: Transform<T>,
+        shape: Shape,
+    ) -> Self {
+        GeomFrame {
+            geom,
+            body,
+            node,
+            offset,
+            shape,
+            rbound: shape.rbound(),
+        }
+    }
+
+    /// From the world to the geom's frame, given each node's `world` transform.
+    pub fn pose(&self, world: &[Transform<T>]) -> Transform<T> {
+        match self.node {
+            Some(n) => self.offset.compose(&world[n]),
+            None => self.offset,
+        }
+    }
+
+    /// The geom's centre in world coordinates.
+    fn centre(&self, world: &[Transform<T>]) -> Vector3<T> {
+        match self.node {
+            Some(n) => world[n].trans + world[n].rot.tr_mul(&self.offset.trans),
+            None => self.offset.trans,
+        }
+    }
+}
+
+/// The broad phase of both contact models: whether geoms a and b are
+/// farther apart than `reach` by their bounding spheres, a plane's being its
+/// half-space (the gap along its normal). A plane may be either geom; when
+/// neither is one, the bounding radii are summed as rbound(a) + reach +
+/// rbound(b).
+pub fn apart<T: Real>(
+    a: &GeomFrame<T>,
+    b: &GeomFrame<T>,
+    world: &[Transform<T>],
+    reach: f64,
+) -> bool {
+    let (a, b) = if a.shape == Shape::Plane && b.shape != Shape::Plane {
+        (b, a)
+    } else {
+        (a, b)
+    };
+    let gap = a.centre(world) - b.centre(world);
+    let limit: T = lift(a.rbound + reach);
+    match b.shape {
+        Shape::Plane => {
+            let x = b.pose(world);
+            x.rot.row(2).transpose().dot(&gap) > limit
+        }
+        _ => gap.norm() > limit + lift::<T>(b.rbound),
+    }
+}
