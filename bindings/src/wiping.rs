@@ -9,13 +9,13 @@
 use engine::control::admittance::{Admittance, Gains, F_GOAL};
 use engine::dynamics::Data;
 use engine::experiments::wiping::Uc;
-use engine::model::Model;
 use engine::model::State;
 use engine::osi::{CmaEs, CmaEsOptions, Lm};
 use engine::tasks::wiping::{
     closed_loop_step, tip_target, LoopState, Segments, Unknown, Wiping, APPROACH, CANONICAL,
     CONTACT_FORCE, GAINS_LOWER, GAINS_UPPER, STEPS,
 };
+use engine::Model;
 use numpy::ndarray::Array2;
 use numpy::{PyArray1, PyArray2};
 use pyo3::exceptions::{PyOSError, PyValueError};

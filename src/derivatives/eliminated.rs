@@ -50,8 +50,9 @@ use crate::dynamics::constraint::{contacts, world_frames};
 use crate::dynamics::{
     aba_with_transforms, implicit_terms, passive_forces, rnea, update_transforms, Data,
 };
-use crate::model::{ContactModel, Integrator, Model, ParamMap, PassiveMode};
+use crate::model::{ContactModel, Integrator, ParamMap, PassiveMode};
 use crate::spatial::{Force, Motion};
+use crate::Model;
 
 /// Below this fraction of its own norm, what is left of a constraint
 /// direction after the ones before it are taken out adds nothing new.

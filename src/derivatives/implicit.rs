@@ -613,7 +613,8 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 mod tests {
     use super::super::constrained::dual_columns;
     use super::super::{step_jacobians, Workspace, Wrt};
-    use crate::model::{Integrator, Model, Param};
+    use crate::model::{Integrator, Param};
+    use crate::Model;
 
     /// The analytic state, control and parameter columns (every body and
     /// joint parameter) equal the dual numbers' through the whole step, along

@@ -11,7 +11,8 @@ use nalgebra::DMatrix;
 
 use super::step::{accel_derivatives, step_jacobians, Workspace, Wrt};
 use crate::dynamics::{check_inputs, integrate_euler, StepError};
-use crate::model::{Integrator, Model};
+use crate::model::Integrator;
+use crate::Model;
 
 /// The next state and A, B of the module documentation; reused across
 /// calls (resized when the model's size changes).

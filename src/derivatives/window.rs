@@ -22,8 +22,9 @@ use super::params::{add_body_force, joint_derivative, node_inertia_derivative};
 use super::step::{step_jacobians, Workspace, Wrt};
 use crate::dynamics::configuration::{subtract, tangent_rate};
 use crate::dynamics::{acceleration, implicit_terms, integrate_euler, Data, StepError, Tree};
-use crate::model::{Integrator, Model, Param, ParamError, ParamMap, PassiveMode};
+use crate::model::{Integrator, Param, ParamError, ParamMap, PassiveMode};
 use crate::spatial::{Force, Inertia, Motion};
+use crate::Model;
 
 /// One observed transition (q, v) --tau--> (q_next, v_next).
 #[derive(Clone, Debug, PartialEq)]

@@ -41,7 +41,7 @@ pub use rnea::{bias_forces, bias_forces_with_transforms, rnea, rnea_with_transfo
 pub use step::{
     acceleration, check_inputs, implicit_terms, integrate_euler, step, Constrained, StepError,
 };
-pub use tree::{body_inertia, BodyFrame, NodeJoint, Tree};
+pub use tree::{BodyFrame, NodeJoint, Tree};
 
 use crate::spatial::{ArticulatedInertia, Force, Inertia, Motion, Real, Transform};
 use nalgebra::DMatrix;
