@@ -15,6 +15,7 @@
 //! # }
 //! ```
 
+pub mod compile;
 pub mod control;
 pub mod derivatives;
 pub mod dynamics;
@@ -26,4 +27,5 @@ pub mod rl;
 pub mod spatial;
 pub mod tasks;
 
-pub use model::{Model, ModelError};
+pub use compile::Model;
+pub use model::ModelError;

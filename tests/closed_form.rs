@@ -3,7 +3,7 @@
 mod common;
 
 use diffosi::dynamics::{bias_forces, crba, Data};
-use diffosi::model::Model;
+use diffosi::Model;
 use nalgebra::{Matrix2, Vector2, Vector3};
 
 fn load(name: &str) -> Model {

@@ -6,7 +6,8 @@ mod common;
 
 use diffosi::derivatives::{step_jacobians, Workspace, Wrt};
 use diffosi::dynamics::body_contact_forces;
-use diffosi::model::{mjcf, Model, Param};
+use diffosi::model::Param;
+use diffosi::Model;
 
 fn cheetah() -> Model {
     common::smooth(Model::load(common::model_path("reference_models/half_cheetah.xml")).unwrap())
@@ -56,7 +57,7 @@ fn pairs_follow_masks_and_the_parent_child_rule() {
     </body>
   </worldbody>
 </mujoco>"#;
-    let model = common::smooth(mjcf::parse(text, "chain.xml").unwrap());
+    let model = common::smooth(Model::from_mjcf(text, "chain.xml").unwrap());
     let pairs: Vec<[&str; 2]> = common::contact_pair_names(&model);
     let expected = [
         ["ground", "a"],
@@ -121,7 +122,7 @@ fn a_pair_rubs_with_its_larger_friction_times_the_scale() {
   </worldbody>
 </mujoco>"#
         );
-        let mut model = common::smooth(mjcf::parse(&text, "rub.xml").unwrap());
+        let mut model = common::smooth(Model::from_mjcf(&text, "rub.xml").unwrap());
         model.set_param("contact/friction", &[scale]).unwrap();
         let contacts = model
             .contacts(&mut model.data(), &[0.0, 0.0], &[0.3, 0.0], &[0.0, 0.0])

@@ -6,7 +6,8 @@ mod common;
 
 use diffosi::derivatives::{step_jacobians, StepJacobians, Workspace, Wrt};
 use diffosi::dynamics::{step, Data, Tree};
-use diffosi::model::{Integrator, Model, Param, PassiveMode};
+use diffosi::model::{Integrator, Param, PassiveMode};
+use diffosi::Model;
 use nalgebra::{DMatrix, DMatrixView};
 use num_dual::Dual64;
 

@@ -13,10 +13,11 @@
 mod common;
 
 use common::{random_model, random_state, rng};
-use diffosi::model::{Integrator, Model, PassiveMode, State};
+use diffosi::model::{Integrator, PassiveMode, State};
 use diffosi::osi::mlp::{train_mlp, MlpConfig};
 use diffosi::rl::Policy;
 use diffosi::tasks::{Cartpole, Task};
+use diffosi::Model;
 use rand::RngExt;
 
 /// A rollout of `steps` seeded random forces in [-1, 1] from a seeded state.

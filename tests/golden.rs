@@ -7,7 +7,8 @@ mod common;
 
 use common::{rel_err, Rollout};
 use diffosi::dynamics::{bias_forces, crba, Data};
-use diffosi::model::{Fluid, Integrator, Model, PassiveMode};
+use diffosi::model::{Fluid, Integrator, PassiveMode};
+use diffosi::Model;
 use nalgebra::Vector3;
 use serde::Deserialize;
 use sha2::Digest;

@@ -9,7 +9,7 @@
 mod common;
 
 use common::rel_err;
-use diffosi::model::Model;
+use diffosi::Model;
 use serde::Deserialize;
 use sha2::Digest;
 

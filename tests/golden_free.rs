@@ -9,7 +9,8 @@
 mod common;
 
 use common::{rel_err, Rollout};
-use diffosi::model::{Fluid, Integrator, Model, PassiveMode};
+use diffosi::model::{Fluid, Integrator, PassiveMode};
+use diffosi::Model;
 use serde::Deserialize;
 
 #[derive(Deserialize)]

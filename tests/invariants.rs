@@ -4,7 +4,8 @@ mod common;
 
 use common::{bias, energy, mass_matrix, random_model, random_state};
 use diffosi::dynamics::{aba, rnea, step, Data};
-use diffosi::model::{Integrator, Model, PassiveMode};
+use diffosi::model::{Integrator, PassiveMode};
+use diffosi::Model;
 use nalgebra::DVector;
 
 /// Random trees, and every model in reference_models/ (MJCF and URDF).

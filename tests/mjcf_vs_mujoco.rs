@@ -16,7 +16,8 @@ use std::path::{Path, PathBuf};
 mod common;
 
 use common::gym_assets;
-use diffosi::model::{mjcf, Integrator, JointKind, Model, PassiveMode, Shape};
+use diffosi::model::{Integrator, JointKind, PassiveMode, Shape};
+use diffosi::Model;
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 use serde_json::Value;
 
@@ -52,7 +53,7 @@ fn golden_files() -> Vec<PathBuf> {
 
 fn load(path: &Path) -> Model {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    mjcf::parse(&text, &path.display().to_string()).unwrap_or_else(|e| panic!("{e}"))
+    Model::from_mjcf(&text, &path.display().to_string()).unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn f(v: &Value) -> f64 {

@@ -6,11 +6,12 @@
 mod common;
 
 use diffosi::derivatives::Transition;
-use diffosi::model::{MapEntry, Model, ParamMap};
+use diffosi::model::{MapEntry, ParamMap};
 use diffosi::osi::{
     Adam, Average, ChangeDetection, CmaEs, Estimate, Identifier, Lm, Online, Oracle, Problem,
     Random, Sampling,
 };
+use diffosi::Model;
 use rand::rngs::StdRng;
 
 /// Noise-free data: a residual scale at the level of rounding (q then v; a

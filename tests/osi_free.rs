@@ -8,8 +8,9 @@ mod common;
 
 use diffosi::derivatives::Transition;
 use diffosi::dynamics::configuration::integrate;
-use diffosi::model::{Fluid, Integrator, Model, ParamMap};
+use diffosi::model::{Fluid, Integrator, ParamMap};
 use diffosi::osi::{Identifier, Lm, Problem};
+use diffosi::Model;
 
 fn model(name: &str, edit: impl FnOnce(&mut diffosi::model::Spec)) -> Model {
     Model::load(common::model_path(&format!("reference_models/{name}.xml")))

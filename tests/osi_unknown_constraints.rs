@@ -8,8 +8,9 @@
 mod common;
 
 use diffosi::derivatives::{Impulses, Transition};
-use diffosi::model::{ContactModel, Integrator, MapEntry, Model, ParamMap, PassiveMode};
+use diffosi::model::{ContactModel, Integrator, MapEntry, ParamMap, PassiveMode};
 use diffosi::osi::{Identifier, Lm, OsiError, Problem};
+use diffosi::Model;
 use nalgebra::{DMatrix, DVector};
 
 const LEGS: [&str; 6] = ["bthigh", "bshin", "bfoot", "fthigh", "fshin", "ffoot"];

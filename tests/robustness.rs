@@ -7,7 +7,8 @@ mod common;
 use common::run_cli;
 use diffosi::derivatives::{step_jacobians, Workspace, Wrt};
 use diffosi::dynamics::StepError;
-use diffosi::model::{MapEntry, Model, ParamMap};
+use diffosi::model::{MapEntry, ParamMap};
+use diffosi::Model;
 
 fn load(name: &str) -> Model {
     Model::load(common::model_path(&format!("reference_models/{name}"))).unwrap()
@@ -281,7 +282,7 @@ fn euler_jacobians_count_their_columns_without_underflow() {
 fn a_model_without_joints_steps_and_differentiates() {
     let text = "<mujoco><worldbody><body name='a' pos='0 0 1'>\
                 <geom type='sphere' size='0.05'/></body></worldbody></mujoco>";
-    let model = diffosi::model::mjcf::parse(text, "static.xml").unwrap();
+    let model = Model::from_mjcf(text, "static.xml").unwrap();
     assert_eq!(model.nv(), 0);
     let all = all_params(&model);
     for params in [&all[..], &[]] {
@@ -309,7 +310,7 @@ fn a_model_without_joints_steps_and_differentiates() {
 fn names_with_slashes_resolve() {
     let text = "<mujoco><worldbody><body name='leg/upper'><joint name='hip/y'/>\
                 <geom type='sphere' size='0.05'/></body></worldbody></mujoco>";
-    let mut model = diffosi::model::mjcf::parse(text, "slashes.xml").unwrap();
+    let mut model = Model::from_mjcf(text, "slashes.xml").unwrap();
     for name in model.param_names() {
         assert_eq!(model.param(&name).unwrap().name(&model), name);
     }
@@ -332,7 +333,7 @@ fn deep_nesting_is_refused() {
         r#"<body><joint/><geom size="0.1"/>"#.repeat(n),
         "</body>".repeat(n)
     );
-    let err = diffosi::model::mjcf::parse(&text, "deep.xml").unwrap_err();
+    let err = Model::from_mjcf(&text, "deep.xml").unwrap_err();
     assert!(
         err.to_string().contains("element nesting is too deep"),
         "{err}"
@@ -345,8 +346,8 @@ fn deep_nesting_is_refused() {
             "</body>".repeat(n)
         )
     };
-    assert!(diffosi::model::mjcf::parse(&chain(496), "chain.xml").is_ok());
-    assert!(diffosi::model::mjcf::parse(&chain(497), "chain.xml").is_err());
+    assert!(Model::from_mjcf(&chain(496), "chain.xml").is_ok());
+    assert!(Model::from_mjcf(&chain(497), "chain.xml").is_err());
 }
 
 /// The constraint model refuses to step geoms without a collider within reach.
@@ -356,7 +357,7 @@ fn the_constraint_model_refuses_what_it_cannot_do_yet() {
         <body><joint type="slide" axis="0 0 1"/><geom name="a" type="ellipsoid" size="0.1 0.1 0.1"/></body>
         <body pos="0 0 0.19"><joint type="slide" axis="0 0 1"/><geom name="b" type="box" size="0.1 0.1 0.1"/></body>
         </worldbody></mujoco>"#;
-    let model = diffosi::model::mjcf::parse(text, "ellipsoid.xml").unwrap();
+    let model = Model::from_mjcf(text, "ellipsoid.xml").unwrap();
     let zero = [0.0, 0.0];
     let err = model
         .step(&mut model.data(), &zero, &zero, &zero)

@@ -19,9 +19,10 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use diffosi::model::{
-    mjcf, Actuator, Body, Geom, Integrator, Joint, Model, ModelError, Options, PassiveMode,
-    SoftOptions, Spec,
+    mjcf, Actuator, Body, Geom, Integrator, Joint, ModelError, Options, PassiveMode, SoftOptions,
+    Spec,
 };
+use diffosi::Model;
 use nalgebra::{Matrix3, Rotation3};
 
 const TOL: f64 = 1e-15;
@@ -76,7 +77,7 @@ fn sources() -> Vec<(String, PathBuf)> {
 fn round_trip(name: &str, model: &Spec) -> Model {
     let text = mjcf::write(model).unwrap_or_else(|e| panic!("{name}: {e}"));
     std::fs::write(written_dir().join(format!("{name}.xml")), &text).unwrap();
-    mjcf::parse(&text, name).unwrap_or_else(|e| panic!("{name}: the written file: {e}"))
+    Model::from_mjcf(&text, name).unwrap_or_else(|e| panic!("{name}: the written file: {e}"))
 }
 
 /// The largest error seen and where.
@@ -384,7 +385,7 @@ fn rk4_reads_back_with_explicit_passive_forces() {
             s.opt.passive = PassiveMode::ImplicitDamping;
         })
         .unwrap();
-    let again = mjcf::parse(&mjcf::write(&model).unwrap(), "rk4").unwrap();
+    let again = Model::from_mjcf(&mjcf::write(&model).unwrap(), "rk4").unwrap();
     assert_eq!(again.opt.passive, PassiveMode::Explicit);
     let again = again.edited(|s| s.opt.passive = model.opt.passive).unwrap();
     let (worst, rebuilt) = compare("rk4", &model, &again);
@@ -454,6 +455,6 @@ fn soft_settings_round_trip_as_custom_numerics() {
     let model = model.edited(|s| s.opt.soft = soft).unwrap();
     let text = mjcf::write(&model).unwrap();
     assert!(text.contains(r#"<numeric name="diffosi:contact_slip" data="0.3"/>"#));
-    assert_eq!(mjcf::parse(&text, "soft").unwrap().opt.soft, soft);
+    assert_eq!(Model::from_mjcf(&text, "soft").unwrap().opt.soft, soft);
     assert_round_trips("half_cheetah, soft settings", &model);
 }

@@ -11,7 +11,8 @@ use diffosi::derivatives::{
     step_jacobians, transition_jacobians, TransitionJacobians, Workspace, Wrt,
 };
 use diffosi::dynamics::configuration::{integrate, subtract};
-use diffosi::model::{Fluid, Integrator, Model, PassiveMode};
+use diffosi::model::{Fluid, Integrator, PassiveMode};
+use diffosi::Model;
 use nalgebra::{DVector, Vector3};
 
 const H: f64 = 1e-6;

@@ -8,7 +8,8 @@ mod common;
 use diffosi::derivatives::{
     step_jacobians, window_residuals, window_residuals_into, Transition, WindowFit, Workspace, Wrt,
 };
-use diffosi::model::{Integrator, MapEntry, Model, Param, ParamMap, PassiveMode};
+use diffosi::model::{Integrator, MapEntry, Param, ParamMap, PassiveMode};
+use diffosi::Model;
 use nalgebra::{DMatrix, DVector};
 
 fn cartpole() -> (Model, ParamMap) {

@@ -18,9 +18,10 @@ mod common;
 pub use common::{load, load_with_contact, settled};
 use diffosi::derivatives::Transition;
 use diffosi::model::ContactModel;
-use diffosi::model::{Model, ParamMap};
+use diffosi::model::ParamMap;
 use diffosi::osi::Problem;
 use diffosi::tasks::{Cartpole, HalfCheetah, Task as _};
+use diffosi::Model;
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 

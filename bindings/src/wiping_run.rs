@@ -4,9 +4,9 @@
 
 use engine::control::admittance::Admittance;
 use engine::dynamics::Data;
-use engine::model::Model;
 use engine::model::State;
 use engine::tasks::wiping::{closed_loop_step, LoopState, APPROACH, STEPS};
+use engine::Model;
 use numpy::PyArray1;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;

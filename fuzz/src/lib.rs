@@ -16,7 +16,8 @@
 
 use diffosi::derivatives::{step_jacobians, StepJacobians, Workspace, Wrt};
 use diffosi::dynamics::StepError;
-use diffosi::model::{mjcf, urdf, Integrator, Model, Param, PassiveMode};
+use diffosi::model::{mjcf, Integrator, Param, PassiveMode};
+use diffosi::Model;
 
 /// The reference models, MJCF and URDF twins, as the step check loads them.
 pub const REFERENCE_MODELS: [(&str, &str); 8] = [
@@ -57,9 +58,9 @@ pub const REFERENCE_MODELS: [(&str, &str); 8] = [
 /// Loads MJCF (`.xml`) or URDF text by the file name's extension.
 pub fn parse(name: &str, text: &str) -> Result<Model, diffosi::ModelError> {
     if name.ends_with(".urdf") {
-        urdf::parse(text, name)
+        Model::from_urdf(text, name)
     } else {
-        mjcf::parse(text, name)
+        Model::from_mjcf(text, name)
     }
 }
 
@@ -97,7 +98,7 @@ pub fn check_loaded(model: &Model) {
         .collect();
     check_step_and_jacobians(model, (&q, &zero, &zero), &params);
     if let Ok(text) = mjcf::write(model) {
-        let again = mjcf::parse(&text, "written.xml")
+        let again = Model::from_mjcf(&text, "written.xml")
             .unwrap_or_else(|e| panic!("written MJCF does not load: {e}\n{text}"));
         assert_eq!(again.nv(), n, "written MJCF changed nv\n{text}");
         assert_eq!(again.bodies.len(), model.bodies.len(), "{text}");

@@ -56,8 +56,9 @@ use rand::{RngExt, SeedableRng};
 use super::ControlError;
 use crate::derivatives::{transition_jacobians, TransitionJacobians, Workspace};
 use crate::dynamics::{Data, StepError};
-use crate::model::{Model, State};
+use crate::model::State;
 use crate::tasks::{Env, Task};
+use crate::Model;
 
 /// Settings of the trajectory optimiser.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]

@@ -28,7 +28,8 @@ use num_dual::Dual64;
 use super::step::Wrt;
 use crate::dynamics::configuration::{integrate, multiply, Coordinates};
 use crate::dynamics::{step, Data, StepError, Tree};
-use crate::model::{Model, Param};
+use crate::model::Param;
+use crate::Model;
 
 /// The scalar a dual tree is seeded along: a parameter's component, or none.
 type Seed = Option<(Param, usize)>;

@@ -51,8 +51,9 @@ use crate::dynamics::world_frames;
 use crate::dynamics::{
     aba_with_transforms, implicit_terms, passive_forces, rnea, update_transforms, Data,
 };
-use crate::model::{ContactModel, Joint, Model, ParamMap, PassiveMode};
+use crate::model::{ContactModel, Joint, ParamMap, PassiveMode};
 use crate::spatial::{Force, Motion};
+use crate::Model;
 
 /// Below this fraction of its own norm, what is left of a constraint
 /// direction after the ones before it are taken out adds nothing new.

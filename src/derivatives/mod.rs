@@ -46,7 +46,7 @@ pub(crate) use window::check_transition;
 pub use window::{window_residuals, window_residuals_into, Transition, WindowError, WindowFit};
 
 use crate::dynamics::StepError;
-use crate::model::Model;
+use crate::Model;
 
 /// Whether a model's step Jacobians come from dual numbers alone: ball and
 /// free joints (their columns in the tangent space, see module

@@ -18,8 +18,9 @@ use crate::dynamics::body_force_to_joints;
 use crate::dynamics::integrator::ImplicitPassive;
 use crate::dynamics::{Data, Tree};
 use crate::model::params::inertia_from_six;
-use crate::model::{Body, Model, Param, PassiveMode};
+use crate::model::{Body, Param, PassiveMode};
 use crate::spatial::{skew, Inertia};
+use crate::Model;
 
 /// Writes dR/d(param component) into `out` (length nv). `data` holds RNEA's
 /// velocities and accelerations at (q, v, a).

@@ -26,8 +26,9 @@ use num_dual::Dual64;
 use crate::dynamics::collision::Contact;
 use crate::dynamics::contact::{pair_contacts, softplus, Pair, Soft, CUTOFF_WIDTHS};
 use crate::dynamics::{Data, Tree};
-use crate::model::{Model, Param};
+use crate::model::Param;
 use crate::spatial::{Force, Motion, Transform};
+use crate::Model;
 
 /// Where the columns of a residual Jacobian live: q and v (each nv wide, at
 /// 0 and `v_start`) if the state is asked for, and the first column of each

@@ -21,7 +21,8 @@ use crate::dynamics::{
     ltdl_solve_columns, rnea, rnea_with_transforms, step,
 };
 use crate::dynamics::{Constrained, Data, StepError};
-use crate::model::{Model, Param, PassiveMode};
+use crate::model::{Param, PassiveMode};
+use crate::Model;
 
 /// Which Jacobian blocks to compute; blocks not asked for cost nothing.
 #[derive(Clone, Copy, Debug, Default)]

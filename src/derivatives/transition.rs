@@ -10,7 +10,7 @@ use nalgebra::DMatrix;
 
 use super::step::{accel_derivatives, euler_columns, step_jacobians, Workspace, Wrt};
 use crate::dynamics::{check_inputs, integrate_euler, integrator, StepError};
-use crate::model::Model;
+use crate::Model;
 
 /// The next state and A, B of the module documentation; reused across
 /// calls (resized when the model's size changes).

@@ -23,8 +23,9 @@ use super::step::{step_jacobians, Workspace, Wrt};
 use crate::dynamics::configuration::{subtract, tangent_rate};
 use crate::dynamics::integrator;
 use crate::dynamics::{acceleration, implicit_terms, integrate_euler, Data, StepError, Tree};
-use crate::model::{Model, Param, ParamError, ParamMap, PassiveMode};
+use crate::model::{Param, ParamError, ParamMap, PassiveMode};
 use crate::spatial::{Force, Inertia, Motion};
+use crate::Model;
 
 /// One observed transition (q, v) --tau--> (q_next, v_next).
 #[derive(Clone, Debug, PartialEq)]

@@ -214,7 +214,7 @@ mod tests {
             env!("CARGO_MANIFEST_DIR"),
             "/reference_models/free_ball.xml"
         );
-        let model = crate::model::Model::load(path).unwrap();
+        let model = crate::Model::load(path).unwrap();
         let tree = model.tree();
         let first = (0..tree.nv())
             .find(|i| matches!(tree.joint[*i].coordinates, Coordinates::Rotation { .. }))

@@ -19,13 +19,9 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::tree::mass_properties;
 use super::{body_force_to_joints, Data, Tree};
-use crate::model::{Fluid, Param, Spec};
-use crate::spatial::{lift, lift_matrix, lift_vector, Force, Real, Transform};
-
-/// MuJoCo's mjMINVAL: lighter bodies feel no fluid.
-const MIN_MASS: f64 = 1e-15;
+use crate::model::Fluid;
+use crate::spatial::{lift, lift_vector, Force, Real, Transform};
 
 /// A body the fluid acts on, in its node's frame.
 #[derive(Clone, Debug, PartialEq)]
@@ -38,45 +34,6 @@ pub struct FluidBody<T: Real> {
     pub axes: Matrix3<T>,
     /// The equivalent box's full sides along the principal axes.
     pub sides: Vector3<T>,
-}
-
-/// The bodies of `spec` the fluid acts on (none without a medium), each
-/// carried by node `frames[b]` at the offset given (the tree's body frames),
-/// their mass, COM and inertia lifted by `lift_param` (see
-/// [`super::Tree::build_with`]).
-pub fn fluid_bodies<T: Real>(
-    spec: &Spec,
-    frames: &[(Option<usize>, Transform<T>)],
-    lift_param: &impl Fn(Param, usize, f64) -> T,
-) -> Vec<FluidBody<T>> {
-    if !spec.opt.fluid.acts() {
-        return vec![];
-    }
-    let mut out = vec![];
-    for (b, body) in spec.bodies.iter().enumerate().skip(1) {
-        let (Some(node), offset) = frames[b] else {
-            continue;
-        };
-        if body.mass < MIN_MASS {
-            continue;
-        }
-        let (mass, com, inertia) = mass_properties(b, body, lift_param);
-        let axes: Matrix3<T> = lift_matrix(body.inertia_frame.matrix());
-        let moments = (axes.transpose() * inertia * axes).diagonal();
-        let side = |k: usize| {
-            let (j, l) = ((k + 1) % 3, (k + 2) % 3);
-            let excess = (moments[j] + moments[l] - moments[k]).max(lift(MIN_MASS));
-            (excess / mass * lift(6.0)).sqrt()
-        };
-        out.push(FluidBody {
-            node,
-            offset,
-            com,
-            axes,
-            sides: Vector3::new(side(0), side(1), side(2)),
-        });
-    }
-    out
 }
 
 /// Adds the fluid's generalized forces to `out` (`data.world` and

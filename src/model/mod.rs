@@ -43,8 +43,6 @@ pub use constraint::{
 };
 pub use params::{MapEntry, Param, ParamError, ParamMap};
 
-use crate::dynamics::{self, Contact, Data, StepError, Tree};
-
 /// Errors from building, loading or editing a model.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -412,141 +410,6 @@ pub struct Spec {
     pub excludes: Vec<[usize; 2]>,
 }
 
-/// A validated [`Spec`] together with the numeric tree the dynamics run on.
-/// Its fields read through `Deref` (`model.joints`); changes go through
-/// [`Model::edited`], which validates again and rebuilds the tree, so the two
-/// never disagree.
-#[derive(Clone, Debug)]
-pub struct Model {
-    spec: Spec,
-    tree: Tree<f64>,
-    /// Distinct for every built or edited model (see [`Model::stamp`]).
-    stamp: u64,
-}
-
-/// Stamps start at 1, so a cache's 0 matches no model.
-fn next_stamp() -> u64 {
-    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
-    NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
-}
-
-impl std::ops::Deref for Model {
-    type Target = Spec;
-    fn deref(&self) -> &Spec {
-        &self.spec
-    }
-}
-
-impl Model {
-    /// Checks the parts for consistency and builds the dynamics tree.
-    pub fn new(
-        name: String,
-        bodies: Vec<Body>,
-        joints: Vec<Joint>,
-        actuators: Vec<Actuator>,
-        geoms: Vec<Geom>,
-        opt: Options,
-    ) -> Result<Model, ModelError> {
-        Model::from_spec(Spec {
-            name,
-            bodies,
-            joints,
-            actuators,
-            geoms,
-            opt,
-            pairs: vec![],
-            excludes: vec![],
-        })
-    }
-
-    pub fn from_spec(spec: Spec) -> Result<Model, ModelError> {
-        spec.validate()?;
-        let tree = Tree::build(&spec);
-        check_tree_inertia(&spec, &tree, 1..spec.bodies.len())?;
-        Ok(Model {
-            spec,
-            tree,
-            stamp: next_stamp(),
-        })
-    }
-
-    /// A number that changes whenever the model does (built, or edited in
-    /// place); clones share it. Caches of derived data key on it.
-    pub fn stamp(&self) -> u64 {
-        self.stamp
-    }
-
-    /// Marks the model as changed (see [`Model::stamp`]).
-    fn restamp(&mut self) {
-        self.stamp = next_stamp();
-    }
-
-    /// A copy of this model with `edit` applied to its description.
-    pub fn edited(&self, edit: impl FnOnce(&mut Spec)) -> Result<Model, ModelError> {
-        let mut spec = self.spec.clone();
-        edit(&mut spec);
-        Model::from_spec(spec)
-    }
-
-    /// Loads an MJCF (`.xml`) or URDF (`.urdf`) file.
-    pub fn load(path: impl AsRef<std::path::Path>) -> Result<Model, ModelError> {
-        let path = path.as_ref();
-        let shown = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ModelError::Io {
-            path: shown.clone(),
-            source,
-        })?;
-        match path.extension().and_then(|e| e.to_str()) {
-            Some("xml") | Some("mjcf") => mjcf::parse(&text, &shown),
-            Some("urdf") => urdf::parse(&text, &shown),
-            _ => Err(ModelError::UnknownFormat(shown)),
-        }
-    }
-
-    /// Writes the model as MJCF to a `.xml` (or `.mjcf`) path; see
-    /// [`mjcf::write`] for what MJCF cannot express.
-    pub fn save(&self, path: impl AsRef<std::path::Path>) -> Result<(), ModelError> {
-        let path = path.as_ref();
-        let shown = path.display().to_string();
-        if !matches!(
-            path.extension().and_then(|e| e.to_str()),
-            Some("xml" | "mjcf")
-        ) {
-            let why = format!("{shown}: models are saved as MJCF, to a .xml (or .mjcf) path");
-            return Err(ModelError::Unwritable(why));
-        }
-        let text = mjcf::write(self)?;
-        std::fs::write(path, text).map_err(|e| ModelError::Unwritable(format!("{shown}: {e}")))
-    }
-
-    pub fn nu(&self) -> usize {
-        self.actuators.len()
-    }
-
-    /// The numeric tree the dynamics algorithms run on.
-    pub fn tree(&self) -> &Tree<f64> {
-        &self.tree
-    }
-
-    pub fn body_index(&self, name: &str) -> Option<usize> {
-        self.bodies.iter().position(|b| b.name == name)
-    }
-
-    pub fn joint_index(&self, name: &str) -> Option<usize> {
-        self.joints.iter().position(|j| j.name == name)
-    }
-
-    /// Generalized forces from actuator controls: tau = sum gear * u on each
-    /// actuated joint's dof.
-    pub fn actuator_forces(&self, u: &[f64]) -> Vec<f64> {
-        let mut tau = vec![0.0; self.nv()];
-        for (a, &ui) in self.actuators.iter().zip(u) {
-            tau[self.joint_address(a.joint).1] += a.gear * ui;
-        }
-        tau
-    }
-}
-
 impl Spec {
     pub fn nq(&self) -> usize {
         self.joints.iter().map(|j| j.kind.nq()).sum()
@@ -612,7 +475,8 @@ impl Spec {
         q
     }
 
-    fn validate(&self) -> Result<(), ModelError> {
+    /// Checks the parts for consistency (what MuJoCo's compiler refuses).
+    pub fn validate(&self) -> Result<(), ModelError> {
         let bad = |msg: String| Err(ModelError::NotPhysical(msg));
         if self.bodies.is_empty() {
             return bad("a model needs at least the world body".into());
@@ -788,110 +652,5 @@ pub fn check_inertial(
     Ok(())
 }
 
-/// Checks that the joint nodes carrying `bodies` have finite inertia: mass,
-/// COM and tensor can each be finite while the inertia about the joint frame
-/// (m |c|^2 and sums of bodies) overflows.
-fn check_tree_inertia(
-    spec: &Spec,
-    tree: &Tree<f64>,
-    bodies: impl IntoIterator<Item = usize>,
-) -> Result<(), ModelError> {
-    for b in bodies {
-        let Some(node) = tree.body[b].node else {
-            continue;
-        };
-        let i = &tree.inertia[node];
-        let finite = i.mass.is_finite()
-            && i.h.iter().all(|x| x.is_finite())
-            && i.rot.iter().all(|x| x.is_finite());
-        if !finite {
-            let body = &spec.bodies[b];
-            return Err(ModelError::NotPhysical(format!(
-                "body '{}': mass {} at COM {:?} gives an inertia about its joint frame that overflows",
-                body.name,
-                body.mass,
-                body.com.as_slice()
-            )));
-        }
-    }
-    Ok(())
-}
-
 /// A state (q, v).
 pub type State = (Vec<f64>, Vec<f64>);
-
-/// A rollout stopped at `step` (0-based) because that step failed.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("step {step}: {source}")]
-pub struct RolloutError {
-    pub step: usize,
-    pub source: StepError,
-}
-
-/// Simulation on f64 states: the convenience layer over [`crate::dynamics`].
-impl Model {
-    /// A workspace for this model's dynamics.
-    pub fn data(&self) -> Data<f64> {
-        Data::new(&self.tree)
-    }
-
-    /// One step from (q, v) under generalized forces tau (length nv).
-    pub fn step(
-        &self,
-        data: &mut Data<f64>,
-        q: &[f64],
-        v: &[f64],
-        tau: &[f64],
-    ) -> Result<(Vec<f64>, Vec<f64>), StepError> {
-        let (mut q1, mut v1) = (vec![0.0; self.nq()], vec![0.0; self.nv()]);
-        dynamics::step(&self.tree, &self.opt, data, (q, v, tau), (&mut q1, &mut v1))?;
-        Ok((q1, v1))
-    }
-
-    /// The contacts at (q, v) with their forces: those a semi-implicit Euler
-    /// step from (q, v) under generalized forces tau applies (net force per
-    /// body: [`dynamics::body_contact_forces`]). Under the smooth model the
-    /// forces depend on (q, v) only ([`dynamics::contact`]); under the
-    /// constraint model they are the solver's and depend on tau too
-    /// ([`dynamics::constraint::contact_forces`]).
-    pub fn contacts(
-        &self,
-        data: &mut Data<f64>,
-        q: &[f64],
-        v: &[f64],
-        tau: &[f64],
-    ) -> Result<Vec<Contact<f64>>, StepError> {
-        dynamics::check_inputs(&self.tree, (q, v, tau))?;
-        if self.opt.contact_model == ContactModel::Smooth {
-            let mut out = vec![0.0; self.nv()];
-            dynamics::add_soft_forces(&self.tree, data, (q, v), &mut out);
-            return Ok(data.contacts.clone());
-        }
-        let mut qdd = vec![0.0; self.nv()];
-        let mode = (self.opt.passive, self.opt.timestep);
-        dynamics::acceleration(&self.tree, data, mode, (q, v, tau), &mut qdd);
-        Ok(data.constrained.as_ref().map_or(vec![], |c| {
-            dynamics::constraint::contact_forces(&c.contacts, &c.rows, &c.solution.force)
-        }))
-    }
-
-    /// Steps from (q0, v0) under each row of `taus`; returns the T+1 states
-    /// (q, v) visited, the initial state first.
-    pub fn rollout<'a>(
-        &self,
-        q0: &[f64],
-        v0: &[f64],
-        taus: impl IntoIterator<Item = &'a [f64]>,
-    ) -> Result<Vec<State>, RolloutError> {
-        let mut data = self.data();
-        let mut states = vec![(q0.to_vec(), v0.to_vec())];
-        for (step, tau) in taus.into_iter().enumerate() {
-            let (q, v) = states.last().expect("starts non-empty");
-            let next = self
-                .step(&mut data, q, v, tau)
-                .map_err(|source| RolloutError { step, source })?;
-            states.push(next);
-        }
-        Ok(states)
-    }
-}

@@ -42,7 +42,8 @@ use crate::derivatives::{
     Elimination, Impulses, Transition, WindowError, WindowFit, Workspace,
 };
 use crate::dynamics::StepError;
-use crate::model::{Model, ParamError, ParamMap};
+use crate::model::{ParamError, ParamMap};
+use crate::Model;
 
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]

@@ -38,7 +38,8 @@ use rand::rngs::StdRng;
 use rand::RngExt;
 
 use super::Task;
-use crate::model::{mjcf, MapEntry, Model, ParamError, ParamMap, State};
+use crate::model::{mjcf, MapEntry, ParamError, ParamMap, State};
+use crate::Model;
 
 /// The model file, compiled in so the task needs no path at run time.
 const MJCF: &str = include_str!("../../reference_models/cartpole.xml");
@@ -63,6 +64,7 @@ impl Cartpole {
     /// The task on the shipped `reference_models/cartpole.xml`.
     pub fn new() -> Cartpole {
         let model = mjcf::parse(MJCF, "reference_models/cartpole.xml")
+            .and_then(Model::from_spec)
             .expect("the shipped cartpole model loads");
         Cartpole::with_model(model).expect("the shipped cartpole has a pole")
     }

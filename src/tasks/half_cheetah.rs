@@ -40,7 +40,8 @@ use rand::RngExt;
 use rand_distr::{Distribution, StandardNormal};
 
 use super::Task;
-use crate::model::{mjcf, ContactModel, MapEntry, Model, ParamError, ParamMap, State};
+use crate::model::{mjcf, ContactModel, MapEntry, ParamError, ParamMap, State};
+use crate::Model;
 
 /// The model file, compiled in so the task needs no path at run time.
 const MJCF: &str = include_str!("../../reference_models/half_cheetah.xml");
@@ -81,7 +82,10 @@ impl HalfCheetah {
     /// controllers were trained on.
     pub fn new() -> HalfCheetah {
         let model = mjcf::parse(MJCF, "reference_models/half_cheetah.xml")
-            .and_then(|m| m.edited(|s| s.opt.contact_model = ContactModel::Constraint))
+            .and_then(|mut spec| {
+                spec.opt.contact_model = ContactModel::Constraint;
+                Model::from_spec(spec)
+            })
             .expect("the shipped half cheetah model loads");
         HalfCheetah::with_model(model).expect("the shipped half cheetah has a torso")
     }

@@ -28,7 +28,8 @@ use rand::RngExt;
 
 use crate::derivatives::Transition;
 use crate::dynamics::{Data, StepError};
-use crate::model::{Model, ParamError, ParamMap, State};
+use crate::model::{ParamError, ParamMap, State};
+use crate::Model;
 
 /// A control task on a simulated model (see the module docs for conventions).
 pub trait Task: Send + Sync {

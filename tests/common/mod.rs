@@ -3,7 +3,8 @@
 
 use diffosi::derivatives::Transition;
 use diffosi::dynamics::{bias_forces, body_poses, crba, Data};
-use diffosi::model::{Body, Integrator, Joint, JointKind, Model, Options, ParamMap, PassiveMode};
+use diffosi::model::{Body, Integrator, Joint, JointKind, Options, ParamMap, PassiveMode};
+use diffosi::Model;
 use nalgebra::{DMatrix, DVector};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use rand::rngs::StdRng;
@@ -242,7 +243,7 @@ pub fn dropped(shape: &str, mass: f64, height: f64) -> Model {
   </worldbody>
 </mujoco>"#
     );
-    smooth(diffosi::model::mjcf::parse(&text, "dropped.xml").unwrap())
+    smooth(Model::from_mjcf(&text, "dropped.xml").unwrap())
 }
 
 /// A capsule "bar" (radius 0.05, half length 0.2) along y at height 0.3, on
@@ -262,7 +263,7 @@ pub fn crossing(shape: &str, at: [f64; 3]) -> Model {
   </worldbody>
 </mujoco>"#
     );
-    smooth(diffosi::model::mjcf::parse(&text, "crossing.xml").unwrap())
+    smooth(Model::from_mjcf(&text, "crossing.xml").unwrap())
 }
 
 /// The model under the smooth contact model (the penalty forces whose

@@ -154,7 +154,8 @@ mod tests {
     use super::super::{step_jacobians, Workspace, Wrt};
     use super::*;
     use crate::dynamics::acceleration;
-    use crate::model::{Integrator, Model, Param};
+    use crate::model::{Integrator, Param};
+    use crate::Model;
 
     /// `c` with its rows in another order: the kinds of
     /// [`ConstraintKind::ORDER`] reversed (contacts first), each

@@ -74,7 +74,7 @@ mod write;
 
 use std::collections::HashMap;
 
-use super::{xml, Model, ModelError, Spec};
+use super::{xml, ModelError, Spec};
 use compiler::Compiler;
 use defaults::Class;
 use schema::check_attributes;
@@ -87,8 +87,9 @@ type Result<T> = std::result::Result<T, ModelError>;
 /// MuJoCo's `mjMINVAL`: smallest mass and principal moment of a moving body.
 const MJ_MINVAL: f64 = 1e-15;
 
-/// Parses an MJCF document; `file` names it in errors.
-pub fn parse(text: &str, file: &str) -> Result<Model> {
+/// Parses an MJCF document into its spec (validated and compiled by
+/// [`crate::Model::from_spec`]); `file` names it in errors.
+pub fn parse(text: &str, file: &str) -> Result<Spec> {
     let doc = xml::document(text, file)?;
     let root = doc.root_element();
     check_document(file, root)?;
@@ -116,7 +117,7 @@ pub fn parse(text: &str, file: &str) -> Result<Model> {
         .attribute("model")
         .unwrap_or("MuJoCo Model")
         .to_string();
-    Model::from_spec(Spec {
+    Ok(Spec {
         name,
         bodies,
         joints,

@@ -3,15 +3,21 @@
 use nalgebra::{Rotation3, UnitQuaternion};
 
 use super::parse;
-use crate::model::{Model, ModelError};
+use crate::model::ModelError;
+use crate::Model;
 
 pub fn load(xml: &str) -> Model {
-    parse(xml, "test.xml").unwrap_or_else(|e| panic!("{e}"))
+    compile(xml).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// `xml` read and compiled, as [`Model::load`] does.
+pub fn compile(xml: &str) -> Result<Model, ModelError> {
+    Model::from_spec(parse(xml, "test.xml")?)
 }
 
 /// The line, element and message of the error `xml` must give.
 pub fn error(xml: &str) -> (u32, String, String) {
-    match parse(xml, "test.xml") {
+    match compile(xml) {
         Err(ModelError::Invalid {
             file,
             line,

@@ -39,10 +39,10 @@ use crate::model::{
     PassiveMode, Shape, SoftOptions, SolParams, Spec,
 };
 
-/// Writes `spec` as an MJCF document, checked by loading it.
+/// Writes `spec` as an MJCF document, checked by reading and validating it.
 pub fn write(spec: &Spec) -> Result<String, ModelError> {
     let text = document(spec)?;
-    match super::parse(&text, "written MJCF") {
+    match super::parse(&text, "written MJCF").and_then(|spec| spec.validate()) {
         Ok(_) => Ok(text),
         Err(e) => {
             let line = match &e {

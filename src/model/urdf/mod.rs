@@ -1,4 +1,4 @@
-//! URDF loader: [`parse`] builds a [`Model`] from URDF text.
+//! URDF loader: [`parse`] builds a [`Spec`] from URDF text.
 //!
 //! How URDF maps onto the model (see the `model` module for its frames):
 //! - Every link is a body whose frame is the link frame. A joint's `<origin>`
@@ -65,7 +65,7 @@ mod links;
 mod test_util;
 mod tree;
 
-use super::{xml, Model, ModelError};
+use super::{xml, ModelError, Spec};
 
 /// The namespace of diffosi's URDF extensions.
 pub const NAMESPACE: &str = "urn:diffosi:urdf";
@@ -74,7 +74,7 @@ type Node<'a> = roxmltree::Node<'a, 'a>;
 type Result<T> = std::result::Result<T, ModelError>;
 
 /// Parses URDF text; `file` is only used in error messages.
-pub fn parse(text: &str, file: &str) -> Result<Model> {
+pub fn parse(text: &str, file: &str) -> Result<Spec> {
     let doc = xml::document(text, file)?;
     let robot = doc.root_element();
     let reader = Reader { file };
@@ -89,14 +89,16 @@ pub fn parse(text: &str, file: &str) -> Result<Model> {
     let parts = reader.parts(&links, &edges, &tree)?;
     let actuators = reader.actuators(robot, &parts.dofs)?;
     let opt = reader.options(robot)?;
-    Model::new(
+    Ok(Spec {
         name,
-        parts.bodies,
-        parts.joints,
+        bodies: parts.bodies,
+        joints: parts.joints,
         actuators,
-        parts.geoms,
+        geoms: parts.geoms,
         opt,
-    )
+        pairs: vec![],
+        excludes: vec![],
+    })
 }
 
 /// Reads the elements of one file. Its methods live with the elements they

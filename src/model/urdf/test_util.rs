@@ -3,10 +3,11 @@
 use nalgebra::Matrix3;
 
 use super::{parse, NAMESPACE};
-use crate::model::{Model, ModelError};
+use crate::model::ModelError;
+use crate::Model;
 
 pub fn load(body: &str) -> Result<Model, ModelError> {
-    parse(&urdf(body), "test.urdf")
+    Model::from_spec(parse(&urdf(body), "test.urdf")?)
 }
 
 /// A robot holding `body`, with our namespace declared.

@@ -33,10 +33,11 @@ use rand::rngs::StdRng;
 
 use crate::control::admittance::{sensed_force, Admittance, ArmJoint, Gains};
 use crate::dynamics::{crba, step, Data, StepError, Tree};
-use crate::model::{MapEntry, Model, ParamError, ParamMap, State};
+use crate::model::{MapEntry, ParamError, ParamMap, State};
 use crate::osi::Problem;
 use crate::spatial::{lift, Real};
 use crate::tasks::{middle_of, uniform_in};
+use crate::Model;
 
 /// The canonical gains theta_hat that collect identification data: good for
 /// no mu in particular, stable for all (found by a sweep of the box below).

@@ -33,9 +33,10 @@ use super::{closed_loop_step, LoopState, Wiping};
 use crate::control::admittance::Gains;
 use crate::derivatives::WindowFit;
 use crate::dynamics::{Data, Tree};
-use crate::model::{Model, ParamMap, State};
+use crate::model::{ParamMap, State};
 use crate::osi::{Observations, OsiError, Problem};
 use crate::spatial::Real;
+use crate::Model;
 
 /// One closed-loop segment (see the module docs).
 #[derive(Clone, Debug, PartialEq)]

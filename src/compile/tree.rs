@@ -1,0 +1,235 @@
+//! Compiling a [`Spec`] into the numeric [`Tree`] the algorithms run on, in
+//! any scalar: bodies become nodes (one per dof, see [`crate::dynamics::Tree`]
+//! for their frames), inertias are summed onto the node that carries them, and
+//! the derived constants are computed once (the constraint model's collision
+//! pairs and invweight0 at the reference configuration, the smooth model's
+//! pairs, the fluid's equivalent boxes). Named physical parameters enter
+//! through `lift_param`, which is how the derivatives seed their directions.
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::fluid::fluid_bodies;
+use crate::dynamics::collision::{collision_pairs, CollisionPair, GeomFrame};
+use crate::dynamics::configuration::Coordinates;
+use crate::dynamics::constraint::{invweight0, Limit};
+use crate::dynamics::contact::{contact_pairs, Pair, Soft};
+use crate::dynamics::{BodyFrame, NodeJoint, Tree};
+use crate::model::params::inertia_to_six;
+use crate::model::{Body, ContactModel, Joint, JointKind, Param, Spec};
+use crate::spatial::{lift, lift_vector, Inertia, Real, Transform};
+
+impl<T: Real> Tree<T> {
+    /// Builds the tree of a validated model, lifting its numbers into T.
+    pub fn build(model: &Spec) -> Self {
+        Self::build_with(model, |_, _, x| lift(x))
+    }
+
+    /// Builds the tree with each scalar of a named physical parameter lifted by
+    /// `lift_param(param, component, value)`: the way derivatives seed the
+    /// directions of parameters (components as in [`Param::get`]).
+    pub fn build_with(model: &Spec, lift_param: impl Fn(Param, usize, f64) -> T) -> Self {
+        let mut tree = Tree::empty();
+        tree.gravity = lift_vector(&model.opt.gravity);
+        tree.body.push(BodyFrame {
+            node: None,
+            offset: Transform::identity(),
+        });
+        let reference = model.reference_q();
+        let mut at = 0;
+        for (index, b) in model.bodies.iter().enumerate().skip(1) {
+            let parent = tree.body[b.parent];
+            let place = Transform::from_pose_f64(&b.rot, &b.pos).compose(&parent.offset);
+            let mut node = parent.node;
+            // A free joint places its body absolutely.
+            let free = model.joints[b.joints.clone()]
+                .iter()
+                .any(|j| j.kind == JointKind::Free);
+            let mut x_tree = if free { Transform::identity() } else { place };
+            for (k, j) in model.joints[b.joints.clone()].iter().enumerate() {
+                let k = b.joints.start + k;
+                for node_joint in node_joints(j, at) {
+                    tree.parent.push(node);
+                    tree.x_tree.push(x_tree);
+                    tree.joint.push(node_joint);
+                    tree.damping
+                        .push(lift_param(Param::Damping(k), 0, j.damping));
+                    tree.stiffness
+                        .push(lift_param(Param::Stiffness(k), 0, j.stiffness));
+                    tree.armature
+                        .push(lift_param(Param::Armature(k), 0, j.armature));
+                    tree.node_joint.push(k);
+                    tree.limits.push(j.range.filter(|_| model.opt.limits));
+                    tree.inertia.push(Inertia::zero());
+                    node = Some(tree.parent.len() - 1);
+                    x_tree = Transform::identity();
+                }
+                let rest = reference[at..at + j.kind.nq()]
+                    .iter()
+                    .map(|x| lift::<T>(*x));
+                match j.kind {
+                    JointKind::Hinge | JointKind::Slide => tree.spring_q.push(lift(j.springref)),
+                    _ => tree.spring_q.extend(rest),
+                }
+                at += j.kind.nq();
+            }
+            // Within the last node's frame, the body sits at `x_tree`: identity if
+            // the body has joints, else its placement relative to its carrier.
+            tree.body.push(BodyFrame {
+                node,
+                offset: x_tree,
+            });
+            if let Some(n) = node {
+                let own = body_inertia(index, b, &lift_param);
+                tree.inertia[n] += own.to_source(&x_tree);
+            }
+        }
+        tree.medium = model.opt.fluid;
+        tree.fluid = fluid_bodies(model, &tree.body_frames(), &lift_param);
+        let soft = &model.opt.soft;
+        let constants = [
+            (Param::ContactStiffness, soft.stiffness),
+            (Param::ContactDamping, soft.damping),
+            (Param::ContactFriction, soft.friction),
+        ];
+        tree.soft = Soft::new(soft, constants.map(|(p, x)| lift_param(p, 0, x)));
+        tree.contact_model = model.opt.contact_model;
+        match model.opt.contact_model {
+            ContactModel::Smooth => tree.add_pairs(model),
+            ContactModel::Constraint => tree.add_constraints(model, &lift_param),
+        }
+        tree
+    }
+
+    /// The constraint model's constants: collision pairs, limits, dry
+    /// friction, invweight0 (at the reference configuration, as MuJoCo's
+    /// mj_setConst computes them).
+    fn add_constraints(&mut self, model: &Spec, lift_param: &impl Fn(Param, usize, f64) -> T) {
+        let limits = std::mem::take(&mut self.limits);
+        let opt = &model.opt;
+        let c = &mut self.constraint;
+        c.solver = opt.solver;
+        c.timestep = opt.timestep;
+        let node_joint = &self.node_joint;
+        c.limits = node_joint
+            .iter()
+            .zip(limits)
+            .map(|(&k, range)| {
+                let j = &model.joints[k];
+                range.map(|range| Limit {
+                    range,
+                    margin: j.margin,
+                    sol: j.limit_sol.lift(
+                        |c, x| lift_param(Param::LimitSolref(k), c, x),
+                        |c, x| lift_param(Param::LimitSolimp(k), c, x),
+                    ),
+                })
+            })
+            .collect();
+        c.frictionloss = node_joint
+            .iter()
+            .map(|&k| {
+                let j = &model.joints[k];
+                let on = opt.solver.frictionloss && j.frictionloss > 0.0;
+                let value = lift_param(Param::FrictionLoss(k), 0, j.frictionloss);
+                let sol = j.friction_sol.lift(|_, x| lift(x), |_, x| lift(x));
+                (if on { value } else { T::zero() }, sol)
+            })
+            .collect();
+        for (geoms, params, supported) in collision_pairs(model, lift_param) {
+            let geoms = geoms.map(|g| self.geom_frame(model, g));
+            self.constraint.pairs.push(CollisionPair {
+                geoms,
+                params,
+                supported,
+            });
+        }
+        let (bodies, dofs) = invweight0(self, model, lift_param);
+        self.constraint.body_invweight = bodies;
+        self.constraint.dof_invweight = dofs;
+    }
+
+    /// The index in `geoms` of model geom `g`, placed in its node's frame
+    /// the first time it is asked for.
+    fn geom_frame(&mut self, model: &Spec, g: usize) -> usize {
+        if let Some(k) = self.geoms.iter().position(|f| f.geom == g) {
+            return k;
+        }
+        let geom = &model.geoms[g];
+        let frame = self.body[geom.body];
+        let offset = Transform::from_pose_f64(&geom.rot, &geom.pos).compose(&frame.offset);
+        self.geoms.push(GeomFrame::new(
+            (g, geom.body, frame.node),
+            offset,
+            geom.shape,
+        ));
+        self.geoms.len() - 1
+    }
+
+    /// Places the geoms of the model's contact pairs and indexes the pairs.
+    fn add_pairs(&mut self, model: &Spec) {
+        for [a, b] in contact_pairs(model) {
+            let geoms = [a, b].map(|g| self.geom_frame(model, g));
+            let friction = model.geoms[a].friction[0].max(model.geoms[b].friction[0]);
+            self.pairs.push(Pair { geoms, friction });
+        }
+    }
+}
+
+/// The nodes of joint `j`, whose coordinates start at q[at] (see the module
+/// documentation).
+fn node_joints<T: Real>(j: &Joint, at: usize) -> Vec<NodeJoint<T>> {
+    let ball = |at: usize, anchor: Vector3<T>| {
+        (0..3).map(move |k| {
+            let coordinates = Coordinates::Rotation { at, axis: k };
+            let axis = Vector3::ith(k, T::one());
+            NodeJoint::new(JointKind::Ball, (axis, anchor), T::zero(), coordinates)
+        })
+    };
+    match j.kind {
+        JointKind::Hinge | JointKind::Slide => {
+            let axis_anchor = (lift_vector(&j.axis), lift_vector(&j.anchor));
+            let coordinates = Coordinates::Scalar { at };
+            vec![NodeJoint::new(
+                j.kind,
+                axis_anchor,
+                lift(j.reference),
+                coordinates,
+            )]
+        }
+        JointKind::Ball => ball(at, lift_vector(&j.anchor)).collect(),
+        JointKind::Free => (0..3)
+            .map(|k| {
+                let axis_anchor = (Vector3::ith(k, T::one()), Vector3::zeros());
+                let coordinates = Coordinates::Scalar { at: at + k };
+                NodeJoint::new(JointKind::Slide, axis_anchor, T::zero(), coordinates)
+            })
+            .chain(ball(at + 3, Vector3::zeros()))
+            .collect(),
+    }
+}
+
+/// Body `index`'s spatial inertia about its own frame, with its mass, COM and
+/// inertia lifted by `lift_param` (see [`Tree::build_with`]).
+pub fn body_inertia<T: Real>(
+    index: usize,
+    b: &Body,
+    lift_param: impl Fn(Param, usize, f64) -> T,
+) -> Inertia<T> {
+    let (mass, com, inertia) = mass_properties(index, b, &lift_param);
+    Inertia::from_com(mass, &com, &inertia)
+}
+
+/// Body `index`'s mass, COM and inertia tensor about the COM (body axes),
+/// lifted by `lift_param` (see [`Tree::build_with`]).
+pub fn mass_properties<T: Real>(
+    index: usize,
+    b: &Body,
+    lift_param: &impl Fn(Param, usize, f64) -> T,
+) -> (T, Vector3<T>, Matrix3<T>) {
+    let mass = lift_param(Param::Mass(index), 0, b.mass);
+    let com = Vector3::from_fn(|r, _| lift_param(Param::Com(index), r, b.com[r]));
+    let six = inertia_to_six(&b.inertia);
+    let [xx, yy, zz, xy, xz, yz]: [T; 6] =
+        std::array::from_fn(|r| lift_param(Param::Inertia(index), r, six[r]));
+    (mass, com, Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz))
+}
