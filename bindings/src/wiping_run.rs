@@ -61,7 +61,7 @@ impl PyWipingRun {
         let (q1, v1) = (&mut self.next.0, &mut self.next.1);
         let step = (self.k, q.as_slice(), v.as_slice(), self.carry);
         self.carry = closed_loop_step(
-            (self.model.tree(), &self.model),
+            self.model.tree(),
             &mut self.data,
             &mut self.ctrl,
             step,

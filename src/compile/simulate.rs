@@ -37,7 +37,7 @@ impl Model {
         tau: &[f64],
     ) -> Result<(Vec<f64>, Vec<f64>), StepError> {
         let (mut q1, mut v1) = (vec![0.0; self.nq()], vec![0.0; self.nv()]);
-        dynamics::step(&self.tree, &self.opt, data, (q, v, tau), (&mut q1, &mut v1))?;
+        dynamics::step(&self.tree, data, (q, v, tau), (&mut q1, &mut v1))?;
         Ok((q1, v1))
     }
 

@@ -384,7 +384,7 @@ impl Wiping {
         };
         for k in 0..steps {
             let next = closed_loop_step(
-                (tree, &model),
+                tree,
                 &mut data,
                 &mut ctrl,
                 (k, q.as_slice(), v.as_slice(), carry),
@@ -446,17 +446,17 @@ pub struct LoopState<T> {
 /// controller's torques into `tau`, the model's step into (q1, v1); returns
 /// the loop's state after the step.
 pub fn closed_loop_step<T: Real>(
-    (tree, model): (&Tree<T>, &Model),
+    tree: &Tree<T>,
     data: &mut Data<T>,
     ctrl: &mut Admittance<T>,
     (k, q, v, carry): (usize, &[T], &[T], LoopState<T>),
     tau: &mut [T],
     (q1, v1): (&mut [T], &mut [T]),
 ) -> Result<LoopState<T>, StepError> {
-    let h = model.opt.timestep;
+    let h = tree.opt.timestep;
     let target = (tip_target(k as f64 * h), h);
     let xi = ctrl.act(tree, data, (q, v, carry.force), carry.xi, target, tau);
-    step(tree, &model.opt, data, (q, v, tau), (q1, v1))?;
+    step(tree, data, (q, v, tau), (q1, v1))?;
     Ok(LoopState {
         xi,
         force: sensed_force(tree, data),

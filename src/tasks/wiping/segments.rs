@@ -129,15 +129,11 @@ impl Segments {
             };
             for k in s.start..s.start + s.observed.len() {
                 let at = (k, q.as_slice(), v.as_slice(), carry);
-                carry = closed_loop_step(
-                    (tree, model),
-                    &mut data,
-                    &mut ctrl,
-                    at,
-                    &mut tau,
-                    (&mut q1, &mut v1),
-                )
-                .map_err(|e| OsiError::Segment(format!("segment at step {}: {e}", s.start)))?;
+                carry =
+                    closed_loop_step(tree, &mut data, &mut ctrl, at, &mut tau, (&mut q1, &mut v1))
+                        .map_err(|e| {
+                            OsiError::Segment(format!("segment at step {}: {e}", s.start))
+                        })?;
                 std::mem::swap(&mut q, &mut q1);
                 std::mem::swap(&mut v, &mut v1);
                 out(row, &q, &v);
