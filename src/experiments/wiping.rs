@@ -312,13 +312,13 @@ fn first_transitions(episode: &Episode, segments: &Segments) -> Vec<Transition> 
 }
 
 fn transition(episode: &Episode, k: usize) -> Transition {
-    let ((q, v), (q_next, v_next)) = (&episode.states[k], &episode.states[k + 1]);
+    let (x, next) = (&episode.states[k], &episode.states[k + 1]);
     Transition {
-        q: q.clone(),
-        v: v.clone(),
+        q: x.q.clone(),
+        v: x.v.clone(),
         tau: episode.taus[k].clone(),
-        q_next: q_next.clone(),
-        v_next: v_next.clone(),
+        q_next: next.q.clone(),
+        v_next: next.v.clone(),
     }
 }
 
