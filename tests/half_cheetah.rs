@@ -168,9 +168,9 @@ fn diffosi_finds_the_torso_mass_from_one_transition_through_contact() {
             .model()
             .contacts(
                 &mut data,
-                &transition.q,
-                &transition.v,
-                &vec![0.0; transition.v.len()],
+                &transition.start.q,
+                &transition.start.v,
+                &vec![0.0; transition.start.v.len()],
             )
             .unwrap();
         in_contact += usize::from(!contacts.is_empty());

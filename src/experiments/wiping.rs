@@ -312,13 +312,10 @@ fn first_transitions(episode: &Episode, segments: &Segments) -> Vec<Transition> 
 }
 
 fn transition(episode: &Episode, k: usize) -> Transition {
-    let (x, next) = (&episode.states[k], &episode.states[k + 1]);
     Transition {
-        q: x.q.clone(),
-        v: x.v.clone(),
+        start: episode.states[k].clone(),
         tau: episode.taus[k].clone(),
-        q_next: next.q.clone(),
-        v_next: next.v.clone(),
+        next: episode.states[k + 1].clone(),
     }
 }
 

@@ -210,18 +210,11 @@ impl<'a> Env<'a> {
     /// state). With one substep it is the whole control step. None before the
     /// first step of an episode.
     pub fn last_transition(&self) -> Option<Transition> {
-        let (State { q, v, .. }, tau) = self.last.clone()?;
-        let State {
-            q: q_next,
-            v: v_next,
-            ..
-        } = self.state.clone();
+        let (start, tau) = self.last.clone()?;
         Some(Transition {
-            q,
-            v,
+            start,
             tau,
-            q_next,
-            v_next,
+            next: self.state.clone(),
         })
     }
 
