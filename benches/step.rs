@@ -21,7 +21,6 @@ fn bench_model(c: &mut Criterion, name: &str) {
         b.iter(|| {
             step(
                 tree,
-                &model.opt,
                 &mut data,
                 (black_box(&q), &v, &tau),
                 (&mut q1, &mut v1),
@@ -52,7 +51,6 @@ fn bench_contact(c: &mut Criterion, law: ContactModel, name: &str) {
         b.iter(|| {
             step(
                 model.tree(),
-                &model.opt,
                 &mut data,
                 (black_box(&q), &v, &tau),
                 (&mut q1, &mut v1),

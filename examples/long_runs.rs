@@ -21,6 +21,7 @@
 use std::time::Instant;
 
 use diffosi::derivatives::Transition;
+use diffosi::model::State;
 use diffosi::osi::{ChangeDetection, Lm, Online, Problem, Sampling};
 use diffosi::tasks::{average_mu, by_name};
 use diffosi::Model;
@@ -128,11 +129,9 @@ fn identify(updates: usize) -> (Vec<Checkpoint>, String) {
         let tau = vec![draw(10.0), 0.0];
         let (q_next, v_next) = truth.step(&mut data, &q, &v, &tau).expect("a finite step");
         let transition = Transition {
-            q,
-            v,
+            start: State::new(q, v),
             tau,
-            q_next,
-            v_next,
+            next: State::new(q_next, v_next),
         };
         let estimate = online.push(transition).expect("an estimate");
         changes += usize::from(estimate.flags.changed);

@@ -40,11 +40,11 @@ fn simulate_writes_the_rollout_with_given_torques() {
     let states = model
         .rollout(&[0.1, -0.2], &[0.0, 0.5], taus.iter().map(|t| t.as_slice()))
         .unwrap();
-    for (t, (line, (q, v))) in lines[1..].iter().zip(&states).enumerate() {
+    for (t, (line, x)) in lines[1..].iter().zip(&states).enumerate() {
         let row: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
         assert!((row[0] - t as f64 * model.opt.timestep).abs() < 1e-12);
-        assert_eq!(&row[1..3], q.as_slice(), "row {t}");
-        assert_eq!(&row[3..5], v.as_slice(), "row {t}");
+        assert_eq!(&row[1..3], x.q.as_slice(), "row {t}");
+        assert_eq!(&row[3..5], x.v.as_slice(), "row {t}");
     }
 }
 

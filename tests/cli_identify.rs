@@ -225,7 +225,7 @@ fn unknown_constraints_find_the_mass_under_another_contact_law() {
     let rows: Vec<String> = common::cheetah_walk(&target, 60, 5)
         .iter()
         .map(|t| {
-            let cells = [&t.q, &t.v, &t.tau, &t.q_next, &t.v_next].map(|x| {
+            let cells = [&t.start.q, &t.start.v, &t.tau, &t.next.q, &t.next.v].map(|x| {
                 x.iter()
                     .map(|v| format!("{v:e}"))
                     .collect::<Vec<_>>()

@@ -231,7 +231,7 @@ fn jacobians_match_dual_numbers_through_the_step() {
                 };
                 let (qd, vd, td) = (lift(&q, 0), lift(&v, n), lift(&tau, 2 * n));
                 let (mut q1, mut v1) = (vec![Dual64::from(0.0); n], vec![Dual64::from(0.0); n]);
-                step(tree, &model.opt, data, (&qd, &vd, &td), (&mut q1, &mut v1)).unwrap();
+                step(tree, data, (&qd, &vd, &td), (&mut q1, &mut v1)).unwrap();
                 (
                     q1.iter().map(|x| x.eps).collect::<Vec<_>>(),
                     v1.iter().map(|x| x.eps).collect::<Vec<_>>(),

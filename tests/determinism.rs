@@ -34,7 +34,7 @@ fn seeded_rollout(model: &Model, seed: u64, steps: usize) -> Vec<State> {
 
 /// The bits of every number of a trajectory.
 fn bits(states: &[State]) -> Vec<u64> {
-    let numbers = states.iter().flat_map(|(q, v)| q.iter().chain(v));
+    let numbers = states.iter().flat_map(|x| x.q.iter().chain(&x.v));
     numbers.map(|x| x.to_bits()).collect()
 }
 

@@ -30,14 +30,7 @@ fn dual_numbers_differentiate_a_step() {
             let vd: Vec<Dual64> = v.iter().map(|&x| Dual64::from(x)).collect();
             let td: Vec<Dual64> = tau.iter().map(|&x| Dual64::from(x)).collect();
             let (mut q1, mut v1) = (vec![Dual64::from(0.0); n], vec![Dual64::from(0.0); n]);
-            step(
-                &tree,
-                &model.opt,
-                &mut data,
-                (&qd, &vd, &td),
-                (&mut q1, &mut v1),
-            )
-            .unwrap();
+            step(&tree, &mut data, (&qd, &vd, &td), (&mut q1, &mut v1)).unwrap();
 
             let eps = 1e-6;
             let mut f64_data = model.data();

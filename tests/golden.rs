@@ -122,7 +122,7 @@ fn compare(golden: &Golden) -> Errors {
     let rollout = states
         .iter()
         .zip(r.q.iter().zip(&r.v))
-        .map(|((q, v), (qr, vr))| rel_err(q, qr).max(rel_err(v, vr)))
+        .map(|(x, (qr, vr))| rel_err(&x.q, qr).max(rel_err(&x.v, vr)))
         .fold(0.0, f64::max);
     Errors {
         mass,

@@ -112,7 +112,7 @@ fn rollouts_follow_mujoco() {
         let worst = states
             .iter()
             .zip(r.q.iter().zip(&r.v))
-            .map(|((q, v), (gq, gv))| rel_err(q, gq).max(rel_err(v, gv)))
+            .map(|(x, (gq, gv))| rel_err(&x.q, gq).max(rel_err(&x.v, gv)))
             .fold(0.0, f64::max);
         println!("{name}: {}-step rollout within {worst:.1e}", r.taus.len());
         assert!(worst <= 1e-9, "{name}: {worst:e}");

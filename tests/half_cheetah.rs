@@ -3,6 +3,7 @@
 //! DiffOSI identifying the torso mass from single transitions through contact.
 
 use diffosi::control::{task_problem, Episode};
+use diffosi::model::State;
 use diffosi::osi::{Identifier, Lm};
 use diffosi::tasks::{self, Env, HalfCheetah, Task};
 use rand::rngs::StdRng;
@@ -10,13 +11,7 @@ use rand::{RngExt, SeedableRng};
 
 /// Runs `steps` control steps of random actions (uniform in [-1, 1]^6,
 /// redrawn every `hold` steps) from a reset; returns the states visited.
-fn random_episode(
-    task: &HalfCheetah,
-    mu: f64,
-    seed: u64,
-    steps: usize,
-    hold: usize,
-) -> Vec<(Vec<f64>, Vec<f64>)> {
+fn random_episode(task: &HalfCheetah, mu: f64, seed: u64, steps: usize, hold: usize) -> Vec<State> {
     let mut rng = StdRng::seed_from_u64(seed);
     let mut env = Env::new(task);
     env.reset(&[mu], &mut rng).unwrap();
@@ -58,7 +53,7 @@ fn the_task_follows_gymnasium_half_cheetah() {
     let q: Vec<f64> = (0..9).map(|i| i as f64).collect();
     let v: Vec<f64> = (10..19).map(|i| i as f64).collect();
     let mut obs = vec![];
-    task.observe(&(q.clone(), v.clone()), &mut obs);
+    task.observe(&State::new(q.clone(), v.clone()), &mut obs);
     assert_eq!(obs, [&q[1..], &v[..]].concat());
 }
 
@@ -68,7 +63,7 @@ fn resets_carry_gymnasium_noise() {
     let mut rng = StdRng::seed_from_u64(2);
     let (mut q_max, mut v_sq, mut n) = (0.0f64, 0.0, 0.0);
     for _ in 0..500 {
-        let (q, v) = task.reset(&mut rng);
+        let State { q, v, .. } = task.reset(&mut rng);
         q_max = q.iter().fold(q_max, |m, x| m.max(x.abs()));
         v_sq += v.iter().map(|x| x * x).sum::<f64>();
         n += v.len() as f64;
@@ -82,7 +77,7 @@ fn resets_carry_gymnasium_noise() {
 fn the_reward_is_forward_speed_minus_control_cost() {
     let task = HalfCheetah::new();
     let at = |x: f64| {
-        (
+        State::new(
             vec![x, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
             vec![0.0; 9],
         )
@@ -108,7 +103,7 @@ fn the_physics_is_stable_over_the_whole_mass_range() {
         let states = random_episode(&task, mu, k as u64, 400, 5);
         let mut worst_v = 0.0f64;
         let mut lowest = f64::MAX;
-        for (q, v) in &states {
+        for State { q, v, .. } in &states {
             assert!(
                 q.iter().chain(v).all(|x| x.is_finite()),
                 "mu {mu}: {q:?} {v:?}"
@@ -122,12 +117,11 @@ fn the_physics_is_stable_over_the_whole_mass_range() {
         assert!(lowest > 0.0, "mu {mu}: torso at {lowest} m");
         // Then 10 s under zero torques: it settles on the floor.
         let mut env = Env::new(&task);
-        let (q, v) = states.last().unwrap().clone();
-        env.reset_to(&[mu], (q, v)).unwrap();
+        env.reset_to(&[mu], states.last().unwrap().clone()).unwrap();
         for _ in 0..200 {
             env.step(&[0.0; 6]).unwrap();
         }
-        let (q, v) = env.state();
+        let State { q, v, .. } = env.state();
         let speed = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
         println!(
             "mu {mu}: after 10 s at rest |v| {speed:.2e}, torso height {:.3} m",
@@ -174,9 +168,9 @@ fn diffosi_finds_the_torso_mass_from_one_transition_through_contact() {
             .model()
             .contacts(
                 &mut data,
-                &transition.q,
-                &transition.v,
-                &vec![0.0; transition.v.len()],
+                &transition.start.q,
+                &transition.start.v,
+                &vec![0.0; transition.start.v.len()],
             )
             .unwrap();
         in_contact += usize::from(!contacts.is_empty());

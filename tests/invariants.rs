@@ -106,14 +106,7 @@ fn rollout_energy(model: &Model, steps: usize, damped: bool) -> Vec<f64> {
     let (mut q1, mut v1) = (zero.clone(), zero.clone());
     let mut e = vec![energy(&model, &q, &v)];
     for _ in 0..steps {
-        step(
-            model.tree(),
-            &model.opt,
-            &mut data,
-            (&q, &v, &zero),
-            (&mut q1, &mut v1),
-        )
-        .unwrap();
+        step(model.tree(), &mut data, (&q, &v, &zero), (&mut q1, &mut v1)).unwrap();
         std::mem::swap(&mut q, &mut q1);
         std::mem::swap(&mut v, &mut v1);
         e.push(energy(&model, &q, &v));
@@ -171,14 +164,7 @@ fn passive_modes_solve_their_equations() {
             let n = model.nv();
             let mut data = Data::new(model.tree());
             let (mut q1, mut v1) = (vec![0.0; n], vec![0.0; n]);
-            step(
-                model.tree(),
-                &model.opt,
-                &mut data,
-                (&q, &v, &tau),
-                (&mut q1, &mut v1),
-            )
-            .unwrap();
+            step(model.tree(), &mut data, (&q, &v, &tau), (&mut q1, &mut v1)).unwrap();
             let m = mass_matrix(&model, &q);
             let c = bias(&model, &q, &v);
             let acc = DVector::from_iterator(n, (0..n).map(|i| (v1[i] - v[i]) / h));
@@ -215,18 +201,10 @@ fn step_rejects_bad_input() {
     let (q, mut v, tau) = random_state(&model, 0);
     let (mut q1, mut v1) = (vec![0.0; n], vec![0.0; n]);
     v[1] = f64::NAN;
-    let err = step(
-        model.tree(),
-        &model.opt,
-        &mut data,
-        (&q, &v, &tau),
-        (&mut q1, &mut v1),
-    )
-    .unwrap_err();
+    let err = step(model.tree(), &mut data, (&q, &v, &tau), (&mut q1, &mut v1)).unwrap_err();
     assert_eq!(err.to_string(), "v[1] is not finite");
     let err = step(
         model.tree(),
-        &model.opt,
         &mut data,
         (&q, &v[..1], &tau),
         (&mut q1, &mut v1),

@@ -4,6 +4,7 @@
 mod common;
 
 use diffosi::control::ilqr::{run_mpc_episode, Ilqr, MpcEpisode, MpcOptions};
+use diffosi::model::State;
 use diffosi::tasks::{Cartpole, Task};
 use rand::rngs::StdRng;
 use rand::SeedableRng;
@@ -16,7 +17,7 @@ fn options(horizon: usize, iterations: usize, replan: usize) -> MpcOptions {
 fn ilqr_lowers_the_cost_at_every_accepted_iteration() {
     let task = Cartpole::new();
     let mut planner = Ilqr::new(&task, &[0.3], options(100, 15, 1).ilqr).unwrap();
-    let x0 = (vec![0.1, 0.2], vec![0.0, -0.3]);
+    let x0 = State::new(vec![0.1, 0.2], vec![0.0, -0.3]);
     let (plan, log) = planner.plan(&x0, vec![vec![0.0]; 100]).unwrap();
     assert!(log.costs.len() >= 5, "{log:?}");
     for pair in log.costs.windows(2) {
@@ -37,12 +38,12 @@ fn ilqr_lowers_the_cost_at_every_accepted_iteration() {
     let mut x = x0.clone();
     for (t, u) in plan.actions.iter().enumerate() {
         assert_eq!(plan.action(t, &x), *u);
-        x = model.step(&mut data, &x.0, &x.1, &task.forces(u)).unwrap();
+        (x.q, x.v) = model.step(&mut data, &x.q, &x.v, &task.forces(u)).unwrap();
     }
     assert_eq!(&x, plan.states.last().unwrap());
 }
 
-fn balance(mu: f64, initial: (Vec<f64>, Vec<f64>)) -> MpcEpisode {
+fn balance(mu: f64, initial: State) -> MpcEpisode {
     let task = Cartpole::new();
     run_mpc_episode(&task, &[mu], &initial, &options(200, 10, 40)).unwrap()
 }
@@ -52,7 +53,7 @@ fn mpc_balances_a_perturbed_cartpole() {
     let task = Cartpole::new();
     // Tilted 0.4 rad and falling, with the COM offset the other way (its
     // balance angle is +0.76 rad), and the cart half a metre off centre.
-    let episode = balance(-0.4, (vec![0.5, 0.4], vec![0.0, 0.5]));
+    let episode = balance(-0.4, State::new(vec![0.5, 0.4], vec![0.0, 0.5]));
     assert_eq!(episode.score(), task.horizon() as f64);
     assert_eq!(episode.replans.len(), task.horizon().div_ceil(40));
     // Balanced: the last reward is near the best (1 with the cart centred).
@@ -67,7 +68,7 @@ fn mpc_balances_a_perturbed_cartpole() {
 
 #[test]
 fn mpc_is_deterministic() {
-    let initial = (vec![-0.2, -0.1], vec![0.3, 0.2]);
+    let initial = State::new(vec![-0.2, -0.1], vec![0.3, 0.2]);
     let (a, b) = (balance(0.25, initial.clone()), balance(0.25, initial));
     assert_eq!(a.actions, b.actions);
     assert_eq!(a.rewards, b.rewards);

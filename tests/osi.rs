@@ -6,7 +6,7 @@
 mod common;
 
 use diffosi::derivatives::Transition;
-use diffosi::model::{MapEntry, ParamMap};
+use diffosi::model::{MapEntry, ParamMap, State};
 use diffosi::osi::{
     Adam, Average, ChangeDetection, CmaEs, Estimate, Identifier, Lm, Online, Oracle, Problem,
     Random, Sampling,
@@ -45,11 +45,9 @@ fn transition(truth: &Model, r: &mut StdRng, ranges: &[f64]) -> Transition {
     let (q, v, tau) = (draw(0), draw(1), draw(2));
     let (q_next, v_next) = truth.step(&mut truth.data(), &q, &v, &tau).unwrap();
     Transition {
-        q,
-        v,
+        start: State::new(q, v),
         tau,
-        q_next,
-        v_next,
+        next: State::new(q_next, v_next),
     }
 }
 
@@ -120,7 +118,12 @@ fn noisy_states_give_bounded_errors_and_honest_standard_errors() {
             let mu = (k as f64 - 6.0) / 10.0;
             let mut window = cartpole_window(mu, 10, 100 + k);
             for tr in &mut window {
-                for x in [&mut tr.q, &mut tr.v, &mut tr.q_next, &mut tr.v_next] {
+                for x in [
+                    &mut tr.start.q,
+                    &mut tr.start.v,
+                    &mut tr.next.q,
+                    &mut tr.next.v,
+                ] {
                     x.iter_mut().for_each(|xi| *xi += sigma * normal(&mut r));
                 }
             }
@@ -297,11 +300,9 @@ fn an_unexcited_window_keeps_the_prior_and_says_so() {
     let mut problem = Problem::new(&model, map, &[0.0], &[1.0], &[0.3], &SCALE).unwrap();
     let zero = vec![0.0; 2];
     let still = Transition {
-        q: zero.clone(),
-        v: zero.clone(),
+        start: State::new(zero.clone(), zero.clone()),
         tau: zero.clone(),
-        q_next: zero.clone(),
-        v_next: zero,
+        next: State::new(zero.clone(), zero),
     };
     let window = vec![still; 3];
     for mut id in [
@@ -487,7 +488,7 @@ fn bad_problems_and_windows_are_clear_errors() {
         .unwrap_err();
     assert_eq!(e.to_string(), "the window holds no transitions");
     let mut window = cartpole_window(0.1, 3, 2);
-    window[2].q_next[1] = f64::NAN;
+    window[2].next.q[1] = f64::NAN;
     let e = Lm::default()
         .identify(&mut problem, &window, &[0.0])
         .unwrap_err();
@@ -580,7 +581,12 @@ fn no_false_alarm_without_a_change_under_small_noise() {
     let mut stream = cartpole_window(0.3, 200, 41);
     let mut r = common::rng(42);
     for tr in &mut stream {
-        for x in [&mut tr.q, &mut tr.v, &mut tr.q_next, &mut tr.v_next] {
+        for x in [
+            &mut tr.start.q,
+            &mut tr.start.v,
+            &mut tr.next.q,
+            &mut tr.next.v,
+        ] {
             x.iter_mut().for_each(|xi| *xi += sigma * normal(&mut r));
         }
     }

@@ -8,7 +8,7 @@ mod common;
 
 use diffosi::derivatives::Transition;
 use diffosi::dynamics::configuration::integrate;
-use diffosi::model::{Fluid, Integrator, ParamMap};
+use diffosi::model::{Fluid, Integrator, ParamMap, State};
 use diffosi::osi::{Identifier, Lm, Problem};
 use diffosi::Model;
 
@@ -61,11 +61,9 @@ fn window(truth: &Model, len: usize, seed: u64) -> Vec<Transition> {
             let (q, _) = truth.step(&mut data, &q0, &v, &tau).unwrap();
             let (q_next, v_next) = truth.step(&mut data, &q, &v, &tau).unwrap();
             Transition {
-                q,
-                v,
+                start: State::new(q, v),
                 tau,
-                q_next,
-                v_next,
+                next: State::new(q_next, v_next),
             }
         })
         .collect()
@@ -77,8 +75,8 @@ fn window(truth: &Model, len: usize, seed: u64) -> Vec<Transition> {
 fn far_from(model: &Model, window: &mut [Transition], angle: f64) {
     let shift = vec![angle; model.nv()];
     for tr in window {
-        let observed = tr.q_next.clone();
-        integrate(model.tree(), &observed, &shift, 1.0, &mut tr.q_next);
+        let observed = tr.next.q.clone();
+        integrate(model.tree(), &observed, &shift, 1.0, &mut tr.next.q);
     }
 }
 

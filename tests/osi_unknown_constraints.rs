@@ -8,7 +8,7 @@
 mod common;
 
 use diffosi::derivatives::{Impulses, Transition};
-use diffosi::model::{ContactModel, Integrator, MapEntry, ParamMap, PassiveMode};
+use diffosi::model::{ContactModel, Integrator, MapEntry, ParamMap, PassiveMode, State};
 use diffosi::osi::{Identifier, Lm, OsiError, Problem};
 use diffosi::Model;
 use nalgebra::{DMatrix, DVector};
@@ -74,7 +74,7 @@ fn our_constrained_steps_leave_no_residual_under_every_passive_mode() {
             .iter()
             .filter(|t| {
                 !truth
-                    .contacts(&mut data, &t.q, &t.v, &t.tau)
+                    .contacts(&mut data, &t.start.q, &t.start.v, &t.tau)
                     .unwrap()
                     .is_empty()
             })
@@ -222,16 +222,17 @@ fn impulses_through_the_mass_matrix_alone() {
     let window: Vec<Transition> = common::cheetah_walk(&truth, 80, 6)
         .into_iter()
         .map(|t| {
-            let (_, v_free) = free.step(&mut data, &t.q, &t.v, &t.tau).unwrap();
+            let (_, v_free) = free
+                .step(&mut data, &t.start.q, &t.start.v, &t.tau)
+                .unwrap();
             let v_free = DVector::from_vec(v_free);
-            let m = common::mass_matrix(&truth, &t.q);
+            let m = common::mass_matrix(&truth, &t.start.q);
             let impulse = (&m + DMatrix::from_diagonal(&implicit))
-                * (DVector::from_column_slice(&t.v_next) - &v_free);
+                * (DVector::from_column_slice(&t.next.v) - &v_free);
             let v_next = v_free + m.lu().solve(&impulse).unwrap();
-            let q_next = (0..n).map(|i| t.q[i] + h * v_next[i]).collect();
+            let q_next = (0..n).map(|i| t.start.q[i] + h * v_next[i]).collect();
             Transition {
-                q_next,
-                v_next: v_next.as_slice().to_vec(),
+                next: State::new(q_next, v_next.as_slice().to_vec()),
                 ..t
             }
         })

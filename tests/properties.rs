@@ -113,13 +113,13 @@ proptest! {
         let e0 = energy(&model, &q, &v).abs() + 1.0;
         let mut work = 0.0;
         for w in states.windows(2) {
-            let ((q0, v0), (q1, v1)) = (&w[0], &w[1]);
-            let loss = energy(&model, q0, v0) - energy(&model, q1, v1);
+            let (x0, x1) = (&w[0], &w[1]);
+            let loss = energy(&model, &x0.q, &x0.v) - energy(&model, &x1.q, &x1.v);
             prop_assert!(loss > -1e-10 * e0, "energy rose by {:e}", -loss);
-            work += 0.5 * h * (power(v0) + power(v1));
+            work += 0.5 * h * (power(&x0.v) + power(&x1.v));
         }
-        let (q1, v1) = states.last().unwrap();
-        let loss = energy(&model, &q, &v) - energy(&model, q1, v1);
+        let last = states.last().unwrap();
+        let loss = energy(&model, &q, &v) - energy(&model, &last.q, &last.v);
         prop_assert!((loss - work).abs() < 2e-4 * work + 1e-10 * e0,
             "energy lost {:e}, damping work {:e}", loss, work);
     }

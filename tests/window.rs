@@ -8,7 +8,7 @@ mod common;
 use diffosi::derivatives::{
     step_jacobians, window_residuals, window_residuals_into, Transition, WindowFit, Workspace, Wrt,
 };
-use diffosi::model::{Integrator, MapEntry, Param, ParamMap, PassiveMode};
+use diffosi::model::{Integrator, MapEntry, Param, ParamMap, PassiveMode, State};
 use diffosi::Model;
 use nalgebra::{DMatrix, DVector};
 
@@ -34,11 +34,9 @@ fn window(model: &Model, map: &ParamMap, mu: f64, len: usize) -> Vec<Transition>
             let tau = vec![common::uniform(&mut r, -10.0, 10.0), 0.0];
             let (q_next, v_next) = truth.step(&mut truth.data(), &q, &v, &tau).unwrap();
             Transition {
-                q,
-                v,
+                start: State::new(q, v),
                 tau,
-                q_next,
-                v_next,
+                next: State::new(q_next, v_next),
             }
         })
         .collect()
@@ -144,15 +142,15 @@ fn assert_rows_match(
         let j = step_jacobians(
             model,
             &mut Workspace::new(model),
-            (&tr.q, &tr.v, &tr.tau),
+            (&tr.start.q, &tr.start.v, &tr.tau),
             &wrt,
         )
         .unwrap();
         let (q_next, v_next) = model
-            .step(&mut model.data(), &tr.q, &tr.v, &tr.tau)
+            .step(&mut model.data(), &tr.start.q, &tr.start.v, &tr.tau)
             .unwrap();
         let predicted = q_next.iter().chain(&v_next);
-        let observed = tr.q_next.iter().chain(&tr.v_next);
+        let observed = tr.next.q.iter().chain(&tr.next.v);
         let expected = DMatrix::from_fn(2 * n, map.nmu, |i, c| {
             let block = if i < n { j.dq_dp() } else { j.dv_dp() };
             (block.row(i % n) * gains.column(c))[0] / scale[i]
@@ -197,11 +195,9 @@ fn rows_match_the_step_and_its_parameter_jacobians() {
                 let next = |tau: &[f64]| truth.step(&mut truth.data(), &q, &v, tau).unwrap();
                 let (q_next, v_next) = next(&tau.iter().map(|t| t + 0.1).collect::<Vec<_>>());
                 Transition {
-                    q,
-                    v,
+                    start: State::new(q, v),
                     tau,
-                    q_next,
-                    v_next,
+                    next: State::new(q_next, v_next),
                 }
             })
             .collect();
@@ -254,13 +250,13 @@ fn bad_windows_are_clear_errors() {
     let (mut model, map) = cartpole();
     let mut data = window(&model, &map, 0.1, 3);
     let mut ws = Workspace::new(&model);
-    data[1].v_next[0] = f64::NAN;
+    data[1].next.v[0] = f64::NAN;
     let err = window_residuals(&mut model, &mut ws, &map, &[0.0], &data, &SCALE).unwrap_err();
     assert_eq!(
         err.to_string(),
         "transition 1: v_next[0] = NaN is not finite"
     );
-    data[1].v_next = vec![0.0];
+    data[1].next.v = vec![0.0];
     let err = window_residuals(&mut model, &mut ws, &map, &[0.0], &data, &SCALE).unwrap_err();
     assert_eq!(
         err.to_string(),
@@ -323,20 +319,18 @@ fn rows_match_through_contact() {
                 q[1] = -0.15; // the feet in the floor
                 let (q_next, v_next) = truth.step(&mut truth.data(), &q, &v, &tau).unwrap();
                 Transition {
-                    q,
-                    v,
+                    start: State::new(q, v),
                     tau,
-                    q_next,
-                    v_next,
+                    next: State::new(q_next, v_next),
                 }
             })
             .collect();
         let contacts = model
             .contacts(
                 &mut model.data(),
-                &window[0].q,
-                &window[0].v,
-                &vec![0.0; window[0].v.len()],
+                &window[0].start.q,
+                &window[0].start.v,
+                &vec![0.0; window[0].start.v.len()],
             )
             .unwrap();
         assert!(contacts.iter().any(|c| c.dist < 0.0));

@@ -174,7 +174,7 @@ fn bad_input_is_an_error_naming_it() {
 
     let mut segs = segments(&task, &[50.0, 50.0], 0);
     let mut problem = task.problem();
-    segs.segments[3].observed[1].1[2] = f64::NAN;
+    segs.segments[3].observed[1].v[2] = f64::NAN;
     let err = Lm::default()
         .identify_on(&mut problem, &segs, &[50.5, 50.5])
         .unwrap_err();

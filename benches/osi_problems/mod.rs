@@ -18,7 +18,7 @@ mod common;
 pub use common::{load, load_with_contact, settled};
 use diffosi::derivatives::Transition;
 use diffosi::model::ContactModel;
-use diffosi::model::ParamMap;
+use diffosi::model::{ParamMap, State};
 use diffosi::osi::Problem;
 use diffosi::tasks::{Cartpole, HalfCheetah, Task as _};
 use diffosi::Model;
@@ -122,11 +122,9 @@ impl Task {
                 let tau = draw(self.ranges[2]);
                 let (q_next, v_next) = truth.step(&mut data, &q, &v, &tau).unwrap();
                 Transition {
-                    q,
-                    v,
+                    start: State::new(q, v),
                     tau,
-                    q_next,
-                    v_next,
+                    next: State::new(q_next, v_next),
                 }
             })
             .collect()
@@ -148,11 +146,9 @@ impl Task {
                     .collect();
                 let (q_next, v_next) = truth.step(&mut data, &q, &v, &tau).unwrap();
                 let t = Transition {
-                    q: q.clone(),
-                    v: v.clone(),
+                    start: State::new(q.clone(), v.clone()),
                     tau,
-                    q_next: q_next.clone(),
-                    v_next: v_next.clone(),
+                    next: State::new(q_next.clone(), v_next.clone()),
                 };
                 (q, v) = (q_next, v_next);
                 t

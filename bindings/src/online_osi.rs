@@ -2,6 +2,7 @@
 //! `diffosi eval` runs it.
 
 use engine::derivatives::Transition;
+use engine::model::State;
 use engine::osi::{
     Adam, ChangeDetection, Identifier, Lm, LmOptions, Loss, Online, Problem, Sampling,
     HUBER_THRESHOLD,
@@ -124,11 +125,12 @@ impl PyOnlineOsi {
     ) -> PyResult<Bound<'py, PyDict>> {
         let (nq, nv) = (self.online.problem().nq(), self.online.problem().nv());
         let transition = Transition {
-            q: vector(q, "q", nq, "nq")?,
-            v: vector(v, "v", nv, "nv")?,
+            start: State::new(vector(q, "q", nq, "nq")?, vector(v, "v", nv, "nv")?),
             tau: vector(tau, "tau", nv, "nv")?,
-            q_next: vector(q_next, "q_next", nq, "nq")?,
-            v_next: vector(v_next, "v_next", nv, "nv")?,
+            next: State::new(
+                vector(q_next, "q_next", nq, "nq")?,
+                vector(v_next, "v_next", nv, "nv")?,
+            ),
         };
         let online = &mut self.online;
         let estimate = py

@@ -2,7 +2,7 @@
 //! parameters with an identity map, and the checks of a window of transitions.
 
 use engine::derivatives::Transition;
-use engine::model::ParamMap;
+use engine::model::{ParamMap, State};
 use engine::osi::{Identifier, Problem};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -112,11 +112,9 @@ impl Osi {
         let row = |k: usize, t: usize| arrays[k].row(t).to_vec();
         let window: Vec<Transition> = (0..w)
             .map(|t| Transition {
-                q: row(0, t),
-                v: row(1, t),
+                start: State::new(row(0, t), row(1, t)),
                 tau: row(2, t),
-                q_next: row(3, t),
-                v_next: row(4, t),
+                next: State::new(row(3, t), row(4, t)),
             })
             .collect();
         let nmu = self.problem.nmu();

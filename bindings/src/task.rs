@@ -38,7 +38,10 @@ impl PyTask {
     /// Converts and checks a state of the task's model.
     pub(crate) fn state(&self, q: &Bound<'_, PyAny>, v: &Bound<'_, PyAny>) -> PyResult<State> {
         let m = self.task.model();
-        Ok((vector(q, "q", m.nq(), "nq")?, vector(v, "v", m.nv(), "nv")?))
+        Ok(State::new(
+            vector(q, "q", m.nq(), "nq")?,
+            vector(v, "v", m.nv(), "nv")?,
+        ))
     }
 
     /// Converts mu and checks that it lies in the task's range.
@@ -147,7 +150,7 @@ impl PyTask {
     /// An initial state (q, v) from the task's reset distribution, drawn from
     /// a generator seeded with `seed`.
     fn reset<'py>(&self, py: Python<'py>, seed: u64) -> PyResult<Bound<'py, PyTuple>> {
-        let (q, v) = self.task.reset(&mut StdRng::seed_from_u64(seed));
+        let State { q, v, .. } = self.task.reset(&mut StdRng::seed_from_u64(seed));
         PyTuple::new(py, [PyArray1::from_vec(py, q), PyArray1::from_vec(py, v)])
     }
 
@@ -167,7 +170,7 @@ impl PyTask {
         let (mut q0, mut v0) = (Array2::zeros((count, nq)), Array2::zeros((count, nv)));
         for k in 0..count {
             let mu = tasks::sample_mu(task, &mut rng);
-            let (q, v) = task.reset(&mut rng);
+            let State { q, v, .. } = task.reset(&mut rng);
             mus.row_mut(k)
                 .iter_mut()
                 .zip(&mu)

@@ -137,8 +137,8 @@ impl PyWiping {
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         let out = PyDict::new(py);
         let table = |x: Vec<Vec<f64>>| PyArray2::from_vec2(py, &x);
-        out.set_item("q", table(e.states.iter().map(|s| s.0.clone()).collect())?)?;
-        out.set_item("v", table(e.states.iter().map(|s| s.1.clone()).collect())?)?;
+        out.set_item("q", table(e.states.iter().map(|s| s.q.clone()).collect())?)?;
+        out.set_item("v", table(e.states.iter().map(|s| s.v.clone()).collect())?)?;
         out.set_item("tau", table(e.taus)?)?;
         out.set_item("force", PyArray1::from_vec(py, e.forces))?;
         out.set_item("xi", PyArray1::from_vec(py, e.xi))?;
@@ -174,7 +174,11 @@ impl PyWiping {
         }
         let xi = vector(xi, "xi", q.nrows(), "rows of q")?;
         let force = vector(force, "force", q.nrows(), "rows of q")?;
-        let states: Vec<State> = rows(&q).into_iter().zip(rows(&v)).collect();
+        let states: Vec<State> = rows(&q)
+            .into_iter()
+            .zip(rows(&v))
+            .map(|(q, v)| State::new(q, v))
+            .collect();
         let gains = gains_of(gains)?;
         let mut rng = StdRng::seed_from_u64(seed);
         let record = (states.as_slice(), xi.as_slice(), force.as_slice(), gains);

@@ -38,7 +38,7 @@ impl PyWipingRun {
         PyWipingRun {
             data: model.data(),
             ctrl,
-            next: (vec![0.0; model.nv()], vec![0.0; model.nv()]),
+            next: State::new(vec![0.0; model.nv()], vec![0.0; model.nv()]),
             tau: vec![0.0; model.nv()],
             model,
             k: 0,
@@ -57,11 +57,11 @@ impl PyWipingRun {
     /// (0, inf) or a step that fails (the state is then unchanged).
     fn step(&mut self, gains: &Bound<'_, PyAny>) -> PyResult<f64> {
         self.ctrl.gains = gains_of(Some(gains))?;
-        let (q, v) = (&self.state.0, &self.state.1);
-        let (q1, v1) = (&mut self.next.0, &mut self.next.1);
+        let (q, v) = (&self.state.q, &self.state.v);
+        let (q1, v1) = (&mut self.next.q, &mut self.next.v);
         let step = (self.k, q.as_slice(), v.as_slice(), self.carry);
         self.carry = closed_loop_step(
-            (self.model.tree(), &self.model),
+            self.model.tree(),
             &mut self.data,
             &mut self.ctrl,
             step,
@@ -76,12 +76,12 @@ impl PyWipingRun {
 
     #[getter]
     fn q<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        PyArray1::from_slice(py, &self.state.0)
+        PyArray1::from_slice(py, &self.state.q)
     }
 
     #[getter]
     fn v<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        PyArray1::from_slice(py, &self.state.1)
+        PyArray1::from_slice(py, &self.state.v)
     }
 
     #[getter]

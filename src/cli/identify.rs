@@ -6,7 +6,7 @@ use std::path::Path;
 
 use diffosi::derivatives::Impulses;
 use diffosi::derivatives::Transition;
-use diffosi::model::{Param, ParamMap};
+use diffosi::model::{Param, ParamMap, State};
 use diffosi::osi::{Adam, CmaEs, Estimate, Identifier, Lm, Problem};
 use serde_json::json;
 
@@ -270,11 +270,9 @@ pub fn read_transitions(path: &Path, nq: usize, nv: usize) -> Result<Vec<Transit
             head.to_vec()
         };
         rows.push(Transition {
-            q: take(nq),
-            v: take(nv),
+            start: State::new(take(nq), take(nv)),
             tau: take(nv),
-            q_next: take(nq),
-            v_next: take(nv),
+            next: State::new(take(nq), take(nv)),
         });
     }
     if rows.is_empty() {

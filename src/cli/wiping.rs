@@ -10,6 +10,7 @@ use diffosi::control::admittance::Gains;
 use diffosi::dynamics::contact::contact_pairs;
 use diffosi::experiments::wiping::{self as exp, Controllers, Uc};
 use diffosi::experiments::wiping_dims as dims;
+use diffosi::model::State;
 use diffosi::osi::mlp::MuMlp;
 use diffosi::osi::Lm;
 use diffosi::tasks::wiping::{Segments, Wiping, CANONICAL};
@@ -71,7 +72,7 @@ pub fn wipe(
     let mut out = std::io::BufWriter::new(file);
     let io = |e: std::io::Error| format!("cannot write {}: {e}", output.display());
     writeln!(out, "t,{}", header.join(",")).map_err(io)?;
-    for (k, ((q, v), tau)) in episode.states.iter().zip(&episode.taus).enumerate() {
+    for (k, (State { q, v, .. }, tau)) in episode.states.iter().zip(&episode.taus).enumerate() {
         let row: Vec<String> = q
             .iter()
             .chain(v)

@@ -144,7 +144,7 @@ impl Model {
             return Err(not_physical(self, values, source));
         }
         if let Some(soft) = contact {
-            self.spec.opt.soft = soft;
+            (self.spec.opt.soft, self.tree.opt.soft) = (soft, soft);
             let s = &mut self.tree.soft;
             (s.stiffness, s.damping, s.friction) = (soft.stiffness, soft.damping, soft.friction);
         }
@@ -189,7 +189,7 @@ impl Model {
             (geom.friction, geom.contact.sol) = (g.friction, g.sol);
         }
         let constraint = !geoms.is_empty() || joints.iter().any(|j| j.constraint(&old.1));
-        if constraint && self.tree.contact_model == ContactModel::Constraint {
+        if constraint && self.tree.opt.contact_model == ContactModel::Constraint {
             // Contact settings reach the pairs' mixed values: rebuilt whole.
             self.tree = Tree::build(&self.spec);
         } else {
@@ -277,7 +277,7 @@ impl Model {
         }
         // The fluid's equivalent boxes follow the masses and inertias.
         tree.fluid = fluid_bodies(&self.spec, &tree.body_frames(), &|_, _, x| x);
-        if tree.contact_model == ContactModel::Constraint {
+        if tree.opt.contact_model == ContactModel::Constraint {
             // MuJoCo's mj_setConst after an edit of inertial values.
             let (body, dof) = invweight0(tree, &self.spec, &|_, _, x| x);
             (
@@ -582,6 +582,23 @@ mod tests {
         let e = err(&mut smooth, "geom/floor/friction", &[1.0, 0.0, 0.0]);
         assert!(e.contains("runs the smooth contact model"), "{e}");
         assert!(smooth.param_names().iter().all(|n| !n.starts_with("geom/")));
+    }
+
+    #[test]
+    fn a_soft_contact_edit_reaches_the_tree_options() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/reference_models/half_cheetah.xml"
+        );
+        let mut model = Model::load(path)
+            .and_then(|m| m.edited(|s| s.opt.contact_model = ContactModel::Smooth))
+            .unwrap();
+        let stiffness = model.opt.soft.stiffness * 2.0;
+        model.set_param("contact/stiffness", &[stiffness]).unwrap();
+        assert_eq!(model.opt.soft.stiffness, stiffness);
+        assert_eq!(model.tree().opt, model.opt);
+        let fresh = Model::from_spec((*model).clone()).unwrap();
+        assert_eq!(fresh.tree(), model.tree());
     }
 
     #[test]

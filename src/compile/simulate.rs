@@ -37,7 +37,7 @@ impl Model {
         tau: &[f64],
     ) -> Result<(Vec<f64>, Vec<f64>), StepError> {
         let (mut q1, mut v1) = (vec![0.0; self.nq()], vec![0.0; self.nv()]);
-        dynamics::step(&self.tree, &self.opt, data, (q, v, tau), (&mut q1, &mut v1))?;
+        dynamics::step(&self.tree, data, (q, v, tau), (&mut q1, &mut v1))?;
         Ok((q1, v1))
     }
 
@@ -69,7 +69,7 @@ impl Model {
     }
 
     /// Steps from (q0, v0) under each row of `taus`; returns the T+1 states
-    /// (q, v) visited, the initial state first.
+    /// visited, the initial state first.
     pub fn rollout<'a>(
         &self,
         q0: &[f64],
@@ -77,13 +77,13 @@ impl Model {
         taus: impl IntoIterator<Item = &'a [f64]>,
     ) -> Result<Vec<State>, RolloutError> {
         let mut data = self.data();
-        let mut states = vec![(q0.to_vec(), v0.to_vec())];
+        let mut states = vec![State::new(q0.to_vec(), v0.to_vec())];
         for (step, tau) in taus.into_iter().enumerate() {
-            let (q, v) = states.last().expect("starts non-empty");
-            let next = self
+            let State { q, v, .. } = states.last().expect("starts non-empty");
+            let (q, v) = self
                 .step(&mut data, q, v, tau)
                 .map_err(|source| RolloutError { step, source })?;
-            states.push(next);
+            states.push(State::new(q, v));
         }
         Ok(states)
     }

@@ -29,6 +29,7 @@ impl<T: Real> Tree<T> {
     /// directions of parameters (components as in [`Param::get`]).
     pub fn build_with(model: &Spec, lift_param: impl Fn(Param, usize, f64) -> T) -> Self {
         let mut tree = Tree::empty();
+        tree.opt = model.opt.clone();
         tree.gravity = lift_vector(&model.opt.gravity);
         tree.body.push(BodyFrame {
             node: None,
@@ -83,7 +84,6 @@ impl<T: Real> Tree<T> {
                 tree.inertia[n] += own.to_source(&x_tree);
             }
         }
-        tree.medium = model.opt.fluid;
         tree.fluid = fluid_bodies(model, &tree.body_frames(), &lift_param);
         let soft = &model.opt.soft;
         let constants = [
@@ -92,7 +92,6 @@ impl<T: Real> Tree<T> {
             (Param::ContactFriction, soft.friction),
         ];
         tree.soft = Soft::new(soft, constants.map(|(p, x)| lift_param(p, 0, x)));
-        tree.contact_model = model.opt.contact_model;
         match model.opt.contact_model {
             ContactModel::Smooth => tree.add_pairs(model),
             ContactModel::Constraint => tree.add_constraints(model, &lift_param),
@@ -107,8 +106,6 @@ impl<T: Real> Tree<T> {
         let limits = std::mem::take(&mut self.limits);
         let opt = &model.opt;
         let c = &mut self.constraint;
-        c.solver = opt.solver;
-        c.timestep = opt.timestep;
         let node_joint = &self.node_joint;
         c.limits = node_joint
             .iter()

@@ -140,7 +140,7 @@ pub fn sensed_force<T: Real>(tree: &Tree<T>, data: &Data<T>) -> T {
             .iter()
             .fold(T::zero(), |sum, c| sum + c.normal_force)
     };
-    match tree.contact_model {
+    match tree.opt.contact_model {
         ContactModel::Smooth => normal(&data.contacts),
         ContactModel::Constraint => data.constrained.as_ref().map_or(T::zero(), |c| {
             normal(&contact_forces(&c.contacts, &c.rows, &c.solution.force))

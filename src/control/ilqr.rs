@@ -102,8 +102,10 @@ impl Plan {
     }
 
     /// u_t + alpha k + K_t (x - x_t), clamped to [-1, 1].
-    fn law(&self, t: usize, (q, v): &State, alpha: f64, k: &DVector<f64>) -> Vec<f64> {
-        let (q_bar, v_bar) = &self.states[t];
+    fn law(&self, t: usize, State { q, v, .. }: &State, alpha: f64, k: &DVector<f64>) -> Vec<f64> {
+        let State {
+            q: q_bar, v: v_bar, ..
+        } = &self.states[t];
         let dx: DVector<f64> = DVector::from_iterator(
             q.len() + v.len(),
             q.iter()
@@ -153,13 +155,13 @@ struct CostPoint {
 
 impl CostPoint {
     fn slot(&mut self, i: usize) -> &mut f64 {
-        let (n, m) = (self.state.0.len(), self.action.len());
+        let (n, m) = (self.state.q.len(), self.action.len());
         match i {
-            i if i < n => &mut self.state.0[i],
-            i if i < 2 * n => &mut self.state.1[i - n],
+            i if i < n => &mut self.state.q[i],
+            i if i < 2 * n => &mut self.state.v[i - n],
             i if i < 2 * n + m => &mut self.action[i - 2 * n],
-            i if i < 3 * n + m => &mut self.next.0[i - 2 * n - m],
-            i => &mut self.next.1[i - 3 * n - m],
+            i if i < 3 * n + m => &mut self.next.q[i - 2 * n - m],
+            i => &mut self.next.v[i - 3 * n - m],
         }
     }
 
@@ -265,7 +267,7 @@ impl<'a> Ilqr<'a> {
         let tau = self.task.forces(action);
         let mut next = state.clone();
         for _ in 0..self.task.substeps() {
-            next = self.model.step(&mut self.data, &next.0, &next.1, &tau)?;
+            (next.q, next.v) = self.model.step(&mut self.data, &next.q, &next.v, &tau)?;
         }
         Ok(next)
     }
@@ -309,7 +311,7 @@ impl<'a> Ilqr<'a> {
     /// Jacobians, and the state it reaches.
     fn linearise(
         &mut self,
-        (q, v): &State,
+        State { q, v, .. }: &State,
         action: &[f64],
     ) -> Result<(DMatrix<f64>, DMatrix<f64>, State), StepError> {
         let n = self.model.nv();
@@ -325,7 +327,7 @@ impl<'a> Ilqr<'a> {
             q.copy_from_slice(&step.q_next);
             v.copy_from_slice(&step.v_next);
         }
-        Ok((a, b_tau * &self.dtau_du, (q, v)))
+        Ok((a, b_tau * &self.dtau_du, State::new(q, v)))
     }
 
     /// One control step from `x` under the action `u` and its derivatives:
@@ -958,7 +960,7 @@ mod tests {
         }
     }
 
-    fn flat((q, v): &State) -> Vec<f64> {
+    fn flat(State { q, v, .. }: &State) -> Vec<f64> {
         q.iter().chain(v).copied().collect()
     }
 
@@ -966,7 +968,7 @@ mod tests {
     fn control_step_jacobians_chain_the_substeps() {
         let task = Held(Cartpole::new());
         let mut planner = Ilqr::new(&task, &[0.2], IlqrOptions::default()).unwrap();
-        let (x, u) = ((vec![0.3, -0.2], vec![0.4, 1.1]), vec![0.03]);
+        let (x, u) = (State::new(vec![0.3, -0.2], vec![0.4, 1.1]), vec![0.03]);
         let (a, b, _) = planner.linearise(&x, &u).unwrap();
         let h = 1e-6;
         let mut worst: f64 = 0.0;
@@ -975,9 +977,9 @@ mod tests {
             let (step_p, step_m) = if col < 4 {
                 let slot = |s: &mut State, d: f64| {
                     if col < 2 {
-                        s.0[col] += d
+                        s.q[col] += d
                     } else {
-                        s.1[col - 2] += d
+                        s.v[col - 2] += d
                     }
                 };
                 slot(&mut xp, h);
@@ -1025,13 +1027,13 @@ mod tests {
     fn plans_on(task: &crate::tasks::HalfCheetah) {
         let mut planner = Ilqr::new(task, &[6.25], IlqrOptions::default()).unwrap();
         let n = task.model().nv();
-        let mut x = (task.model().reference_q(), vec![0.0; n]);
+        let mut x = State::new(task.model().reference_q(), vec![0.0; n]);
         for _ in 0..60 {
             x = planner.control_step(&x, &[0.0; 6]).unwrap();
         }
         let contacts = task
             .model()
-            .contacts(&mut task.model().data(), &x.0, &x.1, &[0.0; 9]);
+            .contacts(&mut task.model().data(), &x.q, &x.v, &[0.0; 9]);
         assert!(!contacts.unwrap().is_empty(), "standing on the floor");
         let u = vec![0.1, -0.2, 0.3, -0.1, 0.2, 0.05];
         let (a, b, _) = planner.linearise(&x, &u).unwrap();
@@ -1040,8 +1042,8 @@ mod tests {
         for col in 0..2 * n + 6 {
             let (mut xp, mut xm, mut up, mut um) = (x.clone(), x.clone(), u.clone(), u.clone());
             match col {
-                c if c < n => (xp.0[c] += h, xm.0[c] -= h),
-                c if c < 2 * n => (xp.1[c - n] += h, xm.1[c - n] -= h),
+                c if c < n => (xp.q[c] += h, xm.q[c] -= h),
+                c if c < 2 * n => (xp.v[c - n] += h, xm.v[c - n] -= h),
                 c => (up[c - 2 * n] += h, um[c - 2 * n] -= h),
             };
             let fp = flat(&planner.control_step(&xp, &up).unwrap());

@@ -163,20 +163,20 @@ impl Elimination {
         if self.bases.len() <= t {
             self.bases.resize_with(t + 1, Basis::default);
         }
-        if self.bases[t].q == tr.q && self.bases[t].q_next == tr.q_next {
+        if self.bases[t].q == tr.start.q && self.bases[t].q_next == tr.next.q {
             return;
         }
         let tree = model.tree();
         self.nodes.clear();
-        for (q, v) in [(&tr.q_next, &tr.v_next), (&tr.q, &tr.v)] {
+        for (q, v) in [(&tr.next.q, &tr.next.v), (&tr.start.q, &tr.start.v)] {
             update_transforms(tree, data, q);
             world_frames(tree, data, v);
             self.touching(data);
         }
         let directions = self.constraint_directions(model, data, tr);
         self.bases[t] = Basis {
-            q: tr.q.clone(),
-            q_next: tr.q_next.clone(),
+            q: tr.start.q.clone(),
+            q_next: tr.next.q.clone(),
             directions,
         };
     }
@@ -208,7 +208,7 @@ impl Elimination {
             }
         }
         for (d, joint) in model.joints.iter().enumerate() {
-            let at = (tr.q[d], tr.q_next[d]);
+            let at = (tr.start.q[d], tr.next.q[d]);
             let pushes = |kind: &ConstraintKind| self.pushes_dof(*kind, joint, at);
             if ConstraintKind::ORDER.iter().any(pushes) {
                 let mut g = DVector::zeros(n);
@@ -307,22 +307,37 @@ fn transition_rows(
     implicit_terms(
         tree,
         (mode, h),
-        (&tr.q, &tr.v),
+        (&tr.start.q, &tr.start.v),
         &mut ws.stretch,
         &mut ws.extra,
     );
     let mut force = vec![0.0; n];
-    passive_forces(tree, &ws.stretch, &tr.v, &mut force);
+    passive_forces(tree, &ws.stretch, &tr.start.v, &mut force);
     for (f, t) in force.iter_mut().zip(&tr.tau) {
         *f += t;
     }
-    let a = DVector::from_fn(n, |i, _| (tr.v_next[i] - tr.v[i]) / h);
+    let a = DVector::from_fn(n, |i, _| (tr.next.v[i] - tr.start.v[i]) / h);
     // Under `Impulses::Mass`: the free acceleration, and its derivatives.
-    let free = (elim.impulses == Impulses::Mass)
-        .then(|| free_acceleration(tree, ws, (mode, h), (&tr.q, &tr.v), &force, jacobian));
+    let free = (elim.impulses == Impulses::Mass).then(|| {
+        free_acceleration(
+            tree,
+            ws,
+            (mode, h),
+            (&tr.start.q, &tr.start.v),
+            &force,
+            jacobian,
+        )
+    });
     // R = ID(q, v, a) + extra a - (tau + tau_passive).
     ws.qdd.copy_from_slice(a.as_slice());
-    rnea(tree, &mut ws.data, &tr.q, &tr.v, &ws.qdd, &mut ws.tau);
+    rnea(
+        tree,
+        &mut ws.data,
+        &tr.start.q,
+        &tr.start.v,
+        &ws.qdd,
+        &mut ws.tau,
+    );
     let extra = DVector::from_column_slice(&ws.extra);
     let mut r = DVector::from_fn(n, |i, _| ws.tau[i] + extra[i] * a[i] - force[i]);
     if let Some((qdd, _)) = &free {
@@ -335,7 +350,7 @@ fn transition_rows(
     if !jacobian {
         return;
     }
-    let at = (&ws.stretch[..], &tr.v[..], &ws.qdd[..]);
+    let at = (&ws.stretch[..], &tr.start.v[..], &ws.qdd[..]);
     let mut dr = DVector::zeros(n);
     for (j, column) in ws.window.columns.iter().enumerate() {
         residual_column(tree, &ws.data, (mode, h), at, column, dr.as_mut_slice());

@@ -245,7 +245,7 @@ pub fn step_jacobians(
     } else {
         let tableau = tableau(model.opt.integrator).expect("not Euler");
         let next = (&mut q_next[..], &mut v_next[..]);
-        step(tree, &model.opt, &mut ws.data, (q, v, tau), next)?;
+        step(tree, &mut ws.data, (q, v, tau), next)?;
         runge_kutta(model, ws, tableau, (q, v, tau), &analytic_wrt)
     };
     let jacobian = match analytic {
@@ -262,7 +262,7 @@ pub fn step_jacobians(
             // The value from the plain step: the dual steps' agrees to rounding only
             // (nalgebra's products sum f64 and dual numbers in different orders).
             let next = (&mut q_next[..], &mut v_next[..]);
-            step(tree, &model.opt, &mut ws.data, (q, v, tau), next)?;
+            step(tree, &mut ws.data, (q, v, tau), next)?;
             stacked(dual_columns(model, &mut ws.duals, (q, v, tau), wrt)?)
         }
     };

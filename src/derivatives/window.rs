@@ -23,18 +23,17 @@ use super::step::{step_jacobians, Workspace, Wrt};
 use crate::dynamics::configuration::{subtract, tangent_rate};
 use crate::dynamics::integrator;
 use crate::dynamics::{acceleration, implicit_terms, integrate_euler, Data, StepError, Tree};
-use crate::model::{Param, ParamError, ParamMap, PassiveMode};
+use crate::model::{Param, ParamError, ParamMap, PassiveMode, State};
 use crate::spatial::{Force, Inertia, Motion};
 use crate::Model;
 
-/// One observed transition (q, v) --tau--> (q_next, v_next).
+/// One observed transition: from the state `start` under generalized forces
+/// tau (nv) to the state `next`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Transition {
-    pub q: Vec<f64>,
-    pub v: Vec<f64>,
+    pub start: State,
     pub tau: Vec<f64>,
-    pub q_next: Vec<f64>,
-    pub v_next: Vec<f64>,
+    pub next: State,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -258,11 +257,11 @@ fn euler_rows(
     let n = model.nv();
     let tree = model.tree();
     let (mode, h) = (model.opt.passive, model.opt.timestep);
-    let point = (&tr.q[..], &tr.v[..], &tr.tau[..]);
+    let point = (&tr.start.q[..], &tr.start.v[..], &tr.tau[..]);
     acceleration(tree, &mut ws.data, (mode, h), point, &mut ws.qdd);
     let scratch = &mut ws.window;
     let next = (&mut scratch.q_next[..], &mut scratch.v_next[..]);
-    integrate_euler(tree, h, (&tr.q, &tr.v, &ws.qdd), next);
+    integrate_euler(tree, h, (&tr.start.q, &tr.start.v, &ws.qdd), next);
     if !scratch
         .q_next
         .iter()
@@ -279,11 +278,11 @@ fn euler_rows(
     implicit_terms(
         tree,
         (mode, h),
-        (&tr.q, &tr.v),
+        (&tr.start.q, &tr.start.v),
         &mut ws.stretch,
         &mut ws.extra,
     );
-    let at = (&ws.stretch[..], &tr.v[..], &ws.qdd[..]);
+    let at = (&ws.stretch[..], &tr.start.v[..], &ws.qdd[..]);
     for (j, column) in scratch.columns.iter().enumerate() {
         let dr = &mut ws.tau;
         residual_column(tree, &ws.data, (mode, h), at, column, dr);
@@ -336,8 +335,8 @@ fn put_residuals(
 ) {
     let n = tree.nv();
     let r = &mut fit.residuals.as_mut_slice()[rows];
-    subtract(tree, q_next, &tr.q_next, &mut r[..n]);
-    for (r, (p, o)) in r[n..].iter_mut().zip(v_next.iter().zip(&tr.v_next)) {
+    subtract(tree, q_next, &tr.next.q, &mut r[..n]);
+    for (r, (p, o)) in r[n..].iter_mut().zip(v_next.iter().zip(&tr.next.v)) {
         *r = p - o;
     }
     r.iter_mut().zip(scale).for_each(|(r, s)| *r /= s);
@@ -390,7 +389,7 @@ fn general_rows(
         params: &params,
         ..Wrt::default()
     };
-    let j = step_jacobians(model, ws, (&tr.q, &tr.v, &tr.tau), &wrt)?;
+    let j = step_jacobians(model, ws, (&tr.start.q, &tr.start.v, &tr.tau), &wrt)?;
     let tree = model.tree();
     put_residuals(tree, fit, rows.clone(), (&j.q_next, &j.v_next), tr, scale);
     if jacobian {
@@ -425,11 +424,11 @@ pub(crate) fn check_transition(
     (nq, n): (usize, usize),
 ) -> Result<(), WindowError> {
     let fields = [
-        ("q", &tr.q, nq),
-        ("v", &tr.v, n),
+        ("q", &tr.start.q, nq),
+        ("v", &tr.start.v, n),
         ("tau", &tr.tau, n),
-        ("q_next", &tr.q_next, nq),
-        ("v_next", &tr.v_next, n),
+        ("q_next", &tr.next.q, nq),
+        ("v_next", &tr.next.v, n),
     ];
     for (what, x, expected) in fields {
         if x.len() != expected {

@@ -2,9 +2,10 @@
 //! geom `fluidshape`, is not supported).
 //!
 //! Every body with mass moves in a medium of density rho, viscosity beta and
-//! wind w (model option [`Fluid`]) as the box with its mass and principal
-//! moments would: full sides b_k = sqrt(6 (I_j + I_l - I_k) / m) along its
-//! principal axes (k, j, l distinct). With (omega, u) its angular velocity
+//! wind w (model option [`Fluid`](crate::model::Fluid)) as the box with its
+//! mass and principal moments would: full sides
+//! b_k = sqrt(6 (I_j + I_l - I_k) / m) along its principal axes (k, j, l
+//! distinct). With (omega, u) its angular velocity
 //! and the velocity of its centre of mass less the wind, both on its
 //! principal axes, it feels at its centre of mass
 //!   torque  -pi d^3 beta omega   - rho b_k (b_j^4 + b_l^4) |omega_k| omega_k / 64
@@ -20,7 +21,6 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::{body_force_to_joints, Data, Tree};
-use crate::model::Fluid;
 use crate::spatial::{lift, lift_vector, Force, Real, Transform};
 
 /// A body the fluid acts on, in its node's frame.
@@ -36,10 +36,11 @@ pub struct FluidBody<T: Real> {
     pub sides: Vector3<T>,
 }
 
-/// Adds the fluid's generalized forces to `out` (`data.world` and
-/// `data.world_vel` filled by [`super::world_frames`], `data.x_up`
-/// at q).
-pub fn add_fluid_forces<T: Real>(tree: &Tree<T>, medium: &Fluid, data: &Data<T>, out: &mut [T]) {
+/// Adds the medium's (`tree.opt.fluid`) generalized forces to `out`
+/// (`data.world` and `data.world_vel` filled by [`super::world_frames`],
+/// `data.x_up` at q).
+pub fn add_fluid_forces<T: Real>(tree: &Tree<T>, data: &Data<T>, out: &mut [T]) {
+    let medium = &tree.opt.fluid;
     let (rho, beta): (T, T) = (lift(medium.density), lift(medium.viscosity));
     let wind = lift_vector(&medium.wind);
     let pi = T::pi();

@@ -12,7 +12,7 @@ use super::{
     crba_with_transforms, ltdl_factor, ltdl_solve, passive_forces, update_transforms, world_frames,
     Data, Tree,
 };
-use crate::model::{ContactModel, Options, PassiveMode};
+use crate::model::{ContactModel, PassiveMode};
 use crate::spatial::{lift, Real};
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -55,7 +55,8 @@ pub enum StepError {
 }
 
 /// Advances (q, v) by one timestep under generalized forces tau, writing the
-/// next state into (q_next, v_next). q has nq coordinates, v, tau and qdd nv
+/// next state into (q_next, v_next); the timestep, integrator and passive
+/// mode are the tree's options (`tree.opt`). q has nq coordinates, v, tau and qdd nv
 /// (module `model`); q (+) h v moves q along v ([`integrate`]: q + h v for
 /// hinges and slides, the quaternions turned by their body-frame angular
 /// velocity), and s(q) is the springs' stretch ([`stretch`]: q - q_s).
@@ -76,7 +77,6 @@ pub enum StepError {
 /// explicit in the Euler step (evaluated at (q, v)), at each stage under RK4.
 pub fn step<T: Real>(
     tree: &Tree<T>,
-    opt: &Options,
     data: &mut Data<T>,
     (q, v, tau): (&[T], &[T], &[T]),
     (q_next, v_next): (&mut [T], &mut [T]),
@@ -95,7 +95,7 @@ pub fn step<T: Real>(
             });
         }
     }
-    if tree.contact_model == ContactModel::Constraint
+    if tree.opt.contact_model == ContactModel::Constraint
         && tree.constraint.pairs.iter().any(|p| !p.supported)
     {
         update_transforms(tree, data, q);
@@ -105,6 +105,7 @@ pub fn step<T: Real>(
         }
     }
     let (state, next) = ((q, v, tau), (&mut *q_next, &mut *v_next));
+    let opt = &tree.opt;
     match tableau(opt.integrator) {
         None => euler_step(tree, (opt.passive, opt.timestep), data, state, next),
         Some(t) => runge_kutta(tree, (t, opt.timestep), data, state, next),
@@ -164,12 +165,12 @@ pub fn acceleration<T: Real>(
     let implicit = ImplicitPassive::new(mode, lift::<T>(h)).acts();
     let implicit = implicit.then_some(&extra[..]);
     update_transforms(tree, data, q);
-    let constraints = tree.contact_model == ContactModel::Constraint && tree.has_constraints();
+    let constraints = tree.opt.contact_model == ContactModel::Constraint && tree.has_constraints();
     if constraints || !tree.fluid.is_empty() {
         world_frames(tree, data, v);
     }
     if !tree.fluid.is_empty() {
-        add_fluid_forces(tree, &tree.medium, data, force);
+        add_fluid_forces(tree, data, force);
     }
     let previous = data.constrained.take();
     if constraints {
@@ -285,7 +286,7 @@ fn constrained<T: Real>(
     ltdl_factor(tree, &mut r.factor);
     r.a0.copy_from_slice(force);
     ltdl_solve(tree, &r.factor, &mut r.a0);
-    let iterations = tree.constraint.solver.iterations;
+    let iterations = tree.opt.solver.iterations;
     solve(
         mass,
         &r.a0,

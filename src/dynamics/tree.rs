@@ -18,7 +18,7 @@ use super::configuration::{rotation_matrix, Coordinates};
 use super::constraint::ConstraintConsts;
 use super::contact::{Pair, Soft};
 use super::fluid::FluidBody;
-use crate::model::{ContactModel, Fluid, JointKind, SoftOptions};
+use crate::model::{JointKind, Options, SoftOptions};
 use crate::spatial::{Inertia, Motion, Real, Transform};
 
 /// A node's dof in its frame: a hinge (a ball's axis too) or a slide. Its
@@ -149,6 +149,7 @@ pub struct Tree<T: Real> {
     pub armature: Vec<T>,
     /// Per node, the model joint it belongs to.
     pub node_joint: Vec<usize>,
+    /// `opt.gravity` in T.
     pub gravity: Vector3<T>,
     pub body: Vec<BodyFrame<T>>,
     /// The geoms in contact pairs, and the pairs (indices into `geoms`, see
@@ -159,13 +160,14 @@ pub struct Tree<T: Real> {
     /// (smooth model).
     pub limits: Vec<Option<(f64, f64)>>,
     pub soft: Soft<T>,
-    /// Which law contacts, limits and dry friction follow; the constraint
-    /// model's constants (empty under the smooth model).
-    pub contact_model: ContactModel,
+    /// The constraint model's constants (empty under the smooth model).
     pub constraint: ConstraintConsts<T>,
-    /// The medium and the bodies it acts on (none without one).
-    pub medium: Fluid,
+    /// The bodies the medium (`opt.fluid`) acts on (none without one).
     pub fluid: Vec<FluidBody<T>>,
+    /// The model's options, as the spec gives them (timestep, integrator,
+    /// which law contacts follow, solver, medium): the step reads them here.
+    /// Those with a T-valued form are lifted beside them (`gravity`, `soft`).
+    pub opt: Options,
 }
 
 impl<T: Real> Tree<T> {
@@ -187,10 +189,9 @@ impl<T: Real> Tree<T> {
             pairs: vec![],
             limits: vec![],
             soft: Soft::new(&SoftOptions::default(), [T::zero(); 3]),
-            contact_model: ContactModel::Smooth,
             constraint: ConstraintConsts::empty(),
-            medium: Fluid::default(),
             fluid: vec![],
+            opt: Options::default(),
         }
     }
 

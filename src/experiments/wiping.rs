@@ -312,13 +312,10 @@ fn first_transitions(episode: &Episode, segments: &Segments) -> Vec<Transition> 
 }
 
 fn transition(episode: &Episode, k: usize) -> Transition {
-    let ((q, v), (q_next, v_next)) = (&episode.states[k], &episode.states[k + 1]);
     Transition {
-        q: q.clone(),
-        v: v.clone(),
+        start: episode.states[k].clone(),
         tau: episode.taus[k].clone(),
-        q_next: q_next.clone(),
-        v_next: v_next.clone(),
+        next: episode.states[k + 1].clone(),
     }
 }
 

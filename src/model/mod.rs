@@ -33,6 +33,7 @@ pub mod constraint;
 pub mod geom_inertia;
 pub mod mjcf;
 pub mod params;
+mod state;
 pub mod urdf;
 mod xml;
 
@@ -42,6 +43,7 @@ pub use constraint::{
     Cone, ContactModel, ContactPair, GeomContact, PairParams, SolParams, SolverOptions,
 };
 pub use params::{MapEntry, Param, ParamError, ParamMap};
+pub use state::{Inputs, State};
 
 /// Errors from building, loading or editing a model.
 #[derive(Debug, thiserror::Error)]
@@ -651,6 +653,3 @@ pub fn check_inertial(
     }
     Ok(())
 }
-
-/// A state (q, v).
-pub type State = (Vec<f64>, Vec<f64>);

@@ -313,6 +313,7 @@ fn latin_hypercube(problem: &Problem, count: usize, seed: u64) -> Vec<Vec<f64>> 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::State;
     use crate::tasks::{by_name, Task};
 
     /// The cartpole's mu problem at rounding-level scale (q then v).
@@ -345,11 +346,9 @@ mod tests {
                     v_next[1] += 0.5;
                 }
                 Transition {
-                    q,
-                    v,
+                    start: State::new(q, v),
                     tau,
-                    q_next,
-                    v_next,
+                    next: State::new(q_next, v_next),
                 }
             })
             .collect()

@@ -148,7 +148,7 @@ struct File {
 /// Appends the raw input of a run of transitions (oldest first).
 fn features(window: &[Transition], out: &mut Vec<f64>) {
     for t in window {
-        for x in [&t.q, &t.v, &t.tau, &t.q_next, &t.v_next] {
+        for x in [&t.start.q, &t.start.v, &t.tau, &t.next.q, &t.next.v] {
             out.extend_from_slice(x);
         }
     }

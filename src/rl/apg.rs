@@ -258,12 +258,12 @@ fn rollout(
 /// dz/dx of the policy's normalised input z at state x: zero where the
 /// normalisation clips, the observation differenced centrally.
 fn input_jacobian(task: &dyn Task, policy: &Policy, x: &State, mu: &[f64]) -> DMatrix<f64> {
-    let nq = x.0.len();
-    let flat: Vec<f64> = x.0.iter().chain(&x.1).copied().collect();
+    let nq = x.q.len();
+    let flat: Vec<f64> = x.q.iter().chain(&x.v).copied().collect();
     let at = |k: usize, d: f64| {
         let mut moved = flat.clone();
         moved[k] += d;
-        let state = (moved[..nq].to_vec(), moved[nq..].to_vec());
+        let state = State::new(moved[..nq].to_vec(), moved[nq..].to_vec());
         policy.observation(task, &state, mu)
     };
     let base = policy.observation(task, x, mu);
@@ -368,7 +368,7 @@ mod tests {
         starts
             .iter()
             .map(|&(mu, theta)| {
-                let x0 = (vec![0.02, theta], vec![-0.01, 0.03]);
+                let x0 = State::new(vec![0.02, theta], vec![-0.01, 0.03]);
                 rollout(task, policy, horizon, (vec![mu], x0)).unwrap()
             })
             .collect()

@@ -95,7 +95,7 @@ impl Cartpole {
         theta + com[0].atan2(com[2])
     }
 
-    fn in_bounds((q, _): &State) -> bool {
+    fn in_bounds(State { q, .. }: &State) -> bool {
         q[0].abs() <= Self::X_LIMIT && q[1].abs() <= Self::THETA_LIMIT
     }
 }
@@ -143,10 +143,10 @@ impl Task for Cartpole {
         let w = Self::RESET_HALF_WIDTH;
         let mut draw = || rng.random_range(-w..=w);
         let (x, theta, x_dot, theta_dot) = (draw(), draw(), draw(), draw());
-        (vec![x, theta], vec![x_dot, theta_dot])
+        State::new(vec![x, theta], vec![x_dot, theta_dot])
     }
 
-    fn observe(&self, (q, v): &State, out: &mut Vec<f64>) {
+    fn observe(&self, State { q, v, .. }: &State, out: &mut Vec<f64>) {
         out.extend_from_slice(q);
         out.extend_from_slice(v);
     }
@@ -159,11 +159,11 @@ impl Task for Cartpole {
         if !Self::in_bounds(next) {
             return 0.0;
         }
-        let psi = self.tilt(mu, next.0[1]);
-        0.5 + 0.5 * psi.cos() - 0.1 * (next.0[0] / Self::X_LIMIT).powi(2)
+        let psi = self.tilt(mu, next.q[1]);
+        0.5 + 0.5 * psi.cos() - 0.1 * (next.q[0] / Self::X_LIMIT).powi(2)
     }
 
-    fn cost(&self, mu: &[f64], _state: &State, action: &[f64], (q, v): &State) -> f64 {
+    fn cost(&self, mu: &[f64], _state: &State, action: &[f64], State { q, v, .. }: &State) -> f64 {
         let wall = |z: f64, at: f64| (z.abs() - at).max(0.0).powi(2);
         let psi = self.tilt(mu, q[1]);
         0.25 * psi * psi
@@ -220,9 +220,9 @@ mod tests {
         for (mu, sign) in [(0.3, 1.0), (-0.3, -1.0)] {
             let mut env = Env::new(&task);
             env.reset(&[mu], &mut rng).unwrap();
-            env.state = (vec![0.0, 0.0], vec![0.0, 0.0]);
+            env.state = State::new(vec![0.0, 0.0], vec![0.0, 0.0]);
             env.step(&[0.0]).unwrap();
-            assert!(sign * env.state().1[1] > 0.0, "mu {mu}: {:?}", env.state());
+            assert!(sign * env.state().v[1] > 0.0, "mu {mu}: {:?}", env.state());
         }
     }
 
@@ -251,7 +251,7 @@ mod tests {
     #[test]
     fn termination_and_metric_use_the_closed_bounds() {
         let task = Cartpole::new();
-        let state = |x: f64, theta: f64| (vec![x, theta], vec![0.0, 0.0]);
+        let state = |x: f64, theta: f64| State::new(vec![x, theta], vec![0.0, 0.0]);
         let inside = [
             state(2.5, 0.0),
             state(-2.5, -FRAC_PI_2),
@@ -294,7 +294,7 @@ mod tests {
         // The offset COM tips the pole over in about a second; the failing
         // step itself does not count.
         assert!(last.terminated && !last.truncated);
-        assert!(env.state().0[1] > FRAC_PI_2, "{:?}", env.state());
+        assert!(env.state().q[1] > FRAC_PI_2, "{:?}", env.state());
         assert_eq!(score, (env.t() - 1) as f64);
         assert!((20.0..100.0).contains(&score), "{score}");
     }
@@ -310,7 +310,7 @@ mod tests {
         let mut rng = StdRng::seed_from_u64(1);
         let mut env = Env::new(&task);
         env.reset(&[0.2], &mut rng).unwrap();
-        env.state.1 = vec![0.0, 0.0];
+        env.state.v = vec![0.0, 0.0];
         let mut score = 0.0;
         let mut outcome = env.step(&[0.0]).unwrap();
         score += outcome.metric;

@@ -213,10 +213,10 @@ impl Task for HalfCheetah {
                 Self::RESET_V_NOISE * z
             })
             .collect();
-        (q, v)
+        State::new(q, v)
     }
 
-    fn observe(&self, (q, v): &State, out: &mut Vec<f64>) {
+    fn observe(&self, State { q, v, .. }: &State, out: &mut Vec<f64>) {
         out.extend_from_slice(&q[1..]);
         out.extend_from_slice(v);
     }
@@ -235,7 +235,7 @@ impl Task for HalfCheetah {
     }
 
     fn metric(&self, state: &State, action: &[f64], next: &State) -> f64 {
-        let speed = (next.0[0] - state.0[0]) / self.control_dt();
+        let speed = (next.q[0] - state.q[0]) / self.control_dt();
         let effort: f64 = action.iter().map(|a| a.clamp(-1.0, 1.0).powi(2)).sum();
         speed - Self::CTRL_COST * effort
     }
@@ -266,7 +266,7 @@ mod tests {
         let mu: Vec<f64> = std::iter::once(mass).chain(Contact::NOMINAL).collect();
         wide.mu_map().apply(&mut b, &mu).unwrap();
         // A state with both feet pressed into the floor: contact rows act.
-        let (mut q, v) = plain.reset(&mut rand::SeedableRng::seed_from_u64(3));
+        let State { mut q, v, .. } = plain.reset(&mut rand::SeedableRng::seed_from_u64(3));
         q[1] -= 0.3;
         let tau = vec![0.0; a.nv()];
         let (mut da, mut db) = (a.data(), b.data());

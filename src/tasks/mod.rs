@@ -157,7 +157,7 @@ impl<'a> Env<'a> {
             task,
             data,
             mu: vec![],
-            state: (vec![0.0; model.nq()], vec![0.0; model.nv()]),
+            state: State::new(vec![0.0; model.nq()], vec![0.0; model.nv()]),
             model,
             t: 0,
             last: None,
@@ -210,25 +210,27 @@ impl<'a> Env<'a> {
     /// state). With one substep it is the whole control step. None before the
     /// first step of an episode.
     pub fn last_transition(&self) -> Option<Transition> {
-        let ((q, v), tau) = self.last.clone()?;
-        let (q_next, v_next) = self.state.clone();
+        let (start, tau) = self.last.clone()?;
         Some(Transition {
-            q,
-            v,
+            start,
             tau,
-            q_next,
-            v_next,
+            next: self.state.clone(),
         })
     }
 
     /// Applies an action for one control step.
     pub fn step(&mut self, action: &[f64]) -> Result<Outcome, EnvError> {
         let tau = self.task.forces(action);
+        let model = &self.model;
+        let step = |data: &mut Data<f64>, x: &State| {
+            let (q, v) = model.step(data, &x.q, &x.v, &tau)?;
+            Ok::<_, StepError>(State::new(q, v))
+        };
         let mut start = self.state.clone();
-        let mut next = self.model.step(&mut self.data, &start.0, &start.1, &tau)?;
+        let mut next = step(&mut self.data, &start)?;
         for _ in 1..self.task.substeps() {
             start = next;
-            next = self.model.step(&mut self.data, &start.0, &start.1, &tau)?;
+            next = step(&mut self.data, &start)?;
         }
         self.last = Some((start, tau));
         let reward = self.task.reward(&self.mu, &self.state, action, &next);

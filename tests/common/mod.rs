@@ -3,7 +3,7 @@
 
 use diffosi::derivatives::Transition;
 use diffosi::dynamics::{bias_forces, body_poses, crba, Data};
-use diffosi::model::{Body, Integrator, Joint, JointKind, Options, ParamMap, PassiveMode};
+use diffosi::model::{Body, Integrator, Joint, JointKind, Options, ParamMap, PassiveMode, State};
 use diffosi::Model;
 use nalgebra::{DMatrix, DVector};
 use nalgebra::{Matrix3, Rotation3, Vector3};
@@ -303,11 +303,9 @@ pub fn cheetah_walk(truth: &Model, len: usize, seed: u64) -> Vec<Transition> {
             }
             let (q_next, v_next) = truth.step(&mut data, &q, &v, &tau).unwrap();
             let t = Transition {
-                q: q.clone(),
-                v: v.clone(),
+                start: State::new(q.clone(), v.clone()),
                 tau: tau.clone(),
-                q_next: q_next.clone(),
-                v_next: v_next.clone(),
+                next: State::new(q_next.clone(), v_next.clone()),
             };
             (q, v) = (q_next, v_next);
             t

@@ -53,7 +53,7 @@ pub(super) fn add_state_partials(
         return;
     }
     let contact = &c.contacts[id];
-    let elliptic = tree.constraint.solver.cone == Cone::Elliptic;
+    let elliptic = tree.opt.solver.cone == Cone::Elliptic;
     let point = ContactPoint {
         contact,
         span: (range.start, range.len()),

@@ -71,7 +71,7 @@ fn contact_rows<T: Real>(
         return;
     }
     let dim = c.params.condim;
-    let elliptic = consts.solver.cone == Cone::Elliptic && dim > 1;
+    let elliptic = tree.opt.solver.cone == Cone::Elliptic && dim > 1;
     let mixes = mixing(dim, elliptic, &c.params.friction);
     // J(body 2) - J(body 1) at the contact point projected on the frame rows
     // (normal, tangents, then angular) per dof, and the contact's rows as
@@ -140,7 +140,7 @@ fn contact_rows<T: Real>(
     };
     rows.contact_rows.push((first, count));
     rows.moving(count, path_dofs(tree, [b1, b2]));
-    rows.push(block, v, consts, Some(c.params.solreffriction));
+    rows.push(block, v, &tree.opt, Some(c.params.solreffriction));
     if dim == 1 {
         return;
     }
@@ -148,7 +148,7 @@ fn contact_rows<T: Real>(
     // Every R of the contact is proportional to the normal's.
     let dlog_r = rows.dlog_r_ddist[first];
     rows.dlog_r_ddist[first..first + count].fill(dlog_r);
-    let r1 = r0 / lift(consts.solver.impratio);
+    let r1 = r0 / lift(tree.opt.solver.impratio);
     let mu = friction[0] * (r1 / r0).sqrt();
     if elliptic {
         rows.cone.push((mu, friction));

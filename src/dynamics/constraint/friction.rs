@@ -27,7 +27,7 @@ pub(super) fn append<T: Real>(at: &At<T>, rows: &mut Rows<T>) {
                 sol,
                 floss,
             };
-            rows.push(block, at.v, consts, None);
+            rows.push(block, at.v, &at.tree.opt, None);
         }
     }
 }

@@ -12,9 +12,9 @@
 //!   dmax; timeconst is at least 2 timesteps (`refsafe`); friction rows (dry
 //!   friction, an elliptic cone's tangents) have K = 0.
 
-use super::{ConstraintConsts, Origin, RowKind, Rows};
+use super::{Origin, RowKind, Rows};
 use crate::dynamics::collision::MINVAL;
-use crate::model::{SolParams, SolverOptions};
+use crate::model::{Options, SolParams, SolverOptions};
 use crate::spatial::{lift, Real};
 
 /// MuJoCo's bounds on impedance.
@@ -140,10 +140,10 @@ impl<T: Real> Rows<T> {
         &mut self,
         block: Block<T>,
         v: &[T],
-        consts: &ConstraintConsts<T>,
+        opt: &Options,
         friction_ref: Option<[T; 2]>,
     ) {
-        let sol = effective(&block.sol, &consts.solver, consts.timestep);
+        let sol = effective(&block.sol, &opt.solver, opt.timestep);
         let x = block.dist - lift::<T>(block.margin);
         let imp = impedance(&sol.solimp, x);
         let slope = impedance_slope(&sol.solimp, x);
@@ -154,12 +154,7 @@ impl<T: Real> Rows<T> {
             let elliptic_friction = matches!(kind, RowKind::ConeRest);
             let solref = match friction_ref {
                 Some(r) if elliptic_friction && r != [T::zero(); 2] => {
-                    effective(
-                        &SolParams { solref: r, ..sol },
-                        &consts.solver,
-                        consts.timestep,
-                    )
-                    .solref
+                    effective(&SolParams { solref: r, ..sol }, &opt.solver, opt.timestep).solref
                 }
                 _ => sol.solref,
             };

@@ -75,7 +75,7 @@ use std::ops::Range;
 
 use super::collision::{CollisionPair, ConstraintContact, Pre};
 use super::{Data, Tree};
-use crate::model::{SolParams, SolverOptions};
+use crate::model::SolParams;
 use crate::spatial::{lift, Real};
 
 pub mod contact;
@@ -102,8 +102,6 @@ pub struct ConstraintConsts<T: Real> {
     pub limits: Vec<Option<Limit<T>>>,
     /// Per node: dry friction and its solver parameters (0 when off).
     pub frictionloss: Vec<(T, SolParams<T>)>,
-    pub solver: SolverOptions,
-    pub timestep: f64,
 }
 
 impl<T: Real> ConstraintConsts<T> {
@@ -114,8 +112,6 @@ impl<T: Real> ConstraintConsts<T> {
             dof_invweight: vec![],
             limits: vec![],
             frictionloss: vec![],
-            solver: SolverOptions::default(),
-            timestep: 0.0,
         }
     }
 }

@@ -330,14 +330,14 @@ impl Wiping {
         let target = tip_target(0.0);
         let arm = tool_down_at(target.x, target.z);
         let q = arm.iter().copied().chain([0.0]).collect();
-        (q, vec![0.0; self.model.nv()])
+        State::new(q, vec![0.0; self.model.nv()])
     }
 
     /// Each motor's joint with its torque limit and the joint's inertia at
     /// the start state.
     fn arm_joints(&self) -> Vec<ArmJoint> {
         let mut data = self.model.data();
-        crba(self.model.tree(), &mut data, &self.start().0);
+        crba(self.model.tree(), &mut data, &self.start().q);
         self.model
             .actuators
             .iter()
@@ -363,7 +363,7 @@ impl Wiping {
         let mut data = model.data();
         let mut ctrl = self.controller::<f64>(gains);
         let (nv, h) = (model.nv(), model.opt.timestep);
-        let (mut q, mut v) = self.start();
+        let State { mut q, mut v, .. } = self.start();
         let mut carry = LoopState {
             xi: 0.0,
             force: 0.0,
@@ -377,14 +377,14 @@ impl Wiping {
         };
         let (mut q1, mut v1, mut tau) = (vec![0.0; nv], vec![0.0; nv], vec![0.0; nv]);
         let mut record = |(q, v): (&[f64], &[f64]), tau: &[f64], carry: LoopState<f64>| {
-            episode.states.push((q.to_vec(), v.to_vec()));
+            episode.states.push(State::new(q.to_vec(), v.to_vec()));
             episode.taus.push(tau.to_vec());
             episode.forces.push(carry.force);
             episode.xi.push(carry.xi);
         };
         for k in 0..steps {
             let next = closed_loop_step(
-                (tree, &model),
+                tree,
                 &mut data,
                 &mut ctrl,
                 (k, q.as_slice(), v.as_slice(), carry),
@@ -446,17 +446,17 @@ pub struct LoopState<T> {
 /// controller's torques into `tau`, the model's step into (q1, v1); returns
 /// the loop's state after the step.
 pub fn closed_loop_step<T: Real>(
-    (tree, model): (&Tree<T>, &Model),
+    tree: &Tree<T>,
     data: &mut Data<T>,
     ctrl: &mut Admittance<T>,
     (k, q, v, carry): (usize, &[T], &[T], LoopState<T>),
     tau: &mut [T],
     (q1, v1): (&mut [T], &mut [T]),
 ) -> Result<LoopState<T>, StepError> {
-    let h = model.opt.timestep;
+    let h = tree.opt.timestep;
     let target = (tip_target(k as f64 * h), h);
     let xi = ctrl.act(tree, data, (q, v, carry.force), carry.xi, target, tau);
-    step(tree, &model.opt, data, (q, v, tau), (q1, v1))?;
+    step(tree, data, (q, v, tau), (q1, v1))?;
     Ok(LoopState {
         xi,
         force: sensed_force(tree, data),

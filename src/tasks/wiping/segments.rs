@@ -87,7 +87,7 @@ impl Segments {
         let segments = (0..count)
             .map(|_| {
                 let k = rng.random_range(0..=steps - length);
-                let (q, v) = states[k].clone();
+                let State { q, v, .. } = states[k].clone();
                 Segment {
                     start: k,
                     q,
@@ -129,15 +129,11 @@ impl Segments {
             };
             for k in s.start..s.start + s.observed.len() {
                 let at = (k, q.as_slice(), v.as_slice(), carry);
-                carry = closed_loop_step(
-                    (tree, model),
-                    &mut data,
-                    &mut ctrl,
-                    at,
-                    &mut tau,
-                    (&mut q1, &mut v1),
-                )
-                .map_err(|e| OsiError::Segment(format!("segment at step {}: {e}", s.start)))?;
+                carry =
+                    closed_loop_step(tree, &mut data, &mut ctrl, at, &mut tau, (&mut q1, &mut v1))
+                        .map_err(|e| {
+                            OsiError::Segment(format!("segment at step {}: {e}", s.start))
+                        })?;
                 std::mem::swap(&mut q, &mut q1);
                 std::mem::swap(&mut v, &mut v1);
                 out(row, &q, &v);
@@ -177,7 +173,7 @@ impl Segments {
     fn observed_rows(&self) -> Vec<(&[f64], &[f64])> {
         self.segments
             .iter()
-            .flat_map(|s| s.observed.iter().map(|(q, v)| (q.as_slice(), v.as_slice())))
+            .flat_map(|s| s.observed.iter().map(|x| (x.q.as_slice(), x.v.as_slice())))
             .collect()
     }
 
@@ -203,7 +199,7 @@ impl Observations for Segments {
         let nv = problem.nv();
         for (t, s) in self.segments.iter().enumerate() {
             let states =
-                std::iter::once((&s.q, &s.v)).chain(s.observed.iter().map(|(q, v)| (q, v)));
+                std::iter::once((&s.q, &s.v)).chain(s.observed.iter().map(|x| (&x.q, &x.v)));
             for (q, v) in states {
                 for (what, x) in [("q", q), ("v", v)] {
                     if x.len() != nv {
