@@ -43,7 +43,7 @@ pub use constraint::{
     Cone, ContactModel, ContactPair, GeomContact, PairParams, SolParams, SolverOptions,
 };
 pub use params::{MapEntry, Param, ParamError, ParamMap};
-pub use state::{Inputs, State};
+pub use state::State;
 
 /// Errors from building, loading or editing a model.
 #[derive(Debug, thiserror::Error)]
