@@ -319,7 +319,7 @@ pub(super) fn runge_kutta<T: Real>(
     data.stage = stage;
 }
 
-/// sum over `terms` (j, w) of w x_j[i], from the first term on (zero with none).
+/// sum over `terms` (j, w) of w x_j\[i\], from the first term on (zero with none).
 pub fn weighted_sum<T: Real>(terms: impl Iterator<Item = (usize, T)>, x: &[Vec<T>], i: usize) -> T {
     let mut terms = terms.map(|(j, w)| w * x[j][i]);
     let first = terms.next().unwrap_or(T::zero());

@@ -57,9 +57,10 @@ pub enum StepError {
 /// Advances (q, v) by one timestep under generalized forces tau, writing the
 /// next state into (q_next, v_next); the timestep, integrator and passive
 /// mode are the tree's options (`tree.opt`). q has nq coordinates, v, tau and qdd nv
-/// (module `model`); q (+) h v moves q along v ([`integrate`]: q + h v for
+/// (module `model`); q (+) h v moves q along v
+/// ([`integrate`](super::configuration::integrate): q + h v for
 /// hinges and slides, the quaternions turned by their body-frame angular
-/// velocity), and s(q) is the springs' stretch ([`stretch`]: q - q_s).
+/// velocity), and s(q) is the springs' stretch ([`stretch`](super::stretch): q - q_s).
 ///
 /// Semi-implicit Euler: v' = v + h qdd, q' = q (+) h v', where qdd solves
 /// - `Explicit`:                 M qdd = tau - c - D v  - K s(q)
@@ -200,7 +201,7 @@ pub fn acceleration<T: Real>(
     data.scratch = scratch;
 }
 
-/// The constraint model's last evaluation (see [`constrained`]).
+/// The constraint model's last evaluation (see `constrained`).
 #[derive(Clone, Debug)]
 pub struct Constrained<T: Real> {
     pub contacts: Vec<ConstraintContact<T>>,
