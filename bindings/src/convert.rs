@@ -2,8 +2,9 @@
 //! `numpy.asarray(x, dtype=float64)`; shapes and finiteness are checked here so
 //! that a ValueError names the Python argument.
 
-use numpy::ndarray::{Array2, ArrayView2, ShapeBuilder};
-use numpy::{PyArray2, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods, ToPyArray};
+use nalgebra::DMatrixView;
+use numpy::ndarray::{Array2, ShapeBuilder};
+use numpy::{IntoPyArray, PyArray2, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -43,15 +44,11 @@ pub(crate) fn entries(array: &Bound<'_, PyArrayDyn<f64>>) -> Vec<f64> {
     array.readonly().as_array().iter().copied().collect()
 }
 
-/// A numpy array of a matrix's `shape` from its column-major entries, copied
-/// in one block into a Fortran-ordered array.
-pub(crate) fn to_numpy<'py>(
-    py: Python<'py>,
-    shape: (usize, usize),
-    entries: &[f64],
-) -> Bound<'py, PyArray2<f64>> {
-    let view = ArrayView2::from_shape(shape.f(), entries).expect("shape matches the entries");
-    view.to_pyarray(py)
+/// A numpy array of a matrix or a block of one (a view with any strides):
+/// its entries copied once, column by column, into a Fortran-ordered
+/// array that numpy takes over.
+pub(crate) fn to_numpy<'py>(py: Python<'py>, m: DMatrixView<f64>) -> Bound<'py, PyArray2<f64>> {
+    Array2::from_shape_fn(m.shape().f(), |(i, j)| m[(i, j)]).into_pyarray(py)
 }
 
 /// Two matrices returned together, as a tuple.

@@ -336,8 +336,7 @@ impl PyModel {
             (intern!(py, "dq_dp"), j.dq_dp()),
             (intern!(py, "dv_dp"), j.dv_dp()),
         ] {
-            let m = m.into_owned();
-            out.set_item(key, to_numpy(py, m.shape(), m.as_slice()))?;
+            out.set_item(key, to_numpy(py, m))?;
         }
         Ok(out)
     }
@@ -360,10 +359,7 @@ impl PyModel {
         py.detach(|| transition_jacobians(model, ws, x, out))
             .map_err(|e| PyValueError::new_err(format!("transition_jacobians: {e}")))?;
         let (a, b) = (&self.transition.a, &self.transition.b);
-        Ok((
-            to_numpy(py, a.shape(), a.as_slice()),
-            to_numpy(py, b.shape(), b.as_slice()),
-        ))
+        Ok((to_numpy(py, a.as_view()), to_numpy(py, b.as_view())))
     }
 
     /// The contacts at (q, v), with the forces a step from (q, v) under the
