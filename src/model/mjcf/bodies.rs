@@ -1,65 +1,73 @@
-//! The walk over `<worldbody>` and nested `<body>` elements. A body is
-//! static when it and all its ancestors have no joints (only static bodies
-//! may hold planes).
+//! The walk over `<worldbody>` and nested `<body>` elements, whose
+//! `<frame>`s and `<replicate>`s are unfolded first (`frames.rs`). A body
+//! is static when it and all its ancestors have no joints (only static
+//! bodies may hold planes).
 
 use nalgebra::{Matrix3, Rotation3};
 
 use super::attributes::Attrs;
 use super::compiler::FromGeom;
+use super::frames::Member;
 use super::inertial::Principal;
 use super::schema::{check_attributes, BODY_ATTRS};
 use super::tree::{Kind, Tree};
-use super::{children, elements, tag, unrecognized, unsupported, Node, Reader, Result};
+use super::{children, tag, unrecognized, unsupported, Node, Reader, Result};
 use crate::model::{Body, JointKind};
 
 impl<'a> Reader<'a> {
     /// All `<worldbody>` sections: their geoms belong to the world, then come
     /// their bodies.
     pub(super) fn read_world(&self, tree: &mut Tree<'a>, sections: &[Node<'a>]) -> Result<()> {
-        let mut contents = vec![];
+        let mut members = vec![];
         for section in sections {
             if let Some(attr) = section.attributes().next() {
                 let msg = format!("the world body cannot have attributes ('{}')", attr.name());
                 return Err(self.error(*section, msg));
             }
-            contents.extend(elements(*section));
+            members.extend(self.members(*section, "main", "")?);
         }
-        for node in &contents {
-            match tag(*node) {
+        for m in &members {
+            match tag(m.node) {
                 "joint" | "freejoint" => {
-                    return Err(self.error(*node, "the world cannot have joints"))
+                    return Err(self.error(m.node, "the world cannot have joints"))
                 }
-                "inertial" => return Err(self.error(*node, "the world cannot have an inertial")),
-                _ => self.check_body_child(*node)?,
+                "inertial" => return Err(self.error(m.node, "the world cannot have an inertial")),
+                _ => self.check_body_child(m)?,
             }
         }
-        self.read_geoms(tree, &contents, 0, "main", true, false)?;
-        self.read_child_bodies(tree, &contents, 0, "main", true)
+        self.read_geoms(tree, &members, 0, true, false)?;
+        self.read_child_bodies(tree, &members, 0, true)
     }
 
     /// Rejects body children we do not read.
-    fn check_body_child(&self, node: Node<'a>) -> Result<()> {
-        match tag(node) {
+    fn check_body_child(&self, m: &Member<'a>) -> Result<()> {
+        match tag(m.node) {
+            "inertial" if m.framed => Err(unsupported(
+                self.file,
+                m.node,
+                "an <inertial> inside a <frame> or <replicate> (give it in the body)",
+            )),
             "body" | "joint" | "freejoint" | "geom" | "inertial" | "site" | "camera" | "light" => {
                 Ok(())
             }
-            "frame" | "replicate" | "composite" | "flexcomp" | "attach" | "plugin" => Err(
-                unsupported(self.file, node, "write the bodies out explicitly"),
-            ),
-            _ => Err(unrecognized(self.file, node)),
+            "composite" | "flexcomp" | "attach" | "plugin" => Err(unsupported(
+                self.file,
+                m.node,
+                "write the bodies out explicitly",
+            )),
+            _ => Err(unrecognized(self.file, m.node)),
         }
     }
 
     fn read_child_bodies(
         &self,
         tree: &mut Tree<'a>,
-        contents: &[Node<'a>],
+        members: &[Member<'a>],
         parent: usize,
-        class: &'a str,
         parent_static: bool,
     ) -> Result<()> {
-        for node in contents.iter().filter(|n| n.has_tag_name("body")) {
-            self.read_body(tree, *node, parent, class, parent_static)?;
+        for m in members.iter().filter(|m| m.node.has_tag_name("body")) {
+            self.read_body(tree, m, parent, parent_static)?;
         }
         Ok(())
     }
@@ -68,37 +76,33 @@ impl<'a> Reader<'a> {
     fn read_body(
         &self,
         tree: &mut Tree<'a>,
-        node: Node<'a>,
+        member: &Member<'a>,
         parent: usize,
-        parent_class: &'a str,
         parent_static: bool,
     ) -> Result<()> {
+        let node = member.node;
         check_attributes(self.file, node, BODY_ATTRS)?;
-        let class = self.class_name(node, "childclass")?.unwrap_or(parent_class);
+        let class = self.class_name(node, "childclass")?.unwrap_or(member.class);
         let a = Attrs::of(self.file, node);
         check_body_attributes(&a)?;
-        let contents: Vec<Node<'a>> = elements(node).collect();
-        for child in &contents {
-            self.check_body_child(*child)?;
+        let members = self.members(node, class, &member.suffix)?;
+        for child in &members {
+            self.check_body_child(child)?;
         }
         let index = tree.bodies.len();
-        let name = tree.claim(self.file, node, Kind::Body)?;
+        let name = tree.claim(self.file, node, Kind::Body, &member.suffix)?;
         let first_joint = tree.joints.len();
-        for node in &contents {
-            let joint = match tag(*node) {
-                "joint" => self.read_joint(tree, *node, index, class)?,
-                "freejoint" => self.read_freejoint(tree, *node, index)?,
-                _ => continue,
+        let is_joint = |m: &Member| matches!(tag(m.node), "joint" | "freejoint");
+        for (i, m) in members.iter().enumerate().filter(|(_, m)| is_joint(m)) {
+            let joint = match tag(m.node) {
+                "joint" => self.read_joint(tree, m, index)?,
+                _ => self.read_freejoint(tree, m, index)?,
             };
             let alone = parent == 0 && first_joint == tree.joints.len();
-            let last = !contents
-                .iter()
-                .skip_while(|n| n != &node)
-                .skip(1)
-                .any(|n| matches!(tag(*n), "joint" | "freejoint"));
+            let last = !members[i + 1..].iter().any(is_joint);
             if joint.kind == JointKind::Free && !(alone && last) {
                 let msg = "a free joint must be the only joint of a body whose parent is the world";
-                return Err(self.error(*node, msg));
+                return Err(self.error(m.node, msg));
             }
             tree.joints.push(joint);
         }
@@ -106,13 +110,14 @@ impl<'a> Reader<'a> {
         let is_static = parent_static && joints.is_empty();
         let inertial = self.explicit_inertial(node)?;
         let geoms_count = self.compiler.inertia_from_geom == FromGeom::True || inertial.is_none();
-        let parts = self.read_geoms(tree, &contents, index, class, is_static, geoms_count)?;
+        let parts = self.read_geoms(tree, &members, index, is_static, geoms_count)?;
         let principal = self.body_inertial(node, inertial, &parts)?;
+        let pos = a.vector("pos")?.unwrap_or_default();
         tree.bodies.push(Body {
             name,
             parent,
-            pos: a.vector("pos")?.unwrap_or_default(),
-            rot: self.orientation(&a)?,
+            pos: member.frame.point(&pos),
+            rot: member.frame.rot * self.orientation(&a)?,
             mass: principal.mass,
             com: principal.com,
             inertia: Matrix3::zeros(),
@@ -121,7 +126,7 @@ impl<'a> Reader<'a> {
         });
         tree.inertials.push(principal);
         tree.nodes.push(Some(node));
-        self.read_child_bodies(tree, &contents, index, class, is_static)
+        self.read_child_bodies(tree, &members, index, is_static)
     }
 
     /// The body's `<inertial>`, if it has one.

@@ -9,8 +9,8 @@
 
 use super::attributes::{value, Attrs};
 use super::schema::{
-    check_attributes, check_default_attributes, ACTUATOR_KINDS, FIXED_TENDON_ATTRS,
-    GENERAL_ONLY_ATTRS, GEOM_ATTRS, JOINT_ATTRS, MOTOR_ATTRS, PAIR_ATTRS,
+    check_attributes, check_default_attributes, ACTUATOR_KINDS, DEFAULT_TENDON_ONLY_ATTRS,
+    FIXED_TENDON_ATTRS, GENERAL_ONLY_ATTRS, GEOM_ATTRS, JOINT_ATTRS, MOTOR_ATTRS, PAIR_ATTRS,
 };
 use super::{children, elements, tag, unrecognized, Node, Reader, Result};
 
@@ -83,7 +83,8 @@ impl<'a> Reader<'a> {
             }
             kind if ACTUATOR_KINDS.contains(&kind) => class.actuator.push(child),
             "tendon" => {
-                check_default_attributes(file, child, FIXED_TENDON_ATTRS)?;
+                let attrs = [FIXED_TENDON_ATTRS, DEFAULT_TENDON_ONLY_ATTRS].concat();
+                check_default_attributes(file, child, &attrs)?;
                 class.tendon.push(child);
             }
             "default" => {}

@@ -6,6 +6,7 @@
 use nalgebra::{Rotation3, Vector3};
 
 use super::attributes::Attrs;
+use super::frames::Member;
 use super::inertial::Principal;
 use super::orientation::{unit, z_to};
 use super::schema::{check_attributes, GEOM_ATTRS};
@@ -15,21 +16,19 @@ use crate::model::geom_inertia::{self, MJ_EPS};
 use crate::model::{Geom, GeomContact, Shape};
 
 impl<'a> Reader<'a> {
-    /// The geoms among `contents`, attached to `body`; returns the inertial
+    /// The geoms among `members`, attached to `body`; returns the inertial
     /// parts of those that count for the body's inertia (when `count`).
     pub(super) fn read_geoms(
         &self,
         tree: &mut Tree<'a>,
-        contents: &[Node<'a>],
+        members: &[Member<'a>],
         body: usize,
-        class: &'a str,
         is_static: bool,
         count: bool,
     ) -> Result<Vec<Principal>> {
         let mut parts = vec![];
-        for node in contents.iter().filter(|n| n.has_tag_name("geom")) {
-            let (geom, part) =
-                self.read_geom(tree, *node, body, class, is_static, count && body > 0)?;
+        for m in members.iter().filter(|m| m.node.has_tag_name("geom")) {
+            let (geom, part) = self.read_geom(tree, m, body, is_static, count && body > 0)?;
             tree.geoms.push(geom);
             parts.extend(part);
         }
@@ -41,14 +40,14 @@ impl<'a> Reader<'a> {
     fn read_geom(
         &self,
         tree: &mut Tree<'a>,
-        node: Node<'a>,
+        m: &Member<'a>,
         body: usize,
-        class: &str,
         is_static: bool,
         counts: bool,
     ) -> Result<(Geom, Option<Principal>)> {
+        let node = m.node;
         check_attributes(self.file, node, GEOM_ATTRS)?;
-        let a = self.attrs(node, class, |c| &c.geom)?;
+        let a = self.attrs(node, m.class, |c| &c.geom)?;
         let kind = geom_type(&a)?;
         let mut size = a.leading::<3>("size", [0.0; 3])?;
         let mut pos = a.vector("pos")?.unwrap_or_default();
@@ -61,11 +60,11 @@ impl<'a> Reader<'a> {
             return Err(self.error(node, "planes are only allowed in static bodies"));
         }
         let geom = Geom {
-            name: tree.claim(self.file, node, Kind::Geom)?,
+            name: tree.claim(self.file, node, Kind::Geom, &m.suffix)?,
             body,
             shape,
-            pos,
-            rot,
+            pos: m.frame.point(&pos),
+            rot: m.frame.rot * rot,
             contype: bitmask(&a, "contype")?,
             conaffinity: bitmask(&a, "conaffinity")?,
             friction: a.leading::<3>("friction", [1.0, 0.005, 0.0001])?,

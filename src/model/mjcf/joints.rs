@@ -6,22 +6,24 @@
 use nalgebra::Vector3;
 
 use super::attributes::Attrs;
+use super::frames::Member;
 use super::orientation::unit;
 use super::schema::{check_attributes, FREEJOINT_ATTRS, JOINT_ATTRS};
 use super::tree::{Kind, Tree};
-use super::{Node, Reader, Result};
+use super::{Reader, Result};
 use crate::model::{Joint, JointKind, SolParams};
 
 impl<'a> Reader<'a> {
+    /// A `<joint>`; its anchor and axis are moved out of its frames.
     pub(super) fn read_joint(
         &self,
         tree: &mut Tree<'a>,
-        node: Node<'a>,
+        m: &Member<'a>,
         body: usize,
-        class: &str,
     ) -> Result<Joint> {
+        let node = m.node;
         check_attributes(self.file, node, JOINT_ATTRS)?;
-        let a = self.attrs(node, class, |c| &c.joint)?;
+        let a = self.attrs(node, m.class, |c| &c.joint)?;
         let kind = joint_kind(&a)?;
         let axis = a.vector("axis")?.unwrap_or(Vector3::z());
         let axis = unit(axis).ok_or_else(|| self.error(node, "joint axis is too small"))?;
@@ -38,13 +40,16 @@ impl<'a> Reader<'a> {
         }
         let (damping, stiffness) = damping_and_stiffness(&a)?;
         let joint = Joint {
-            name: tree.claim(self.file, node, Kind::Joint)?,
+            name: tree.claim(self.file, node, Kind::Joint, &m.suffix)?,
             kind,
             body,
-            axis,
+            axis: match kind {
+                JointKind::Hinge | JointKind::Slide => m.frame.rot * axis,
+                JointKind::Ball | JointKind::Free => axis,
+            },
             anchor: match kind {
                 JointKind::Free => Vector3::zeros(),
-                _ => a.vector("pos")?.unwrap_or_default(),
+                _ => m.frame.point(&a.vector("pos")?.unwrap_or_default()),
             },
             reference: angle(a.number("ref")?.unwrap_or(0.0)),
             damping,
@@ -92,12 +97,12 @@ impl<'a> Reader<'a> {
     pub(super) fn read_freejoint(
         &self,
         tree: &mut Tree<'a>,
-        node: Node<'a>,
+        m: &Member<'a>,
         body: usize,
     ) -> Result<Joint> {
-        check_attributes(self.file, node, FREEJOINT_ATTRS)?;
+        check_attributes(self.file, m.node, FREEJOINT_ATTRS)?;
         Ok(Joint {
-            name: tree.claim(self.file, node, Kind::Joint)?,
+            name: tree.claim(self.file, m.node, Kind::Joint, &m.suffix)?,
             kind: JointKind::Free,
             body,
             axis: Vector3::z(),

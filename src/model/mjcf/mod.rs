@@ -60,7 +60,9 @@ mod bodies;
 mod compiler;
 mod contact;
 mod defaults;
+mod frames;
 mod geoms;
+mod include;
 mod inertial;
 mod joints;
 mod options;
@@ -88,8 +90,15 @@ type Result<T> = std::result::Result<T, ModelError>;
 const MJ_MINVAL: f64 = 1e-15;
 
 /// Parses an MJCF document into its spec (validated and compiled by
-/// [`crate::Model::from_spec`]); `file` names it in errors.
+/// [`crate::Model::from_spec`]); `file` names it in errors and is where its
+/// `<include>`s are looked up (`include.rs`).
 pub fn parse(text: &str, file: &str) -> Result<Spec> {
+    let expanded = include::expand(text, file)?;
+    parse_expanded(&expanded.text, file).map_err(|e| expanded.locate(e))
+}
+
+/// [`parse`] once the includes are expanded.
+fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
     let doc = xml::document(text, file)?;
     let root = doc.root_element();
     check_document(file, root)?;
@@ -177,13 +186,6 @@ fn check_document(file: &str, root: Node) -> Result<()> {
         ));
     }
     check_attributes(file, root, &["model"])?;
-    if let Some(include) = root.descendants().find(|n| n.has_tag_name("include")) {
-        return Err(unsupported(
-            file,
-            include,
-            "merge the included file into this one",
-        ));
-    }
     match elements(root).find(|s| !schema::SECTIONS.contains(&tag(*s))) {
         Some(s) => Err(unrecognized(file, s)),
         None => Ok(()),
@@ -307,9 +309,6 @@ mod tests {
             ("", r#"<geom size="1" fluidshape="ellipsoid"/>"#, "", "fluidshape"),
             (r#"<option integrator="implicit"/>"#, "", "", "implicit"),
             (r#"<option><flag damper="disable"/></option>"#, "", "", "damper=\"disable\""),
-            (r#"<include file="x.xml"/>"#, "", "", "<include> is not supported"),
-            ("", r#"<frame><geom size="1"/></frame>"#, "", "<frame> is not supported"),
-            ("", r#"<replicate count="2"/>"#, "", "<replicate> is not supported"),
             ("", r#"<composite type="grid"/>"#, "", "<composite> is not supported"),
             ("", r#"<body gravcomp="1"><joint/><geom size="1"/></body>"#, "", "gravcomp"),
             ("", r#"<joint name="j"/>"#, r#"<actuator><position joint="j"/></actuator>"#,

@@ -71,7 +71,7 @@ impl<'a> Reader<'a> {
 
     /// Successive rotations about the axes of `eulerseq`: lower case about
     /// the moving axes, upper case about the fixed ones.
-    fn euler(&self, angles: [f64; 3]) -> Rotation3<f64> {
+    pub(super) fn euler(&self, angles: [f64; 3]) -> Rotation3<f64> {
         let mut q = UnitQuaternion::identity();
         for (angle, axis) in angles.iter().zip(self.compiler.eulerseq) {
             let unit_axis = match axis.to_ascii_lowercase() {

@@ -40,6 +40,11 @@ pub const BODY_ATTRS: &[&str] = &[
     "gravcomp", "sleep", "simple", "user",
 ];
 #[rustfmt::skip]
+pub const FRAME_ATTRS: &[&str] = &[
+    "name", "childclass", "pos", "quat", "axisangle", "xyaxes", "zaxis", "euler",
+];
+pub const REPLICATE_ATTRS: &[&str] = &["count", "offset", "euler", "sep", "childclass"];
+#[rustfmt::skip]
 pub const INERTIAL_ATTRS: &[&str] = &[
     "pos", "quat", "mass", "diaginertia", "axisangle", "xyaxes", "zaxis", "euler", "fullinertia",
 ];
@@ -57,6 +62,9 @@ pub const FIXED_TENDON_ATTRS: &[&str] = &[
     "solreflimit", "solimplimit", "solreffriction", "solimpfriction", "frictionloss",
     "springlength", "margin", "stiffness", "damping", "armature", "rgba", "user",
 ];
+/// A `<default>`'s `<tendon>` takes these (a spatial tendon's looks) besides
+/// [`FIXED_TENDON_ATTRS`].
+pub const DEFAULT_TENDON_ONLY_ATTRS: &[&str] = &["width", "material"];
 pub const TENDON_JOINT_ATTRS: &[&str] = &["joint", "coef"];
 #[rustfmt::skip]
 pub const GEOM_ATTRS: &[&str] = &[

@@ -53,13 +53,17 @@ impl<'a> Tree<'a> {
         }
     }
 
-    /// Records an explicit name; MuJoCo rejects a repeated one.
-    pub fn claim(&mut self, file: &str, node: Node, kind: Kind) -> Result<String> {
-        let name = node.attribute("name").unwrap_or("");
-        if !name.is_empty() && !self.names[kind as usize].insert(name.to_string()) {
+    /// Records an explicit name with `suffix` appended (see `frames.rs`);
+    /// MuJoCo rejects a repeated one.
+    pub fn claim(&mut self, file: &str, node: Node, kind: Kind, suffix: &str) -> Result<String> {
+        let name = match node.attribute("name").unwrap_or("") {
+            "" => String::new(),
+            given => format!("{given}{suffix}"),
+        };
+        if !name.is_empty() && !self.names[kind as usize].insert(name.clone()) {
             return Err(xml::invalid(file, node, format!("repeated name '{name}'")));
         }
-        Ok(name.to_string())
+        Ok(name)
     }
 
     /// The bodies (with their final inertial properties), joints and geoms,
