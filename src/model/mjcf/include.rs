@@ -210,3 +210,144 @@ impl Expander {
 fn canonical(path: &Path) -> PathBuf {
     std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf())
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::{Path, PathBuf};
+
+    use crate::model::ModelError;
+    use crate::Model;
+
+    /// A fresh directory holding `files` (path, text).
+    fn files(test: &str, files: &[(&str, &str)]) -> PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("diffosi-include-{}-{test}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        for (path, text) in files {
+            let path = dir.join(path);
+            std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+            std::fs::write(path, text).unwrap();
+        }
+        dir
+    }
+
+    /// The file (relative to `dir`), line and message of the error loading
+    /// `dir/main.xml` gives.
+    fn error(dir: &Path) -> (String, u32, String) {
+        match Model::load(dir.join("main.xml")) {
+            Err(ModelError::Invalid {
+                file,
+                line,
+                message,
+                ..
+            }) => {
+                let file = Path::new(&file)
+                    .strip_prefix(dir)
+                    .unwrap()
+                    .display()
+                    .to_string();
+                (file, line, message)
+            }
+            other => panic!("expected an Invalid error, got {other:?}"),
+        }
+    }
+
+    const MAIN: &str =
+        "<mujoco>\n  <worldbody>\n    <include file=\"sub/a.xml\"/>\n  </worldbody>\n</mujoco>\n";
+
+    /// A body file that includes `b.xml`, which MuJoCo looks for next to
+    /// the main file first, then next to `sub/a.xml`.
+    const A: &str = "<mujoco>\n  <body name=\"a\"><joint/><geom size=\"0.1\"/>\n    <include file=\"b.xml\"/>\n  </body>\n</mujoco>\n";
+
+    #[test]
+    fn nested_includes_are_found_where_mujoco_looks() {
+        let b = r#"<mujoco><geom name="bg" size="0.2" pos="0 0 1"/></mujoco>"#;
+        let dir = files(
+            "nested",
+            &[("main.xml", MAIN), ("sub/a.xml", A), ("sub/b.xml", b)],
+        );
+        let m = Model::load(dir.join("main.xml")).unwrap();
+        let names: Vec<&str> = m.geoms.iter().map(|g| g.name.as_str()).collect();
+        assert_eq!(names, ["geom0", "bg"]);
+        assert_eq!((m.geoms[1].body, m.bodies[1].name.as_str()), (1, "a"));
+        // MuJoCo 4.0.0 takes a b.xml next to the main file over sub/b.xml.
+        let top = r#"<mujoco><geom name="top_b" size="0.3"/></mujoco>"#;
+        std::fs::write(dir.join("b.xml"), top).unwrap();
+        let m = Model::load(dir.join("main.xml")).unwrap();
+        assert_eq!(m.geoms[1].name, "top_b");
+    }
+
+    #[test]
+    fn errors_name_the_file_and_line_they_are_in() {
+        let b = "<mujoco>\n\n  <geom size=\"0.2 x\"/>\n</mujoco>";
+        let dir = files(
+            "where",
+            &[("main.xml", MAIN), ("sub/a.xml", A), ("sub/b.xml", b)],
+        );
+        let (file, line, message) = error(&dir);
+        assert_eq!((file.as_str(), line), ("sub/b.xml", 3), "{message}");
+        // After the splice, the main file's own lines are its own again.
+        let main = MAIN.replace("</worldbody>", "  <body pos=\"1\"/>\n  </worldbody>");
+        let b = "<mujoco><geom size=\"0.2\"/></mujoco>";
+        let dir = files(
+            "after",
+            &[("main.xml", &main), ("sub/a.xml", A), ("sub/b.xml", b)],
+        );
+        let (file, line, message) = error(&dir);
+        assert_eq!((file.as_str(), line), ("main.xml", 4), "{message}");
+        assert!(message.contains("'pos' needs 3 numbers"), "{message}");
+    }
+
+    #[test]
+    fn bad_includes_are_refused_at_the_include() {
+        let dir = files("missing", &[("main.xml", MAIN), ("sub/a.xml", A)]);
+        let (file, line, message) = error(&dir);
+        assert_eq!((file.as_str(), line), ("sub/a.xml", 3));
+        assert!(message.contains("cannot read included file") && message.contains("b.xml"));
+
+        let cycle = "<mujoco>\n<include file=\"a.xml\"/></mujoco>";
+        let dir = files(
+            "cycle",
+            &[("main.xml", MAIN), ("sub/a.xml", A), ("sub/b.xml", cycle)],
+        );
+        let (file, line, message) = error(&dir);
+        assert_eq!((file.as_str(), line), ("sub/b.xml", 2));
+        assert!(
+            message.contains("include cycle") && message.contains("sub/a.xml"),
+            "{message}"
+        );
+
+        let twice = "<mujoco><include file=\"sub/b.xml\"/><include file=\"sub/b.xml\"/></mujoco>";
+        let dir = files(
+            "twice",
+            &[
+                ("main.xml", twice),
+                ("sub/b.xml", "<mujoco><size/></mujoco>"),
+            ],
+        );
+        assert!(error(&dir).2.contains("already included"));
+
+        let children = "<mujoco><include file=\"sub/b.xml\"><size/></include></mujoco>";
+        let dir = files(
+            "children",
+            &[
+                ("main.xml", children),
+                ("sub/b.xml", "<mujoco><size/></mujoco>"),
+            ],
+        );
+        assert!(error(&dir).2.contains("cannot have children"));
+
+        let empty = "<mujoco><include file=\"sub/b.xml\"/></mujoco>";
+        let dir = files("empty", &[("main.xml", empty), ("sub/b.xml", "<mujoco/>")]);
+        assert!(error(&dir).2.contains("has no elements"));
+
+        let dir = files(
+            "syntax",
+            &[("main.xml", empty), ("sub/b.xml", "<mujoco><size>")],
+        );
+        match Model::load(dir.join("main.xml")) {
+            Err(ModelError::Xml { file, .. }) => assert!(file.ends_with("b.xml")),
+            other => panic!("expected an XML error, got {other:?}"),
+        }
+    }
+}
