@@ -62,6 +62,7 @@ impl Model {
             opt,
             pairs: vec![],
             excludes: vec![],
+            keyframes: vec![],
         })
     }
 
@@ -147,6 +148,11 @@ impl Model {
 
     pub fn body_index(&self, name: &str) -> Option<usize> {
         self.bodies.iter().position(|b| b.name == name)
+    }
+
+    /// The keyframe named `name` (see [`crate::model::Keyframe`]).
+    pub fn keyframe(&self, name: &str) -> Option<&crate::model::Keyframe> {
+        self.keyframes.iter().find(|k| k.name == name)
     }
 
     pub fn joint_index(&self, name: &str) -> Option<usize> {

@@ -31,6 +31,7 @@
 
 pub mod constraint;
 pub mod geom_inertia;
+mod keyframe;
 pub mod mjcf;
 pub mod params;
 mod state;
@@ -42,6 +43,7 @@ use nalgebra::{Matrix3, Rotation3, Vector3};
 pub use constraint::{
     Cone, ContactModel, ContactPair, GeomContact, PairParams, SolParams, SolverOptions,
 };
+pub use keyframe::Keyframe;
 pub use params::{MapEntry, Param, ParamError, ParamMap};
 pub use state::State;
 
@@ -410,6 +412,8 @@ pub struct Spec {
     /// whose geoms never collide (`<exclude>`, body indices).
     pub pairs: Vec<ContactPair>,
     pub excludes: Vec<[usize; 2]>,
+    /// Named states the file ships with (MJCF `<keyframe>`).
+    pub keyframes: Vec<Keyframe>,
 }
 
 impl Spec {

@@ -91,6 +91,14 @@ impl<'a, 'b> Attrs<'a, 'b> {
         Ok(out)
     }
 
+    /// Any count of numbers.
+    pub fn list(&self, name: &str) -> Result<Option<Vec<f64>>> {
+        match self.find(name) {
+            Some((node, text)) => self.numbers(node, name, text).map(Some),
+            None => Ok(None),
+        }
+    }
+
     fn numbers(&self, node: Node, name: &str, text: &str) -> Result<Vec<f64>> {
         xml::numbers(text).ok_or_else(|| {
             self.error(

@@ -65,6 +65,7 @@ mod geoms;
 mod include;
 mod inertial;
 mod joints;
+mod keyframes;
 mod options;
 mod orientation;
 mod schema;
@@ -126,7 +127,7 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
         .attribute("model")
         .unwrap_or("MuJoCo Model")
         .to_string();
-    Ok(Spec {
+    let mut spec = Spec {
         name,
         bodies,
         joints,
@@ -135,7 +136,10 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
         opt,
         pairs,
         excludes,
-    })
+        keyframes: vec![],
+    };
+    spec.keyframes = reader.read_keyframes(root, &spec)?;
+    Ok(spec)
 }
 
 /// Reads the model once the compiler settings and default classes are known.

@@ -70,6 +70,7 @@ fn document(spec: &Spec) -> Result<String, ModelError> {
         doc.empty(2, motor(a, &spec.joints[a.joint].name));
     }
     doc.close(1, "actuator");
+    write_keyframes(&mut doc, spec);
     doc.open(1, Tag::new("custom"));
     let mut soft = spec.opt.soft;
     for (name, field) in SoftOptions::NAMES {
@@ -92,6 +93,27 @@ fn document(spec: &Spec) -> Result<String, ModelError> {
     doc.close(1, "custom");
     doc.close(0, "mujoco");
     Ok(doc.0)
+}
+
+/// Every keyframe with all its vectors (no section without keyframes).
+fn write_keyframes(doc: &mut Document, spec: &Spec) {
+    if spec.keyframes.is_empty() {
+        return;
+    }
+    doc.open(1, Tag::new("keyframe"));
+    for k in &spec.keyframes {
+        let key = Tag::new("key")
+            .text("name", &k.name)
+            .number("time", k.time)
+            .numbers("qpos", &k.q)
+            .numbers("qvel", &k.v)
+            .numbers("act", &k.act)
+            .numbers("ctrl", &k.ctrl)
+            .numbers("mpos", &k.mpos)
+            .numbers("mquat", &k.mquat);
+        doc.empty(2, key);
+    }
+    doc.close(1, "keyframe");
 }
 
 fn unwritable(why: &str) -> ModelError {

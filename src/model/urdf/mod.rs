@@ -98,6 +98,7 @@ pub fn parse(text: &str, file: &str) -> Result<Spec> {
         opt,
         pairs: vec![],
         excludes: vec![],
+        keyframes: vec![],
     })
 }
 
