@@ -9,7 +9,7 @@ use engine::model::{ContactModel, Integrator, Param, PassiveMode};
 use engine::Model;
 use numpy::ndarray::Array2;
 use numpy::{PyArray1, PyArray2, PyUntypedArrayMethods};
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyKeyError, PyValueError};
 use pyo3::intern;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
@@ -210,6 +210,35 @@ impl PyModel {
     #[getter]
     fn body_names(&self) -> Vec<String> {
         self.model.bodies.iter().map(|b| b.name.clone()).collect()
+    }
+
+    /// Names of the file's keyframes (MJCF `<key>`), in file order; an
+    /// unnamed key is `key<i>` after its index.
+    #[getter]
+    fn keyframe_names(&self) -> Vec<String> {
+        self.model
+            .keyframes
+            .iter()
+            .map(|k| k.name.clone())
+            .collect()
+    }
+
+    /// The keyframe `name` as a dict: "q" (nq), "v" (nv), "ctrl" (nu) and
+    /// "act" (na) float64 arrays and "time" (s), MuJoCo's defaults where the
+    /// file leaves them out (q: `reference_q()`, the rest zeros). KeyError
+    /// for an unknown name.
+    fn keyframe<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyDict>> {
+        let key = self.model.keyframe(name).ok_or_else(|| {
+            let names = self.keyframe_names().join(", ");
+            PyKeyError::new_err(format!("no keyframe '{name}' (the model has: {names})"))
+        })?;
+        let dict = PyDict::new(py);
+        dict.set_item("q", PyArray1::from_slice(py, &key.q))?;
+        dict.set_item("v", PyArray1::from_slice(py, &key.v))?;
+        dict.set_item("ctrl", PyArray1::from_slice(py, &key.ctrl))?;
+        dict.set_item("act", PyArray1::from_slice(py, &key.act))?;
+        dict.set_item("time", key.time)?;
+        Ok(dict)
     }
 
     /// Names of every identifiable parameter.

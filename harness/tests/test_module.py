@@ -53,6 +53,41 @@ def test_half_cheetah_properties():
     assert all(isinstance(n, str) for n in m.param_names())
 
 
+KEYFRAMES = """<mujoco>
+  <worldbody>
+    <body pos="1 2 3" euler="0 0 90"><freejoint/><geom size="0.1"/>
+      <body pos="0 0 1"><joint name="h" ref="30"/><joint type="slide" ref="0.5"/><geom size="0.1"/></body>
+    </body>
+  </worldbody>
+  <actuator><motor joint="h"/></actuator>
+  <keyframe>
+    <key name="home" time="1.5" qpos="0 0 1 1 0 0 0 0.1 0.2" qvel="1 2 3 4 5 6 7 8" ctrl="0.5"/>
+    <key qpos="5 6"/>
+  </keyframe>
+</mujoco>
+"""
+
+
+def test_keyframes_are_mujocos(tmp_path):
+    import mujoco
+
+    path = tmp_path / "keys.xml"
+    path.write_text(KEYFRAMES)
+    m = diffosi.Model.load(str(path))
+    theirs = mujoco.MjModel.from_xml_path(str(path))
+    assert m.keyframe_names == ["home", "key1"]
+    for i, name in enumerate(m.keyframe_names):
+        key = m.keyframe(name)
+        assert set(key) == {"q", "v", "ctrl", "act", "time"}
+        np.testing.assert_allclose(key["q"], theirs.key_qpos[i], rtol=0, atol=1e-15)
+        np.testing.assert_array_equal(key["v"], theirs.key_qvel[i])
+        np.testing.assert_array_equal(key["ctrl"], theirs.key_ctrl[i])
+        np.testing.assert_array_equal(key["act"], theirs.key_act[i])
+        assert key["time"] == theirs.key_time[i]
+    with pytest.raises(KeyError, match="no keyframe 'away'"):
+        m.keyframe("away")
+
+
 def test_urdf_twin_steps_like_mjcf():
     # Twins are the same model; the URDF twin runs PyBullet's explicit damping,
     # so only compare where passive forces vanish (v = 0, q at the spring reference).

@@ -14,10 +14,16 @@
 //! model, the smooth model's constants). The medium's forces are MuJoCo's
 //! inertia-box model (`dynamics/fluid.rs`).
 //!
-//! Ignored, since they do not change the dynamics: visual, asset, size,
-//! statistic, keyframe, sensor, other custom data, site, camera, light, fixed
-//! tendons that only measure, and the solver settings that only tune how the
-//! answer is approached (`options.rs`).
+//! Ignored, since they do not change the dynamics: visual, asset (textures,
+//! materials), size, statistic, sensor, other custom data, site, camera,
+//! light, skin, the looks of geoms and tendons (rgba, material, group,
+//! width), `<compiler>`'s meshdir, texturedir and assetdir, fixed tendons
+//! that only measure, and the solver settings that only tune how the answer
+//! is approached (`options.rs`).
+//!
+//! Composition, as MuJoCo's XML reader does it: `<include>` (`include.rs`),
+//! `<frame>`, `<replicate>` and `childclass` (`frames.rs`); `<keyframe>`s are
+//! read into the spec (`keyframes.rs`).
 //!
 //! Rejected with [`ModelError::Invalid`] naming the element and its line:
 //! - what changes the dynamics beyond a tree of joints with linear passive
@@ -33,8 +39,8 @@
 //!   slides (servos, muscles, ball/free-joint/tendon/site/body transmissions,
 //!   gains with bias or dynamics, force limits, actuator
 //!   damping/armature/delay, disabled actuator groups);
-//! - what builds the model from elsewhere: include, frame, replicate,
-//!   composite, flexcomp, attach, plugins, meshes, height fields, SDFs, shell
+//! - what builds the model from elsewhere: composite, flexcomp, attach,
+//!   plugins, meshes, height fields, SDFs, shell
 //!   inertia, fusestatic, global coordinates;
 //! - what MuJoCo rejects: unknown elements and attributes, malformed or
 //!   miscounted numbers, unknown classes, joints, geoms and bodies, repeated
@@ -196,17 +202,18 @@ fn check_document(file: &str, root: Node) -> Result<()> {
     }
 }
 
-/// Sections that change the dynamics beyond what a Model holds must be empty.
-/// (Checked after the bodies, whose problems tend to be the more basic ones.)
+/// Sections that change the dynamics beyond what a Model holds must be empty
+/// (but for skins, which only draw). (Checked after the bodies, whose
+/// problems tend to be the more basic ones.)
 fn check_unsupported_sections(file: &str, root: Node) -> Result<()> {
     for section in elements(root) {
         let why = match tag(section) {
             "equality" => "equality constraints change the dynamics",
-            "deformable" => "flexes and skins change the dynamics",
+            "deformable" => "flexes change the dynamics",
             "extension" => "plugins change the dynamics",
             _ => continue,
         };
-        if let Some(first) = elements(section).next() {
+        if let Some(first) = elements(section).find(|n| !n.has_tag_name("skin")) {
             return Err(unsupported(file, first, why));
         }
     }
@@ -283,7 +290,7 @@ mod tests {
         let head = r#"<default><tendon/></default><visual/><size nstack="10"/>"#;
         let bodies = format!("<light/>{}", body("<camera/><site/>"));
         let tail = r#"<tendon/><equality/><sensor><jointpos joint="x"/></sensor>
-                      <contact/>"#;
+                      <contact/><deformable><skin vertex="0 0 0 1 0 0 0 1 0" face="0 1 2"/></deformable>"#;
         assert_eq!(load(&model(head, &bodies, tail)).nv(), 1);
     }
 
