@@ -142,8 +142,10 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         opt,
         pairs,
         excludes,
+        keyframes,
     } = ours;
     assert_eq!(name, &theirs.name, "{model}: model name");
+    assert_eq!(keyframes, &theirs.keyframes, "{model}: keyframes");
     assert_eq!(
         (pairs, excludes),
         (&theirs.pairs, &theirs.excludes),
