@@ -164,10 +164,17 @@ impl Expander {
             .ok_or_else(|| xml::invalid(file, include, "<include> needs a file attribute"))?;
         let path = self.resolve(name, file);
         let shown = path.display().to_string();
-        let text = std::fs::read_to_string(&path).map_err(|e| {
-            let msg = format!("cannot read included file '{shown}': {e}");
+        let cannot = |why: String| {
+            let msg = format!("cannot read included file '{shown}': {why}");
             xml::invalid(file, include, msg)
-        })?;
+        };
+        // Only regular files: a device (/dev/zero, a pipe) would never end.
+        match std::fs::metadata(&path) {
+            Ok(meta) if !meta.is_file() => return Err(cannot("not a regular file".into())),
+            Err(e) => return Err(cannot(e.to_string())),
+            Ok(_) => {}
+        }
+        let text = std::fs::read_to_string(&path).map_err(|e| cannot(e.to_string()))?;
         let id = canonical(&path);
         if !self.included.insert(id.clone()) {
             let msg = if self.chain.iter().any(|(c, _)| *c == id) {
@@ -304,6 +311,8 @@ mod tests {
         let (file, line, message) = error(&dir);
         assert_eq!((file.as_str(), line), ("sub/a.xml", 3));
         assert!(message.contains("cannot read included file") && message.contains("b.xml"));
+        std::fs::create_dir(dir.join("sub/b.xml")).unwrap();
+        assert!(error(&dir).2.contains("not a regular file"));
 
         let cycle = "<mujoco>\n<include file=\"a.xml\"/></mujoco>";
         let dir = files(
