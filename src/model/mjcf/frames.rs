@@ -22,9 +22,9 @@ use super::attributes::Attrs;
 use super::schema::{check_attributes, FRAME_ATTRS, REPLICATE_ATTRS};
 use super::{elements, tag, Node, Reader, Result};
 
-/// Most elements a body may hold once its replicates are unfolded (a guard
+/// Most elements a model may hold once its replicates are unfolded (a guard
 /// against a few nested replicates asking for billions).
-const MAX_MEMBERS: usize = 1 << 20;
+pub const MAX_MEMBERS: usize = 1 << 20;
 
 /// A rigid placement: where a frame sits and how it is turned in its parent.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -115,10 +115,12 @@ impl<'a> Reader<'a> {
                 }
                 "replicate" => self.replicate(parent, node, out)?,
                 _ => {
-                    if out.len() >= MAX_MEMBERS {
-                        let msg = format!("more than {MAX_MEMBERS} elements in one body");
+                    let unfolded = self.unfolded.get() + 1;
+                    if unfolded > MAX_MEMBERS {
+                        let msg = format!("the model has more than {MAX_MEMBERS} elements");
                         return Err(self.error(node, msg));
                     }
+                    self.unfolded.set(unfolded);
                     out.push(Member {
                         node,
                         ..parent.clone()
@@ -302,6 +304,8 @@ mod tests {
             (r#"<frame pos="1 2"/>"#, "needs 3 numbers"),
             ("<replicate/>", "needs a count"),
             (r#"<replicate count="-1"/>"#, "count must be in"),
+            (r#"<replicate count="1000"><replicate count="1000"><replicate count="1000">
+                <geom size="1"/></replicate></replicate></replicate>"#, "more than 1048576 elements"),
             (r#"<body name="x1"/><replicate count="2"><body name="x"/></replicate>"#,
              "repeated name 'x1'"),
             (r#"<body><frame><inertial mass="1" diaginertia="1 1 1" pos="0 0 0"/></frame></body>"#,

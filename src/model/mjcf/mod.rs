@@ -81,6 +81,7 @@ mod test_util;
 mod tree;
 mod write;
 
+use std::cell::Cell;
 use std::collections::HashMap;
 
 use super::{xml, ModelError, Spec};
@@ -113,6 +114,7 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
         file,
         compiler: Compiler::read(file, root)?,
         classes: HashMap::from([("main", Class::default())]),
+        unfolded: Cell::new(0),
     };
     let opt = options::read(file, root)?;
     for section in children(root, "default") {
@@ -154,6 +156,9 @@ struct Reader<'a> {
     file: &'a str,
     compiler: Compiler,
     classes: HashMap<&'a str, Class<'a>>,
+    /// Body elements read so far, frames and replicates unfolded (see
+    /// [`frames::MAX_MEMBERS`]).
+    unfolded: Cell<usize>,
 }
 
 impl Reader<'_> {
