@@ -74,7 +74,7 @@ mod write;
 
 use std::collections::HashMap;
 
-use super::{xml, ModelError, Spec};
+use super::{xml, InertiaRule, ModelError, Spec};
 use compiler::Compiler;
 use defaults::Class;
 use schema::check_attributes;
@@ -126,6 +126,7 @@ pub fn parse(text: &str, file: &str) -> Result<Spec> {
         opt,
         pairs,
         excludes,
+        inertia_rule: InertiaRule::Triangle,
     })
 }
 

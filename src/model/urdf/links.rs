@@ -1,16 +1,17 @@
 //! Links become bodies, in the tree's depth-first order, each with the joint
 //! that leads to it and its collision geoms; a root named `world` is the
-//! world itself.
+//! world itself. Also the checks of their masses (see the module doc).
 
 use std::collections::HashMap;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
 use super::attributes::{identity, Pose};
+use super::joints::free_root;
 use super::tree::{Edge, Link, Tree};
 use super::{child, Node, Reader, Result};
 use crate::model::params::inertia_from_six;
-use crate::model::{check_inertial, Body, Geom, Joint};
+use crate::model::{check_inertial, Body, Geom, InertiaRule, Joint};
 
 /// What the links and joints become.
 pub(super) struct Parts<'a> {
@@ -37,7 +38,12 @@ impl Reader<'_> {
             geoms: Vec::new(),
             dofs: HashMap::new(),
         };
+        let root = links[tree.root];
+        if self.options.floating_base {
+            self.check_floatable(root, edges)?;
+        }
         let mut body_of_link = vec![0; links.len()];
+        let mut link_of_body = vec![root];
         for &l in &tree.order {
             let link = links[l];
             if l == tree.root && link.name == "world" {
@@ -48,11 +54,79 @@ impl Reader<'_> {
                 return Err(self.error(link.node, "only the root link may be named 'world'"));
             }
             body_of_link[l] = parts.bodies.len();
+            link_of_body.push(link);
             let edge = tree.parent_edge[l].map(|e| &edges[e]);
             let parent = edge.map_or(0, |e| body_of_link[e.parent]);
             self.add_body(&mut parts, link, edge, parent)?;
         }
+        self.check_masses(&parts, &link_of_body)?;
         Ok(parts)
+    }
+
+    /// A free joint can float the root: it is not the world, and its name
+    /// is free.
+    fn check_floatable(&self, root: Link, edges: &[Edge]) -> Result<()> {
+        if root.name == "world" {
+            let msg = "floating_base: the root link 'world' is the world itself; float the \
+                       robot by a floating joint from it, or name the root link otherwise";
+            return Err(self.error(root.node, msg));
+        }
+        match edges.iter().find(|e| e.name == "root_joint") {
+            Some(e) => Err(self.error(
+                e.node,
+                "floating_base names the root's free joint 'root_joint', which this joint's \
+                 name already is",
+            )),
+            None => Ok(()),
+        }
+    }
+
+    /// Refuses a moving link whose dofs would have no inertia (it and every
+    /// link below it massless, its joints without armature), and warns about
+    /// moving links without `<inertial>` (see the module doc).
+    fn check_masses(&self, parts: &Parts, link_of_body: &[Link]) -> Result<()> {
+        let bodies = &parts.bodies;
+        let moves = |b: usize| !bodies[b].joints.is_empty();
+        let mut moving = vec![false; bodies.len()];
+        for b in 1..bodies.len() {
+            moving[b] = moves(b) || moving[bodies[b].parent];
+        }
+        let mut heavy: Vec<bool> = bodies
+            .iter()
+            .map(|b| b.mass > 0.0 || b.inertia != Matrix3::zeros())
+            .collect();
+        for b in (1..bodies.len()).rev() {
+            let armature = bodies[b]
+                .joints
+                .clone()
+                .all(|j| parts.joints[j].armature > 0.0);
+            if moves(b) && !heavy[b] && !armature {
+                let link = link_of_body[b];
+                let joint = &parts.joints[bodies[b].joints.start].name;
+                let msg = format!(
+                    "link '{}' moves (joint '{joint}') but neither it nor any link below it has \
+                     mass or inertia, so that joint has no inertia (Pinocchio's ABA gives NaN, \
+                     MuJoCo refuses it); give the link an <inertial>",
+                    link.name
+                );
+                return Err(self.error(link.node, msg));
+            }
+            heavy[bodies[b].parent] |= heavy[b];
+        }
+        let massless: Vec<Link> = (1..bodies.len())
+            .filter(|&b| moving[b] && child(link_of_body[b].node, "inertial").is_none())
+            .map(|b| link_of_body[b])
+            .collect();
+        if let Some(first) = massless.first() {
+            let names: Vec<&str> = massless.iter().map(|l| l.name).collect();
+            let msg = format!(
+                "moving links without <inertial> are massless, as the URDF spec and Pinocchio \
+                 read them (PyBullet gives each 1 kg and unit inertia): {}",
+                names.join(", ")
+            );
+            self.warn(first.node, msg);
+        }
+        Ok(())
     }
 
     /// Adds the body of `link`, a child of body `parent` through `edge` (the
@@ -67,6 +141,10 @@ impl Reader<'_> {
         let body = parts.bodies.len();
         let first_joint = parts.joints.len();
         let (pos, rot) = match edge {
+            None if self.options.floating_base => {
+                parts.joints.push(free_root(body));
+                identity()
+            }
             None => identity(),
             Some(edge) => self.add_joint(parts, edge, body)?,
         };
@@ -109,8 +187,12 @@ impl Reader<'_> {
         let tensor = self.inertia(inertial)?;
         let (com, rot) = self.origin(inertial)?;
         let inertia = rot.matrix() * tensor * rot.matrix().transpose();
-        check_inertial(link.name, mass, &com, &inertia)
-            .map_err(|e| self.error(inertial, e.to_string()))?;
+        let check = |rule| check_inertial(link.name, mass, &com, &inertia, rule);
+        check(InertiaRule::SemiDefinite).map_err(|e| self.error(inertial, e.to_string()))?;
+        if let Err(e) = check(InertiaRule::Triangle) {
+            let msg = format!("{e}; used as written, as PyBullet and Pinocchio use it");
+            self.warn(inertial, msg);
+        }
         Ok((mass, com, inertia, rot))
     }
 
