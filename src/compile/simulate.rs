@@ -76,7 +76,7 @@ impl Model {
         );
         if let Some((lo, hi)) = j.range.filter(|_| va == dof && j.kind.nq() == 1) {
             if !(lo..=hi).contains(&q[qa]) {
-                cause += &format!(", at q = {:.4} beyond its range [{lo}, {hi}]", q[qa]);
+                cause += &format!(", at q = {:.4e} beyond its range [{lo}, {hi}]", q[qa]);
             }
         }
         let contacts = self.contacts(data, q, v, tau).unwrap_or_default();

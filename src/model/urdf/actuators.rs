@@ -103,3 +103,60 @@ fn reduction_of(node: Node) -> std::result::Result<f64, String> {
         )),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::test_util::*;
+
+    #[test]
+    fn only_a_transmission_of_one_moving_joint_is_an_actuator() {
+        let transmission = |name: &str, joints: &[&str], reduction: &str| {
+            let joints: String = joints
+                .iter()
+                .map(|j| format!("<joint name=\"{j}\"/>"))
+                .collect();
+            format!(
+                "<transmission name=\"{name}\">{joints}<actuator name=\"m_{name}\">\
+                 <mechanicalReduction>{reduction}</mechanicalReduction></actuator></transmission>\n"
+            )
+        };
+        let text = format!(
+            "<link name=\"world\"/>{}{}{}{}\n",
+            link("a"),
+            link("b"),
+            joint("hinge", "revolute", "world", "a", ""),
+            joint("weld", "fixed", "a", "b", "")
+        ) + &transmission("ok", &["hinge"], "20")
+            + &transmission("two", &["hinge", "weld"], "1")
+            + &transmission("fixed", &["weld"], "1")
+            + &transmission("unknown", &["elbow"], "1")
+            + &transmission("word", &["hinge"], "reduction");
+        let m = load(&text).unwrap();
+        let actuators: Vec<_> = m
+            .actuators
+            .iter()
+            .map(|a| (a.name.as_str(), a.joint, a.gear))
+            .collect();
+        assert_eq!(actuators, [("m_ok", 0, 20.0)]);
+        let why: Vec<&str> = m
+            .warnings()
+            .iter()
+            .map(|w| w.split("<transmission>: ").nth(1).unwrap())
+            .collect();
+        let ignored = ": ignored, as PyBullet and Pinocchio ignore transmissions";
+        assert_eq!(
+            why,
+            [
+                format!("drives 2 joints, not one{ignored}"),
+                format!("joint 'weld' is fixed{ignored}"),
+                format!("unknown joint 'elbow'{ignored}"),
+                format!("mechanicalReduction 'reduction' is not a number{ignored}"),
+            ]
+        );
+        assert!(
+            m.warnings()[0].starts_with("test.urdf:4:"),
+            "{}",
+            m.warnings()[0]
+        );
+    }
+}

@@ -226,6 +226,8 @@ mod tests {
     use nalgebra::{Matrix3, Vector3};
 
     use super::super::test_util::*;
+    use super::super::LoadOptions;
+    use crate::model::JointKind;
 
     #[test]
     fn inertia_is_turned_into_link_axes() {
@@ -273,5 +275,142 @@ mod tests {
         assert_eq!(m.bodies[3].pos, Vector3::new(0.0, 0.0, 0.5));
         assert_eq!((m.nq(), m.joints[0].body), (1, 2));
         assert_eq!(m.joints[0].axis, Vector3::z());
+    }
+
+    #[test]
+    fn a_floating_base_is_a_free_joint_on_the_root_link() {
+        let text = format!(
+            "{}{}{}",
+            link("base"),
+            link("arm"),
+            joint(
+                "shoulder",
+                "revolute",
+                "base",
+                "arm",
+                "<origin xyz=\"0 0 1\"/>"
+            )
+        );
+        let options = LoadOptions {
+            floating_base: true,
+            ..Default::default()
+        };
+        let m = load_with(&text, &options).unwrap();
+        let joints: Vec<_> = m
+            .joints
+            .iter()
+            .map(|j| (j.name.as_str(), j.kind, j.body))
+            .collect();
+        assert_eq!(
+            joints,
+            [
+                ("root_joint", JointKind::Free, 1),
+                ("shoulder", JointKind::Hinge, 2)
+            ]
+        );
+        assert_eq!(m.reference_q(), [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0]);
+        assert_eq!(m.joint_address_of("shoulder"), Some((7, 6)));
+        assert_eq!(
+            load(&text).unwrap().joint_address_of("shoulder"),
+            Some((0, 0))
+        );
+
+        // The world cannot float, and the free joint's name must be free.
+        let world = format!(
+            "<link name=\"world\"/>{}",
+            joint("j", "fixed", "world", "base", "")
+        );
+        let clash = joint("root_joint", "fixed", "base", "arm", "");
+        for (text, line, message) in [
+            (
+                format!("{}\n{world}", link("base")),
+                3,
+                "the root link 'world' is the world",
+            ),
+            (
+                format!("{}{}\n{clash}", link("base"), link("arm")),
+                3,
+                "'root_joint'",
+            ),
+        ] {
+            let e = load_with(&text, &options).unwrap_err().to_string();
+            assert!(e.starts_with(&format!("test.urdf:{line}:")), "{e}");
+            assert!(e.contains(message), "{e}");
+        }
+    }
+
+    #[test]
+    fn links_without_inertial_are_massless_and_a_massless_moving_leaf_is_refused() {
+        let text = format!(
+            "<link name=\"world\"/><link name=\"virtual\"/>\n{}{}\n{}",
+            link("arm"),
+            joint("a", "revolute", "world", "virtual", ""),
+            joint("b", "revolute", "virtual", "arm", "")
+        );
+        let m = load(&text).unwrap();
+        assert_eq!(
+            (m.bodies[1].mass, m.bodies[1].inertia),
+            (0.0, Matrix3::zeros())
+        );
+        let [warning] = m.warnings() else {
+            panic!("one warning expected, got {:?}", m.warnings());
+        };
+        assert!(warning.starts_with("test.urdf:2: <link>:"), "{warning}");
+        assert!(warning.ends_with("unit inertia): virtual"), "{warning}");
+
+        let leaf = format!(
+            "<link name=\"world\"/>{}\n<link name=\"tip\"/>{}{}",
+            link("arm"),
+            joint("a", "revolute", "world", "arm", ""),
+            joint("b", "revolute", "arm", "tip", "")
+        );
+        let e = load(&leaf).unwrap_err().to_string();
+        assert!(
+            e.starts_with("test.urdf:3: <link>: link 'tip' moves (joint 'b')"),
+            "{e}"
+        );
+        // Armature gives the joint its inertia.
+        let armature = leaf.replace(
+            "<parent link=\"arm\"/>",
+            "<parent link=\"arm\"/><dynamics diffosi:armature=\"0.1\"/>",
+        );
+        assert!(load(&armature).is_ok());
+    }
+
+    #[test]
+    fn inertias_are_taken_as_written_with_a_warning_unless_clearly_indefinite() {
+        let body = |six: &str| {
+            let [xx, yy, zz, xy] = six.split(' ').collect::<Vec<_>>()[..] else {
+                panic!()
+            };
+            format!(
+                "<link name=\"a\">\n<inertial><mass value=\"1\"/><inertia ixx=\"{xx}\" \
+                 iyy=\"{yy}\" izz=\"{zz}\" ixy=\"{xy}\" ixz=\"0\" iyz=\"0\"/></inertial></link>"
+            )
+        };
+        // Go1's base (triangle inequality) and iCub's ankle (1e-20 off the
+        // diagonal): used as written, with a warning naming the link.
+        for six in ["0 0 3e-6 0", "0 0 0 1.35525e-20"] {
+            let m = load(&body(six)).unwrap();
+            assert_eq!(
+                m.bodies[1].inertia[(2, 2)],
+                six.split(' ').nth(2).unwrap().parse::<f64>().unwrap()
+            );
+            let [warning] = m.warnings() else {
+                panic!("{:?}", m.warnings())
+            };
+            assert!(
+                warning.starts_with("test.urdf:3: <inertial>: model is not physical: body 'a'"),
+                "{warning}"
+            );
+            assert!(
+                warning.ends_with("used as written, as PyBullet and Pinocchio use it"),
+                "{warning}"
+            );
+        }
+        // Romeo's 'body': an eigenvalue of -0.02 is no rounding.
+        let e = load(&body("0.05 0.05 0.1 0.07")).unwrap_err().to_string();
+        assert!(e.contains("not positive semi-definite"), "{e}");
+        assert!(load(&body("1 1 1 0")).unwrap().warnings().is_empty());
     }
 }

@@ -134,7 +134,7 @@ pub fn parse(text: &str, file: &str, options: &LoadOptions) -> Result<Loaded> {
         return Err(reader.error(robot, "the root element must be <robot>"));
     }
     reader.check_extensions(robot)?;
-    let name = reader.robot_name(robot);
+    let name = reader.attr(robot, "name")?.to_string();
     let links = reader.links(robot)?;
     let edges = reader.edges(robot, &links)?;
     let tree = reader.tree(robot, &links, &edges)?;
@@ -169,21 +169,6 @@ struct Reader<'f> {
 impl Reader<'_> {
     fn error(&self, node: Node, message: impl Into<String>) -> ModelError {
         xml::invalid(self.file, node, message)
-    }
-
-    /// The robot's name; a file without one (which PyBullet and Pinocchio
-    /// load) is named after the file, with a warning.
-    fn robot_name(&self, robot: Node) -> String {
-        if let Some(name) = robot.attribute("name") {
-            return name.to_string();
-        }
-        let stem = std::path::Path::new(self.file).file_stem();
-        let name = stem.map_or("robot".into(), |s| s.to_string_lossy().into_owned());
-        self.warn(
-            robot,
-            format!("missing attribute 'name': named '{name}' after the file"),
-        );
-        name
     }
 
     /// Records a warning about `node`, worded as an error is (file, line,
