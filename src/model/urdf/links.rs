@@ -22,6 +22,20 @@ pub(super) struct Parts<'a> {
     pub dofs: HashMap<&'a str, Option<usize>>,
 }
 
+impl Parts<'_> {
+    /// Whether `body` moves: a joint on it or on one of its ancestors.
+    fn moving(&self, body: usize) -> bool {
+        let mut b = body;
+        while b > 0 {
+            if !self.bodies[b].joints.is_empty() {
+                return true;
+            }
+            b = self.bodies[b].parent;
+        }
+        false
+    }
+}
+
 /// Mass, COM, inertia about the COM in link axes, and the axes it was given in.
 type Inertial = (f64, Vector3<f64>, Matrix3<f64>, Rotation3<f64>);
 
@@ -87,10 +101,6 @@ impl Reader<'_> {
     fn check_masses(&self, parts: &Parts, link_of_body: &[Link]) -> Result<()> {
         let bodies = &parts.bodies;
         let moves = |b: usize| !bodies[b].joints.is_empty();
-        let mut moving = vec![false; bodies.len()];
-        for b in 1..bodies.len() {
-            moving[b] = moves(b) || moving[bodies[b].parent];
-        }
         let mut heavy: Vec<bool> = bodies
             .iter()
             .map(|b| b.mass > 0.0 || b.inertia != Matrix3::zeros())
@@ -114,7 +124,7 @@ impl Reader<'_> {
             heavy[bodies[b].parent] |= heavy[b];
         }
         let massless: Vec<Link> = (1..bodies.len())
-            .filter(|&b| moving[b] && child(link_of_body[b].node, "inertial").is_none())
+            .filter(|&b| parts.moving(b) && child(link_of_body[b].node, "inertial").is_none())
             .map(|b| link_of_body[b])
             .collect();
         if let Some(first) = massless.first() {
@@ -148,7 +158,8 @@ impl Reader<'_> {
             None => identity(),
             Some(edge) => self.add_joint(parts, edge, body)?,
         };
-        let (mass, com, inertia, inertia_frame) = self.inertial(link)?;
+        let moves = parts.joints.len() > first_joint || parts.moving(parent);
+        let (mass, com, inertia, inertia_frame) = self.inertial(link, moves)?;
         parts.bodies.push(Body {
             name: link.name.to_string(),
             parent,
@@ -174,7 +185,12 @@ impl Reader<'_> {
         self.origin(edge.node)
     }
 
-    fn inertial(&self, link: Link) -> Result<Inertial> {
+    /// The link's inertial, checked: a tensor MuJoCo's compiler would refuse
+    /// is used as written where it is positive semi-definite to rounding,
+    /// with a warning; one that is not is refused on a link that `moves`,
+    /// and dropped, with a warning, on one welded to the world, where it
+    /// takes no part in the dynamics.
+    fn inertial(&self, link: Link, moves: bool) -> Result<Inertial> {
         let Some(inertial) = child(link.node, "inertial") else {
             return Ok((
                 0.0,
@@ -188,7 +204,24 @@ impl Reader<'_> {
         let (com, rot) = self.origin(inertial)?;
         let inertia = rot.matrix() * tensor * rot.matrix().transpose();
         let check = |rule| check_inertial(link.name, mass, &com, &inertia, rule);
-        check(InertiaRule::SemiDefinite).map_err(|e| self.error(inertial, e.to_string()))?;
+        match check(InertiaRule::SemiDefinite) {
+            Err(e) if moves => return Err(self.error(inertial, e.to_string())),
+            Err(e) => {
+                let msg = format!(
+                    "{e}; dropped (mass and inertia 0): the link is welded to the world, so it \
+                     takes no part in the dynamics"
+                );
+                self.warn(inertial, msg);
+                let zero = (
+                    0.0,
+                    Vector3::zeros(),
+                    Matrix3::zeros(),
+                    Rotation3::identity(),
+                );
+                return Ok(zero);
+            }
+            Ok(()) => {}
+        }
         if let Err(e) = check(InertiaRule::Triangle) {
             let msg = format!("{e}; used as written, as PyBullet and Pinocchio use it");
             self.warn(inertial, msg);
@@ -408,9 +441,28 @@ mod tests {
                 "{warning}"
             );
         }
-        // Romeo's 'body': an eigenvalue of -0.02 is no rounding.
-        let e = load(&body("0.05 0.05 0.1 0.07")).unwrap_err().to_string();
+        // Romeo's 'body': an eigenvalue of -0.02 is no rounding. Refused where
+        // the link moves; dropped where it is welded to the world.
+        let romeo = body("0.05 0.05 0.1 0.07");
+        let moving = format!(
+            "<link name=\"world\"/>{romeo}{}",
+            joint("j", "revolute", "world", "a", "")
+        );
+        let e = load(&moving).unwrap_err().to_string();
+        assert!(e.starts_with("test.urdf:3: <inertial>:"), "{e}");
         assert!(e.contains("not positive semi-definite"), "{e}");
+        let m = load(&romeo).unwrap();
+        assert_eq!(
+            (m.bodies[1].mass, m.bodies[1].inertia),
+            (0.0, Matrix3::zeros())
+        );
+        let [warning] = m.warnings() else {
+            panic!("{:?}", m.warnings())
+        };
+        assert!(
+            warning.ends_with("welded to the world, so it takes no part in the dynamics"),
+            "{warning}"
+        );
         assert!(load(&body("1 1 1 0")).unwrap().warnings().is_empty());
     }
 }
