@@ -151,8 +151,8 @@ impl PyModel {
     }
 
     /// The law contacts, limits and dry friction follow: "constraint" (MuJoCo's
-    /// soft constraints, the default for MJCF files) or "smooth" (the penalty
-    /// model, the default for URDF files).
+    /// soft constraints, the default for MJCF and URDF files) or "smooth" (the
+    /// penalty model).
     #[getter]
     fn contact_model(&self) -> &'static str {
         name_of(&ContactModel::NAMES, self.model.opt.contact_model)
@@ -162,8 +162,8 @@ impl PyModel {
     /// compared with: `m.with_options(passive="implicit_damping_stiffness",
     /// timestep=0.005)`; `contact=False` / `limits=False` switch off the
     /// contacts and joint limits; `contact_model` is "constraint" (MuJoCo's
-    /// soft constraints, the default for MJCF files) or "smooth" (the penalty
-    /// model, the default for URDF files); `density` (kg/m^3), `viscosity`
+    /// soft constraints, the default for MJCF and URDF files) or "smooth" (the
+    /// penalty model); `density` (kg/m^3), `viscosity`
     /// (Pa s) and `wind` (3, m/s) set the fluid (MuJoCo's inertia-box model).
     /// Options not given keep their value.
     #[pyo3(signature = (*, timestep = None, gravity = None, integrator = None, passive = None, contact = None, limits = None, contact_model = None, density = None, viscosity = None, wind = None))]
