@@ -125,7 +125,10 @@ fn a_rollout_names_the_step_and_the_value_that_failed() {
             taus[..1].iter().map(|t| t.as_slice()),
         )
         .unwrap_err();
-    assert_eq!(err.source, StepError::Diverged);
+    let StepError::DivergedAt { cause } = err.source else {
+        panic!("expected a divergence, got {}", err.source);
+    };
+    assert!(cause.contains("dof 1 of joint 'hinge'"), "{cause}");
 }
 
 #[test]

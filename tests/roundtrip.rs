@@ -19,8 +19,8 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use diffosi::model::{
-    mjcf, Actuator, Body, Geom, Integrator, Joint, ModelError, Options, PassiveMode, SoftOptions,
-    Spec,
+    mjcf, Actuator, Body, Geom, InertiaRule, Integrator, Joint, ModelError, Options, PassiveMode,
+    SoftOptions, Spec,
 };
 use diffosi::Model;
 use nalgebra::{Matrix3, Rotation3};
@@ -143,6 +143,7 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         pairs,
         excludes,
         keyframes,
+        inertia_rule,
     } = ours;
     assert_eq!(name, &theirs.name, "{model}: model name");
     assert_eq!(keyframes, &theirs.keyframes, "{model}: keyframes");
@@ -150,6 +151,14 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         (pairs, excludes),
         (&theirs.pairs, &theirs.excludes),
         "{model}: contact pairs"
+    );
+    // MJCF has no setting for it: read back, MuJoCo's rule holds (a URDF's
+    // tensors that violate it would be refused there, as MuJoCo refuses them).
+    let _ = inertia_rule;
+    assert_eq!(
+        theirs.inertia_rule,
+        InertiaRule::Triangle,
+        "{model}: inertia rule"
     );
     let Options {
         timestep,

@@ -5,11 +5,12 @@ use engine::derivatives::{
     step_jacobians, transition_jacobians, TransitionJacobians, Workspace, Wrt,
 };
 use engine::dynamics::{body_contact_forces, Contact, Data};
+use engine::model::urdf::LoadOptions;
 use engine::model::{ContactModel, Integrator, Param, PassiveMode};
 use engine::Model;
 use numpy::ndarray::Array2;
 use numpy::{PyArray1, PyArray2, PyUntypedArrayMethods};
-use pyo3::exceptions::{PyKeyError, PyValueError};
+use pyo3::exceptions::{PyKeyError, PyUserWarning, PyValueError};
 use pyo3::intern;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
@@ -64,10 +65,38 @@ impl PyModel {
 impl PyModel {
     /// Loads a model: `.xml` as MJCF, `.urdf` as URDF. A missing or unreadable
     /// file raises OSError; a file we cannot accept raises ValueError naming
-    /// the element and line.
+    /// the element and line. URDF only: `floating_base=True` gives the root
+    /// link a free joint `root_joint` (PyBullet's loadURDF default; by
+    /// default it is welded to the world, as MuJoCo's importer and Pinocchio
+    /// read it); `package_dirs` are searched first for `package://` paths.
+    /// What the loader took as written or ignored comes as UserWarnings.
     #[staticmethod]
-    fn load(path: std::path::PathBuf) -> PyResult<Self> {
-        Model::load(&path).map(PyModel::new).map_err(model_error)
+    #[pyo3(signature = (path, floating_base=false, package_dirs=None))]
+    fn load(
+        py: Python<'_>,
+        path: std::path::PathBuf,
+        floating_base: bool,
+        package_dirs: Option<Vec<std::path::PathBuf>>,
+    ) -> PyResult<Self> {
+        let options = LoadOptions {
+            floating_base,
+            package_dirs: package_dirs.unwrap_or_default(),
+        };
+        let model = Model::load_with(&path, &options).map_err(model_error)?;
+        let category = py.get_type::<PyUserWarning>();
+        for warning in model.warnings() {
+            let text = std::ffi::CString::new(warning.replace('\0', " ")).expect("no NUL left");
+            PyErr::warn(py, &category, &text, 1)?;
+        }
+        Ok(PyModel::new(model))
+    }
+
+    /// (index of the joint's first coordinate in q, of its first dof in v)
+    /// for the joint named `name` (MuJoCo's jnt_qposadr, jnt_dofadr).
+    fn joint_address(&self, name: &str) -> PyResult<(usize, usize)> {
+        self.model.joint_address_of(name).ok_or_else(|| {
+            PyValueError::new_err(format!("no joint named '{name}' (see joint_names)"))
+        })
     }
 
     /// Number of generalized positions.
@@ -122,8 +151,8 @@ impl PyModel {
     }
 
     /// The law contacts, limits and dry friction follow: "constraint" (MuJoCo's
-    /// soft constraints, the default for MJCF files) or "smooth" (the penalty
-    /// model, the default for URDF files).
+    /// soft constraints, the default for MJCF and URDF files) or "smooth" (the
+    /// penalty model).
     #[getter]
     fn contact_model(&self) -> &'static str {
         name_of(&ContactModel::NAMES, self.model.opt.contact_model)
@@ -133,8 +162,8 @@ impl PyModel {
     /// compared with: `m.with_options(passive="implicit_damping_stiffness",
     /// timestep=0.005)`; `contact=False` / `limits=False` switch off the
     /// contacts and joint limits; `contact_model` is "constraint" (MuJoCo's
-    /// soft constraints, the default for MJCF files) or "smooth" (the penalty
-    /// model, the default for URDF files); `density` (kg/m^3), `viscosity`
+    /// soft constraints, the default for MJCF and URDF files) or "smooth" (the
+    /// penalty model); `density` (kg/m^3), `viscosity`
     /// (Pa s) and `wind` (3, m/s) set the fluid (MuJoCo's inertia-box model).
     /// Options not given keep their value.
     #[pyo3(signature = (*, timestep = None, gravity = None, integrator = None, passive = None, contact = None, limits = None, contact_model = None, density = None, viscosity = None, wind = None))]

@@ -217,7 +217,8 @@ class Engine:
         applied."""
         import diffosi
 
-        m = diffosi.Model.load(str(self.model_path)).with_options(
+        floating_base = getattr(self, "floating_base", False)
+        m = diffosi.Model.load(str(self.model_path), floating_base=floating_base).with_options(
             timestep=self.timestep, gravity=list(self.gravity), integrator=self.integrator,
             passive=self.passive, contact=False, limits=False)
         for param, joints in self.ignored.items():

@@ -20,7 +20,10 @@ more than f pushes it (TORQUE_CONTROL forces add to it).
 
 A URDF whose root is a floating joint from `world` (our free root) is loaded as PyBullet's
 own free base: a copy without the world link and that joint, useFixedBase off (the world
-link's collisions go with it). q, v and tau keep our convention (harness/engines/floating.py);
+link's collisions go with it). floating_base=True loads any other URDF with useFixedBase
+off, as PyBullet's loadURDF does by default and Model.load(path, floating_base=True) reads
+it (its free joint 'root_joint' at the world origin); by default the root link is fixed,
+as our loader, MuJoCo's importer and Pinocchio read it. q, v and tau keep our convention (harness/engines/floating.py);
 the base's part of tau is an external force and torque. M and c are not offered for it.
 """
 
@@ -65,10 +68,11 @@ class PybulletEngine(Engine):
     name = "pybullet"
     version = importlib.metadata.version("pybullet")
 
-    def __init__(self, path: Path, native: bool = False, friction: dict | None = None):
+    def __init__(self, path: Path, native: bool = False, friction: dict | None = None, floating_base: bool = False):
         super().__init__()
         self.model_path, self.label = Path(path), label_of(Path(path))
-        facts = read_urdf(self.model_path)
+        facts = read_urdf(self.model_path, floating_base)
+        self.floating_base = floating_base
         self._native = native
         self._friction = self.check_friction(friction, [j.name for j in facts["joints"]])
         h, self.gravity, self.settings = timestep_gravity(self.model_path, facts)
@@ -112,7 +116,8 @@ class PybulletEngine(Engine):
         with quiet_stdio():
             p = self._p = BulletClient(connection_mode=pybullet.DIRECT)
             # without URDF_USE_INERTIA_FROM_FILE the inertia is recomputed from collision shapes
-            body = self._body = p.loadURDF(str(self._free_base_copy(urdf) if self.free else urdf),
+            in_file = self.free and not self.floating_base  # a floating joint from `world`
+            body = self._body = p.loadURDF(str(self._free_base_copy(urdf) if in_file else urdf),
                                            useFixedBase=not self.free, flags=pybullet.URDF_USE_INERTIA_FROM_FILE)
         p.setGravity(*self.gravity)  # PyBullet's gravity defaults to 0
         p.setTimeStep(h)  # default 1/240 s
@@ -120,8 +125,9 @@ class PybulletEngine(Engine):
         settings.update(fixed_base=not self.free, inertia="URDF_USE_INERTIA_FROM_FILE", numSubSteps=0,
                         tau_applied_via="TORQUE_CONTROL after VELOCITY_CONTROL with force 0")
         if self.free:
-            settings["free_base"] = (f"floating joint {self.free.name!r} and link 'world' removed, useFixedBase off; "
-                                     "its forces by applyExternalForce/Torque (WORLD_FRAME)")
+            how = ("floating_base: the root link's free joint" if self.floating_base else
+                   f"floating joint {self.free.name!r} and link 'world' removed")
+            settings["free_base"] = f"{how}, useFixedBase off; its forces by applyExternalForce/Torque (WORLD_FRAME)"
             self._base, self._quat = PybulletBase(*p.getDynamicsInfo(body, -1)[3:5]), self.free.reference()[3:]
         links = list(range(p.getNumJoints(body)))
         self._movable = [i for i in links if p.getJointInfo(body, i)[2] != pybullet.JOINT_FIXED]

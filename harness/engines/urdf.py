@@ -50,15 +50,21 @@ def local_name(key: str) -> str:
     return key.split("}")[-1]
 
 
-def read_urdf(path: Path) -> dict:
+def read_urdf(path: Path, floating_base: bool = False) -> dict:
     """Movable one-dof joints in document order (asserted parent-first), the floating joint
-    (a free root) if any, links without <inertial>, and the attributes of <diffosi:options>."""
+    (a free root) if any, links without <inertial>, and the attributes of <diffosi:options>.
+    floating_base=True: the root link (not `world`) floats, as diffosi's
+    Model.load(path, floating_base=True) and PyBullet's useFixedBase=False read it: a free
+    joint 'root_joint' at the world origin."""
     root = ET.parse(path).getroot()
     links = [link.get("name") for link in root.findall("link")]
     children = {j.find("child").get("link") for j in root.findall("joint")}
     roots = [link for link in links if link not in children]
     assert len(roots) == 1, f"{path}: expected one root link, got {roots}"
     placed, joints, floating = {roots[0]}, [], None
+    if floating_base:
+        assert roots[0] != "world", f"{path}: floating_base, but the root link is the world"
+        floating = FloatingJoint("root_joint", roots[0], (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
     for j in root.findall("joint"):
         parent, child = j.find("parent").get("link"), j.find("child").get("link")
         assert parent in placed, f"{path}: joint {j.get('name')} comes before its parent link"
@@ -87,9 +93,9 @@ def read_urdf(path: Path) -> dict:
             damping=attrs.pop("damping", 0.0), friction=attrs.pop("friction", 0.0), extensions=attrs,
         ))
     massless = [link.get("name") for link in root.findall("link")
-                if link.find("inertial") is None and link.get("name") != roots[0]]
+                if link.find("inertial") is None and (link.get("name") != roots[0] or floating_base)]
     options = root.find(f"{DIFFOSI_NS}options")
-    return {"root": roots[0], "links": links, "joints": joints, "floating": floating,
+    return {"root": roots[0], "links": links, "joints": joints, "floating": floating, "floating_base": floating_base,
             "massless_links": massless, "options": dict(options.attrib) if options is not None else {}}
 
 

@@ -188,6 +188,38 @@ def worst_free_step(e, ours, rng, n=SAMPLES):
     return worst
 
 
+def test_floating_base_floats_the_root_link_as_pybullets_load_urdf(tmp_path):
+    """A URDF whose root link is not `world` (the floating arm without its world link and
+    floating joint): by default welded to the world (MuJoCo's importer, Pinocchio);
+    Model.load(path, floating_base=True) gives it a free joint 'root_joint' at the origin,
+    and PyBullet's loadURDF with useFixedBase=False (its default) takes the same steps."""
+    import xml.etree.ElementTree as ET
+
+    import diffosi
+    from harness.engines.base import MODELS
+
+    ET.register_namespace("diffosi", "urn:diffosi:urdf")
+    tree = ET.parse(MODELS / "floating_arm.urdf")
+    robot = tree.getroot()
+    robot.remove(robot.find("link[@name='world']"))
+    robot.remove(robot.find("joint[@name='root']"))
+    path = tmp_path / "arm.urdf"
+    tree.write(path)
+    fixed = diffosi.Model.load(str(path))
+    assert (fixed.nq, fixed.joint_address(fixed.joint_names[0])) == (2, (0, 0))
+    with engines.load("pybullet", path, floating_base=True) as e:
+        assert (e.free.name, len(e.q_ref), e.nv, e.settings["fixed_base"]) == ("root_joint", 9, 8, False)
+        ours = e.ours()
+        assert ours.joint_names[0] == "root_joint"
+        assert [ours.joint_address(n) for n in ours.joint_names] == [(0, 0), (7, 6), (8, 7)]
+        np.testing.assert_array_equal(ours.reference_q(), e.q_ref)
+        assert worst_free_step(e, ours, case_seed(7, "floating_base")) <= ONE_STEP_TOL
+    with pytest.raises(ValueError, match="no joint named 'knee'"):
+        ours.joint_address("knee")
+    with pytest.raises(ValueError, match="floating_base applies to URDF files"):
+        diffosi.Model.load(str(MODELS / "floating_arm.xml"), floating_base=True)
+
+
 def test_dart_turns_a_slow_free_base_by_a_series():
     """DART's FreeJoint turns by a truncated series when |w| h < 1e-3: the quaternion then
     parts from MuJoCo's (and ours) by about (|w| h)^3 / 20, and agrees to rounding above."""

@@ -385,6 +385,23 @@ def test_missing_file_raises_oserror(tmp_path):
         diffosi.Model.load(missing)  # a pathlib.Path works too
 
 
+
+def test_urdf_load_warnings_are_user_warnings(tmp_path):
+    """What the URDF loader takes as written comes as a UserWarning naming file, line and
+    link: here a moving link without <inertial> (massless, as Pinocchio reads it)."""
+    path = tmp_path / "r.urdf"
+    path.write_text("""<robot name="r">
+<link name="base"/>
+<link name="virtual"/>
+<link name="arm"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+<joint name="a" type="continuous"><parent link="base"/><child link="virtual"/></joint>
+<joint name="b" type="continuous"><parent link="virtual"/><child link="arm"/></joint>
+</robot>""")
+    with pytest.warns(UserWarning, match=r"r.urdf:3: <link>: moving links without <inertial> are massless.*: virtual$"):
+        m = diffosi.Model.load(str(path))
+    assert (m.contact_model, m.passive, m.joint_address("b")) == ("constraint", "implicit_damping", (1, 1))
+
+
 def test_malformed_files_raise_value_error(tmp_path):
     broken = tmp_path / "broken.xml"
     broken.write_text("<mujoco><worldbody><body name='a'></worldbody>")

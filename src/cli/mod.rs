@@ -11,19 +11,30 @@ pub mod wiping;
 
 use std::path::PathBuf;
 
+use diffosi::model::urdf::LoadOptions;
 use diffosi::model::ContactModel;
 use diffosi::Model;
 
-/// A model file, and optionally the contact law to run it with.
+/// A model file, how to read it, and optionally the contact law to run it
+/// with.
 #[derive(clap::Args, Debug)]
 pub struct ModelFile {
     /// Model file: .xml (MJCF) or .urdf.
     pub model: PathBuf,
     /// Contact, limit and dry-friction law: constraint (MuJoCo's soft
-    /// constraints, the default for MJCF) or smooth (the penalty model, the
-    /// default for URDF).
+    /// constraints, the default) or smooth (the penalty model).
     #[arg(long, value_enum)]
     pub contact_model: Option<ContactLaw>,
+    /// URDF: a free joint on the root link, as PyBullet's loadURDF default
+    /// (without it the root link is welded to the world, as MuJoCo's importer
+    /// and Pinocchio read it).
+    #[arg(long)]
+    pub floating_base: bool,
+    /// URDF: a directory to look for `package://NAME/...` packages in
+    /// (repeatable; searched before the file's own directories and
+    /// ROS_PACKAGE_PATH).
+    #[arg(long = "package-dir", value_name = "DIR")]
+    pub package_dirs: Vec<PathBuf>,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -33,8 +44,16 @@ pub enum ContactLaw {
 }
 
 impl ModelFile {
+    /// The model, its load warnings printed to stderr.
     pub fn load(&self) -> Result<Model, String> {
-        let model = Model::load(&self.model).map_err(|e| e.to_string())?;
+        let options = LoadOptions {
+            floating_base: self.floating_base,
+            package_dirs: self.package_dirs.clone(),
+        };
+        let model = Model::load_with(&self.model, &options).map_err(|e| e.to_string())?;
+        for warning in model.warnings() {
+            eprintln!("warning: {warning}");
+        }
         let Some(law) = self.contact_model else {
             return Ok(model);
         };

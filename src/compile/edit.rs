@@ -214,7 +214,8 @@ impl Model {
     ) -> Result<(), ModelError> {
         for b in bodies.iter().filter(|b| b.tensor || b.mass < 0.0) {
             let name = &self.spec.bodies[b.index].name;
-            check_inertial(name, b.mass, &b.com, &b.inertia)?;
+            let rule = self.spec.inertia_rule;
+            check_inertial(name, b.mass, &b.com, &b.inertia, rule)?;
         }
         for j in joints {
             let mut joint = self.spec.joints[j.index].clone();

@@ -16,7 +16,10 @@ pub use simulate::RolloutError;
 pub use tree::{body_inertia, mass_properties};
 
 use crate::dynamics::Tree;
-use crate::model::{mjcf, urdf, Actuator, Body, Geom, Joint, ModelError, Options, Spec};
+use crate::model::urdf::LoadOptions;
+use crate::model::{
+    mjcf, urdf, Actuator, Body, Geom, InertiaRule, Joint, ModelError, Options, Spec,
+};
 
 /// A validated [`Spec`] together with the numeric tree the dynamics run on.
 /// Its fields read through `Deref` (`model.joints`); changes go through
@@ -28,6 +31,8 @@ pub struct Model {
     tree: Tree<f64>,
     /// Distinct for every built or edited model (see [`Model::stamp`]).
     stamp: u64,
+    /// What the loader took as written or ignored (see [`Model::warnings`]).
+    warnings: Vec<String>,
 }
 
 /// Stamps start at 1, so a cache's 0 matches no model.
@@ -63,6 +68,7 @@ impl Model {
             pairs: vec![],
             excludes: vec![],
             keyframes: vec![],
+            inertia_rule: InertiaRule::Triangle,
         })
     }
 
@@ -75,6 +81,7 @@ impl Model {
             spec,
             tree,
             stamp: next_stamp(),
+            warnings: vec![],
         })
     }
 
@@ -93,11 +100,23 @@ impl Model {
     pub fn edited(&self, edit: impl FnOnce(&mut Spec)) -> Result<Model, ModelError> {
         let mut spec = self.spec.clone();
         edit(&mut spec);
-        Model::from_spec(spec)
+        let mut model = Model::from_spec(spec)?;
+        model.warnings = self.warnings.clone();
+        Ok(model)
     }
 
-    /// Loads an MJCF (`.xml`) or URDF (`.urdf`) file.
+    /// Loads an MJCF (`.xml`) or URDF (`.urdf`) file with the default
+    /// [`LoadOptions`] (a URDF's root link welded to the world).
     pub fn load(path: impl AsRef<std::path::Path>) -> Result<Model, ModelError> {
+        Model::load_with(path, &LoadOptions::default())
+    }
+
+    /// Loads an MJCF or URDF file; `options` say how to read a URDF (an MJCF
+    /// file takes only the default `floating_base`, off: it says its joints).
+    pub fn load_with(
+        path: impl AsRef<std::path::Path>,
+        options: &LoadOptions,
+    ) -> Result<Model, ModelError> {
         let path = path.as_ref();
         let shown = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|source| ModelError::Io {
@@ -105,8 +124,14 @@ impl Model {
             source,
         })?;
         match path.extension().and_then(|e| e.to_str()) {
+            Some("xml") | Some("mjcf") if options.floating_base => {
+                Err(ModelError::NotApplicable(format!(
+                    "{shown}: floating_base applies to URDF files; an MJCF file floats a body \
+                     with a <freejoint>"
+                )))
+            }
             Some("xml") | Some("mjcf") => Model::from_mjcf(&text, &shown),
-            Some("urdf") => Model::from_urdf(&text, &shown),
+            Some("urdf") => Model::from_urdf_with(&text, &shown, options),
             _ => Err(ModelError::UnknownFormat(shown)),
         }
     }
@@ -116,9 +141,31 @@ impl Model {
         Model::from_spec(mjcf::parse(text, file)?)
     }
 
-    /// Reads URDF text and compiles it; `file` names it in errors.
+    /// Reads URDF text with the default [`LoadOptions`] and compiles it;
+    /// `file` names it in errors.
     pub fn from_urdf(text: &str, file: &str) -> Result<Model, ModelError> {
-        Model::from_spec(urdf::parse(text, file)?)
+        Model::from_urdf_with(text, file, &LoadOptions::default())
+    }
+
+    /// Reads URDF text as `options` say and compiles it; `file` names it in
+    /// errors and is where its relative and `package://` paths start.
+    pub fn from_urdf_with(
+        text: &str,
+        file: &str,
+        options: &LoadOptions,
+    ) -> Result<Model, ModelError> {
+        let loaded = urdf::parse(text, file, options)?;
+        let mut model = Model::from_spec(loaded.spec)?;
+        model.warnings = loaded.warnings;
+        Ok(model)
+    }
+
+    /// What the loader took as written or ignored, each naming its file,
+    /// line and element (a URDF's inertias that MuJoCo would refuse, links
+    /// without `<inertial>`, ignored transmissions); empty for MJCF. Edited
+    /// copies keep them.
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
     }
 
     /// Writes the model as MJCF to a `.xml` (or `.mjcf`) path; see
@@ -157,6 +204,12 @@ impl Model {
 
     pub fn joint_index(&self, name: &str) -> Option<usize> {
         self.joints.iter().position(|j| j.name == name)
+    }
+
+    /// The first position coordinate and first dof of the joint named `name`
+    /// (MuJoCo's jnt_qposadr and jnt_dofadr; see [`Spec::joint_address`]).
+    pub fn joint_address_of(&self, name: &str) -> Option<(usize, usize)> {
+        self.joint_index(name).map(|j| self.joint_address(j))
     }
 }
 

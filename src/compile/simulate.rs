@@ -28,7 +28,9 @@ impl Model {
         Data::new(&self.tree)
     }
 
-    /// One step from (q, v) under generalized forces tau (length nv).
+    /// One step from (q, v) under generalized forces tau (length nv). A
+    /// step that diverges names its likely cause
+    /// ([`StepError::DivergedAt`]).
     pub fn step(
         &self,
         data: &mut Data<f64>,
@@ -37,8 +39,59 @@ impl Model {
         tau: &[f64],
     ) -> Result<(Vec<f64>, Vec<f64>), StepError> {
         let (mut q1, mut v1) = (vec![0.0; self.nq()], vec![0.0; self.nv()]);
-        dynamics::step(&self.tree, data, (q, v, tau), (&mut q1, &mut v1))?;
-        Ok((q1, v1))
+        match dynamics::step(&self.tree, data, (q, v, tau), (&mut q1, &mut v1)) {
+            Err(StepError::Diverged) => Err(StepError::DivergedAt {
+                cause: self.divergence_cause(data, (q, v, tau)),
+            }),
+            result => result.map(|()| (q1, v1)),
+        }
+    }
+
+    /// What a diverging step from (q, v) most likely blew up on: the fastest
+    /// dof (its joint, and whether it is beyond its range), and the deepest
+    /// contact if any.
+    fn divergence_cause(
+        &self,
+        data: &mut Data<f64>,
+        (q, v, tau): (&[f64], &[f64], &[f64]),
+    ) -> String {
+        let Some((dof, speed)) = v
+            .iter()
+            .map(|x| x.abs())
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+        else {
+            return "the model has no dofs".into();
+        };
+        let joint = (0..self.joints.len())
+            .rev()
+            .find(|&j| self.joint_address(j).1 <= dof)
+            .expect("dof 0 is joint 0's");
+        let (qa, va) = self.joint_address(joint);
+        let j = &self.joints[joint];
+        let mut cause = format!(
+            "fastest: dof {dof} of joint '{}' (|v| = {speed:.3e}; a joint too light or too \
+             stiff for the timestep?)",
+            j.name
+        );
+        if let Some((lo, hi)) = j.range.filter(|_| va == dof && j.kind.nq() == 1) {
+            if !(lo..=hi).contains(&q[qa]) {
+                cause += &format!(", at q = {:.4e} beyond its range [{lo}, {hi}]", q[qa]);
+            }
+        }
+        let contacts = self.contacts(data, q, v, tau).unwrap_or_default();
+        if let Some(c) = contacts.iter().min_by(|a, b| a.dist.total_cmp(&b.dist)) {
+            let [a, b] = c.geoms.map(|g| self.geoms[g].name.clone());
+            cause += &format!(
+                "; {} contacts, the deepest between geoms {} '{a}' and {} '{b}' at distance \
+                 {:.3e}",
+                contacts.len(),
+                c.geoms[0],
+                c.geoms[1],
+                c.dist
+            );
+        }
+        cause
     }
 
     /// The contacts at (q, v) with their forces: those a semi-implicit Euler

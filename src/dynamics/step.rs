@@ -28,6 +28,10 @@ pub enum StepError {
     NotFinite { name: &'static str, index: usize },
     #[error("the step diverged: the next state is not finite (timestep too large?)")]
     Diverged,
+    /// The same, its likely cause named from the state stepped from (by
+    /// [`crate::Model::step`], which knows the names).
+    #[error("the step diverged: the next state is not finite; {cause}")]
+    DivergedAt { cause: String },
     /// Two geoms within reach of each other whose shapes have no collider.
     #[error(
         "geoms {} and {} (model geom indices) are within reach and the constraint model has \

@@ -210,10 +210,11 @@ impl Cone {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ContactModel {
     /// Forces smooth in the state ([`crate::dynamics::contact`]): the
-    /// default for URDF files and models built in code.
+    /// default for models built in code.
     Smooth,
     /// MuJoCo's soft constraints solved to convergence
-    /// ([`crate::dynamics::constraint`]): the default for MJCF files.
+    /// ([`crate::dynamics::constraint`]): the default for MJCF and URDF
+    /// files.
     Constraint,
 }
 

@@ -73,6 +73,9 @@ pub enum ModelError {
     /// A model a file format cannot express, or a file we cannot write.
     #[error("cannot write {0}")]
     Unwritable(String),
+    /// A load option the file's format has no use for.
+    #[error("{0}")]
+    NotApplicable(String),
 }
 
 /// A rigid body. See the module documentation for frames.
@@ -414,7 +417,27 @@ pub struct Spec {
     pub excludes: Vec<[usize; 2]>,
     /// Named states the file ships with (MJCF `<keyframe>`).
     pub keyframes: Vec<Keyframe>,
+    /// Which body inertias are accepted ([`check_inertial`]).
+    pub inertia_rule: InertiaRule,
 }
+
+/// Which inertia tensors a model accepts, beyond finite, symmetric and
+/// positive semi-definite (to rounding, 1e-9 of the largest entry).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum InertiaRule {
+    /// Principal moments also satisfy the triangle inequality A + B >= C, as
+    /// MuJoCo's compiler demands (MJCF files, models built in code).
+    #[default]
+    Triangle,
+    /// Any positive semi-definite tensor, as PyBullet and Pinocchio take a
+    /// URDF's `<inertia>` (URDF files); eigenvalues down to -[`MINVAL`]
+    /// count as zero.
+    SemiDefinite,
+}
+
+/// MuJoCo's mjMINVAL: the size below which it takes a mass or an inertia
+/// for zero.
+pub const MINVAL: f64 = 1e-15;
 
 impl Spec {
     pub fn nq(&self) -> usize {
@@ -515,7 +538,7 @@ impl Spec {
                 return bad(format!("joints of body '{}' are not in body order", b.name));
             }
             next_joint = b.joints.end;
-            check_inertial(&b.name, b.mass, &b.com, &b.inertia)?;
+            check_inertial(&b.name, b.mass, &b.com, &b.inertia, self.inertia_rule)?;
         }
         if next_joint != self.joints.len() {
             return bad("joint list does not match the bodies' joint ranges".into());
@@ -623,13 +646,15 @@ pub fn check_passive(j: &Joint) -> Result<(), ModelError> {
 }
 
 /// Checks that a body's inertial properties describe a physical rigid body:
-/// finite, mass >= 0, inertia symmetric positive semi-definite satisfying the
-/// triangle inequality of its principal moments.
+/// finite, mass >= 0, inertia symmetric positive semi-definite, under
+/// [`InertiaRule::Triangle`] also satisfying the triangle inequality of its
+/// principal moments.
 pub fn check_inertial(
     name: &str,
     mass: f64,
     com: &Vector3<f64>,
     inertia: &Matrix3<f64>,
+    rule: InertiaRule,
 ) -> Result<(), ModelError> {
     let bad = |msg: String| Err(ModelError::NotPhysical(format!("body '{name}': {msg}")));
     if !(mass.is_finite() && mass >= 0.0) {
@@ -645,12 +670,16 @@ pub fn check_inertial(
     let mut eig: Vec<f64> = inertia.symmetric_eigenvalues().iter().copied().collect();
     eig.sort_by(f64::total_cmp);
     let tol = 1e-9 * scale;
-    if eig[0] < -tol {
+    let floor = match rule {
+        InertiaRule::Triangle => tol,
+        InertiaRule::SemiDefinite => tol.max(MINVAL),
+    };
+    if eig[0] < -floor {
         return bad(format!(
             "inertia tensor is not positive semi-definite (eigenvalues {eig:?})"
         ));
     }
-    if eig[0] + eig[1] < eig[2] - tol {
+    if rule == InertiaRule::Triangle && eig[0] + eig[1] < eig[2] - tol {
         return bad(format!(
             "principal moments {eig:?} violate the triangle inequality"
         ));

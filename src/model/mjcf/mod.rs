@@ -84,7 +84,7 @@ mod write;
 use std::cell::Cell;
 use std::collections::HashMap;
 
-use super::{xml, ModelError, Spec};
+use super::{xml, InertiaRule, ModelError, Spec};
 use compiler::Compiler;
 use defaults::Class;
 use schema::check_attributes;
@@ -145,6 +145,7 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
         pairs,
         excludes,
         keyframes: vec![],
+        inertia_rule: InertiaRule::Triangle,
     };
     spec.keyframes = reader.read_keyframes(root, &spec)?;
     Ok(spec)

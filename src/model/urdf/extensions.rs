@@ -5,7 +5,7 @@
 use nalgebra::Vector3;
 
 use super::{is, ours, Node, Reader, Result, NAMESPACE};
-use crate::model::{Integrator, Options, PassiveMode};
+use crate::model::{ContactModel, Integrator, Options, PassiveMode};
 
 /// Extension attributes allowed on each URDF element.
 const EXTENSION_ATTRIBUTES: [(&str, &[&str]); 3] = [
@@ -58,11 +58,13 @@ impl Reader<'_> {
         }
     }
 
-    /// The options: PyBullet's way of running a model unless
-    /// `<diffosi:options>` says otherwise.
+    /// The options: MuJoCo's URDF importer's way of running a model (the
+    /// constraint model, implicit damping) unless `<diffosi:options>` says
+    /// otherwise.
     pub(super) fn options(&self, robot: Node) -> Result<Options> {
         let mut opt = Options {
-            passive: PassiveMode::Explicit,
+            contact_model: ContactModel::Constraint,
+            passive: PassiveMode::ImplicitDamping,
             ..Options::default()
         };
         let Some(node) = robot
@@ -83,6 +85,9 @@ impl Reader<'_> {
         if let Some(mode) = self.keyword(node, "passive", &PassiveMode::NAMES)? {
             opt.passive = mode;
         }
+        if let Some(model) = self.keyword(node, "contact", &ContactModel::NAMES)? {
+            opt.contact_model = model;
+        }
         Ok(opt)
     }
 }
@@ -90,14 +95,15 @@ impl Reader<'_> {
 #[cfg(test)]
 mod tests {
     use super::super::test_util::*;
-    use crate::model::{Integrator, PassiveMode};
+    use crate::model::{ContactModel, Integrator, PassiveMode};
 
     #[test]
     fn extensions_carry_what_urdf_cannot_say() {
         let dynamics = "<dynamics damping=\"0.5\" friction=\"0.2\" diffosi:stiffness=\"3\" \
                         diffosi:springref=\"-0.1\" diffosi:armature=\"0.1\"/>";
         let text = format!(
-            "<diffosi:options timestep=\"0.01\" gravity=\"0 0 -1\" integrator=\"RK4\" passive=\"implicit_damping\"/>\
+            "<diffosi:options timestep=\"0.01\" gravity=\"0 0 -1\" integrator=\"RK4\" passive=\"explicit\" \
+             contact=\"smooth\"/>\
              <link name=\"world\"/>{}{}\
              <transmission name=\"t\"><joint name=\"j\"/>\
              <actuator name=\"motor\" diffosi:ctrlrange=\"-2 2\"><mechanicalReduction>50</mechanicalReduction></actuator>\
@@ -122,14 +128,34 @@ mod tests {
         );
         let o = &m.opt;
         assert_eq!(
-            (o.timestep, o.gravity.z, o.integrator, o.passive),
-            (0.01, -1.0, Integrator::Rk4, PassiveMode::ImplicitDamping)
+            (
+                o.timestep,
+                o.gravity.z,
+                o.integrator,
+                o.passive,
+                o.contact_model
+            ),
+            (
+                0.01,
+                -1.0,
+                Integrator::Rk4,
+                PassiveMode::Explicit,
+                ContactModel::Smooth
+            )
         );
 
-        let defaults = load(&link("a")).unwrap().opt.clone();
+        // MuJoCo's URDF importer's defaults.
+        let d = load(&link("a")).unwrap().opt.clone();
+        let defaults = (d.timestep, d.integrator, d.passive, d.contact_model);
         assert_eq!(
-            (defaults.timestep, defaults.passive),
-            (0.002, PassiveMode::Explicit)
+            defaults,
+            (
+                0.002,
+                Integrator::Euler,
+                PassiveMode::ImplicitDamping,
+                ContactModel::Constraint
+            )
         );
+        assert!(d.contact && d.limits);
     }
 }

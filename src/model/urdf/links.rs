@@ -1,16 +1,17 @@
 //! Links become bodies, in the tree's depth-first order, each with the joint
 //! that leads to it and its collision geoms; a root named `world` is the
-//! world itself.
+//! world itself. Also the checks of their masses (see the module doc).
 
 use std::collections::HashMap;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
 use super::attributes::{identity, Pose};
+use super::joints::free_root;
 use super::tree::{Edge, Link, Tree};
 use super::{child, Node, Reader, Result};
 use crate::model::params::inertia_from_six;
-use crate::model::{check_inertial, Body, Geom, Joint};
+use crate::model::{check_inertial, Body, Geom, InertiaRule, Joint};
 
 /// What the links and joints become.
 pub(super) struct Parts<'a> {
@@ -19,6 +20,20 @@ pub(super) struct Parts<'a> {
     pub geoms: Vec<Geom>,
     /// Per URDF joint name, its dof (`None` for a fixed joint).
     pub dofs: HashMap<&'a str, Option<usize>>,
+}
+
+impl Parts<'_> {
+    /// Whether `body` moves: a joint on it or on one of its ancestors.
+    fn moving(&self, body: usize) -> bool {
+        let mut b = body;
+        while b > 0 {
+            if !self.bodies[b].joints.is_empty() {
+                return true;
+            }
+            b = self.bodies[b].parent;
+        }
+        false
+    }
 }
 
 /// Mass, COM, inertia about the COM in link axes, and the axes it was given in.
@@ -37,7 +52,12 @@ impl Reader<'_> {
             geoms: Vec::new(),
             dofs: HashMap::new(),
         };
+        let root = links[tree.root];
+        if self.options.floating_base {
+            self.check_floatable(root, edges)?;
+        }
         let mut body_of_link = vec![0; links.len()];
+        let mut link_of_body = vec![root];
         for &l in &tree.order {
             let link = links[l];
             if l == tree.root && link.name == "world" {
@@ -48,11 +68,75 @@ impl Reader<'_> {
                 return Err(self.error(link.node, "only the root link may be named 'world'"));
             }
             body_of_link[l] = parts.bodies.len();
+            link_of_body.push(link);
             let edge = tree.parent_edge[l].map(|e| &edges[e]);
             let parent = edge.map_or(0, |e| body_of_link[e.parent]);
             self.add_body(&mut parts, link, edge, parent)?;
         }
+        self.check_masses(&parts, &link_of_body)?;
         Ok(parts)
+    }
+
+    /// A free joint can float the root: it is not the world, and its name
+    /// is free.
+    fn check_floatable(&self, root: Link, edges: &[Edge]) -> Result<()> {
+        if root.name == "world" {
+            let msg = "floating_base: the root link 'world' is the world itself; float the \
+                       robot by a floating joint from it, or name the root link otherwise";
+            return Err(self.error(root.node, msg));
+        }
+        match edges.iter().find(|e| e.name == "root_joint") {
+            Some(e) => Err(self.error(
+                e.node,
+                "floating_base names the root's free joint 'root_joint', which this joint's \
+                 name already is",
+            )),
+            None => Ok(()),
+        }
+    }
+
+    /// Refuses a moving link whose dofs would have no inertia (it and every
+    /// link below it massless, its joints without armature), and warns about
+    /// moving links without `<inertial>` (see the module doc).
+    fn check_masses(&self, parts: &Parts, link_of_body: &[Link]) -> Result<()> {
+        let bodies = &parts.bodies;
+        let moves = |b: usize| !bodies[b].joints.is_empty();
+        let mut heavy: Vec<bool> = bodies
+            .iter()
+            .map(|b| b.mass > 0.0 || b.inertia != Matrix3::zeros())
+            .collect();
+        for b in (1..bodies.len()).rev() {
+            let armature = bodies[b]
+                .joints
+                .clone()
+                .all(|j| parts.joints[j].armature > 0.0);
+            if moves(b) && !heavy[b] && !armature {
+                let link = link_of_body[b];
+                let joint = &parts.joints[bodies[b].joints.start].name;
+                let msg = format!(
+                    "link '{}' moves (joint '{joint}') but neither it nor any link below it has \
+                     mass or inertia, so that joint has no inertia (Pinocchio's ABA gives NaN, \
+                     MuJoCo refuses it); give the link an <inertial>",
+                    link.name
+                );
+                return Err(self.error(link.node, msg));
+            }
+            heavy[bodies[b].parent] |= heavy[b];
+        }
+        let massless: Vec<Link> = (1..bodies.len())
+            .filter(|&b| parts.moving(b) && child(link_of_body[b].node, "inertial").is_none())
+            .map(|b| link_of_body[b])
+            .collect();
+        if let Some(first) = massless.first() {
+            let names: Vec<&str> = massless.iter().map(|l| l.name).collect();
+            let msg = format!(
+                "moving links without <inertial> are massless, as the URDF spec and Pinocchio \
+                 read them (PyBullet gives each 1 kg and unit inertia): {}",
+                names.join(", ")
+            );
+            self.warn(first.node, msg);
+        }
+        Ok(())
     }
 
     /// Adds the body of `link`, a child of body `parent` through `edge` (the
@@ -67,10 +151,15 @@ impl Reader<'_> {
         let body = parts.bodies.len();
         let first_joint = parts.joints.len();
         let (pos, rot) = match edge {
+            None if self.options.floating_base => {
+                parts.joints.push(free_root(body));
+                identity()
+            }
             None => identity(),
             Some(edge) => self.add_joint(parts, edge, body)?,
         };
-        let (mass, com, inertia, inertia_frame) = self.inertial(link)?;
+        let moves = parts.joints.len() > first_joint || parts.moving(parent);
+        let (mass, com, inertia, inertia_frame) = self.inertial(link, moves)?;
         parts.bodies.push(Body {
             name: link.name.to_string(),
             parent,
@@ -96,7 +185,12 @@ impl Reader<'_> {
         self.origin(edge.node)
     }
 
-    fn inertial(&self, link: Link) -> Result<Inertial> {
+    /// The link's inertial, checked: a tensor MuJoCo's compiler would refuse
+    /// is used as written where it is positive semi-definite to rounding,
+    /// with a warning; one that is not is refused on a link that `moves`,
+    /// and dropped, with a warning, on one welded to the world, where it
+    /// takes no part in the dynamics.
+    fn inertial(&self, link: Link, moves: bool) -> Result<Inertial> {
         let Some(inertial) = child(link.node, "inertial") else {
             return Ok((
                 0.0,
@@ -109,8 +203,29 @@ impl Reader<'_> {
         let tensor = self.inertia(inertial)?;
         let (com, rot) = self.origin(inertial)?;
         let inertia = rot.matrix() * tensor * rot.matrix().transpose();
-        check_inertial(link.name, mass, &com, &inertia)
-            .map_err(|e| self.error(inertial, e.to_string()))?;
+        let check = |rule| check_inertial(link.name, mass, &com, &inertia, rule);
+        match check(InertiaRule::SemiDefinite) {
+            Err(e) if moves => return Err(self.error(inertial, e.to_string())),
+            Err(e) => {
+                let msg = format!(
+                    "{e}; dropped (mass and inertia 0): the link is welded to the world, so it \
+                     takes no part in the dynamics"
+                );
+                self.warn(inertial, msg);
+                let zero = (
+                    0.0,
+                    Vector3::zeros(),
+                    Matrix3::zeros(),
+                    Rotation3::identity(),
+                );
+                return Ok(zero);
+            }
+            Ok(()) => {}
+        }
+        if let Err(e) = check(InertiaRule::Triangle) {
+            let msg = format!("{e}; used as written, as PyBullet and Pinocchio use it");
+            self.warn(inertial, msg);
+        }
         Ok((mass, com, inertia, rot))
     }
 
@@ -144,6 +259,8 @@ mod tests {
     use nalgebra::{Matrix3, Vector3};
 
     use super::super::test_util::*;
+    use super::super::LoadOptions;
+    use crate::model::JointKind;
 
     #[test]
     fn inertia_is_turned_into_link_axes() {
@@ -191,5 +308,161 @@ mod tests {
         assert_eq!(m.bodies[3].pos, Vector3::new(0.0, 0.0, 0.5));
         assert_eq!((m.nq(), m.joints[0].body), (1, 2));
         assert_eq!(m.joints[0].axis, Vector3::z());
+    }
+
+    #[test]
+    fn a_floating_base_is_a_free_joint_on_the_root_link() {
+        let text = format!(
+            "{}{}{}",
+            link("base"),
+            link("arm"),
+            joint(
+                "shoulder",
+                "revolute",
+                "base",
+                "arm",
+                "<origin xyz=\"0 0 1\"/>"
+            )
+        );
+        let options = LoadOptions {
+            floating_base: true,
+            ..Default::default()
+        };
+        let m = load_with(&text, &options).unwrap();
+        let joints: Vec<_> = m
+            .joints
+            .iter()
+            .map(|j| (j.name.as_str(), j.kind, j.body))
+            .collect();
+        assert_eq!(
+            joints,
+            [
+                ("root_joint", JointKind::Free, 1),
+                ("shoulder", JointKind::Hinge, 2)
+            ]
+        );
+        assert_eq!(m.reference_q(), [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0]);
+        assert_eq!(m.joint_address_of("shoulder"), Some((7, 6)));
+        assert_eq!(
+            load(&text).unwrap().joint_address_of("shoulder"),
+            Some((0, 0))
+        );
+
+        // The world cannot float, and the free joint's name must be free.
+        let world = format!(
+            "<link name=\"world\"/>{}",
+            joint("j", "fixed", "world", "base", "")
+        );
+        let clash = joint("root_joint", "fixed", "base", "arm", "");
+        for (text, line, message) in [
+            (
+                format!("{}\n{world}", link("base")),
+                3,
+                "the root link 'world' is the world",
+            ),
+            (
+                format!("{}{}\n{clash}", link("base"), link("arm")),
+                3,
+                "'root_joint'",
+            ),
+        ] {
+            let e = load_with(&text, &options).unwrap_err().to_string();
+            assert!(e.starts_with(&format!("test.urdf:{line}:")), "{e}");
+            assert!(e.contains(message), "{e}");
+        }
+    }
+
+    #[test]
+    fn links_without_inertial_are_massless_and_a_massless_moving_leaf_is_refused() {
+        let text = format!(
+            "<link name=\"world\"/><link name=\"virtual\"/>\n{}{}\n{}",
+            link("arm"),
+            joint("a", "revolute", "world", "virtual", ""),
+            joint("b", "revolute", "virtual", "arm", "")
+        );
+        let m = load(&text).unwrap();
+        assert_eq!(
+            (m.bodies[1].mass, m.bodies[1].inertia),
+            (0.0, Matrix3::zeros())
+        );
+        let [warning] = m.warnings() else {
+            panic!("one warning expected, got {:?}", m.warnings());
+        };
+        assert!(warning.starts_with("test.urdf:2: <link>:"), "{warning}");
+        assert!(warning.ends_with("unit inertia): virtual"), "{warning}");
+
+        let leaf = format!(
+            "<link name=\"world\"/>{}\n<link name=\"tip\"/>{}{}",
+            link("arm"),
+            joint("a", "revolute", "world", "arm", ""),
+            joint("b", "revolute", "arm", "tip", "")
+        );
+        let e = load(&leaf).unwrap_err().to_string();
+        assert!(
+            e.starts_with("test.urdf:3: <link>: link 'tip' moves (joint 'b')"),
+            "{e}"
+        );
+        // Armature gives the joint its inertia.
+        let armature = leaf.replace(
+            "<parent link=\"arm\"/>",
+            "<parent link=\"arm\"/><dynamics diffosi:armature=\"0.1\"/>",
+        );
+        assert!(load(&armature).is_ok());
+    }
+
+    #[test]
+    fn inertias_are_taken_as_written_with_a_warning_unless_clearly_indefinite() {
+        let body = |six: &str| {
+            let [xx, yy, zz, xy] = six.split(' ').collect::<Vec<_>>()[..] else {
+                panic!()
+            };
+            format!(
+                "<link name=\"a\">\n<inertial><mass value=\"1\"/><inertia ixx=\"{xx}\" \
+                 iyy=\"{yy}\" izz=\"{zz}\" ixy=\"{xy}\" ixz=\"0\" iyz=\"0\"/></inertial></link>"
+            )
+        };
+        // Go1's base (triangle inequality) and iCub's ankle (1e-20 off the
+        // diagonal): used as written, with a warning naming the link.
+        for six in ["0 0 3e-6 0", "0 0 0 1.35525e-20"] {
+            let m = load(&body(six)).unwrap();
+            assert_eq!(
+                m.bodies[1].inertia[(2, 2)],
+                six.split(' ').nth(2).unwrap().parse::<f64>().unwrap()
+            );
+            let [warning] = m.warnings() else {
+                panic!("{:?}", m.warnings())
+            };
+            assert!(
+                warning.starts_with("test.urdf:3: <inertial>: model is not physical: body 'a'"),
+                "{warning}"
+            );
+            assert!(
+                warning.ends_with("used as written, as PyBullet and Pinocchio use it"),
+                "{warning}"
+            );
+        }
+        // Romeo's 'body': an eigenvalue of -0.02 is no rounding. Refused where
+        // the link moves; dropped where it is welded to the world.
+        let romeo = body("0.05 0.05 0.1 0.07");
+        let moving = format!(
+            "<link name=\"world\"/>{romeo}{}",
+            joint("j", "revolute", "world", "a", "")
+        );
+        let e = load(&moving).unwrap_err().to_string();
+        assert!(e.starts_with("test.urdf:3: <inertial>:"), "{e}");
+        assert!(e.contains("not positive semi-definite"), "{e}");
+        let m = load(&romeo).unwrap();
+        assert_eq!(
+            (m.bodies[1].mass, m.bodies[1].inertia),
+            (0.0, Matrix3::zeros())
+        );
+        let [warning] = m.warnings() else {
+            panic!("{:?}", m.warnings())
+        };
+        assert!(
+            warning.ends_with("welded to the world, so it takes no part in the dynamics"),
+            "{warning}"
+        );
+        assert!(load(&body("1 1 1 0")).unwrap().warnings().is_empty());
     }
 }

@@ -7,15 +7,26 @@
 //!   normalised) through the body origin (`anchor` 0).
 //! - `rpy` is fixed-axis roll-pitch-yaw: R = Rz(yaw) Ry(pitch) Rx(roll).
 //! - `<inertial>`: the COM is its origin `xyz`; `<inertia>` is about the COM in
-//!   the axes of its origin `rpy`, turned into link axes as R I R^T. A link with
-//!   no `<inertial>` has mass 0 and zero inertia, as the URDF spec says
-//!   (PyBullet and DART give it 1 kg and identity inertia instead).
+//!   the axes of its origin `rpy`, turned into link axes as R I R^T. The
+//!   tensor is used as written where it is only rounding-level indefinite or
+//!   its principal moments violate the triangle inequality (as PyBullet and
+//!   Pinocchio use it; MuJoCo's compiler refuses the latter), with a warning
+//!   naming the link. A link with no `<inertial>` is massless, as the URDF
+//!   spec and Pinocchio read it (PyBullet gives it 1 kg and unit inertia,
+//!   MuJoCo's importer the inertia of its collision geoms at density 1000),
+//!   with a warning naming it; a moving link with nothing massive at or below
+//!   it is refused, since its dof has no inertia (Pinocchio's ABA gives NaN,
+//!   MuJoCo refuses it: "mass and inertia of moving bodies must be larger
+//!   than mjMINVAL").
 //! - Joint types: revolute and continuous are hinges, prismatic is a slide,
 //!   fixed welds the child to its parent (a body with no joint), floating is a
 //!   free joint (its child's parent must be the world; the `<origin>` is the
 //!   reference configuration); planar is rejected. A root link other than
-//!   `world` is welded to the world (PyBullet's useFixedBase): float it as
-//!   PyBullet's default base by a floating joint from `world`.
+//!   `world` is welded to the world by default, as MuJoCo's importer and
+//!   Pinocchio's `buildModelFromUrdf` read it (PyBullet's useFixedBase=1);
+//!   [`LoadOptions::floating_base`] gives it a free joint named `root_joint`
+//!   (Pinocchio's name) at the world origin, as PyBullet's loadURDF default
+//!   (useFixedBase=0) and Pinocchio's `JointModelFreeFlyer` root do.
 //! - A revolute or prismatic joint is limited when its `<limit>` has
 //!   lower < upper; absent bounds are 0 (the URDF default), so a `<limit>`
 //!   without them means unlimited, as in PyBullet. `effort` and `velocity` are
@@ -25,24 +36,35 @@
 //!   no joint's child), children in the document order of their joints. A
 //!   root named `world` is the world (body 0; its `<inertial>` is ignored, its
 //!   collisions are world geoms); any other root becomes body 1, welded to the
-//!   world.
+//!   world or floating (above). Joints, and so q and v, follow the bodies:
+//!   depth-first, the root's free joint first, fixed joints taking no place
+//!   (Pinocchio's order; PyBullet's is the document order of the joints,
+//!   the same for files that list each joint after its parent's). A joint's
+//!   first q and v index by name: [`crate::Model::joint_address_of`].
 //! - `<collision>` box, sphere, cylinder (along z, `length` the full length) and
 //!   PyBullet's capsule (`length` between the sphere centres) become geoms with
 //!   contype = conaffinity = 1; mesh collisions are skipped (no geom), and
 //!   `<visual>` is ignored. Friction comes from PyBullet's `<contact>` element
 //!   of the link (lateral, spinning, rolling), default PyBullet's (0.5, 0, 0).
-//! - A `<transmission>` with one `<joint>` is an actuator on that joint: gear =
-//!   `<mechanicalReduction>` (default 1), name = its `<actuator name>`, else
-//!   the transmission's name.
-//! - Options: gravity -9.81 z, timestep 0.002 s, semi-implicit Euler and
-//!   explicit passive forces (a URDF model runs as PyBullet runs it).
+//! - A `<transmission>` with one `<joint>` that moves is an actuator on that
+//!   joint: gear = `<mechanicalReduction>` (default 1), name = its
+//!   `<actuator name>`, else the transmission's name. Any other transmission
+//!   (several joints, a fixed joint) is ignored with a warning, as PyBullet
+//!   and Pinocchio ignore every transmission.
+//! - Options: gravity -9.81 z, timestep 0.002 s, semi-implicit Euler with
+//!   implicit damping, limits and contacts under the constraint model with
+//!   MuJoCo's default solref/solimp: a URDF runs as MuJoCo's URDF importer
+//!   runs it. PyBullet's way (explicit passive forces) and the smooth model
+//!   are named options (`passive="explicit"`, `contact="smooth"`).
+//! - Warnings (what was taken as written, what was ignored) are returned with
+//!   the spec ([`Loaded`]); the model keeps them ([`crate::Model::warnings`]).
 //!
 //! What URDF cannot say is carried by extensions in the namespace [`NAMESPACE`]
 //! (declare `xmlns:diffosi="urn:diffosi:urdf"` on `<robot>`), which PyBullet and
 //! DART ignore:
 //! - `<diffosi:options timestep="0.01" gravity="0 0 -9.81" integrator="Euler|RK4"
-//!   passive="explicit|implicit_damping|implicit_damping_stiffness"/>` in
-//!   `<robot>`, every attribute optional;
+//!   passive="explicit|implicit_damping|implicit_damping_stiffness"
+//!   contact="constraint|smooth"/>` in `<robot>`, every attribute optional;
 //! - `diffosi:stiffness`, `diffosi:springref`, `diffosi:armature` on `<dynamics>`;
 //! - `diffosi:contype`, `diffosi:conaffinity` on `<collision>` (MJCF bitmasks);
 //! - `diffosi:ctrlrange="lo hi"` on a transmission's `<actuator>`.
@@ -53,7 +75,8 @@
 //! Where each part is read: the link tree in `tree.rs`, links and their
 //! inertia in `links.rs`, joints in `joints.rs`, collisions in `geoms.rs`,
 //! transmissions in `actuators.rs`, the extension namespace and the options in
-//! `extensions.rs`, attributes and origins in `attributes.rs`.
+//! `extensions.rs`, attributes and origins in `attributes.rs`, `package://`
+//! paths in `package.rs`.
 
 mod actuators;
 mod attributes;
@@ -61,11 +84,16 @@ mod extensions;
 mod geoms;
 mod joints;
 mod links;
+mod package;
 #[cfg(test)]
 mod test_util;
 mod tree;
 
-use super::{xml, ModelError, Spec};
+use std::path::PathBuf;
+
+pub use package::resolve;
+
+use super::{xml, InertiaRule, ModelError, Spec};
 
 /// The namespace of diffosi's URDF extensions.
 pub const NAMESPACE: &str = "urn:diffosi:urdf";
@@ -73,11 +101,35 @@ pub const NAMESPACE: &str = "urn:diffosi:urdf";
 type Node<'a> = roxmltree::Node<'a, 'a>;
 type Result<T> = std::result::Result<T, ModelError>;
 
-/// Parses URDF text; `file` is only used in error messages.
-pub fn parse(text: &str, file: &str) -> Result<Spec> {
+/// How to read a URDF, beyond what the file says.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LoadOptions {
+    /// A free joint on the root link (PyBullet's loadURDF default); off, the
+    /// default, welds the root link to the world (MuJoCo's importer,
+    /// Pinocchio).
+    pub floating_base: bool,
+    /// Where `package://NAME/...` paths are looked for first (see [`resolve`]).
+    pub package_dirs: Vec<PathBuf>,
+}
+
+/// A URDF read: the spec and what the reader warns about (each names its
+/// link, joint or transmission).
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    pub spec: Spec,
+    pub warnings: Vec<String>,
+}
+
+/// Parses URDF text; `file` names it in errors (and is where relative and
+/// `package://` paths start).
+pub fn parse(text: &str, file: &str, options: &LoadOptions) -> Result<Loaded> {
     let doc = xml::document(text, file)?;
     let robot = doc.root_element();
-    let reader = Reader { file };
+    let reader = Reader {
+        file,
+        options,
+        warnings: Default::default(),
+    };
     if !is(robot, "robot") {
         return Err(reader.error(robot, "the root element must be <robot>"));
     }
@@ -89,7 +141,7 @@ pub fn parse(text: &str, file: &str) -> Result<Spec> {
     let parts = reader.parts(&links, &edges, &tree)?;
     let actuators = reader.actuators(robot, &parts.dofs)?;
     let opt = reader.options(robot)?;
-    Ok(Spec {
+    let spec = Spec {
         name,
         bodies: parts.bodies,
         joints: parts.joints,
@@ -99,6 +151,11 @@ pub fn parse(text: &str, file: &str) -> Result<Spec> {
         pairs: vec![],
         excludes: vec![],
         keyframes: vec![],
+        inertia_rule: InertiaRule::SemiDefinite,
+    };
+    Ok(Loaded {
+        spec,
+        warnings: reader.warnings.into_inner(),
     })
 }
 
@@ -106,11 +163,20 @@ pub fn parse(text: &str, file: &str) -> Result<Spec> {
 /// read.
 struct Reader<'f> {
     file: &'f str,
+    options: &'f LoadOptions,
+    warnings: std::cell::RefCell<Vec<String>>,
 }
 
 impl Reader<'_> {
     fn error(&self, node: Node, message: impl Into<String>) -> ModelError {
         xml::invalid(self.file, node, message)
+    }
+
+    /// Records a warning about `node`, worded as an error is (file, line,
+    /// element).
+    fn warn(&self, node: Node, message: impl Into<String>) {
+        let warning = self.error(node, message).to_string();
+        self.warnings.borrow_mut().push(warning);
     }
 }
 
@@ -256,8 +322,8 @@ mod tests {
     fn truncated_files_never_panic() {
         let text = include_str!("../../../reference_models/cartpole.urdf");
         for end in (0..text.len()).filter(|&i| text.is_char_boundary(i)) {
-            let _ = parse(&text[..end], "cut.urdf");
+            let _ = parse(&text[..end], "cut.urdf", &Default::default());
         }
-        assert!(parse(text, "cartpole.urdf").is_ok());
+        assert!(parse(text, "cartpole.urdf", &Default::default()).is_ok());
     }
 }

@@ -2,12 +2,17 @@
 
 use nalgebra::Matrix3;
 
-use super::{parse, NAMESPACE};
+use super::{LoadOptions, NAMESPACE};
 use crate::model::ModelError;
 use crate::Model;
 
 pub fn load(body: &str) -> Result<Model, ModelError> {
-    Model::from_spec(parse(&urdf(body), "test.urdf")?)
+    Model::from_urdf(&urdf(body), "test.urdf")
+}
+
+/// `body` loaded with `options`.
+pub fn load_with(body: &str, options: &LoadOptions) -> Result<Model, ModelError> {
+    Model::from_urdf_with(&urdf(body), "test.urdf", options)
 }
 
 /// A robot holding `body`, with our namespace declared.
