@@ -25,10 +25,14 @@ The checks of a model (each "ok", an error message, or "-" when it does not appl
    joint damping; links without <inertial> keep PyBullet's mass 1), at our timestep and
    gravity; ours with passive="explicit", contact=False, limits=False. Joints are matched by
    name. Error as replay's: max(|dq| / max(1, |q'|), |dv| / max(1, |v'|)), PASS at <= 1e-12.
-3. Pinocchio (example-robot-data): the acceleration at SAMPLES random states and tau vs
-   pinocchio.aba on buildModelFromUrdf (fixed base; no damping, friction or armature in
-   Pinocchio's ABA, so ours has damping zeroed and runs one explicit step of h = 1 s:
-   a = v' - v), relative error max|a - a_pin| / max|a_pin|, PASS at <= 1e-12.
+   Where PyBullet models a file differently (links without <inertial>: mass 1; its importer's
+   iterative diagonalisation of each inertia tensor, off by up to ~1e-8 relative), the row's
+   notes say so (pybullet_inertia_notes).
+3. Pinocchio (example-robot-data): the acceleration at SAMPLES random states and tau (q and v
+   uniform in [-1, 1], tau in [-5, 5], as harness/tests/test_pinocchio.py) vs pinocchio.aba
+   on buildModelFromUrdf (fixed base; no damping, friction or armature in Pinocchio's ABA, so
+   ours has damping zeroed and runs one explicit step of h = 1 s: a = v' - v), relative error
+   max|a - a_pin| / max|a_pin|, PASS at <= 1e-12.
 4. rest: 1000 steps of the model as loaded (the file's defaults: contacts, limits and options
    on) from the reference configuration at rest under zero tau: no step raises (our engine
    refuses a non-finite state) and every velocity is finite.
@@ -39,19 +43,17 @@ The checks of a model (each "ok", an error message, or "-" when it does not appl
 from __future__ import annotations
 
 import argparse
-import contextlib
 import importlib.util
 import inspect
-import os
 import re
 import sysconfig
-import tempfile
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from harness.engines.base import quiet_stdio
 from harness.engines.numpy_step import step_error
 from harness.report import REPORTS, markdown_table, write_json, write_markdown
 
@@ -100,28 +102,6 @@ def pybullet_data() -> Path:
 # ---- PyBullet
 
 
-@contextlib.contextmanager
-def captured_stdio(out: list):
-    """C-level stdout/stderr into `out` (a list of lines): PyBullet's warnings."""
-    import sys
-
-    sys.stdout.flush()
-    sys.stderr.flush()
-    saved = os.dup(1), os.dup(2)
-    with tempfile.TemporaryFile(mode="w+") as tmp:
-        os.dup2(tmp.fileno(), 1)
-        os.dup2(tmp.fileno(), 2)
-        try:
-            yield
-        finally:
-            os.dup2(saved[0], 1)
-            os.dup2(saved[1], 2)
-            os.close(saved[0])
-            os.close(saved[1])
-            tmp.seek(0)
-            out.extend(tmp.read().splitlines())
-
-
 PYBULLET_FLAGS = ("URDF_USE_INERTIA_FROM_FILE", "URDF_IGNORE_VISUAL_SHAPES", "URDF_IGNORE_COLLISION_SHAPES")
 
 
@@ -153,7 +133,7 @@ def pybullet_movable(p, body: int) -> list:
 
 def pybullet_cases(source: str, root: Path, package_dirs: list, robots_only: bool) -> list:
     cases = []
-    with captured_stdio([]):
+    with quiet_stdio():
         p = pybullet_client()
         for path in sorted(root.rglob("*.urdf")):
             body = pybullet_body(p, path)
@@ -174,7 +154,7 @@ def discover() -> list:
     cases = []
     suite = dm_control_suite()
     for path in sorted(suite.glob("*.xml")):
-        with captured_stdio([]):  # MuJoCo prints compiler warnings (settotalmass is deprecated)
+        with quiet_stdio():  # MuJoCo prints compiler warnings (settotalmass is deprecated)
             m = load_mjcf(path)
         excluded = f"issue 39: ntendon {m.ntendon}, neq {m.neq}" if m.ntendon or m.neq else ""
         cases.append(Case("dm_control", path, suite, f"{m.nq}/{m.nv}/{m.nu}", excluded=excluded))
@@ -220,7 +200,7 @@ def mujoco_one_step(case: Case, ours, seed: int) -> tuple[float, dict]:
     from harness.golden_free import full_mass, sample_q
 
     printed: list = []
-    with captured_stdio(printed):
+    with quiet_stdio(printed):
         m = load_mjcf(case.path)
     m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_LIMIT
     d = mujoco.MjData(m)
@@ -290,11 +270,11 @@ def pybullet_inertia_notes(path: Path, p, body: int) -> dict:
 
 def pybullet_one_step(case: Case, ours, seed: int) -> tuple[float, dict]:
     warnings: list = []
-    with captured_stdio(warnings):
+    with quiet_stdio(warnings):
         p = pybullet_client()
         body = pybullet_body(p, case.path)
     try:
-        with captured_stdio(warnings):
+        with quiet_stdio(warnings):
             error, notes = pybullet_steps(case, ours, seed, p, body)
         zeroed = sorted({w.split(":")[-1].strip() for w in warnings if "setting inertia to zero" in w})
         if zeroed:
