@@ -38,6 +38,7 @@ The checks of a model (each "ok", an error message, or "-" when it does not appl
    refuses a non-finite state) and every velocity is finite.
 
     python -m harness corpus --seed 0      # writes reports/corpus.md and reports/corpus.json
+    python -m harness corpus --known-failures   # also prints test_corpus.py's KNOWN_FAILURES entries
 """
 
 from __future__ import annotations
@@ -512,10 +513,16 @@ def versions() -> list[str]:
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", type=Path, default=REPORTS, help="report directory (default reports/)")
+    ap.add_argument("--known-failures", action="store_true",
+                    help="also print the failing models as entries of test_corpus.py's KNOWN_FAILURES")
 
 
 def run(args) -> int:
     rows = [check(case, args.seed) for case in discover()]
+    if args.known_failures:
+        for r in rows:
+            if r["pass"] is False:
+                print(f'    "{r["model"]}":\n        "{reason(r)}",')
     doc = {"seed": args.seed, "samples": SAMPLES, "rest_steps": REST_STEPS, "versions": versions(),
            "thresholds": {"one_step": ONE_STEP_TOL, "pinocchio": PINOCCHIO_TOL}, "models": rows}
     md = write_markdown(args.out / "corpus.md", markdown(doc))
