@@ -233,3 +233,38 @@ def test_the_corpus_is_what_the_collections_hold():
 def test_every_known_failure_is_a_checked_model():
     """No stale entry: each name in KNOWN_FAILURES is a model this test checks."""
     assert set(KNOWN_FAILURES) <= {c.name for c in CASES if not c.excluded}
+
+
+# The checks themselves, on models that load today: they pass on a faithful model and fail
+# on one with a wrong mass (so a dm_control model's MuJoCo check, which no suite file reaches
+# before <include> loads, is exercised too).
+
+def gym_humanoid():
+    """gymnasium's humanoid: a free root, hinges, RK4, as MuJoCo compiles it."""
+    from harness.engines.base import gym_assets_dir
+
+    return corpus.Case("gymnasium", gym_assets_dir() / "humanoid.xml", gym_assets_dir(), "24/23/17")
+
+
+def ur5():
+    root = corpus.example_robot_data()
+    return corpus.Case("example-robot-data", root / "ur_description/urdf/ur5_robot.urdf", root, "6/6/-",
+                       [root.parent.parent, root])
+
+
+def test_the_mujoco_check_passes_on_gymnasium_humanoid():
+    row = corpus.check(gym_humanoid(), SEED)
+    assert row["pass"] and row["one_step_error"] <= corpus.ONE_STEP_TOL, corpus.reason(row)
+
+
+@pytest.mark.parametrize("case, body, check", [
+    (gym_humanoid, "torso", corpus.mujoco_one_step),
+    (ur5, "forearm_link", corpus.pybullet_one_step),
+    (ur5, "forearm_link", lambda case, ours, seed: (corpus.pinocchio_error(case, ours, seed), {})),
+])
+def test_a_check_fails_on_a_wrong_mass(case, body, check):
+    case = case()
+    ours = corpus.load_ours(case)
+    assert check(case, ours, SEED)[0] <= corpus.ONE_STEP_TOL
+    ours.set_param(f"body/{body}/mass", 1.01 * ours.get_param(f"body/{body}/mass"))
+    assert check(case, ours, SEED)[0] > 1e-6
