@@ -240,7 +240,7 @@ def inertia_tensor(inertial) -> np.ndarray:
 def pybullet_inertia_notes(path: Path, p, body: int) -> dict:
     """Where PyBullet's link inertias differ from the file: links without <inertial> (PyBullet: mass
     1, unit inertia), and the largest relative error of PyBullet's principal-axes form R diag R^T of
-    a link's inertia (its importer diagonalises the tensor iteratively, to about 1e-9 at worst)."""
+    a link's inertia (its importer diagonalises the tensor iteratively: up to 6e-8 measured on this corpus)."""
     import xml.etree.ElementTree as ET
 
     try:
@@ -373,12 +373,12 @@ def check(case: Case, seed: int) -> dict:
            "ours": NOT_RUN, "load": NOT_RUN, "one_step": NOT_RUN, "one_step_error": None, "pinocchio": NOT_RUN,
            "pinocchio_error": None, "rest": NOT_RUN, "rest_max_speed": None, "notes": {}}
     if case.excluded:
-        row.update(excluded=case.excluded, **{"pass": None})
+        row.update({"excluded": case.excluded, "pass": None})
         return row
     try:
         ours = load_ours(case)
     except (ValueError, OSError) as e:
-        row.update(load=message(e, case), **{"pass": False})
+        row.update({"load": message(e, case), "pass": False})
         return row
     row.update(load="ok", ours=f"{ours.nq}/{ours.nv}/{ours.nu}")
     try:
@@ -403,11 +403,6 @@ def check(case: Case, seed: int) -> dict:
 
 
 CHECKS = ("load", "one_step", "pinocchio", "rest")
-
-
-def failures(row: dict) -> list[str]:
-    """'check: message' of each check that failed."""
-    return [f"{c}: {row[c]}" for c in CHECKS if row[c] not in ("ok", NOT_RUN)]
 
 
 def brief(text: str) -> str:
