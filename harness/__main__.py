@@ -25,6 +25,7 @@ COMMANDS = {
     "contact": "harness.contact",
     "wiping-replay": "harness.wiping_replay",
     "sweep": "harness.sweep",
+    "corpus": "harness.corpus",
 }
 
 

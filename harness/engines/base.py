@@ -26,6 +26,7 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -65,14 +66,15 @@ def nonzero_by_joint(names, values) -> dict:
 
 
 @contextlib.contextmanager
-def quiet_stdio():
-    """Silence C-level stdout/stderr (PyBullet and DART print warnings from C++)."""
+def quiet_stdio(into: list | None = None):
+    """Silence C-level stdout/stderr (PyBullet and DART print warnings from C++); with `into`,
+    append what was printed to it, line by line."""
     sys.stdout.flush()
     sys.stderr.flush()
     saved = os.dup(1), os.dup(2)
-    with open(os.devnull, "w") as null:
-        os.dup2(null.fileno(), 1)
-        os.dup2(null.fileno(), 2)
+    with tempfile.TemporaryFile(mode="w+") if into is not None else open(os.devnull, "w") as sink:
+        os.dup2(sink.fileno(), 1)
+        os.dup2(sink.fileno(), 2)
         try:
             yield
         finally:
@@ -80,6 +82,9 @@ def quiet_stdio():
             os.dup2(saved[1], 2)
             os.close(saved[0])
             os.close(saved[1])
+            if into is not None:
+                sink.seek(0)
+                into.extend(sink.read().splitlines())
 
 
 class Engine:

@@ -64,6 +64,39 @@ def stable_explicit_timestep(h: float, damping: np.ndarray, M: np.ndarray, setti
     raise ValueError("no stable timestep")
 
 
+def strip(p, body: int, links: list, movable: list, settings: dict, native: bool = False,
+          friction: list | None = None, massless: dict | None = None) -> None:
+    """Switch off what our smooth dynamics do not model: link damping and the joint velocity
+    cap (kept when native), joint limits, collisions, and the velocity motor of every movable
+    joint (its maximum force is `friction`, per movable joint, default 0); the links of
+    `massless` ({name: link index}, links without <inertial>) get mass 0 instead of PyBullet's 1.
+    Every changeDynamics must come before the first calculateMassMatrix /
+    calculateInverseDynamics (see the module doc)."""
+    if native:
+        settings["link_damping"] = ("PyBullet's default: linearDamping = angularDamping = 0.04, force "
+                                    "-0.04 (1 + |v|) m v and torque -0.04 (1 + |w|) I w per link (native)")
+        settings["maxJointVelocity"] = "PyBullet's default: 100 (native)"
+    else:
+        # linearDamping, angularDamping and maxJointVelocity are per multibody, and the C API
+        # resets the command's link index to -1 for them: set them alone, never per link.
+        p.changeDynamics(body, -1, linearDamping=0.0, angularDamping=0.0, maxJointVelocity=1e6)
+        settings["link_damping"] = "linearDamping = angularDamping = 0 (default 0.04)"
+        settings["maxJointVelocity"] = 1e6  # default 100: silent clamping
+    for i in movable:  # URDF limits become limit constraints: widen them and give them no force
+        p.changeDynamics(body, i, jointLowerLimit=-1e30, jointUpperLimit=1e30, jointLimitForce=0.0)
+    settings["joint_limits"] = "off (bounds +-1e30, jointLimitForce 0)"
+    for i in (massless or {}).values():  # a link without <inertial> gets mass 1, inertia 1,1,1
+        p.changeDynamics(body, i, mass=0.0, localInertiaDiagonal=[0.0, 0.0, 0.0])
+    if massless:
+        settings["massless_links"] = {n: "mass 0, inertia 0 (PyBullet default: mass 1, inertia 1)" for n in massless}
+    for i in [-1] + links:
+        p.setCollisionFilterGroupMask(body, i, 0, 0)
+    settings["collisions"] = "off (collision filter group and mask 0)"
+    # every revolute/prismatic joint gets a velocity motor: zero its force (or make it friction)
+    p.setJointMotorControlArray(body, movable, pybullet.VELOCITY_CONTROL, targetVelocities=[0.0] * len(movable),
+                                forces=friction or [0.0] * len(movable))
+
+
 class PybulletEngine(Engine):
     name = "pybullet"
     version = importlib.metadata.version("pybullet")
@@ -140,36 +173,12 @@ class PybulletEngine(Engine):
         assert not any(p.getJointInfo(body, i)[7] for i in self._movable), f"{urdf}: joint friction"
 
     def _strip(self, links: list, settings: dict) -> None:
-        """Switch off what our smooth dynamics do not model. Every changeDynamics must come
-        before the first calculateMassMatrix / calculateInverseDynamics (see the module doc)."""
-        p, body, movable = self._p, self._body, self._movable
-        if self._native:
-            settings["link_damping"] = ("PyBullet's default: linearDamping = angularDamping = 0.04, force "
-                                        "-0.04 (1 + |v|) m v and torque -0.04 (1 + |w|) I w per link (native)")
-            settings["maxJointVelocity"] = "PyBullet's default: 100 (native)"
-        else:
-            # linearDamping, angularDamping and maxJointVelocity are per multibody, and the C API
-            # resets the command's link index to -1 for them: set them alone, never per link.
-            p.changeDynamics(body, -1, linearDamping=0.0, angularDamping=0.0, maxJointVelocity=1e6)
-            settings["link_damping"] = "linearDamping = angularDamping = 0 (default 0.04)"
-            settings["maxJointVelocity"] = 1e6  # default 100: silent clamping
-        for i in movable:  # URDF limits become limit constraints: widen them and give them no force
-            p.changeDynamics(body, i, jointLowerLimit=-1e30, jointUpperLimit=1e30, jointLimitForce=0.0)
-        settings["joint_limits"] = "off (bounds +-1e30, jointLimitForce 0)"
-        massless = self._facts["massless_links"]
-        for name in massless:  # a link without <inertial> gets mass 1, inertia 1,1,1
-            p.changeDynamics(body, self._link[name], mass=0.0, localInertiaDiagonal=[0.0, 0.0, 0.0])
-        if massless:
-            settings["massless_links"] = {n: "mass 0, inertia 0 (PyBullet default: mass 1, inertia 1)"
-                                          for n in massless}
-        for i in [-1] + links:
-            p.setCollisionFilterGroupMask(body, i, 0, 0)
-        settings["collisions"] = "off (collision filter group and mask 0)"
-        # every revolute/prismatic joint gets a velocity motor: zero its force (or make it friction)
+        """Switch off what our smooth dynamics do not model (see `strip`); a link without
+        <inertial> gets mass 0 as in our engine."""
         names = [j.name for j in self._facts["joints"]]
-        friction = [self._friction.get(n, 0.0) for n in names]
-        p.setJointMotorControlArray(body, movable, pybullet.VELOCITY_CONTROL, targetVelocities=[0.0] * len(movable),
-                                    forces=friction)
+        strip(self._p, self._body, links, self._movable, settings, self._native,
+              [self._friction.get(n, 0.0) for n in names],
+              {n: self._link[n] for n in self._facts["massless_links"]})
         if self._friction:
             settings["joint_friction"] = {n: f"velocity motor, target 0, max force {f}"
                                           for n, f in self._friction.items()}

@@ -1,0 +1,270 @@
+"""The corpus of real robot files (harness/corpus.py): every model loads, steps contact-free as
+its engine does (MuJoCo for MJCF, PyBullet for URDF) within 1e-12, matches Pinocchio's ABA
+(example-robot-data) within 1e-12, and steps 1000 times at rest without diverging.
+
+Every model is asserted strictly. The models that fail today are listed in KNOWN_FAILURES with
+the reason (the engine's message, file and line left out): each is an xfail(strict=True), so a
+model that starts passing fails this test until its entry is removed. The table of every model
+is printed at the end of the module's tests (and `python -m harness corpus` writes it to
+reports/corpus.md and .json).
+"""
+
+import pytest
+
+from harness import corpus
+
+SEED = 0
+
+# Each reason is corpus.reason() of the model's row at SEED, reviewed: what fails and why.
+# A one-step mismatch with PyBullet names what PyBullet models differently from the file:
+# links without <inertial> get PyBullet's mass 1 (ours today: mass 0), and PyBullet's importer
+# diagonalises every inertia tensor iteratively, off by up to 6e-8 relative (measured per link).
+KNOWN_FAILURES = {
+    "dm_control:acrobot.xml":
+        "load: <include>: <include> is not supported: merge the included file into this one",
+    "dm_control:cartpole.xml":
+        "load: <include>: <include> is not supported: merge the included file into this one",
+    "dm_control:cheetah.xml":
+        "load: <include>: <include> is not supported: merge the included file into this one",
+    "dm_control:finger.xml":
+        "load: <include>: <include> is not supported: merge the included file into this one",
+    "dm_control:hopper.xml":
+        "load: <include>: <include> is not supported: merge the included file into this one",
+    "dm_control:humanoid.xml":
+        "load: <include>: <include> is not supported: merge the included file into this one",
+    "dm_control:humanoid_CMU.xml":
+        "load: <include>: <include> is not supported: merge the included file into this one",
+    "dm_control:lqr.xml":
+        "load: <include>: <include> is not supported: merge the included file into this one",
+    "dm_control:pendulum.xml":
+        "load: <include>: <include> is not supported: merge the included file into this one",
+    "dm_control:reacher.xml":
+        "load: <include>: <include> is not supported: merge the included file into this one",
+    "dm_control:swimmer.xml":
+        "load: <include>: <include> is not supported: merge the included file into this one",
+    "dm_control:walker.xml":
+        "load: <include>: <include> is not supported: merge the included file into this one",
+    "example-robot-data:a1_description/urdf/a1.urdf":
+        "rest: rollout step 12: the step diverged: the next state is not finite",
+    "example-robot-data:alex_description/urdf/alex_nub_hands.urdf":
+        "one_step: error 1.8e-08 > 1e-12; PyBullet's inertia diagonalisation off by 6e-08",
+    "example-robot-data:alex_description/urdf/alex_psyonic_hands.urdf":
+        "load: <inertial>: model is not physical: body 'LeftPsyonicAbilityBaseLink': principal moments violate the triangle inequality",
+    "example-robot-data:alex_description/urdf/alex_sake_hands.urdf":
+        "one_step: error 1.7e-08 > 1e-12; PyBullet's inertia diagonalisation off by 6e-08",
+    "example-robot-data:alexander_description/urdf/alexander_v1.lowerBodyOnly.urdf":
+        "one_step: error 1.1e-12 > 1e-12; PyBullet's inertia diagonalisation off by 6e-09 | rest: rollout step 162: the step diverged: the next state is not finite",
+    "example-robot-data:allegro_hand_description/urdf/allegro_left_hand.urdf":
+        "load: <inertial>: model is not physical: body 'link_11.0': principal moments violate the triangle inequality",
+    "example-robot-data:allegro_hand_description/urdf/allegro_right_hand.urdf":
+        "load: <inertial>: model is not physical: body 'link_3.0': principal moments violate the triangle inequality",
+    "example-robot-data:anymal_b_simple_description/robots/anymal-kinova.urdf":
+        "load: <inertial>: model is not physical: body 'base': principal moments violate the triangle inequality",
+    "example-robot-data:anymal_b_simple_description/robots/anymal.urdf":
+        "load: <inertial>: model is not physical: body 'base': principal moments violate the triangle inequality",
+    "example-robot-data:anymal_c_simple_description/urdf/anymal.urdf":
+        "load: <inertial>: model is not physical: body 'depth_camera_front_camera': principal moments violate the triangle inequality",
+    "example-robot-data:b1_description/urdf/b1-z1.urdf":
+        "load: <inertial>: model is not physical: body 'base': principal moments violate the triangle inequality",
+    "example-robot-data:b1_description/urdf/b1.urdf":
+        "load: <inertial>: model is not physical: body 'base': principal moments violate the triangle inequality",
+    "example-robot-data:baxter_description/urdf/baxter.urdf":
+        "one_step: error 1.8e-10 > 1e-12; PyBullet's inertia diagonalisation off by 6e-09",
+    "example-robot-data:centauro_description/urdf/centauro.urdf":
+        "one_step: error 1.3e+01 > 1e-12; 9 links without <inertial> (PyBullet: mass 1); PyBullet's inertia diagonalisation off by 3e-09 | rest: rollout step 79: the step diverged: the next state is not finite",
+    "example-robot-data:g1_description/urdf/g1_29dof_rev_1_0.urdf":
+        "one_step: error 2.4e+00 > 1e-12; 4 links without <inertial> (PyBullet: mass 1); PyBullet's inertia diagonalisation off by 2e-08 | rest: rollout step 88: the step diverged: the next state is not finite",
+    "example-robot-data:g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf":
+        "one_step: error 1.0e+00 > 1e-12; 4 links without <inertial> (PyBullet: mass 1); PyBullet's inertia diagonalisation off by 2e-08 | rest: rollout step 9: the step diverged: the next state is not finite",
+    "example-robot-data:go1_description/urdf/go1.urdf":
+        "load: <inertial>: model is not physical: body 'base': principal moments violate the triangle inequality",
+    "example-robot-data:go2_description/urdf/go2.urdf":
+        "one_step: error 1.0e-12 > 1e-12; PyBullet's inertia diagonalisation off by 1e-11 | rest: rollout step 12: the step diverged: the next state is not finite",
+    "example-robot-data:hextilt_description/urdf/hextilt_flying_arm_5.urdf":
+        "one_step: error 9.6e-12 > 1e-12; PyBullet's inertia diagonalisation off by 2e-09 | rest: rollout step 16: the step diverged: the next state is not finite",
+    "example-robot-data:human_description/robots/human.urdf":
+        "one_step: error 1.4e+04 > 1e-12; 19 links without <inertial> (PyBullet: mass 1); PyBullet's inertia diagonalisation off by 1e-10 | rest: rollout step 68: the step diverged: the next state is not finite",
+    "example-robot-data:hyq_description/robots/hyq_no_sensors.urdf":
+        "load: <inertial>: model is not physical: body 'base_link': principal moments violate the triangle inequality",
+    "example-robot-data:icub_description/robots/icub.urdf":
+        "load: <inertial>: model is not physical: body 'l_ankle_2': inertia tensor is not positive semi-definite",
+    "example-robot-data:icub_description/robots/icub_reduced.urdf":
+        "load: <inertial>: model is not physical: body 'l_ankle_2': inertia tensor is not positive semi-definite",
+    "example-robot-data:kinova_description/robots/kinova.urdf":
+        "load: <joint>: joint 'j2s6s200_joint_finger_1' is fixed",
+    "example-robot-data:laikago_description/urdf/laikago.urdf":
+        "one_step: error 1.6e-11 > 1e-12; PyBullet's inertia diagonalisation off by 4e-09 | rest: rollout step 14: the step diverged: the next state is not finite",
+    "example-robot-data:panda_description/urdf/panda.urdf":
+        "one_step: error 6.5e-11 > 1e-12; PyBullet's inertia diagonalisation off by 8e-09",
+    "example-robot-data:panda_description/urdf/panda_collision.urdf":
+        "one_step: error 1.3e-10 > 1e-12; PyBullet's inertia diagonalisation off by 8e-09",
+    "example-robot-data:pr2_description/urdf/pr2.urdf":
+        "load: <inertial>: model is not physical: body 'sensor_mount_link': principal moments violate the triangle inequality",
+    "example-robot-data:romeo_description/urdf/romeo.urdf":
+        "one_step: step: the step diverged: the next state is not finite | pinocchio: step: the step diverged: the next state is not finite | rest: rollout step 0: the step diverged: the next state is not finite",
+    "example-robot-data:romeo_description/urdf/romeo_small.urdf":
+        "load: <inertial>: model is not physical: body 'RShoulderYawLink': principal moments violate the triangle inequality",
+    "example-robot-data:so_arm_description/urdf/so100.urdf":
+        "rest: rollout step 67: the step diverged: the next state is not finite",
+    "example-robot-data:so_arm_description/urdf/so101.urdf":
+        "one_step: error 1.3e-10 > 1e-12; PyBullet's inertia diagonalisation off by 2e-09 | rest: rollout step 144: the step diverged: the next state is not finite",
+    "example-robot-data:talos_data/robots/talos_full_v2.urdf":
+        "load: <transmission>: a transmission must drive exactly one <joint>",
+    "example-robot-data:talos_data/robots/talos_full_v2_box.urdf":
+        "load: <transmission>: a transmission must drive exactly one <joint>",
+    "example-robot-data:talos_data/robots/talos_left_arm.urdf":
+        "load: <transmission>: a transmission must drive exactly one <joint>",
+    "example-robot-data:talos_data/robots/talos_reduced.urdf":
+        "load: <transmission>: a transmission must drive exactly one <joint>",
+    "example-robot-data:talos_data/robots/talos_reduced_box.urdf":
+        "load: <transmission>: a transmission must drive exactly one <joint>",
+    "example-robot-data:talos_data/robots/talos_reduced_corrected.urdf":
+        "load: <transmission>: a transmission must drive exactly one <joint>",
+    "example-robot-data:tiago_description/robots/tiago.urdf":
+        "load: <inertial>: model is not physical: body 'base_antenna_left_link': inertia tensor is not positive semi-definite",
+    "example-robot-data:tiago_description/robots/tiago_dual.urdf":
+        "load: <inertial>: model is not physical: body 'base_antenna_left_link': inertia tensor is not positive semi-definite",
+    "example-robot-data:tiago_description/robots/tiago_no_hand.urdf":
+        "load: <inertial>: model is not physical: body 'base_antenna_left_link': inertia tensor is not positive semi-definite",
+    "example-robot-data:tiago_pro_description/robots/tiago_pro.urdf":
+        "one_step: error 4.4e+00 > 1e-12; 9 links without <inertial> (PyBullet: mass 1); PyBullet's inertia diagonalisation off by 6e-09 | rest: rollout step 9: the step diverged: the next state is not finite",
+    "example-robot-data:ur_description/urdf/ur10_joint_limited_robot.urdf":
+        "rest: rollout step 460: the step diverged: the next state is not finite",
+    "example-robot-data:ur_description/urdf/ur3_gripper.urdf":
+        "rest: rollout step 511: the step diverged: the next state is not finite",
+    "example-robot-data:ur_description/urdf/ur3_joint_limited_robot.urdf":
+        "rest: rollout step 511: the step diverged: the next state is not finite",
+    "example-robot-data:ur_description/urdf/ur3_robot.urdf":
+        "rest: rollout step 650: the step diverged: the next state is not finite",
+    "example-robot-data:xarm_description/urdf/xarm7.urdf":
+        "one_step: error 1.4e+02 > 1e-12; 1 links without <inertial> (PyBullet: mass 1); PyBullet's inertia diagonalisation off by 4e-09 | rest: rollout step 12: the step diverged: the next state is not finite",
+    "example-robot-data:z1_description/urdf/z1.urdf":
+        "one_step: error 2.1e-12 > 1e-12; PyBullet's inertia diagonalisation off by 7e-10 | rest: rollout step 11: the step diverged: the next state is not finite",
+    "pybullet_data:TwoJointRobot_w_fixedJoints.urdf":
+        "load: <inertial>: model is not physical: body 'link_1': principal moments violate the triangle inequality",
+    "pybullet_data:TwoJointRobot_wo_fixedJoints.urdf":
+        "load: <inertial>: model is not physical: body 'link_1': principal moments violate the triangle inequality",
+    "pybullet_data:a1/a1.urdf":
+        "rest: rollout step 13: the step diverged: the next state is not finite",
+    "pybullet_data:aliengo/aliengo.urdf":
+        "one_step: error 1.6e-09 > 1e-12; PyBullet's inertia diagonalisation off by 4e-08 | rest: rollout step 29: the step diverged: the next state is not finite",
+    "pybullet_data:bicycle/bike.urdf":
+        "load: <origin>: xyz: expected 3 finite numbers, got '0.07, 0, -0.69'",
+    "pybullet_data:biped/biped2d_pybullet.urdf":
+        "load: XML syntax error: unexpected XML declaration at 4:1",
+    "pybullet_data:differential/diff_ring.urdf":
+        "load: XML syntax error: unexpected XML declaration at 2:1",
+    "pybullet_data:humanoid/humanoid.urdf":
+        "load: XML syntax error: unknown token at 288:1",
+    "pybullet_data:husky/husky.urdf":
+        "load: <origin>: xyz: expected 3 finite numbers, got '$(optenv HUSKY_IMU_XYZ 0.19 0 0.149)'",
+    "pybullet_data:laikago/laikago_toes_limits.urdf":
+        "rest: rollout step 163: the step diverged: the next state is not finite",
+    "pybullet_data:mini_cheetah/mini_cheetah.urdf":
+        "load: <inertial>: model is not physical: body 'thigh_fr': principal moments violate the triangle inequality",
+    "pybullet_data:quadruped/microtaur/microtaur.urdf":
+        "load: <origin>: rpy: expected 3 finite numbers, got '0 1.57079 0 0'",
+    "pybullet_data:quadruped/spirit40.urdf":
+        "rest: rollout step 135: the step diverged: the next state is not finite",
+    "pybullet_data:quadruped/spirit40newer.urdf":
+        "one_step: error 2.3e+00 > 1e-12; 4 links without <inertial> (PyBullet: mass 1); PyBullet's inertia diagonalisation off by 3e-09 | rest: rollout step 181: the step diverged: the next state is not finite",
+    "pybullet_data:quadruped/vision60.urdf":
+        "rest: rollout step 362: the step diverged: the next state is not finite",
+    "pybullet_data:spherical_joint_limit.urdf":
+        "load: <joint>: unknown joint type 'spherical'",
+    "pybullet_data:xarm/xarm6_robot.urdf":
+        "load: <inertial>: model is not physical: body 'link2': principal moments violate the triangle inequality",
+    "pybullet_data:xarm/xarm6_robot_white.urdf":
+        "load: <inertial>: model is not physical: body 'link2': principal moments violate the triangle inequality",
+    "pybullet_data:xarm/xarm6_with_gripper.urdf":
+        "load: <inertial>: model is not physical: body 'link2': principal moments violate the triangle inequality",
+}
+
+CASES = corpus.discover()
+# The models with tendons or equality constraints, listed but not checked here (issue 39).
+ISSUE_39 = {"ball_in_cup.xml", "dog.xml", "fish.xml", "manipulator.xml", "point_mass.xml", "quadruped.xml",
+            "stacker.xml"}
+
+
+def params():
+    for case in CASES:
+        if case.excluded:
+            continue
+        marks = [pytest.mark.xfail(strict=True, reason=KNOWN_FAILURES[case.name])] if case.name in KNOWN_FAILURES \
+            else []
+        yield pytest.param(case, id=case.name, marks=marks)
+
+
+@pytest.fixture(scope="module")
+def table(request):
+    """The rows of the checked models; printed as the corpus table when the module ends."""
+    rows = []
+    yield rows
+    rows += [corpus.check(case, SEED) for case in CASES if case.excluded]
+    order = {case.name: k for k, case in enumerate(CASES)}
+    rows.sort(key=lambda r: order[r["model"]])
+    plugins = request.config.pluginmanager
+    write = plugins.get_plugin("terminalreporter").write_line
+    with plugins.get_plugin("capturemanager").global_and_fixture_disabled():  # past pytest's capture
+        write("")
+        lines = [*corpus.markdown_table(corpus.SUMMARY_HEADER, corpus.summary(rows)), "",
+                 *corpus.markdown_table(corpus.HEADER, corpus.table_rows(rows)), "", *corpus.failure_lines(rows)]
+        for line in lines:
+            write(line)
+
+
+@pytest.mark.parametrize("case", list(params()))
+def test_model(case, table):
+    row = corpus.check(case, SEED)
+    table.append(row)
+    assert row["pass"], corpus.reason(row)
+
+
+def test_the_corpus_is_what_the_collections_hold():
+    """19 dm_control suite files, 7 of them with tendons or equality constraints; the 67 of
+    example-robot-data's 69 URDFs that PyBullet loads (not romeo_laas_small: a mesh named .mesh,
+    nor ur3: a robot without a name); the 43 robots among pybullet_data's 1095 URDFs."""
+    by_source = {s: [c for c in CASES if c.source == s] for s in corpus.SOURCES}
+    assert [len(by_source[s]) for s in corpus.SOURCES] == [19, 67, 43]
+    assert {c.path.name for c in by_source["dm_control"] if c.excluded} == ISSUE_39
+    assert not any(c.excluded for c in CASES if c.source != "dm_control")
+
+
+def test_every_known_failure_is_a_checked_model():
+    """No stale entry: each name in KNOWN_FAILURES is a model this test checks."""
+    assert set(KNOWN_FAILURES) <= {c.name for c in CASES if not c.excluded}
+
+
+# The checks themselves, on models that load today: they pass on a faithful model and fail
+# on one with a wrong mass (so a dm_control model's MuJoCo check, which no suite file reaches
+# before <include> loads, is exercised too).
+
+def gym_humanoid():
+    """gymnasium's humanoid: a free root, hinges, RK4, as MuJoCo compiles it."""
+    from harness.engines.base import gym_assets_dir
+
+    return corpus.Case("gymnasium", gym_assets_dir() / "humanoid.xml", gym_assets_dir(), "24/23/17")
+
+
+def ur5():
+    root = corpus.example_robot_data()
+    return corpus.Case("example-robot-data", root / "ur_description/urdf/ur5_robot.urdf", root, "6/6/-",
+                       [root.parent.parent, root])
+
+
+def test_the_mujoco_check_passes_on_gymnasium_humanoid():
+    row = corpus.check(gym_humanoid(), SEED)
+    assert row["pass"] and row["one_step_error"] <= corpus.ONE_STEP_TOL, corpus.reason(row)
+
+
+@pytest.mark.parametrize("case, body, check", [
+    (gym_humanoid, "torso", corpus.mujoco_one_step),
+    (ur5, "forearm_link", corpus.pybullet_one_step),
+    (ur5, "forearm_link", lambda case, ours, seed: (corpus.pinocchio_error(case, ours, seed), {})),
+])
+def test_a_check_fails_on_a_wrong_mass(case, body, check):
+    case = case()
+    ours = corpus.load_ours(case)
+    assert check(case, ours, SEED)[0] <= corpus.ONE_STEP_TOL
+    ours.set_param(f"body/{body}/mass", 1.01 * ours.get_param(f"body/{body}/mass"))
+    assert check(case, ours, SEED)[0] > 1e-6
