@@ -255,7 +255,12 @@ mod tests {
               </body>
             </replicate>
             <replicate count="12" offset="0 0.1 0"><geom name="w" size="0.01"/></replicate>"#;
-        let m = load(&model("", bodies, ""));
+        let m = load(&model(
+            "",
+            bodies,
+            r#"<actuator><motor joint="j-1"/></actuator>"#,
+        ));
+        assert_eq!(m.actuators[0].joint, 1);
         let names = |v: Vec<&str>| v.join(" ");
         assert_eq!(
             names(m.bodies.iter().map(|b| b.name.as_str()).collect()),
