@@ -142,8 +142,15 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         opt,
         pairs,
         excludes,
+        sites,
+        sensors,
     } = ours;
     assert_eq!(name, &theirs.name, "{model}: model name");
+    assert_eq!(
+        (sites, sensors),
+        (&theirs.sites, &theirs.sensors),
+        "{model}: sites and sensors"
+    );
     assert_eq!(
         (pairs, excludes),
         (&theirs.pairs, &theirs.excludes),

@@ -62,6 +62,8 @@ impl Model {
             opt,
             pairs: vec![],
             excludes: vec![],
+            sites: vec![],
+            sensors: vec![],
         })
     }
 

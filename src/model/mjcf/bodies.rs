@@ -34,6 +34,7 @@ impl<'a> Reader<'a> {
             }
         }
         self.read_geoms(tree, &contents, 0, "main", true, false)?;
+        self.read_sites(tree, &contents, 0, "main")?;
         self.read_child_bodies(tree, &contents, 0, "main", true)
     }
 
@@ -107,6 +108,7 @@ impl<'a> Reader<'a> {
         let inertial = self.explicit_inertial(node)?;
         let geoms_count = self.compiler.inertia_from_geom == FromGeom::True || inertial.is_none();
         let parts = self.read_geoms(tree, &contents, index, class, is_static, geoms_count)?;
+        self.read_sites(tree, &contents, index, class)?;
         let principal = self.body_inertial(node, inertial, &parts)?;
         tree.bodies.push(Body {
             name,

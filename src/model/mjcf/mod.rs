@@ -66,6 +66,8 @@ mod joints;
 mod options;
 mod orientation;
 mod schema;
+mod sensors;
+mod sites;
 mod tendons;
 #[cfg(test)]
 mod test_util;
@@ -110,7 +112,9 @@ pub fn parse(text: &str, file: &str) -> Result<Spec> {
     reader.scale_total_mass(&mut tree);
     let mut actuators = reader.read_actuators(&tree, root)?;
     tree::fill_names(&mut actuators, "actuator", |a| &mut a.name);
-    let (bodies, joints, geoms) = tree.finish();
+    let mut sensors = reader.read_sensors(&tree, root)?;
+    tree::fill_names(&mut sensors, "sensor", |s| &mut s.name);
+    let (bodies, joints, geoms, sites) = tree.finish();
     let body_names: Vec<&str> = bodies.iter().map(|b| b.name.as_str()).collect();
     let (pairs, excludes) = reader.read_contact(root, &geoms, &body_names)?;
     let name = root
@@ -126,6 +130,8 @@ pub fn parse(text: &str, file: &str) -> Result<Spec> {
         opt,
         pairs,
         excludes,
+        sites,
+        sensors,
     })
 }
 

@@ -56,6 +56,9 @@ pub fn write(spec: &Spec) -> Result<String, ModelError> {
 }
 
 fn document(spec: &Spec) -> Result<String, ModelError> {
+    if !(spec.sites.is_empty() && spec.sensors.is_empty()) {
+        return Err(unwritable("sites and sensors are not written yet"));
+    }
     let mut doc = Document::default();
     doc.open(0, Tag::new("mujoco").text("model", &spec.name));
     let compiler = Tag::new("compiler")
