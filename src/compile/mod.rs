@@ -9,6 +9,7 @@
 
 mod edit;
 mod fluid;
+mod sensors;
 mod simulate;
 mod tree;
 

@@ -14,7 +14,8 @@
 //! - accelerometer, velocimeter and gyro read the site's linear
 //!   acceleration, velocity and angular velocity in the site's axes; the
 //!   accelerometer includes gravity as an upward acceleration (at rest it
-//!   reads -g), and all three read zero on a site welded to the world;
+//!   reads -g, also on a site welded to the world, where velocimeter and
+//!   gyro read zero);
 //! - force and torque read the force and moment (about the site) that the
 //!   site's body receives from its parent, in the site's axes: everything
 //!   that moves the body's subtree (inertia and gravity) less the contact

@@ -13,6 +13,7 @@
 use std::collections::HashSet;
 
 use super::attributes::{value, Attrs};
+use super::compiler::FromGeom;
 use super::schema::{check_attributes, SENSOR_ATTRS};
 use super::tree::Tree;
 use super::{children, elements, tag, unrecognized, unsupported, Node, Reader, Result};
@@ -113,12 +114,13 @@ impl<'a> Reader<'a> {
     fn read_sensor(&self, tree: &Tree<'a>, node: Node<'a>) -> Result<Sensor> {
         let a = Attrs::of(self.file, node);
         let element = tag(node);
-        let (kind, dim) = match self.computed_kind(tree, node)? {
-            Some(kind) => {
-                let dim = kind.dim().expect("a computed kind has a size");
-                (kind, dim)
-            }
-            None => (self.other_kind(tree, node)?, self.other_dim(node)?),
+        let kind = match self.computed_kind(tree, node)? {
+            Some(kind) => kind,
+            None => self.other_kind(tree, node)?,
+        };
+        let dim = match kind.dim() {
+            Some(dim) => dim,
+            None => self.other_dim(node)?,
         };
         let mut cutoff = 0.0;
         for (name, value) in [("cutoff", &mut cutoff), ("noise", &mut 0.0)] {
@@ -177,17 +179,27 @@ impl<'a> Reader<'a> {
                 &["objtype", "objname"]
             };
             check_attributes(self.file, node, &attrs(own))?;
+            let quantity = FRAMES[i].1;
+            let cameras = "frame sensors on cameras are not computed (cameras are not read)";
             let Some(object) = self.frame_object(tree, node, "objtype", "objname")? else {
-                return Ok(None);
+                return Ok(Some(other(element, cameras)));
             };
             let reference = match value(node, "reftype") {
                 Some(_) if referenced => match self.frame_object(tree, node, "reftype", "refname")? {
                     Some(r) => Some(r),
-                    None => return Ok(None),
+                    None => return Ok(Some(other(element, cameras))),
                 },
                 _ => None,
             };
-            let quantity = FRAMES[i].1;
+            let unknown_axes = |f: &FrameObject| {
+                matches!(f, FrameObject::Body(b) if !self.principal_axes_known(tree, *b))
+            };
+            let axes = matches!(quantity, FrameQuantity::Quat | FrameQuantity::Axis(_));
+            if (axes && unknown_axes(&object)) || reference.as_ref().is_some_and(unknown_axes) {
+                let why = "the inertial axes of a body with a full inertia tensor (fullinertia, \
+                           or several geoms) are not MuJoCo's (its eigenvector order and signs)";
+                return Ok(Some(other(element, why)));
+            }
             return Ok(Some(SensorKind::Frame {
                 quantity,
                 object,
@@ -226,6 +238,21 @@ impl<'a> Reader<'a> {
         }))
     }
 
+    /// Whether body `b`'s inertial axes ([`crate::model::Body::inertia_frame`])
+    /// are MuJoCo's body_iquat: those of a diagonal `<inertial>` or of a
+    /// single geom, not the principal axes of a full tensor.
+    fn principal_axes_known(&self, tree: &Tree<'a>, b: usize) -> bool {
+        let Some(body) = tree.nodes[b] else {
+            return true;
+        };
+        let inertial = children(body, "inertial");
+        if self.compiler.inertia_from_geom == FromGeom::True || inertial.is_empty() {
+            tree.geoms.iter().filter(|g| g.body == b).count() <= 1
+        } else {
+            inertial.iter().all(|i| value(*i, "fullinertia").is_none())
+        }
+    }
+
     /// The index of the `kind` (body, joint, geom, site) that attribute
     /// `attr` names, by its name in the file.
     fn named(&self, tree: &Tree<'a>, node: Node<'a>, attr: &str, kind: &str) -> Result<usize> {
@@ -245,10 +272,6 @@ impl<'a> Reader<'a> {
     /// joints, geoms and sites checked.
     fn other_kind(&self, tree: &Tree<'a>, node: Node<'a>) -> Result<SensorKind> {
         let element = tag(node);
-        if FRAMES.iter().any(|(t, _)| *t == element) {
-            let why = "frame sensors on cameras are not computed (cameras are not read)";
-            return Ok(other(element, why));
-        }
         let Some((_, own, _)) = OTHERS.iter().find(|(t, ..)| *t == element) else {
             return Err(match element {
                 "tactile" | "plugin" => unsupported(
