@@ -282,7 +282,7 @@ mod tests {
     fn empty_sections_and_ignored_elements_load() {
         let head = r#"<default><tendon/></default><visual/><size nstack="10"/>"#;
         let bodies = format!("<light/>{}", body("<camera/><site/>"));
-        let tail = r#"<tendon/><equality/><sensor><jointpos joint="x"/></sensor>
+        let tail = r#"<tendon/><equality/><sensor><clock/></sensor>
                       <contact/>"#;
         assert_eq!(load(&model(head, &bodies, tail)).nv(), 1);
     }

@@ -360,3 +360,73 @@ fn other(element: &str, why: &str) -> SensorKind {
         why: why.to_string(),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::test_util::*;
+    use crate::model::{FrameObject, FrameQuantity, JointQuantity, SensorKind};
+
+    const BODIES: &str = r#"
+        <body name="b"><joint name="j"/><joint name="ball" type="ball"/><geom name="g" size=".1"/>
+          <site name="s"/></body>
+        <body name="c"><joint/><inertial pos="0 0 0" mass="1" fullinertia="1 1 1 0.1 0 0"/></body>"#;
+
+    fn sensors(list: &str) -> String {
+        model("", BODIES, &format!("<sensor>{list}</sensor>"))
+    }
+
+    #[test]
+    fn sensors_are_laid_out_as_in_mujoco() {
+        let list = r#"<jointpos joint="j" cutoff="0.5" noise="0.1"/><ballquat joint="ball"/>
+            <framequat objtype="geom" objname="g"/><touch site="s"/>
+            <rangefinder site="s" data="dist dir"/><contact num="2" data="found force"/>
+            <user dim="5"/><framexaxis objtype="body" objname="c"/><subtreeangmom body="b"/>
+            <fromto geom1="g" body2="c"/>
+            <framequat objtype="site" objname="s" reftype="body" refname="c"/>
+            <jointvel joint="j" delay="0.01" nsample="3"/><accelerometer site="s"/><clock/>"#;
+        let m = load(&sensors(list));
+        // MuJoCo 4.0.0's sensor_dim and sensor_adr.
+        let (adr, dim): (Vec<usize>, Vec<usize>) = m.sensor_layout().into_iter().unzip();
+        assert_eq!(dim, [1, 4, 4, 1, 4, 8, 5, 3, 3, 6, 4, 1, 3, 1]);
+        assert_eq!(adr, [0, 1, 5, 9, 10, 14, 22, 27, 30, 33, 39, 43, 44, 47]);
+        assert_eq!(m.sensors[0].kind, SensorKind::Joint(JointQuantity::Pos, 0));
+        assert_eq!(m.sensors[0].cutoff, 0.5);
+        let quat = SensorKind::Frame {
+            quantity: FrameQuantity::Quat,
+            object: FrameObject::Geom(0),
+            reference: None,
+        };
+        assert_eq!(m.sensors[2].kind, quat);
+        // Read but not computed: other types, a full tensor's axes, history.
+        for i in [3, 4, 5, 6, 7, 8, 9, 10, 11, 13] {
+            let kind = &m.sensors[i].kind;
+            assert!(matches!(kind, SensorKind::Unsupported { .. }), "{i}: {kind:?}");
+        }
+        assert_eq!(m.sensors[13].name, "sensor13");
+    }
+
+    #[test]
+    fn bad_sensors_are_rejected() {
+        #[rustfmt::skip]
+        let cases = [
+            (r#"<jointpos joint="ball"/>"#, "joint must be slide or hinge in sensor"),
+            (r#"<ballquat joint="j"/>"#, "joint must be ball in sensor"),
+            (r#"<jointpos joint="nope"/>"#, "unknown joint 'nope'"),
+            (r#"<accelerometer site="nope"/>"#, "unknown site 'nope'"),
+            ("<gyro/>", "the sensor needs 'site'"),
+            (r#"<jointpos joint="j" cutoff="-1"/>"#, "cutoff must be finite and >= 0"),
+            (r#"<jointpos joint="j" noise="-1"/>"#, "noise must be finite and >= 0"),
+            (r#"<framepos objtype="site" objname="s" reftype="joint" refname="j"/>"#,
+             "attribute 'reftype' must be one of"),
+            (r#"<jointpos name="a" joint="j"/><jointvel name="a" joint="j"/>"#, "repeated name 'a'"),
+            (r#"<jointpos joint="j" site="s"/>"#, "unrecognized attribute 'site'"),
+            (r#"<touch site="nope"/>"#, "unknown site 'nope'"),
+            (r#"<contact data="force found"/>"#, "data attributes must be in order"),
+            (r#"<tactile mesh="m" geom="g"/>"#, "<tactile> is not supported"),
+            ("<thermometer/>", "unrecognized element <thermometer>"),
+        ];
+        for (list, expected) in cases {
+            assert_rejects(&sensors(list), expected);
+        }
+    }
+}

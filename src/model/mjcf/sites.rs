@@ -66,10 +66,11 @@ mod tests {
 
     #[test]
     fn sites_are_placed_as_in_mujoco() {
-        let head = r#"<default><site pos="0 0 0.5"/><default class="c"><site euler="0 0 90"/></default></default>"#;
+        let head = r#"<default><site size="0.01"/>
+              <default class="c"><site pos="0 0 0.5" euler="0 0 90"/></default></default>"#;
         let bodies = r#"<site name="w" pos="1 2 3"/>
             <body name="b" childclass="c"><joint/><geom size="0.1"/>
-              <site name="d"/><site name="f" type="capsule" fromto="0 0 0 0.3 0 0.4"/>
+              <site name="d"/><site name="f" class="main" type="capsule" fromto="0 0 0 0.3 0 0.4"/>
               <site class="main" zaxis="1 2 3"/>
             </body>"#;
         let m = load(&model(head, bodies, ""));
@@ -79,14 +80,14 @@ mod tests {
         assert_close(m.sites[0].pos.as_slice(), &[1.0, 2.0, 3.0], 0.0);
         // MuJoCo 4.0.0's site_pos and site_quat.
         assert_close(m.sites[1].pos.as_slice(), &[0.0, 0.0, 0.5], 0.0);
-        let z90 = [std::f64::consts::FRAC_1_SQRT_2, 0.0, 0.0, std::f64::consts::FRAC_1_SQRT_2];
+        let z90 = [0.7071067811865476, 0.0, 0.0, 0.7071067811865475];
         assert_close(&quat_of(&m.sites[1].rot), &z90, 1e-15);
         assert_close(m.sites[2].pos.as_slice(), &[0.15, 0.0, 0.2], 1e-16);
         let fromto = [0.31622776601683794, 0.0, -0.9486832980505138, 0.0];
         assert_close(&quat_of(&m.sites[2].rot), &fromto, 1e-15);
         let zaxis = [0.9491532346616307, -0.28157860306687144, 0.14078930153343572, 0.0];
         assert_close(&quat_of(&m.sites[3].rot), &zaxis, 1e-15);
-        assert_close(m.sites[3].pos.as_slice(), &[0.0, 0.0, 0.5], 0.0);
+        assert_close(m.sites[3].pos.as_slice(), &[0.0, 0.0, 0.0], 0.0);
 
         let bad = [
             (r#"<site type="plane"/>"#, "not allowed in sites"),
