@@ -69,3 +69,32 @@ fn sensors_not_computed_fail_by_name() {
     let message = err.to_string();
     assert!(message.contains("'foot'") && message.contains("<touch>"), "{message}");
 }
+
+/// Under the smooth contact model (no MuJoCo twin) force and torque sensors
+/// read the smooth model's own contact forces: a free body under no applied
+/// force receives nothing from the world through its joint, so the sensors
+/// at its root read zero while the box is pressed into the floor and
+/// sliding, and the mast's read what holds the mast up.
+#[test]
+fn smooth_contact_forces_enter_force_sensors() {
+    let model = Model::load(root().join("tests/data/sensor_box.xml")).unwrap();
+    let smooth = model
+        .edited(|s| s.opt.contact_model = diffosi::model::ContactModel::Smooth)
+        .unwrap();
+    let q = [0.1, 0.2, 0.098, 1.0, 0.0, 0.0, 0.0];
+    let v = [0.3, -0.1, -0.05, 0.2, 0.1, -0.3];
+    let mut data = smooth.data();
+    let readings = smooth.sensor_readings(&mut data, &q, &v, &[0.0; 6]).unwrap();
+    let contacts = smooth.contacts(&mut data, &q, &v, &[0.0; 6]).unwrap();
+    assert!(contacts.iter().any(|c| c.normal_force > 10.0));
+    let layout = smooth.sensor_layout();
+    let at = |name: &str| {
+        let i = smooth.sensors.iter().position(|s| s.name == name).unwrap();
+        &readings[layout[i].0..layout[i].0 + 3]
+    };
+    for name in ["base_force", "base_torque"] {
+        assert!(at(name).iter().all(|x| x.abs() < 1e-12), "{name}: {:?}", at(name));
+    }
+    let mast = &readings[layout[7].0..layout[7].0 + 3];
+    assert!(mast.iter().map(|x| x * x).sum::<f64>().sqrt() > 2.0, "{mast:?}");
+}
