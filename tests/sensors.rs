@@ -28,7 +28,12 @@ fn compare(name: &str) {
     let path = root().join(format!("reference_models/golden/sensors/{name}.json"));
     let golden: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
     let (adr, dim): (Vec<usize>, Vec<usize>) = model.sensor_layout().into_iter().unzip();
-    let sizes = |key: &str| numbers(&golden[key]).iter().map(|x| *x as usize).collect::<Vec<_>>();
+    let sizes = |key: &str| {
+        numbers(&golden[key])
+            .iter()
+            .map(|x| *x as usize)
+            .collect::<Vec<_>>()
+    };
     assert_eq!((adr, dim), (sizes("sensor_adr"), sizes("sensor_dim")));
     let mut data = model.data();
     for (k, state) in golden["states"].as_array().unwrap().iter().enumerate() {
@@ -36,7 +41,11 @@ fn compare(name: &str) {
         let ours = model.sensor_readings(&mut data, &q, &v, &tau).unwrap();
         assert_eq!(ours.len(), theirs.len());
         for (i, (a, b)) in ours.iter().zip(&theirs).enumerate() {
-            let sensor = model.sensor_layout().iter().rposition(|l| l.0 <= i).unwrap();
+            let sensor = model
+                .sensor_layout()
+                .iter()
+                .rposition(|l| l.0 <= i)
+                .unwrap();
             let error = (a - b).abs() / b.abs().max(1.0);
             assert!(
                 error < 1e-12,
@@ -67,7 +76,10 @@ fn sensors_not_computed_fail_by_name() {
         .unwrap_err();
     assert!(matches!(err, StepError::SensorNotComputed { .. }));
     let message = err.to_string();
-    assert!(message.contains("'foot'") && message.contains("<touch>"), "{message}");
+    assert!(
+        message.contains("'foot'") && message.contains("<touch>"),
+        "{message}"
+    );
 }
 
 /// Under the smooth contact model (no MuJoCo twin) force and torque sensors
@@ -84,7 +96,9 @@ fn smooth_contact_forces_enter_force_sensors() {
     let q = [0.1, 0.2, 0.098, 1.0, 0.0, 0.0, 0.0];
     let v = [0.3, -0.1, -0.05, 0.2, 0.1, -0.3];
     let mut data = smooth.data();
-    let readings = smooth.sensor_readings(&mut data, &q, &v, &[0.0; 6]).unwrap();
+    let readings = smooth
+        .sensor_readings(&mut data, &q, &v, &[0.0; 6])
+        .unwrap();
     let contacts = smooth.contacts(&mut data, &q, &v, &[0.0; 6]).unwrap();
     assert!(contacts.iter().any(|c| c.normal_force > 10.0));
     let layout = smooth.sensor_layout();
@@ -93,8 +107,15 @@ fn smooth_contact_forces_enter_force_sensors() {
         &readings[layout[i].0..layout[i].0 + 3]
     };
     for name in ["base_force", "base_torque"] {
-        assert!(at(name).iter().all(|x| x.abs() < 1e-12), "{name}: {:?}", at(name));
+        assert!(
+            at(name).iter().all(|x| x.abs() < 1e-12),
+            "{name}: {:?}",
+            at(name)
+        );
     }
     let mast = &readings[layout[7].0..layout[7].0 + 3];
-    assert!(mast.iter().map(|x| x * x).sum::<f64>().sqrt() > 2.0, "{mast:?}");
+    assert!(
+        mast.iter().map(|x| x * x).sum::<f64>().sqrt() > 2.0,
+        "{mast:?}"
+    );
 }

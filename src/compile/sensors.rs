@@ -150,7 +150,9 @@ impl Model {
             None => x,
         };
         let vector = match quantity {
-            FrameQuantity::Pos => in_reference(obj.pos - reference.as_ref().map_or(Vector3::zeros(), |r| r.pos)),
+            FrameQuantity::Pos => {
+                in_reference(obj.pos - reference.as_ref().map_or(Vector3::zeros(), |r| r.pos))
+            }
             FrameQuantity::Axis(k) => in_reference(obj.rot.column(k).into_owned()),
             FrameQuantity::Quat => {
                 let q = match &reference {
@@ -251,7 +253,11 @@ impl Bodies {
                 Some(k) => {
                     let world = &data.world[k];
                     let vel = world.inverse_apply_motion(&data.vel[k]);
-                    (frame.offset.compose(world), vel, world.inverse_apply_motion(&data.acc[k]))
+                    (
+                        frame.offset.compose(world),
+                        vel,
+                        world.inverse_apply_motion(&data.acc[k]),
+                    )
                 }
                 None => (frame.offset, Motion::zero(), falling),
             };
@@ -260,7 +266,8 @@ impl Bodies {
             b.acc.push(acc);
         }
         for (i, body) in model.bodies.iter().enumerate() {
-            let inertia = Inertia::from_com(body.mass, &body.com, &body.inertia).to_source(&b.pose[i]);
+            let inertia =
+                Inertia::from_com(body.mass, &body.com, &body.inertia).to_source(&b.pose[i]);
             let (v, a) = (b.vel[i], b.acc[i]);
             let f = inertia.mul_motion(&a) + v.cross_force(&inertia.mul_motion(&v));
             b.interaction.push(f);
@@ -329,7 +336,12 @@ fn quaternions(model: &Model, q: &[f64]) -> Vec<UnitQuaternion<f64>> {
             let joint = &model.joints[j];
             let at = model.joint_address(j).0;
             let stored = |at: usize| {
-                UnitQuaternion::from_quaternion(Quaternion::new(q[at], q[at + 1], q[at + 2], q[at + 3]))
+                UnitQuaternion::from_quaternion(Quaternion::new(
+                    q[at],
+                    q[at + 1],
+                    q[at + 2],
+                    q[at + 3],
+                ))
             };
             match joint.kind {
                 JointKind::Free => x = stored(at + 3),

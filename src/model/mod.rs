@@ -566,7 +566,11 @@ impl Spec {
         }
 
         for s in &self.sites {
-            let finite = s.pos.iter().chain(s.rot.matrix().iter()).all(|x| x.is_finite());
+            let finite = s
+                .pos
+                .iter()
+                .chain(s.rot.matrix().iter())
+                .all(|x| x.is_finite());
             if s.body >= nbody || !finite {
                 return bad(format!("site '{}' has a bad body or pose", s.name));
             }

@@ -92,7 +92,10 @@ pub enum SensorKind {
     SubtreeLinVel(usize),
     /// A sensor that is read and laid out but not computed: its MJCF
     /// element and why.
-    Unsupported { element: String, why: String },
+    Unsupported {
+        element: String,
+        why: String,
+    },
 }
 
 #[derive(Clone, Debug, PartialEq)]

@@ -185,15 +185,15 @@ impl<'a> Reader<'a> {
                 return Ok(Some(other(element, cameras)));
             };
             let reference = match value(node, "reftype") {
-                Some(_) if referenced => match self.frame_object(tree, node, "reftype", "refname")? {
-                    Some(r) => Some(r),
-                    None => return Ok(Some(other(element, cameras))),
-                },
+                Some(_) if referenced => {
+                    match self.frame_object(tree, node, "reftype", "refname")? {
+                        Some(r) => Some(r),
+                        None => return Ok(Some(other(element, cameras))),
+                    }
+                }
                 _ => None,
             };
-            let unknown_axes = |f: &FrameObject| {
-                matches!(f, FrameObject::Body(b) if !self.principal_axes_known(tree, *b))
-            };
+            let unknown_axes = |f: &FrameObject| matches!(f, FrameObject::Body(b) if !self.principal_axes_known(tree, *b));
             let axes = matches!(quantity, FrameQuantity::Quat | FrameQuantity::Axis(_));
             if (axes && unknown_axes(&object)) || reference.as_ref().is_some_and(unknown_axes) {
                 let why = "the inertial axes of a body with a full inertia tensor (fullinertia, \
@@ -400,7 +400,10 @@ mod tests {
         // Read but not computed: other types, a full tensor's axes, history.
         for i in [3, 4, 5, 6, 7, 8, 9, 10, 11, 13] {
             let kind = &m.sensors[i].kind;
-            assert!(matches!(kind, SensorKind::Unsupported { .. }), "{i}: {kind:?}");
+            assert!(
+                matches!(kind, SensorKind::Unsupported { .. }),
+                "{i}: {kind:?}"
+            );
         }
         assert_eq!(m.sensors[13].name, "sensor13");
     }

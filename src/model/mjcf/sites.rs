@@ -76,7 +76,10 @@ mod tests {
         let m = load(&model(head, bodies, ""));
         let names: Vec<&str> = m.sites.iter().map(|s| s.name.as_str()).collect();
         assert_eq!(names, ["w", "d", "f", "site3"]);
-        assert_eq!(m.sites.iter().map(|s| s.body).collect::<Vec<_>>(), [0, 1, 1, 1]);
+        assert_eq!(
+            m.sites.iter().map(|s| s.body).collect::<Vec<_>>(),
+            [0, 1, 1, 1]
+        );
         assert_close(m.sites[0].pos.as_slice(), &[1.0, 2.0, 3.0], 0.0);
         // MuJoCo 4.0.0's site_pos and site_quat.
         assert_close(m.sites[1].pos.as_slice(), &[0.0, 0.0, 0.5], 0.0);
@@ -85,7 +88,12 @@ mod tests {
         assert_close(m.sites[2].pos.as_slice(), &[0.15, 0.0, 0.2], 1e-16);
         let fromto = [0.31622776601683794, 0.0, -0.9486832980505138, 0.0];
         assert_close(&quat_of(&m.sites[2].rot), &fromto, 1e-15);
-        let zaxis = [0.9491532346616307, -0.28157860306687144, 0.14078930153343572, 0.0];
+        let zaxis = [
+            0.9491532346616307,
+            -0.28157860306687144,
+            0.14078930153343572,
+            0.0,
+        ];
         assert_close(&quat_of(&m.sites[3].rot), &zaxis, 1e-15);
         assert_close(m.sites[3].pos.as_slice(), &[0.0, 0.0, 0.0], 0.0);
 

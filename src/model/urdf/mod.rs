@@ -98,8 +98,8 @@ pub fn parse(text: &str, file: &str) -> Result<Spec> {
         opt,
         pairs: vec![],
         excludes: vec![],
-            sites: vec![],
-            sensors: vec![],
+        sites: vec![],
+        sensors: vec![],
     })
 }
 
