@@ -5,17 +5,18 @@
 //! autolimits, settotalmass, boundmass, boundinertia, balanceinertia),
 //! `<option>` (timestep, gravity, integrator, the solver's cone, impratio and
 //! iterations, the medium's density, viscosity and wind, and `<flag>`s: see
-//! `options.rs`), `<default>` classes for joints, geoms, pairs, tendons and
-//! actuators, `<worldbody>` with nested `<body>`, `<joint>` (hinge, slide,
+//! `options.rs`), `<default>` classes for joints, geoms, sites, pairs, tendons
+//! and actuators, `<worldbody>` with nested `<body>`, `<joint>` (hinge, slide,
 //! ball, free) and `<freejoint>`, `<inertial>`, `<geom>` (plane, sphere,
 //! capsule, cylinder, box, ellipsoid, with their contact settings),
 //! `<contact>` (`<pair>` and `<exclude>`), `<actuator>` `<motor>`/`<general>`
-//! on hinges and slides, and `<custom>`'s `diffosi:` settings (the contact
-//! model, the smooth model's constants). The medium's forces are MuJoCo's
+//! on hinges and slides, `<site>` and `<sensor>` (`sites.rs`, `sensors.rs`:
+//! every sensor type laid out, the common ones computed), and `<custom>`'s
+//! `diffosi:` settings (the contact model, the smooth model's constants). The medium's forces are MuJoCo's
 //! inertia-box model (`dynamics/fluid.rs`).
 //!
 //! Ignored, since they do not change the dynamics: visual, asset, size,
-//! statistic, keyframe, sensor, other custom data, site, camera, light, fixed
+//! statistic, keyframe, other custom data, camera, light, fixed
 //! tendons that only measure, and the solver settings that only tune how the
 //! answer is approached (`options.rs`).
 //!
