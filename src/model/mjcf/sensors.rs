@@ -6,7 +6,9 @@
 //! frame sensors on cameras, and any sensor whose readings are delayed or
 //! sampled at an interval) are kept as [`SensorKind::Unsupported`], so that
 //! a model using them loads and only evaluating its sensors fails, naming
-//! the sensor (a sensor never changes the dynamics). Tactile and plugin
+//! the sensor (a sensor never changes the dynamics); so are all sensors of a
+//! model that disables them (`<flag sensor="disable"/>`, where MuJoCo leaves
+//! sensordata unset). Tactile and plugin
 //! sensors are refused: their size depends on meshes and plugins, which are
 //! not read.
 
@@ -98,10 +100,18 @@ impl<'a> Reader<'a> {
     pub(super) fn read_sensors(&self, tree: &Tree<'a>, root: Node<'a>) -> Result<Vec<Sensor>> {
         let mut names = HashSet::new();
         let mut sensors = vec![];
+        let disabled = children(root, "option")
+            .into_iter()
+            .flat_map(|o| children(o, "flag"))
+            .any(|f| value(f, "sensor") == Some("disable"));
         for section in children(root, "sensor") {
             check_attributes(self.file, section, &[])?;
             for node in elements(section) {
-                let sensor = self.read_sensor(tree, node)?;
+                let mut sensor = self.read_sensor(tree, node)?;
+                if disabled {
+                    let why = "sensors are disabled (<flag sensor=\"disable\"/>)";
+                    sensor.kind = other(tag(node), why);
+                }
                 if !sensor.name.is_empty() && !names.insert(sensor.name.clone()) {
                     return Err(self.error(node, format!("repeated name '{}'", sensor.name)));
                 }
@@ -431,5 +441,9 @@ mod tests {
         for (list, expected) in cases {
             assert_rejects(&sensors(list), expected);
         }
+        let head = r#"<option><flag sensor="disable"/></option>"#;
+        let tail = r#"<sensor><jointpos joint="j"/></sensor>"#;
+        let m = load(&model(head, BODIES, tail));
+        assert!(matches!(m.sensors[0].kind, SensorKind::Unsupported { .. }));
     }
 }
