@@ -1,6 +1,6 @@
 //! `<sensor>`: every MuJoCo sensor element is read, checked as MuJoCo's
-//! compiler checks it (known objects of the right kind, cutoff and noise
-//! >= 0) and laid out with MuJoCo's size. Those [`crate::model::sensor`]
+//! compiler checks it (known objects of the right kind, non-negative cutoff
+//! and noise) and laid out with MuJoCo's size. Those [`crate::model::sensor`]
 //! computes become their [`SensorKind`]; the others (touch, rangefinder,
 //! tendon, actuator, limit, contact, distance, energy, clock, user sensors,
 //! frame sensors on cameras, and any sensor whose readings are delayed or

@@ -62,6 +62,8 @@ impl<'a> Reader<'a> {
 
 #[cfg(test)]
 mod tests {
+    use std::f64::consts::FRAC_1_SQRT_2;
+
     use super::super::test_util::*;
 
     #[test]
@@ -83,7 +85,7 @@ mod tests {
         assert_close(m.sites[0].pos.as_slice(), &[1.0, 2.0, 3.0], 0.0);
         // MuJoCo 4.0.0's site_pos and site_quat.
         assert_close(m.sites[1].pos.as_slice(), &[0.0, 0.0, 0.5], 0.0);
-        let z90 = [0.7071067811865476, 0.0, 0.0, 0.7071067811865475];
+        let z90 = [FRAC_1_SQRT_2, 0.0, 0.0, 0.7071067811865475];
         assert_close(&quat_of(&m.sites[1].rot), &z90, 1e-15);
         assert_close(m.sites[2].pos.as_slice(), &[0.15, 0.0, 0.2], 1e-16);
         let fromto = [0.31622776601683794, 0.0, -0.9486832980505138, 0.0];
