@@ -44,9 +44,9 @@ impl Model {
     }
 
     /// The readings of every sensor (MuJoCo's sensordata, laid out by
-    /// [`Model::sensor_layout`]) at (q, v) under generalized forces tau (no
-    /// actuator controls: an actuator's own force is not part of tau).
-    /// Fails on a sensor that is read but not computed, naming it.
+    /// [`Model::sensor_layout`]) at (q, v) under generalized forces tau
+    /// (MuJoCo's qfrc_applied) with ctrl = 0. Fails on a sensor that is read
+    /// but not computed, naming it.
     pub fn sensor_readings(
         &self,
         data: &mut Data<f64>,
@@ -54,10 +54,11 @@ impl Model {
         v: &[f64],
         tau: &[f64],
     ) -> Result<Vec<f64>, StepError> {
-        if let Some(s) = self.sensors.iter().find(|s| s.kind.dim().is_none()) {
-            let SensorKind::Unsupported { element, why } = &s.kind else {
-                unreachable!("only unsupported kinds have no size")
-            };
+        let unsupported = self.sensors.iter().find_map(|s| match &s.kind {
+            SensorKind::Unsupported { element, why } => Some((s, element, why)),
+            _ => None,
+        });
+        if let Some((s, element, why)) = unsupported {
             return Err(StepError::SensorNotComputed {
                 name: s.name.clone(),
                 element: element.clone(),
@@ -80,7 +81,7 @@ impl Model {
         let mut unused = vec![0.0; self.nv()];
         rnea_with_transforms(tree, data, v, &qdd, &mut unused);
         let bodies = Bodies::new(self, data, q, &contacts);
-        let mut out = Vec::with_capacity(self.sensor_layout().iter().map(|l| l.1).sum());
+        let mut out = Vec::with_capacity(self.sensors.iter().map(|s| s.dim).sum());
         for s in &self.sensors {
             let start = out.len();
             self.read(&bodies, (q, v), &s.kind, &mut out);
@@ -102,8 +103,8 @@ impl Model {
                     JointQuantity::Pos => out.push(q[qa]),
                     JointQuantity::Vel => out.push(v[va]),
                     JointQuantity::BallQuat => {
-                        let n = q[qa..qa + 4].iter().map(|x| x * x).sum::<f64>().sqrt();
-                        out.extend(q[qa..qa + 4].iter().map(|x| x / n));
+                        let u = normalized(&q[qa..qa + 4]);
+                        out.extend([u.w, u.i, u.j, u.k]);
                     }
                     JointQuantity::BallAngVel => out.extend_from_slice(&v[va..va + 3]),
                 }
@@ -356,6 +357,17 @@ fn quaternions(model: &Model, q: &[f64]) -> Vec<UnitQuaternion<f64>> {
         quat[i] = x;
     }
     quat
+}
+
+/// A quaternion (w, x, y, z) in q made unit as MuJoCo's mju_normalize4
+/// does: the identity if its norm is below mjMINVAL.
+fn normalized(w_xyz: &[f64]) -> UnitQuaternion<f64> {
+    let q = Quaternion::new(w_xyz[0], w_xyz[1], w_xyz[2], w_xyz[3]);
+    if q.norm() < MJ_MINVAL {
+        UnitQuaternion::identity()
+    } else {
+        UnitQuaternion::new_normalize(q)
+    }
 }
 
 /// The quaternion of a frame's orientation in its body, w >= 0 (MuJoCo
