@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 
 use diffosi::model::{
     mjcf, Actuator, Body, Geom, InertiaRule, Integrator, Joint, ModelError, Options, PassiveMode,
-    SoftOptions, Spec,
+    Site, SoftOptions, Spec,
 };
 use diffosi::Model;
 use nalgebra::{Matrix3, Rotation3};
@@ -144,9 +144,12 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         excludes,
         keyframes,
         inertia_rule,
+        sites,
+        sensors,
     } = ours;
     assert_eq!(name, &theirs.name, "{model}: model name");
     assert_eq!(keyframes, &theirs.keyframes, "{model}: keyframes");
+    assert_eq!(sensors, &theirs.sensors, "{model}: sensors");
     assert_eq!(
         (pairs, excludes),
         (&theirs.pairs, &theirs.excludes),
@@ -320,6 +323,19 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
             ),
             "{model}"
         );
+        worst.numbers(|| at("pos"), pos.as_slice(), b.pos.as_slice());
+        rebuilt.rotation(|| at("rot"), rot, &b.rot);
+    }
+    assert_eq!(sites.len(), theirs.sites.len(), "{model}: sites");
+    for (a, b) in sites.iter().zip(&theirs.sites) {
+        let Site {
+            name,
+            body,
+            pos,
+            rot,
+        } = a;
+        let at = |what: &str| format!("site '{name}' {what}");
+        assert_eq!((name, body), (&b.name, &b.body), "{model}");
         worst.numbers(|| at("pos"), pos.as_slice(), b.pos.as_slice());
         rebuilt.rotation(|| at("rot"), rot, &b.rot);
     }

@@ -270,6 +270,49 @@ impl PyModel {
         Ok(dict)
     }
 
+    /// Site names (MJCF `<site>`), in MuJoCo's order.
+    #[getter]
+    fn site_names(&self) -> Vec<String> {
+        self.model.sites.iter().map(|s| s.name.clone()).collect()
+    }
+
+    /// Sensor names, in the order of their readings (see `sensors`).
+    #[getter]
+    fn sensor_names(&self) -> Vec<String> {
+        self.model.sensors.iter().map(|s| s.name.clone()).collect()
+    }
+
+    /// Each sensor's first index in the readings (MuJoCo's sensor_adr).
+    #[getter]
+    fn sensor_adr(&self) -> Vec<usize> {
+        self.model.sensor_layout().iter().map(|l| l.0).collect()
+    }
+
+    /// Each sensor's number of readings (MuJoCo's sensor_dim).
+    #[getter]
+    fn sensor_dim(&self) -> Vec<usize> {
+        self.model.sensor_layout().iter().map(|l| l.1).collect()
+    }
+
+    /// Every sensor's readings at (q, v) under generalized forces tau, as
+    /// MuJoCo's sensordata after mj_forward (ctrl = 0): a 1-D array laid out
+    /// by `sensor_adr` and `sensor_dim`. A sensor type that is read but not
+    /// computed raises ValueError naming it.
+    fn sensors<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        v: &Bound<'py, PyAny>,
+        tau: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let (q, v, tau) = self.state(q, v, tau)?;
+        let readings = self
+            .model
+            .sensor_readings(&mut self.data, &q, &v, &tau)
+            .map_err(|e| PyValueError::new_err(format!("sensors: {e}")))?;
+        Ok(PyArray1::from_vec(py, readings))
+    }
+
     /// Names of every identifiable parameter.
     fn param_names(&self) -> Vec<String> {
         self.model.param_names()

@@ -9,6 +9,7 @@
 
 mod edit;
 mod fluid;
+mod sensors;
 mod simulate;
 mod tree;
 
@@ -69,6 +70,8 @@ impl Model {
             excludes: vec![],
             keyframes: vec![],
             inertia_rule: InertiaRule::Triangle,
+            sites: vec![],
+            sensors: vec![],
         })
     }
 

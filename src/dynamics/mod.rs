@@ -40,7 +40,7 @@ pub use kinematics::{
 pub use ltdl::{ltdl_factor, ltdl_inverse, ltdl_solve, ltdl_solve_columns};
 pub use passive::{passive_forces, stretch};
 pub use rnea::{bias_forces, bias_forces_with_transforms, rnea, rnea_with_transforms};
-pub use step::{acceleration, check_inputs, step, Constrained, StepError};
+pub use step::{acceleration, check_colliders, check_inputs, step, Constrained, StepError};
 pub use tree::{BodyFrame, NodeJoint, Tree};
 
 use crate::spatial::{ArticulatedInertia, Force, Inertia, Motion, Real, Transform};

@@ -53,6 +53,14 @@ pub enum StepError {
          yet (their identification with modelled constraints is)"
     )]
     NoFluidDerivatives,
+    /// A sensor of a kind that is read but not computed
+    /// ([`crate::model::SensorKind::Unsupported`]).
+    #[error("sensor '{name}' (<{element}>) cannot be evaluated: {why}")]
+    SensorNotComputed {
+        name: String,
+        element: String,
+        why: String,
+    },
     /// The next state is finite but a Jacobian block overflowed.
     #[error("the step Jacobian {block} is not finite (state, forces or parameters too large)")]
     JacobianNotFinite { block: &'static str },
@@ -100,15 +108,7 @@ pub fn step<T: Real>(
             });
         }
     }
-    if tree.opt.contact_model == ContactModel::Constraint
-        && tree.constraint.pairs.iter().any(|p| !p.supported)
-    {
-        update_transforms(tree, data, q);
-        world_frames(tree, data, v);
-        if let Some(pair) = unreachable_pair(tree, data) {
-            return Err(StepError::NoCollider(pair));
-        }
-    }
+    check_colliders(tree, data, (q, v))?;
     let (state, next) = ((q, v, tau), (&mut *q_next, &mut *v_next));
     let opt = &tree.opt;
     match tableau(opt.integrator) {
@@ -120,6 +120,25 @@ pub fn step<T: Real>(
     } else {
         Err(StepError::Diverged)
     }
+}
+
+/// Under the constraint model, refuses a state at which two geoms whose
+/// shapes have no collider are within reach (their contact would be missed).
+pub fn check_colliders<T: Real>(
+    tree: &Tree<T>,
+    data: &mut Data<T>,
+    (q, v): (&[T], &[T]),
+) -> Result<(), StepError> {
+    if tree.opt.contact_model == ContactModel::Constraint
+        && tree.constraint.pairs.iter().any(|p| !p.supported)
+    {
+        update_transforms(tree, data, q);
+        world_frames(tree, data, v);
+        if let Some(pair) = unreachable_pair(tree, data) {
+            return Err(StepError::NoCollider(pair));
+        }
+    }
+    Ok(())
 }
 
 /// Checks that q has length nq, v and tau nv, and all are finite.

@@ -34,6 +34,7 @@ pub mod geom_inertia;
 mod keyframe;
 pub mod mjcf;
 pub mod params;
+pub mod sensor;
 mod state;
 pub mod urdf;
 mod xml;
@@ -45,6 +46,7 @@ pub use constraint::{
 };
 pub use keyframe::Keyframe;
 pub use params::{MapEntry, Param, ParamError, ParamMap};
+pub use sensor::{FrameObject, FrameQuantity, JointQuantity, Sensor, SensorKind, SiteQuantity};
 pub use state::State;
 
 /// Errors from building, loading or editing a model.
@@ -236,6 +238,17 @@ pub struct Geom {
     pub contact: GeomContact,
 }
 
+/// A site: a frame fixed to a body, where sensors sit (MJCF `<site>`). Its
+/// origin `pos` and axes `rot` (columns) are in the body's frame; its shape
+/// and size are visual only and not kept.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Site {
+    pub name: String,
+    pub body: usize,
+    pub pos: Vector3<f64>,
+    pub rot: Rotation3<f64>,
+}
+
 /// How velocities and positions advance over one timestep.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Integrator {
@@ -419,6 +432,10 @@ pub struct Spec {
     pub keyframes: Vec<Keyframe>,
     /// Which body inertias are accepted ([`check_inertial`]).
     pub inertia_rule: InertiaRule,
+    /// Frames on bodies (MJCF `<site>`), and what the model measures
+    /// (`<sensor>`); neither changes the dynamics.
+    pub sites: Vec<Site>,
+    pub sensors: Vec<Sensor>,
 }
 
 /// Which inertia tensors a model accepts, beyond finite, symmetric and
@@ -573,6 +590,20 @@ impl Spec {
         let nbody = self.bodies.len();
         if self.excludes.iter().flatten().any(|b| *b >= nbody) {
             return bad("an excluded body pair names a body that does not exist".into());
+        }
+
+        for s in &self.sites {
+            let finite = s
+                .pos
+                .iter()
+                .chain(s.rot.matrix().iter())
+                .all(|x| x.is_finite());
+            if s.body >= nbody || !finite {
+                return bad(format!("site '{}' has a bad body or pose", s.name));
+            }
+        }
+        for s in &self.sensors {
+            s.check(self).map_err(ModelError::NotPhysical)?;
         }
 
         for a in &self.actuators {

@@ -36,6 +36,7 @@ impl<'a> Reader<'a> {
             }
         }
         self.read_geoms(tree, &members, 0, true, false)?;
+        self.read_sites(tree, &members, 0)?;
         self.read_child_bodies(tree, &members, 0, true)
     }
 
@@ -111,6 +112,7 @@ impl<'a> Reader<'a> {
         let inertial = self.explicit_inertial(node)?;
         let geoms_count = self.compiler.inertia_from_geom == FromGeom::True || inertial.is_none();
         let parts = self.read_geoms(tree, &members, index, is_static, geoms_count)?;
+        self.read_sites(tree, &members, index)?;
         let principal = self.body_inertial(node, inertial, &parts)?;
         let pos = a.vector("pos")?.unwrap_or_default();
         tree.bodies.push(Body {

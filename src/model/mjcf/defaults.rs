@@ -1,6 +1,6 @@
 //! Default classes.
 //!
-//! A class holds the `<joint>`, `<geom>` and actuator elements of its
+//! A class holds the `<joint>`, `<geom>`, `<site>` and actuator elements of its
 //! `<default>` and of every enclosing one; see [`Attrs`] for how an attribute
 //! is resolved through them. A short list of numbers (`size`, `friction`,
 //! `gear`, ...) overwrites only the leading entries of the inherited one. An
@@ -11,15 +11,17 @@ use super::attributes::{value, Attrs};
 use super::schema::{
     check_attributes, check_default_attributes, ACTUATOR_KINDS, DEFAULT_TENDON_ONLY_ATTRS,
     FIXED_TENDON_ATTRS, GENERAL_ONLY_ATTRS, GEOM_ATTRS, JOINT_ATTRS, MOTOR_ATTRS, PAIR_ATTRS,
+    SITE_ATTRS,
 };
 use super::{children, elements, tag, unrecognized, Node, Reader, Result};
 
-/// A default class: its joint, geom and actuator elements and those of every
+/// A default class: its joint, geom, site and actuator elements and those of every
 /// enclosing class, outermost first.
 #[derive(Clone, Default)]
 pub struct Class<'a> {
     pub joint: Vec<Node<'a>>,
     pub geom: Vec<Node<'a>>,
+    pub site: Vec<Node<'a>>,
     pub pair: Vec<Node<'a>>,
     pub actuator: Vec<Node<'a>>,
     pub tendon: Vec<Node<'a>>,
@@ -28,7 +30,7 @@ pub struct Class<'a> {
 /// Default elements that only set up elements we ignore or reject anyway.
 #[rustfmt::skip]
 const INERT_DEFAULTS: &[&str] = &[
-    "mesh", "material", "site", "camera", "light", "equality",
+    "mesh", "material", "camera", "light", "equality",
 ];
 
 impl<'a> Reader<'a> {
@@ -67,6 +69,10 @@ impl<'a> Reader<'a> {
             "geom" => {
                 check_default_attributes(file, child, GEOM_ATTRS)?;
                 class.geom.push(child);
+            }
+            "site" => {
+                check_default_attributes(file, child, SITE_ATTRS)?;
+                class.site.push(child);
             }
             "pair" => {
                 check_default_attributes(file, child, PAIR_ATTRS)?;

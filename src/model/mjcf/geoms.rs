@@ -107,7 +107,7 @@ impl<'a> Reader<'a> {
     /// MuJoCo's `fromto`: the geom sits midway, its z axis along from - to, its
     /// half-length half the distance (`size[1]` for capsules and cylinders,
     /// `size[2]` with `size[1] = size[0]` for boxes and ellipsoids).
-    fn fromto_frame(
+    pub(super) fn fromto_frame(
         &self,
         node: Node<'a>,
         kind: &str,

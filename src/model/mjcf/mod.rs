@@ -5,17 +5,18 @@
 //! autolimits, settotalmass, boundmass, boundinertia, balanceinertia),
 //! `<option>` (timestep, gravity, integrator, the solver's cone, impratio and
 //! iterations, the medium's density, viscosity and wind, and `<flag>`s: see
-//! `options.rs`), `<default>` classes for joints, geoms, pairs, tendons and
-//! actuators, `<worldbody>` with nested `<body>`, `<joint>` (hinge, slide,
+//! `options.rs`), `<default>` classes for joints, geoms, sites, pairs, tendons
+//! and actuators, `<worldbody>` with nested `<body>`, `<joint>` (hinge, slide,
 //! ball, free) and `<freejoint>`, `<inertial>`, `<geom>` (plane, sphere,
 //! capsule, cylinder, box, ellipsoid, with their contact settings),
 //! `<contact>` (`<pair>` and `<exclude>`), `<actuator>` `<motor>`/`<general>`
-//! on hinges and slides, and `<custom>`'s `diffosi:` settings (the contact
-//! model, the smooth model's constants). The medium's forces are MuJoCo's
+//! on hinges and slides, `<site>` and `<sensor>` (`sites.rs`, `sensors.rs`:
+//! every sensor type laid out, the common ones computed), and `<custom>`'s
+//! `diffosi:` settings (the contact model, the smooth model's constants). The medium's forces are MuJoCo's
 //! inertia-box model (`dynamics/fluid.rs`).
 //!
 //! Ignored, since they do not change the dynamics: visual, asset (textures,
-//! materials), size, statistic, sensor, other custom data, site, camera,
+//! materials), size, statistic, other custom data, camera,
 //! light, skin, the looks of geoms and tendons (rgba, material, group,
 //! width), `<compiler>`'s meshdir, texturedir and assetdir, fixed tendons
 //! that only measure, and the solver settings that only tune how the answer
@@ -75,6 +76,8 @@ mod keyframes;
 mod options;
 mod orientation;
 mod schema;
+mod sensors;
+mod sites;
 mod tendons;
 #[cfg(test)]
 mod test_util;
@@ -128,7 +131,9 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
     reader.scale_total_mass(&mut tree);
     let mut actuators = reader.read_actuators(&tree, root)?;
     tree::fill_names(&mut actuators, "actuator", |a| &mut a.name);
-    let (bodies, joints, geoms) = tree.finish();
+    let mut sensors = reader.read_sensors(&tree, root)?;
+    tree::fill_names(&mut sensors, "sensor", |s| &mut s.name);
+    let (bodies, joints, geoms, sites) = tree.finish();
     let body_names: Vec<&str> = bodies.iter().map(|b| b.name.as_str()).collect();
     let (pairs, excludes) = reader.read_contact(root, &geoms, &body_names)?;
     let name = root
@@ -146,6 +151,8 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
         excludes,
         keyframes: vec![],
         inertia_rule: InertiaRule::Triangle,
+        sites,
+        sensors,
     };
     spec.keyframes = reader.read_keyframes(root, &spec)?;
     Ok(spec)
@@ -295,7 +302,7 @@ mod tests {
     fn empty_sections_and_ignored_elements_load() {
         let head = r#"<default><tendon/></default><visual/><size nstack="10"/>"#;
         let bodies = format!("<light/>{}", body("<camera/><site/>"));
-        let tail = r#"<tendon/><equality/><sensor><jointpos joint="x"/></sensor>
+        let tail = r#"<tendon/><equality/><sensor><clock/></sensor>
                       <contact/><deformable><skin vertex="0 0 0 1 0 0 0 1 0" face="0 1 2"/></deformable>"#;
         assert_eq!(load(&model(head, &bodies, tail)).nv(), 1);
     }

@@ -74,6 +74,16 @@ pub const GEOM_ATTRS: &[&str] = &[
     "zaxis", "euler", "hfield", "mesh", "fitscale", "rgba", "fluidshape", "fluidcoef", "user",
 ];
 #[rustfmt::skip]
+pub const SITE_ATTRS: &[&str] = &[
+    "name", "class", "type", "group", "pos", "quat", "axisangle", "xyaxes", "zaxis", "euler",
+    "material", "size", "fromto", "rgba", "user",
+];
+/// Attributes of every sensor element.
+#[rustfmt::skip]
+pub const SENSOR_ATTRS: &[&str] = &[
+    "name", "nsample", "interp", "delay", "interval", "cutoff", "noise", "user",
+];
+#[rustfmt::skip]
 pub const PAIR_ATTRS: &[&str] = &[
     "name", "class", "geom1", "geom2", "condim", "friction", "solref", "solreffriction", "solimp",
     "gap", "margin",

@@ -2,19 +2,19 @@
 //! named.
 //!
 //! Numbering: bodies depth-first in document order, the world (named "world")
-//! first; joints and geoms by body, in document order within a body; actuators
-//! in document order.
+//! first; joints, geoms and sites by body, in document order within a body;
+//! actuators and sensors in document order.
 //!
 //! Names: MuJoCo leaves unnamed objects nameless; here they are named
-//! `body<i>`, `joint<i>`, `geom<i>` or `actuator<i>` after their index, with `_`
-//! appended while a named object holds that name. Actuators can only refer to
-//! joints by their names in the file.
+//! `body<i>`, `joint<i>`, `geom<i>`, `site<i>`, `actuator<i>` or `sensor<i>` after their index, with `_`
+//! appended while a named object holds that name. Actuators and sensors can
+//! only refer to objects by their names in the file.
 
 use std::collections::HashSet;
 
 use super::inertial::Principal;
 use super::{xml, Node, Result};
-use crate::model::{Body, Geom, Joint};
+use crate::model::{Body, Geom, Joint, Site};
 
 pub struct Tree<'a> {
     pub bodies: Vec<Body>,
@@ -24,8 +24,9 @@ pub struct Tree<'a> {
     pub nodes: Vec<Option<Node<'a>>>,
     pub joints: Vec<Joint>,
     pub geoms: Vec<Geom>,
+    pub sites: Vec<Site>,
     /// Explicit names taken, per [`Kind`].
-    names: [HashSet<String>; 3],
+    names: [HashSet<String>; 4],
 }
 
 /// The kinds of object whose names must differ.
@@ -34,6 +35,7 @@ pub enum Kind {
     Body = 0,
     Joint = 1,
     Geom = 2,
+    Site = 3,
 }
 
 impl<'a> Tree<'a> {
@@ -45,8 +47,10 @@ impl<'a> Tree<'a> {
             nodes: vec![None],
             joints: vec![],
             geoms: vec![],
+            sites: vec![],
             names: [
                 HashSet::from(["world".to_string()]),
+                HashSet::new(),
                 HashSet::new(),
                 HashSet::new(),
             ],
@@ -66,9 +70,9 @@ impl<'a> Tree<'a> {
         Ok(name)
     }
 
-    /// The bodies (with their final inertial properties), joints and geoms,
-    /// every one named.
-    pub fn finish(mut self) -> (Vec<Body>, Vec<Joint>, Vec<Geom>) {
+    /// The bodies (with their final inertial properties), joints, geoms and
+    /// sites, every one named.
+    pub fn finish(mut self) -> (Vec<Body>, Vec<Joint>, Vec<Geom>, Vec<Site>) {
         for (body, p) in self.bodies.iter_mut().zip(&self.inertials).skip(1) {
             body.mass = p.mass;
             body.com = p.com;
@@ -78,7 +82,8 @@ impl<'a> Tree<'a> {
         fill_names(&mut self.bodies, "body", |b| &mut b.name);
         fill_names(&mut self.joints, "joint", |j| &mut j.name);
         fill_names(&mut self.geoms, "geom", |g| &mut g.name);
-        (self.bodies, self.joints, self.geoms)
+        fill_names(&mut self.sites, "site", |s| &mut s.name);
+        (self.bodies, self.joints, self.geoms, self.sites)
     }
 }
 

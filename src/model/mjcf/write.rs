@@ -24,19 +24,24 @@
 //!   model's settings are MuJoCo's own attributes (geom and joint solver
 //!   parameters, `cone`, `impratio`, `iterations`, flags, `<contact>`).
 //!
+//! - Sites are written with their pose, sensors that are computed with
+//!   their objects' names and cutoff.
+//!
 //! What MJCF cannot express is an error ([`ModelError::Unwritable`]): implicit
 //! stiffness under Euler ([`PassiveMode::ImplicitDampingStiffness`], DART's
-//! scheme), bodies or geoms in an order the loader would renumber (bodies
-//! depth-first with children in index order, geoms grouped by body in body
-//! order), and whatever the loader, like MuJoCo, rejects in the written
-//! document (for instance a body with joints but no mass, which URDF allows).
+//! scheme), bodies, geoms or sites in an order the loader would renumber
+//! (bodies depth-first with children in index order, geoms and sites grouped
+//! by body in body order), sensors that are read but not computed, and
+//! whatever the loader, like MuJoCo, rejects in the written document (for
+//! instance a body with joints but no mass, which URDF allows).
 
 use nalgebra::{Rotation3, UnitQuaternion};
 
 use crate::model::params::inertia_to_six;
 use crate::model::{
-    Actuator, Body, Cone, ContactModel, Geom, Integrator, Joint, JointKind, ModelError, Options,
-    PassiveMode, Shape, SoftOptions, SolParams, Spec,
+    Actuator, Body, Cone, ContactModel, FrameObject, FrameQuantity, Geom, Integrator, Joint,
+    JointKind, JointQuantity, ModelError, Options, PassiveMode, SensorKind, Shape, SiteQuantity,
+    SoftOptions, SolParams, Spec,
 };
 
 /// Writes `spec` as an MJCF document, checked by reading and validating it.
@@ -70,6 +75,7 @@ fn document(spec: &Spec) -> Result<String, ModelError> {
         doc.empty(2, motor(a, &spec.joints[a.joint].name));
     }
     doc.close(1, "actuator");
+    write_sensors(&mut doc, spec)?;
     write_keyframes(&mut doc, spec);
     doc.open(1, Tag::new("custom"));
     let mut soft = spec.opt.soft;
@@ -179,6 +185,11 @@ fn write_bodies(doc: &mut Document, spec: &Spec) -> Result<(), ModelError> {
             "geoms must be grouped by body in body order, as MJCF numbers them",
         ));
     }
+    if !spec.sites.is_sorted_by_key(|s| s.body) {
+        return Err(unwritable(
+            "sites must be grouped by body in body order, as MJCF numbers them",
+        ));
+    }
     doc.open(1, Tag::new("worldbody"));
     write_geoms(doc, 2, spec, 0);
     // The bodies whose element is open, innermost last; body i's element sits
@@ -269,9 +280,108 @@ fn inertial(body: &Body) -> Tag {
     }
 }
 
+/// The geoms and sites of `body`.
 fn write_geoms(doc: &mut Document, depth: usize, spec: &Spec, body: usize) {
     for geom in spec.geoms.iter().filter(|g| g.body == body) {
         doc.empty(depth, geom_tag(geom));
+    }
+    for site in spec.sites.iter().filter(|s| s.body == body) {
+        let tag = Tag::new("site")
+            .text("name", &site.name)
+            .numbers("pos", site.pos.as_slice())
+            .numbers("quat", &quat(&site.rot));
+        doc.empty(depth, tag);
+    }
+}
+
+/// `<sensor>`: the sensors that are computed, by the names of their
+/// objects; a sensor that is only read cannot be written (what it refers to
+/// is not kept).
+fn write_sensors(doc: &mut Document, spec: &Spec) -> Result<(), ModelError> {
+    if spec.sensors.is_empty() {
+        return Ok(());
+    }
+    doc.open(1, Tag::new("sensor"));
+    for sensor in &spec.sensors {
+        let tag = match &sensor.kind {
+            SensorKind::Joint(quantity, j) => {
+                let element = match quantity {
+                    JointQuantity::Pos => "jointpos",
+                    JointQuantity::Vel => "jointvel",
+                    JointQuantity::BallQuat => "ballquat",
+                    JointQuantity::BallAngVel => "ballangvel",
+                };
+                Tag::new(element).text("joint", &spec.joints[*j].name)
+            }
+            SensorKind::Frame {
+                quantity,
+                object,
+                reference,
+            } => {
+                let element = match quantity {
+                    FrameQuantity::Pos => "framepos",
+                    FrameQuantity::Quat => "framequat",
+                    FrameQuantity::Axis(0) => "framexaxis",
+                    FrameQuantity::Axis(1) => "frameyaxis",
+                    FrameQuantity::Axis(_) => "framezaxis",
+                    FrameQuantity::LinVel => "framelinvel",
+                    FrameQuantity::AngVel => "frameangvel",
+                    FrameQuantity::LinAcc => "framelinacc",
+                    FrameQuantity::AngAcc => "frameangacc",
+                };
+                let (kind, name) = frame_object(spec, object);
+                let tag = Tag::new(element)
+                    .text("objtype", kind)
+                    .text("objname", name);
+                match reference {
+                    Some(r) => {
+                        let (kind, name) = frame_object(spec, r);
+                        tag.text("reftype", kind).text("refname", name)
+                    }
+                    None => tag,
+                }
+            }
+            SensorKind::Site(quantity, s) => {
+                let element = match quantity {
+                    SiteQuantity::Accelerometer => "accelerometer",
+                    SiteQuantity::Velocimeter => "velocimeter",
+                    SiteQuantity::Gyro => "gyro",
+                    SiteQuantity::Force => "force",
+                    SiteQuantity::Torque => "torque",
+                };
+                Tag::new(element).text("site", &spec.sites[*s].name)
+            }
+            SensorKind::SubtreeCom(b) => Tag::new("subtreecom").text("body", &spec.bodies[*b].name),
+            SensorKind::SubtreeLinVel(b) => {
+                Tag::new("subtreelinvel").text("body", &spec.bodies[*b].name)
+            }
+            SensorKind::Unsupported { element, .. } => {
+                let why = format!(
+                    "sensor '{}' (<{element}>) is read but not computed, and not kept to be written",
+                    sensor.name
+                );
+                return Err(unwritable(&why));
+            }
+        };
+        let tag = tag.text("name", &sensor.name);
+        let tag = if sensor.cutoff > 0.0 {
+            tag.number("cutoff", sensor.cutoff)
+        } else {
+            tag
+        };
+        doc.empty(2, tag);
+    }
+    doc.close(1, "sensor");
+    Ok(())
+}
+
+/// A frame sensor's objtype and objname.
+fn frame_object<'s>(spec: &'s Spec, object: &FrameObject) -> (&'static str, &'s str) {
+    match *object {
+        FrameObject::Body(b) => ("body", &spec.bodies[b].name),
+        FrameObject::XBody(b) => ("xbody", &spec.bodies[b].name),
+        FrameObject::Geom(g) => ("geom", &spec.geoms[g].name),
+        FrameObject::Site(s) => ("site", &spec.sites[s].name),
     }
 }
 

@@ -152,6 +152,8 @@ pub fn parse(text: &str, file: &str, options: &LoadOptions) -> Result<Loaded> {
         excludes: vec![],
         keyframes: vec![],
         inertia_rule: InertiaRule::SemiDefinite,
+        sites: vec![],
+        sensors: vec![],
     };
     Ok(Loaded {
         spec,

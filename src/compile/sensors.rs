@@ -1,0 +1,384 @@
+//! Sensor readings on f64 states (MuJoCo's sensordata after mj_forward);
+//! what each sensor reads is stated in [`crate::model::sensor`].
+//!
+//! The motion of every body comes from the forward dynamics at (q, v, tau):
+//! the acceleration MuJoCo's mj_forward computes (passive forces explicit;
+//! under the constraint model the solver's, which an implicit Euler step
+//! only changes afterwards), gravity entering as an upward acceleration of
+//! the world (MuJoCo's cacc). A body's interaction force with its parent
+//! (MuJoCo's cfrc_int, from mj_rnePostConstraint) sums, over its subtree,
+//! I a + v x* I v less the contact forces on each body. Under the smooth
+//! contact model, which has no MuJoCo twin, those are the smooth model's
+//! contact forces (the ones [`Model::contacts`] lists), so force and torque
+//! sensors read what the penalty forces transmit.
+
+use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
+
+use super::Model;
+use crate::dynamics::constraint::contact_forces;
+use crate::dynamics::{
+    acceleration, check_colliders, check_inputs, rnea_with_transforms, world_frames, Contact, Data,
+    StepError,
+};
+use crate::model::{
+    ContactModel, FrameObject, FrameQuantity, JointKind, JointQuantity, PassiveMode, SensorKind,
+    SiteQuantity,
+};
+use crate::spatial::{Force, Inertia, Motion, Transform};
+
+/// MuJoCo's mjMINVAL: below it a subtree has no mass.
+const MJ_MINVAL: f64 = 1e-15;
+
+impl Model {
+    /// Each sensor's first entry in the readings and its number of entries
+    /// (MuJoCo's sensor_adr and sensor_dim).
+    pub fn sensor_layout(&self) -> Vec<(usize, usize)> {
+        let mut at = 0;
+        self.sensors
+            .iter()
+            .map(|s| {
+                at += s.dim;
+                (at - s.dim, s.dim)
+            })
+            .collect()
+    }
+
+    /// The readings of every sensor (MuJoCo's sensordata, laid out by
+    /// [`Model::sensor_layout`]) at (q, v) under generalized forces tau
+    /// (MuJoCo's qfrc_applied) with ctrl = 0. Fails on a sensor that is read
+    /// but not computed, naming it.
+    pub fn sensor_readings(
+        &self,
+        data: &mut Data<f64>,
+        q: &[f64],
+        v: &[f64],
+        tau: &[f64],
+    ) -> Result<Vec<f64>, StepError> {
+        let unsupported = self.sensors.iter().find_map(|s| match &s.kind {
+            SensorKind::Unsupported { element, why } => Some((s, element, why)),
+            _ => None,
+        });
+        if let Some((s, element, why)) = unsupported {
+            return Err(StepError::SensorNotComputed {
+                name: s.name.clone(),
+                element: element.clone(),
+                why: why.clone(),
+            });
+        }
+        let tree = self.tree();
+        check_inputs(tree, (q, v, tau))?;
+        check_colliders(tree, data, (q, v))?;
+        let mut qdd = vec![0.0; self.nv()];
+        let mode = (PassiveMode::Explicit, self.opt.timestep);
+        acceleration(tree, data, mode, (q, v, tau), &mut qdd);
+        let contacts = match self.opt.contact_model {
+            ContactModel::Smooth => data.contacts.clone(),
+            ContactModel::Constraint => data.constrained.as_ref().map_or(vec![], |c| {
+                contact_forces(&c.contacts, &c.rows, &c.solution.force)
+            }),
+        };
+        world_frames(tree, data, v);
+        let mut unused = vec![0.0; self.nv()];
+        rnea_with_transforms(tree, data, v, &qdd, &mut unused);
+        let bodies = Bodies::new(self, data, q, &contacts);
+        let mut out = Vec::with_capacity(self.sensors.iter().map(|s| s.dim).sum());
+        for s in &self.sensors {
+            let start = out.len();
+            self.read(&bodies, (q, v), &s.kind, &mut out);
+            if s.cutoff > 0.0 && s.kind.clipped() {
+                for x in &mut out[start..] {
+                    *x = x.clamp(-s.cutoff, s.cutoff);
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// Appends one sensor's readings.
+    fn read(&self, b: &Bodies, (q, v): (&[f64], &[f64]), kind: &SensorKind, out: &mut Vec<f64>) {
+        match kind {
+            SensorKind::Joint(quantity, j) => {
+                let (qa, va) = self.joint_address(*j);
+                match quantity {
+                    JointQuantity::Pos => out.push(q[qa]),
+                    JointQuantity::Vel => out.push(v[va]),
+                    JointQuantity::BallQuat => {
+                        let u = normalized(&q[qa..qa + 4]);
+                        out.extend([u.w, u.i, u.j, u.k]);
+                    }
+                    JointQuantity::BallAngVel => out.extend_from_slice(&v[va..va + 3]),
+                }
+            }
+            SensorKind::Frame {
+                quantity,
+                object,
+                reference,
+            } => self.read_frame(b, *quantity, *object, *reference, out),
+            SensorKind::Site(quantity, s) => {
+                let frame = self.frame(b, FrameObject::Site(*s));
+                let body = frame.body;
+                let world = match quantity {
+                    SiteQuantity::Accelerometer => b.acceleration(body, &frame.pos).lin,
+                    SiteQuantity::Velocimeter => b.velocity(body, &frame.pos).lin,
+                    SiteQuantity::Gyro => b.velocity(body, &frame.pos).ang,
+                    SiteQuantity::Force => b.interaction[body].lin,
+                    SiteQuantity::Torque => {
+                        let f = &b.interaction[body];
+                        f.ang - frame.pos.cross(&f.lin)
+                    }
+                };
+                out.extend(frame.rot.tr_mul(&world).iter());
+            }
+            SensorKind::SubtreeCom(body) => out.extend(b.subtree(self, *body).0.iter()),
+            SensorKind::SubtreeLinVel(body) => out.extend(b.subtree(self, *body).1.iter()),
+            SensorKind::Unsupported { .. } => unreachable!("refused before evaluating"),
+        }
+    }
+
+    /// A frame sensor's readings (see [`FrameQuantity`]).
+    fn read_frame(
+        &self,
+        b: &Bodies,
+        quantity: FrameQuantity,
+        object: FrameObject,
+        reference: Option<FrameObject>,
+        out: &mut Vec<f64>,
+    ) {
+        let obj = self.frame(b, object);
+        let reference = reference.map(|r| self.frame(b, r));
+        let in_reference = |x: Vector3<f64>| match &reference {
+            Some(r) => r.rot.tr_mul(&x),
+            None => x,
+        };
+        let vector = match quantity {
+            FrameQuantity::Pos => {
+                in_reference(obj.pos - reference.as_ref().map_or(Vector3::zeros(), |r| r.pos))
+            }
+            FrameQuantity::Axis(k) => in_reference(obj.rot.column(k).into_owned()),
+            FrameQuantity::Quat => {
+                let q = match &reference {
+                    Some(r) => r.quat.conjugate() * obj.quat,
+                    None => obj.quat,
+                };
+                out.extend([q.w, q.i, q.j, q.k]);
+                return;
+            }
+            FrameQuantity::LinVel | FrameQuantity::AngVel => {
+                let mut m = b.velocity(obj.body, &obj.pos);
+                if let Some(r) = &reference {
+                    let mr = b.velocity(r.body, &r.pos);
+                    let lin = m.lin - mr.lin + (obj.pos - r.pos).cross(&mr.ang);
+                    m = Motion::new(r.rot.tr_mul(&(m.ang - mr.ang)), r.rot.tr_mul(&lin));
+                }
+                if quantity == FrameQuantity::LinVel {
+                    m.lin
+                } else {
+                    m.ang
+                }
+            }
+            FrameQuantity::LinAcc => b.acceleration(obj.body, &obj.pos).lin,
+            FrameQuantity::AngAcc => b.acceleration(obj.body, &obj.pos).ang,
+        };
+        out.extend(vector.iter());
+    }
+
+    /// Where an object's frame is at the state `b` holds.
+    fn frame(&self, b: &Bodies, object: FrameObject) -> Placed {
+        let (body, pos, rot) = match object {
+            FrameObject::XBody(i) => (i, Vector3::zeros(), Matrix3::identity()),
+            FrameObject::Body(i) => {
+                let body = &self.bodies[i];
+                (i, body.com, *body.inertia_frame.matrix())
+            }
+            FrameObject::Geom(g) => {
+                let geom = &self.geoms[g];
+                (geom.body, geom.pos, *geom.rot.matrix())
+            }
+            FrameObject::Site(s) => {
+                let site = &self.sites[s];
+                (site.body, site.pos, *site.rot.matrix())
+            }
+        };
+        let axes = b.pose[body].axes();
+        Placed {
+            body,
+            pos: b.pose[body].trans + axes * pos,
+            rot: axes * rot,
+            quat: b.quat[body] * local_quaternion(&rot),
+        }
+    }
+}
+
+/// An object's frame in world coordinates: its body, origin, axes (columns)
+/// and orientation as MuJoCo's quaternion.
+struct Placed {
+    body: usize,
+    pos: Vector3<f64>,
+    rot: Matrix3<f64>,
+    quat: UnitQuaternion<f64>,
+}
+
+/// The bodies' motion at one state (see the module documentation).
+struct Bodies {
+    /// From world to body coordinates.
+    pose: Vec<Transform<f64>>,
+    /// The orientation as MuJoCo's xquat: the parent's times the body's
+    /// own quaternion times each joint's (a free joint's alone), so that
+    /// its sign is MuJoCo's.
+    quat: Vec<UnitQuaternion<f64>>,
+    /// Velocity and acceleration in world coordinates about the world
+    /// origin (a body welded to the world has the world's: at rest,
+    /// accelerating upward by -gravity, as in MuJoCo 4.0.0).
+    vel: Vec<Motion<f64>>,
+    acc: Vec<Motion<f64>>,
+    /// The force each body receives from its parent (world coordinates,
+    /// about the world origin).
+    interaction: Vec<Force<f64>>,
+}
+
+impl Bodies {
+    /// From `data` after the forward dynamics and RNEA at the accelerations.
+    fn new(model: &Model, data: &Data<f64>, q: &[f64], contacts: &[Contact<f64>]) -> Self {
+        let tree = model.tree();
+        let n = model.bodies.len();
+        let falling = Motion::new(Vector3::zeros(), -model.opt.gravity);
+        let mut b = Bodies {
+            pose: Vec::with_capacity(n),
+            quat: quaternions(model, q),
+            vel: Vec::with_capacity(n),
+            acc: Vec::with_capacity(n),
+            interaction: Vec::with_capacity(n),
+        };
+        for frame in &tree.body {
+            let (pose, vel, acc) = match frame.node {
+                Some(k) => {
+                    let world = &data.world[k];
+                    let vel = world.inverse_apply_motion(&data.vel[k]);
+                    (
+                        frame.offset.compose(world),
+                        vel,
+                        world.inverse_apply_motion(&data.acc[k]),
+                    )
+                }
+                None => (frame.offset, Motion::zero(), falling),
+            };
+            b.pose.push(pose);
+            b.vel.push(vel);
+            b.acc.push(acc);
+        }
+        for (i, body) in model.bodies.iter().enumerate() {
+            let inertia =
+                Inertia::from_com(body.mass, &body.com, &body.inertia).to_source(&b.pose[i]);
+            let (v, a) = (b.vel[i], b.acc[i]);
+            let f = inertia.mul_motion(&a) + v.cross_force(&inertia.mul_motion(&v));
+            b.interaction.push(f);
+        }
+        for c in contacts {
+            let f = c.force();
+            let wrench = Force::new(c.torque + c.pos.cross(&f), f);
+            b.interaction[c.bodies[1]] += -wrench;
+            b.interaction[c.bodies[0]] += wrench;
+        }
+        b.interaction[0] = Force::zero();
+        for i in (1..n).rev() {
+            let f = b.interaction[i];
+            b.interaction[model.bodies[i].parent] += f;
+        }
+        b
+    }
+
+    /// The motion of body `body`'s point p (world coordinates): angular
+    /// velocity and the point's velocity.
+    fn velocity(&self, body: usize, p: &Vector3<f64>) -> Motion<f64> {
+        let v = &self.vel[body];
+        Motion::new(v.ang, v.lin + v.ang.cross(p))
+    }
+
+    /// The angular acceleration and the classical acceleration of body
+    /// `body`'s point p (world coordinates, gravity as an upward acceleration).
+    fn acceleration(&self, body: usize, p: &Vector3<f64>) -> Motion<f64> {
+        let a = &self.acc[body];
+        let v = self.velocity(body, p);
+        Motion::new(a.ang, a.lin + a.ang.cross(p) + v.ang.cross(&v.lin))
+    }
+
+    /// The centre of mass of `root`'s subtree and its linear velocity
+    /// (momentum over mass); a massless subtree's centre is the root's COM.
+    fn subtree(&self, model: &Model, root: usize) -> (Vector3<f64>, Vector3<f64>) {
+        let (mut mass, mut moment, mut momentum) = (0.0, Vector3::zeros(), Vector3::zeros());
+        let com = |i: usize| self.pose[i].trans + self.pose[i].axes() * model.bodies[i].com;
+        for (i, body) in model.bodies.iter().enumerate() {
+            let mut k = i;
+            while k != root && k != 0 {
+                k = model.bodies[k].parent;
+            }
+            if k == root {
+                mass += body.mass;
+                moment += com(i) * body.mass;
+                momentum += self.velocity(i, &com(i)).lin * body.mass;
+            }
+        }
+        let centre = if mass < MJ_MINVAL {
+            com(root)
+        } else {
+            moment / mass
+        };
+        (centre, momentum / mass.max(MJ_MINVAL))
+    }
+}
+
+/// Every body's orientation as MuJoCo's mj_kinematics composes it (see
+/// [`Bodies::quat`]).
+fn quaternions(model: &Model, q: &[f64]) -> Vec<UnitQuaternion<f64>> {
+    let mut quat = vec![UnitQuaternion::identity(); model.bodies.len()];
+    for (i, body) in model.bodies.iter().enumerate().skip(1) {
+        let mut x = quat[body.parent] * local_quaternion(body.rot.matrix());
+        for j in body.joints.clone() {
+            let joint = &model.joints[j];
+            let at = model.joint_address(j).0;
+            let stored = |at: usize| {
+                UnitQuaternion::from_quaternion(Quaternion::new(
+                    q[at],
+                    q[at + 1],
+                    q[at + 2],
+                    q[at + 3],
+                ))
+            };
+            match joint.kind {
+                JointKind::Free => x = stored(at + 3),
+                JointKind::Ball => x *= stored(at),
+                JointKind::Hinge => {
+                    let axis = nalgebra::Unit::new_unchecked(joint.axis);
+                    x *= UnitQuaternion::from_axis_angle(&axis, q[at] - joint.reference);
+                }
+                JointKind::Slide => {}
+            }
+        }
+        quat[i] = x;
+    }
+    quat
+}
+
+/// A quaternion (w, x, y, z) in q made unit as MuJoCo's mju_normalize4
+/// does: the identity if its norm is below mjMINVAL.
+fn normalized(w_xyz: &[f64]) -> UnitQuaternion<f64> {
+    let q = Quaternion::new(w_xyz[0], w_xyz[1], w_xyz[2], w_xyz[3]);
+    if q.norm() < MJ_MINVAL {
+        UnitQuaternion::identity()
+    } else {
+        UnitQuaternion::new_normalize(q)
+    }
+}
+
+/// The quaternion of a frame's orientation in its body, w >= 0 (MuJoCo
+/// keeps the sign a file's `quat` gives, so a file quaternion with w < 0
+/// gives framequat readings of the opposite sign: the same rotation).
+fn local_quaternion(rot: &Matrix3<f64>) -> UnitQuaternion<f64> {
+    let r = nalgebra::Rotation3::from_matrix_unchecked(*rot);
+    let q = UnitQuaternion::from_rotation_matrix(&r);
+    if q.w < 0.0 {
+        UnitQuaternion::new_unchecked(-q.into_inner())
+    } else {
+        q
+    }
+}

@@ -1,0 +1,178 @@
+//! Sensors: what a model measures, as MuJoCo 4 defines it (MJCF
+//! `<sensor>`). A sensor never changes the dynamics.
+//!
+//! The readings of all sensors form one vector (MuJoCo's sensordata): the
+//! sensors in document order, each taking [`Sensor::dim`] consecutive
+//! entries. They are taken at the state as MuJoCo's mj_forward leaves it:
+//! positions and velocities as given, accelerations and forces those of the
+//! forward dynamics (the constraint solver's, with passive forces explicit).
+//! Conventions are MuJoCo's:
+//! - a frame sensor reads an object's frame ([`FrameObject`]) in world
+//!   coordinates, or relative to a reference object's frame (position and
+//!   axes in its coordinates, the quaternion conj(q_ref) q_obj, velocities
+//!   relative to its motion);
+//! - accelerometer, velocimeter and gyro read the site's linear
+//!   acceleration, velocity and angular velocity in the site's axes; the
+//!   accelerometer includes gravity as an upward acceleration (at rest it
+//!   reads -g, also on a site welded to the world, where velocimeter and
+//!   gyro read zero);
+//! - force and torque read the force and moment (about the site) that the
+//!   site's body receives from its parent, in the site's axes: everything
+//!   that moves the body's subtree (inertia and gravity) less the contact
+//!   forces acting on it (MuJoCo's cfrc_int);
+//! - `cutoff` > 0 clips each real-valued reading to [-cutoff, cutoff]
+//!   (quaternions and axes are not clipped); `noise` is never applied
+//!   (mj_forward does not).
+
+use super::{JointKind, Spec};
+
+/// A frame a frame sensor can read (MJCF objtype and reftype).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FrameObject {
+    /// A body's inertial frame: origin at its COM, axes its
+    /// `inertia_frame` (MJCF "body").
+    Body(usize),
+    /// A body's own frame (MJCF "xbody").
+    XBody(usize),
+    Geom(usize),
+    Site(usize),
+}
+
+/// What a frame sensor reads of its object.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FrameQuantity {
+    /// The origin (3).
+    Pos,
+    /// The orientation as a quaternion (w, x, y, z) (4).
+    Quat,
+    /// One axis (0: x, 1: y, 2: z) (3).
+    Axis(usize),
+    /// The origin's linear velocity, the angular velocity (3 each).
+    LinVel,
+    AngVel,
+    /// The origin's linear acceleration (gravity included, as the
+    /// accelerometer's), the angular acceleration; world axes (3 each).
+    LinAcc,
+    AngAcc,
+}
+
+/// What a joint sensor reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum JointQuantity {
+    /// A hinge's or slide's position, velocity (1 each).
+    Pos,
+    Vel,
+    /// A ball's normalised quaternion (4), its angular velocity (3).
+    BallQuat,
+    BallAngVel,
+}
+
+/// What a sensor on a site reads (3 each).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SiteQuantity {
+    Accelerometer,
+    Velocimeter,
+    Gyro,
+    Force,
+    Torque,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum SensorKind {
+    Joint(JointQuantity, usize),
+    Frame {
+        quantity: FrameQuantity,
+        object: FrameObject,
+        reference: Option<FrameObject>,
+    },
+    Site(SiteQuantity, usize),
+    /// The centre of mass of a body's subtree (3), and its linear velocity
+    /// (total momentum over total mass, 3).
+    SubtreeCom(usize),
+    SubtreeLinVel(usize),
+    /// A sensor that is read and laid out but not computed: its MJCF
+    /// element and why.
+    Unsupported {
+        element: String,
+        why: String,
+    },
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sensor {
+    pub name: String,
+    pub kind: SensorKind,
+    /// Its number of entries in the readings.
+    pub dim: usize,
+    /// 0: no clipping (see the module documentation).
+    pub cutoff: f64,
+}
+
+impl SensorKind {
+    /// The number of readings of a computed kind (None: unsupported, whose
+    /// reader knows its size).
+    pub fn dim(&self) -> Option<usize> {
+        Some(match self {
+            SensorKind::Joint(JointQuantity::Pos | JointQuantity::Vel, _) => 1,
+            SensorKind::Joint(JointQuantity::BallQuat, _) => 4,
+            SensorKind::Frame {
+                quantity: FrameQuantity::Quat,
+                ..
+            } => 4,
+            SensorKind::Unsupported { .. } => return None,
+            _ => 3,
+        })
+    }
+
+    /// Whether `cutoff` clips its readings (MuJoCo's real-valued data, not
+    /// quaternions and axes).
+    pub fn clipped(&self) -> bool {
+        !matches!(
+            self,
+            SensorKind::Joint(JointQuantity::BallQuat, _)
+                | SensorKind::Frame {
+                    quantity: FrameQuantity::Quat | FrameQuantity::Axis(_),
+                    ..
+                }
+        )
+    }
+}
+
+impl Sensor {
+    /// Checks that the sensor refers to objects of `spec` of the right kind
+    /// and that its size and cutoff are consistent.
+    pub fn check(&self, spec: &Spec) -> Result<(), String> {
+        let bad = |what: &str| Err(format!("sensor '{}': {what}", self.name));
+        if !(self.cutoff.is_finite() && self.cutoff >= 0.0) {
+            return bad("cutoff must be finite and >= 0");
+        }
+        if self.kind.dim().is_some_and(|d| d != self.dim) {
+            return bad("its dimension does not match its kind");
+        }
+        let frame_ok = |f: &FrameObject| match *f {
+            FrameObject::Body(b) | FrameObject::XBody(b) => b < spec.bodies.len(),
+            FrameObject::Geom(g) => g < spec.geoms.len(),
+            FrameObject::Site(s) => s < spec.sites.len(),
+        };
+        let ok = match &self.kind {
+            SensorKind::Joint(quantity, j) => spec.joints.get(*j).is_some_and(|j| {
+                let ball = j.kind == JointKind::Ball;
+                let one_dof = j.kind.nv() == 1;
+                match quantity {
+                    JointQuantity::Pos | JointQuantity::Vel => one_dof,
+                    JointQuantity::BallQuat | JointQuantity::BallAngVel => ball,
+                }
+            }),
+            SensorKind::Frame {
+                object, reference, ..
+            } => frame_ok(object) && reference.as_ref().is_none_or(frame_ok),
+            SensorKind::Site(_, s) => *s < spec.sites.len(),
+            SensorKind::SubtreeCom(b) | SensorKind::SubtreeLinVel(b) => *b < spec.bodies.len(),
+            SensorKind::Unsupported { .. } => true,
+        };
+        if !ok {
+            return bad("it refers to an object that does not exist or has the wrong kind");
+        }
+        Ok(())
+    }
+}
