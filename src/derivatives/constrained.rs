@@ -27,7 +27,7 @@ use num_dual::Dual64;
 
 use super::step::Wrt;
 use crate::dynamics::configuration::{integrate, multiply, Coordinates};
-use crate::dynamics::{step, Data, StepError, Tree};
+use crate::dynamics::{step_applied, Data, StepError, Tree};
 use crate::model::Param;
 use crate::Model;
 
@@ -170,7 +170,7 @@ fn dual_step(
     }
     let (vd, td) = (lift(v, n), lift(tau, 2 * n));
     let (mut q1, mut v1) = (vec![Dual64::from(0.0); q.len()], vec![Dual64::from(0.0); n]);
-    step(tree, data, (&qd, &vd, &td), (&mut q1, &mut v1))?;
+    step_applied(tree, data, (&qd, &vd, &td), (&mut q1, &mut v1))?;
     let eps = |x: &[Dual64]| DVector::from_iterator(n, x.iter().map(|d| d.eps));
     Ok((tangent_slope(tree, &q1), eps(&v1)))
 }

@@ -37,12 +37,7 @@ impl Reader<'_> {
             Some(name) => name,
             None => self.attr(transmission, "name")?,
         };
-        Ok(Actuator {
-            name: name.to_string(),
-            joint,
-            gear,
-            ctrl_range,
-        })
+        Ok(Actuator::motor(name.to_string(), joint, gear, ctrl_range))
     }
 
     /// The dof of the one `<joint>` a transmission drives.
