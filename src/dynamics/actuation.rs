@@ -58,6 +58,12 @@ impl ActuatorTerm {
     /// The scalar force at joint coordinate x, velocity xd, control c and
     /// activation a (its rate `rate`), clamped to the force range.
     fn force<T: Real>(&self, (x, xd): (T, T), (c, a, rate): (T, T, T), h: f64) -> T {
+        clamp(self.raw_force((x, xd), (c, a, rate), h).0, self.law.force_range)
+    }
+
+    /// The scalar force before clamping, and its derivative in the joint
+    /// velocity xd (the velocity terms of gain and bias, times gear).
+    fn raw_force<T: Real>(&self, (x, xd): (T, T), (c, a, rate): (T, T, T), h: f64) -> (T, T) {
         let gear: T = lift(self.law.gear);
         let (length, velocity) = (gear * x, gear * xd);
         let affine = |p: [f64; 3]| lift::<T>(p[0]) + lift::<T>(p[1]) * length + lift::<T>(p[2]) * velocity;
@@ -70,11 +76,16 @@ impl ActuatorTerm {
             (Some(_), false) => a,
             (Some(_), true) => self.next_act(a, rate, h),
         };
-        let bias = match self.law.bias {
-            Bias::None => T::zero(),
-            Bias::Affine(p) => affine(p),
+        let (bias, bias_v) = match self.law.bias {
+            Bias::None => (T::zero(), 0.0),
+            Bias::Affine(p) => (affine(p), p[2]),
         };
-        clamp(gain * input + bias, self.law.force_range)
+        let gain_v = match self.law.gain {
+            Gain::Fixed(_) => 0.0,
+            Gain::Affine(p) => p[2],
+        };
+        let slope = (lift::<T>(gain_v) * input + lift(bias_v)) * gear;
+        (gain * input + bias, slope)
     }
 }
 
@@ -116,6 +127,34 @@ impl ActuatorTerm {
             Bias::Affine(p) => fixed(p),
         };
         self.act.is_none() && gain && bias
+    }
+}
+
+/// Adds the derivative of the actuators' generalized forces in v at (q, v,
+/// ctrl, act) to `diagonal` (nv): a joint actuator's force moves with its
+/// own dof's velocity only, by gear^2 (gain_v w + bias_v) (gain_v, bias_v
+/// the velocity coefficients of an affine gain and bias, w its control or
+/// activation), and not at all while its force range clamps it. This is
+/// MuJoCo's actuator term of qDeriv (mjd_actuator_vel), which its implicit
+/// and implicitfast integrators take implicitly (Euler does not);
+/// `rates` as in [`add_actuator_forces`].
+pub fn add_force_velocity_derivatives<T: Real>(
+    actuators: &[ActuatorTerm],
+    h: f64,
+    (q, v): (&[T], &[T]),
+    (ctrl, act, rates): (&[T], &[T], &[T]),
+    diagonal: &mut [T],
+) {
+    for (i, a) in actuators.iter().enumerate() {
+        let (current, rate) = match a.act {
+            Some(k) => (act.get(k).copied().unwrap_or(T::zero()), rates[k]),
+            None => (T::zero(), T::zero()),
+        };
+        let inputs = (a.control(ctrl, i), current, rate);
+        let (force, slope) = a.raw_force((q[a.q_at], v[a.dof]), inputs, h);
+        if clamp(force, a.law.force_range) == force {
+            diagonal[a.dof] += lift::<T>(a.law.gear) * slope;
+        }
     }
 }
 
@@ -166,5 +205,51 @@ pub fn next_acts<T: Real>(actuators: &[ActuatorTerm], h: f64, (act, rates): (&[T
             let current = act.get(k).copied().unwrap_or(T::zero());
             out[k] = a.next_act(current, rates[k], h);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Model;
+    use num_dual::Dual64;
+
+    const XML: &str = r#"<mujoco><compiler autolimits="true"/><worldbody>
+      <body><joint name="a" axis="0 1 0"/><geom size="0.1"/>
+        <body pos="0.3 0 0"><joint name="b" type="slide"/><geom size="0.1"/></body></body>
+      </worldbody><actuator>
+        <position joint="a" kp="20" kv="2" gear="1.5"/>
+        <general joint="b" gaintype="affine" gainprm="1 0.5 -0.7" biastype="affine"
+                 biasprm="0 -1 -0.3" dyntype="filter" dynprm="0.2" actearly="true"/>
+        <velocity joint="b" kv="4" forcerange="-0.1 0.1"/>
+      </actuator></mujoco>"#;
+
+    /// The velocity derivative equals the dual-number slope of the forces in v,
+    /// and a clamped force (the velocity servo) contributes nothing.
+    #[test]
+    fn velocity_derivative_is_the_forces_slope() {
+        let model = Model::from_mjcf(XML, "t.xml").unwrap();
+        let tree = model.tree();
+        let (q, ctrl, act) = ([0.3, -0.1], [0.4, 0.9, 2.0], [0.25]);
+        let v = [0.7, -1.2];
+        let mut rates = [0.0];
+        act_rates(&tree.actuators, (&ctrl[..], &act[..]), &mut rates);
+        let mut diagonal = [0.0; 2];
+        let inputs = (&ctrl[..], &act[..], &rates[..]);
+        add_force_velocity_derivatives(&tree.actuators, 0.01, (&q, &v), inputs, &mut diagonal);
+        for dof in 0..2 {
+            let lift = |x: &[f64]| x.iter().map(|&x| Dual64::from(x)).collect::<Vec<_>>();
+            let mut vd = lift(&v);
+            vd[dof].eps = 1.0;
+            let (cd, ad, rd) = (lift(&ctrl), lift(&act), lift(&rates));
+            let mut force = lift(&[0.0, 0.0]);
+            add_actuator_forces(&tree.actuators, 0.01, (&lift(&q), &vd), (&cd, &ad, &rd), &mut force);
+            assert!((force[dof].eps - diagonal[dof]).abs() < 1e-14, "dof {dof}");
+        }
+        // Position servo: -kv gear^2. The general: its gain slope times its early
+        // activation 0.25 + 0.01 (0.9 - 0.25) / 0.2, plus its bias slope (gear 1).
+        assert!((diagonal[0] + 2.0 * 1.5 * 1.5).abs() < 1e-14);
+        let early = 0.25 + 0.01 * (0.9 - 0.25) / 0.2;
+        assert!((diagonal[1] - (-0.7 * early - 0.3)).abs() < 1e-14);
     }
 }
