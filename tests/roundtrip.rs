@@ -283,7 +283,13 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         } = a;
         assert_eq!(
             (name, joint, ctrl_range, force_range, act_range),
-            (&b.name, &b.joint, &b.ctrl_range, &b.force_range, &b.act_range),
+            (
+                &b.name,
+                &b.joint,
+                &b.ctrl_range,
+                &b.force_range,
+                &b.act_range
+            ),
             "{model}"
         );
         assert_eq!(

@@ -283,7 +283,11 @@ impl PyModel {
     /// Actuator names, in the order of ctrl.
     #[getter]
     fn actuator_names(&self) -> Vec<String> {
-        self.model.actuators.iter().map(|a| a.name.clone()).collect()
+        self.model
+            .actuators
+            .iter()
+            .map(|a| a.name.clone())
+            .collect()
     }
 
     /// Steps from (q0, v0) under each row of taus (shape (T, nv)) and of
@@ -329,16 +333,26 @@ impl PyModel {
         let (model, data) = (&self.model, &mut self.data);
         // Other Python threads run while this one steps.
         py.detach(|| {
-            let mut x = State { q: q0, v: v0, act: act0 };
+            let mut x = State {
+                q: q0,
+                v: v0,
+                act: act0,
+            };
             for t in 0..=steps {
-                qs.row_mut(t).assign(&numpy::ndarray::ArrayView1::from(&x.q));
-                vs.row_mut(t).assign(&numpy::ndarray::ArrayView1::from(&x.v));
-                acts.row_mut(t).assign(&numpy::ndarray::ArrayView1::from(&x.act));
+                qs.row_mut(t)
+                    .assign(&numpy::ndarray::ArrayView1::from(&x.q));
+                vs.row_mut(t)
+                    .assign(&numpy::ndarray::ArrayView1::from(&x.v));
+                acts.row_mut(t)
+                    .assign(&numpy::ndarray::ArrayView1::from(&x.act));
                 if t == steps {
                     break;
                 }
                 let row = |m: &Array2<f64>| m.row(t).to_vec();
-                let u = Inputs { ctrl: row(&ctrls), tau: row(&taus) };
+                let u = Inputs {
+                    ctrl: row(&ctrls),
+                    tau: row(&taus),
+                };
                 x = model
                     .step_inputs(data, &x, &u)
                     .map_err(|e| format!("rollout step {t}: {e}"))?;

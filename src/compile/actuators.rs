@@ -17,7 +17,11 @@ pub(super) fn resolve_damp_ratios(spec: &mut Spec, tree: &Tree<f64>) -> bool {
         }
         _ => None,
     };
-    if !spec.actuators.iter().any(|a| has_ratio(a.gain, a.bias).is_some()) {
+    if !spec
+        .actuators
+        .iter()
+        .any(|a| has_ratio(a.gain, a.bias).is_some())
+    {
         return false;
     }
     let mut data = Data::new(tree);

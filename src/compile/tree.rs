@@ -9,11 +9,11 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::fluid::fluid_bodies;
+use crate::dynamics::actuation::ActuatorTerm;
 use crate::dynamics::collision::{collision_pairs, CollisionPair, GeomFrame};
 use crate::dynamics::configuration::Coordinates;
 use crate::dynamics::constraint::{invweight0, Limit};
 use crate::dynamics::contact::{contact_pairs, Pair, Soft};
-use crate::dynamics::actuation::ActuatorTerm;
 use crate::dynamics::{BodyFrame, NodeJoint, Tree};
 use crate::model::params::inertia_to_six;
 use crate::model::{Body, ContactModel, Joint, JointKind, Param, Spec};

@@ -12,16 +12,21 @@
 //! from dual numbers through the generic actuation code (one actuator at a
 //! time: it reads its joint's q and v, its ctrl and its act). The same holds
 //! under RK4 when F is the same at every stage (no activation, no length
-//! or velocity terms); other actuators under RK4 are refused for now.
+//! or velocity terms); with other actuators under RK4 every block comes
+//! from dual numbers through the whole actuated step (one step per column,
+//! positions in the tangent space as module `constrained` seeds them).
 //! Where a clamp (ctrl, force or act range) is active the derivative is the
 //! clamped side's, zero.
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 use num_dual::Dual64;
 
+use super::constrained::{tangent_slope, DualTrees};
 use super::step::{applied_jacobians, StepJacobians, Workspace, Wrt};
+use crate::dynamics::configuration::integrate;
 use crate::dynamics::integrator::tableau;
-use crate::dynamics::{check_actuation, check_inputs, StepError};
+use crate::dynamics::{check_actuation, check_inputs, step_actuated, StepError};
+use crate::model::Param;
 use crate::Model;
 
 /// A step's Jacobians with the actuators' blocks: `step` holds d(q', v') in
@@ -58,7 +63,7 @@ pub fn input_jacobians(
     check_actuation(tree, (ctrl, act))?;
     let runge_kutta = tableau(model.opt.integrator).is_some();
     if runge_kutta && !tree.actuators.iter().all(|a| a.state_independent()) {
-        return Err(StepError::NoActuatorDerivatives);
+        return dual_jacobians(model, ws, (q, v, act), (ctrl, tau), wrt);
     }
     let (n, nu, na) = (model.nv(), model.nu(), model.na());
     let h = model.opt.timestep;
@@ -105,7 +110,11 @@ pub fn input_jacobians(
             dact_dctrl[(k, i)] = dnext[2];
         }
     }
-    let step = if wrt.control { step } else { step.without_tau() };
+    let step = if wrt.control {
+        step
+    } else {
+        step.without_tau()
+    };
     Ok(InputJacobians {
         step,
         act_next,
@@ -114,4 +123,153 @@ pub fn input_jacobians(
         dact_dact,
         dact_dctrl,
     })
+}
+
+/// Every block by dual numbers through [`step_actuated`]: columns (q, v,
+/// act) if the state is asked for, tau if control is, ctrl, then the
+/// parameters; the value from the plain step.
+fn dual_jacobians(
+    model: &Model,
+    ws: &mut Workspace,
+    (q, v, act): (&[f64], &[f64], &[f64]),
+    (ctrl, tau): (&[f64], &[f64]),
+    wrt: &Wrt,
+) -> Result<InputJacobians, StepError> {
+    let (n, nu, na) = (model.nv(), model.nu(), model.na());
+    let zeros_if_empty = |x: &[f64], len: usize| {
+        if x.is_empty() {
+            vec![0.0; len]
+        } else {
+            x.to_vec()
+        }
+    };
+    let (act, ctrl) = (zeros_if_empty(act, na), zeros_if_empty(ctrl, nu));
+    let mut next = (vec![0.0; model.nq()], vec![0.0; n], vec![0.0; na]);
+    let out = (&mut next.0[..], &mut next.1[..], &mut next.2[..]);
+    step_actuated(model.tree(), &mut ws.data, (q, v, &act), (&ctrl, tau), out)?;
+    // An input column is an index into (q's tangent, v, act, tau, ctrl).
+    let ranges = [
+        (wrt.state, 0..2 * n + na),
+        (wrt.control, 2 * n + na..3 * n + na),
+    ];
+    let mut inputs: Vec<usize> = ranges
+        .into_iter()
+        .filter(|(on, _)| *on)
+        .flat_map(|(_, r)| r)
+        .collect();
+    inputs.extend(3 * n + na..3 * n + na + nu);
+    let params = wrt
+        .params
+        .iter()
+        .flat_map(|p| (0..p.size()).map(move |k| (*p, k)));
+    let seeds: Vec<Seed> = inputs
+        .into_iter()
+        .map(|i| (Some(i), None))
+        .chain(params.map(|p| (None, Some(p))))
+        .collect();
+    let mut columns = DMatrix::zeros(2 * n + na, seeds.len());
+    let point = Point {
+        q,
+        v,
+        act: &act,
+        tau,
+        ctrl: &ctrl,
+    };
+    for (col, &seed) in seeds.iter().enumerate() {
+        let slope = dual_column(model, &mut ws.duals, &point, seed)?;
+        columns.set_column(col, &slope);
+    }
+    // Columns: state (q, v | act), tau, ctrl, params; rows q', v' | act'.
+    let n_state = if wrt.state { 2 * n } else { 0 };
+    let n_act = if wrt.state { na } else { 0 };
+    let n_tau = if wrt.control { n } else { 0 };
+    let ctrl_at = n_state + n_act + n_tau;
+    let n_p = seeds.len() - ctrl_at - nu;
+    let x_rows = columns.rows(0, 2 * n);
+    let mut jacobian = DMatrix::zeros(2 * n, n_state + n_tau + n_p);
+    jacobian
+        .columns_mut(0, n_state)
+        .copy_from(&x_rows.columns(0, n_state));
+    let (tau_at, p_at) = (n_state + n_act, ctrl_at + nu);
+    jacobian
+        .columns_mut(n_state, n_tau)
+        .copy_from(&x_rows.columns(tau_at, n_tau));
+    jacobian
+        .columns_mut(n_state + n_tau, n_p)
+        .copy_from(&x_rows.columns(p_at, n_p));
+    let act_rows = columns.rows(2 * n, na);
+    let dact_dact = if wrt.state {
+        act_rows.columns(n_state, na).clone_owned()
+    } else {
+        DMatrix::zeros(na, na)
+    };
+    let dx_dact = if wrt.state {
+        x_rows.columns(n_state, na).clone_owned()
+    } else {
+        DMatrix::zeros(2 * n, na)
+    };
+    Ok(InputJacobians {
+        step: StepJacobians::assemble((next.0, next.1), jacobian, wrt)?,
+        act_next: next.2,
+        dx_dact,
+        dx_dctrl: x_rows.columns(ctrl_at, nu).clone_owned(),
+        dact_dact,
+        dact_dctrl: act_rows.columns(ctrl_at, nu).clone_owned(),
+    })
+}
+
+/// An input seeded with 1 (an index into the inputs of [`dual_jacobians`])
+/// or a parameter's scalar.
+type Seed = (Option<usize>, Option<(Param, usize)>);
+
+/// The point a dual column is taken at.
+struct Point<'a> {
+    q: &'a [f64],
+    v: &'a [f64],
+    act: &'a [f64],
+    tau: &'a [f64],
+    ctrl: &'a [f64],
+}
+
+/// The slopes (q' in the tangent space, v', act') of one dual step along `seed`.
+fn dual_column(
+    model: &Model,
+    duals: &mut DualTrees,
+    x: &Point,
+    seed: Seed,
+) -> Result<DVector<f64>, StepError> {
+    let (n, na) = (model.nv(), model.na());
+    let (tree, data) = duals.get(model, seed.1);
+    let lift = |values: &[f64], offset: usize| -> Vec<Dual64> {
+        let slope = |i: usize| f64::from(seed.0 == Some(offset + i));
+        values
+            .iter()
+            .enumerate()
+            .map(|(i, &xi)| Dual64::new(xi, slope(i)))
+            .collect()
+    };
+    let plain: Vec<Dual64> = x.q.iter().map(|&xi| Dual64::from(xi)).collect();
+    let mut qd = plain.clone();
+    if seed.0.is_some_and(|s| s < n) {
+        // q (+) eps e_k for a seed in q's tangent.
+        integrate(
+            tree,
+            &plain,
+            &lift(&vec![0.0; n], 0),
+            Dual64::from(1.0),
+            &mut qd,
+        );
+    }
+    let (vd, actd) = (lift(x.v, n), lift(x.act, 2 * n));
+    let (taud, ctrld) = (lift(x.tau, 2 * n + na), lift(x.ctrl, 3 * n + na));
+    let zero = Dual64::from(0.0);
+    let (mut q1, mut v1, mut a1) = (vec![zero; x.q.len()], vec![zero; n], vec![zero; na]);
+    let next = (&mut q1[..], &mut v1[..], &mut a1[..]);
+    step_actuated(tree, data, (&qd, &vd, &actd), (&ctrld, &taud), next)?;
+    let q_slope = tangent_slope(tree, &q1);
+    let rest = v1.iter().chain(&a1).map(|d| d.eps);
+    Ok(DVector::from_iterator(
+        2 * n + na,
+        q_slope.iter().copied().chain(rest),
+    ))
 }

@@ -51,7 +51,7 @@ pub(super) type InvweightSlopes = (Vec<[f64; 2]>, Vec<f64>);
 
 impl DualTrees {
     /// The tree seeded along `seed` and the workspace.
-    fn get(
+    pub(super) fn get(
         &mut self,
         model: &Model,
         seed: Option<(Param, usize)>,
@@ -176,7 +176,7 @@ fn dual_step(
 }
 
 /// The tangent-space slope of dual positions q (see the module docs).
-fn tangent_slope(tree: &Tree<Dual64>, q: &[Dual64]) -> DVector<f64> {
+pub(super) fn tangent_slope(tree: &Tree<Dual64>, q: &[Dual64]) -> DVector<f64> {
     let mut out = DVector::zeros(tree.nv());
     for (i, joint) in tree.joint.iter().enumerate() {
         out[i] = match joint.coordinates {

@@ -12,6 +12,7 @@ use super::params::{mass_product_derivative, residual_derivative};
 use super::rnea::{rnea_derivatives, Sweep};
 use super::soft::{subtract_soft_derivatives, Columns};
 use super::window::WindowScratch;
+use crate::dynamics::actuation::idle_without_inputs;
 use crate::dynamics::cholesky;
 use crate::dynamics::constraint::solver::add_quadratic_rows;
 use crate::dynamics::integrator::{euler, tableau, weighted_sum, ImplicitPassive, Tableau};
@@ -20,7 +21,6 @@ use crate::dynamics::{
     acceleration, check_inputs, crba, implicit_terms, integrate_euler, ltdl_factor, ltdl_inverse,
     ltdl_solve_columns, rnea, rnea_with_transforms, step_applied,
 };
-use crate::dynamics::actuation::idle_without_inputs;
 use crate::dynamics::{Constrained, Data, StepError};
 use crate::model::{Param, PassiveMode};
 use crate::Model;
@@ -182,7 +182,7 @@ pub struct Workspace {
     /// What the window evaluation keeps between transitions.
     pub(super) window: WindowScratch,
     /// The constraint model's dual-number trees, per model.
-    duals: DualTrees,
+    pub(super) duals: DualTrees,
 }
 
 impl Workspace {
@@ -306,16 +306,28 @@ pub(super) fn applied_jacobians(
     if !q_next.iter().chain(&v_next).all(|x| x.is_finite()) {
         return Err(StepError::Diverged);
     }
-    let columns = block_columns(n, jacobian.ncols(), wrt);
-    let out = StepJacobians {
-        q_next,
-        v_next,
-        jacobian,
-        columns,
-    };
-    match out.not_finite() {
-        Some(block) => Err(StepError::JacobianNotFinite { block }),
-        None => Ok(out),
+    StepJacobians::assemble((q_next, v_next), jacobian, wrt)
+}
+
+impl StepJacobians {
+    /// The next state with its Jacobian, columns the blocks of `wrt` in
+    /// order; an error naming the first block that is not finite.
+    pub(super) fn assemble(
+        (q_next, v_next): (Vec<f64>, Vec<f64>),
+        jacobian: DMatrix<f64>,
+        wrt: &Wrt,
+    ) -> Result<StepJacobians, StepError> {
+        let columns = block_columns(v_next.len(), jacobian.ncols(), wrt);
+        let out = StepJacobians {
+            q_next,
+            v_next,
+            jacobian,
+            columns,
+        };
+        match out.not_finite() {
+            Some(block) => Err(StepError::JacobianNotFinite { block }),
+            None => Ok(out),
+        }
     }
 }
 

@@ -58,7 +58,10 @@ impl ActuatorTerm {
     /// The scalar force at joint coordinate x, velocity xd, control c and
     /// activation a (its rate `rate`), clamped to the force range.
     fn force<T: Real>(&self, (x, xd): (T, T), (c, a, rate): (T, T, T), h: f64) -> T {
-        clamp(self.raw_force((x, xd), (c, a, rate), h).0, self.law.force_range)
+        clamp(
+            self.raw_force((x, xd), (c, a, rate), h).0,
+            self.law.force_range,
+        )
     }
 
     /// The scalar force before clamping, and its derivative in the joint
@@ -66,7 +69,8 @@ impl ActuatorTerm {
     fn raw_force<T: Real>(&self, (x, xd): (T, T), (c, a, rate): (T, T, T), h: f64) -> (T, T) {
         let gear: T = lift(self.law.gear);
         let (length, velocity) = (gear * x, gear * xd);
-        let affine = |p: [f64; 3]| lift::<T>(p[0]) + lift::<T>(p[1]) * length + lift::<T>(p[2]) * velocity;
+        let affine =
+            |p: [f64; 3]| lift::<T>(p[0]) + lift::<T>(p[1]) * length + lift::<T>(p[2]) * velocity;
         let gain = match self.law.gain {
             Gain::Fixed(g) => lift(g),
             Gain::Affine(p) => affine(p),
@@ -97,7 +101,9 @@ pub fn idle_without_inputs(actuators: &[ActuatorTerm]) -> bool {
         let law = &a.law;
         law.bias == Bias::None
             && a.act.is_none()
-            && law.force_range.is_none_or(|(lo, hi)| lo <= 0.0 && 0.0 <= hi)
+            && law
+                .force_range
+                .is_none_or(|(lo, hi)| lo <= 0.0 && 0.0 <= hi)
     })
 }
 
@@ -110,7 +116,11 @@ impl ActuatorTerm {
         let c = clamp(c, self.law.ctrl_range);
         let rate = self.rate(c, a);
         let force = lift::<T>(self.law.gear) * self.force((x, xd), (c, a, rate), h);
-        let next = if self.act.is_some() { self.next_act(a, rate, h) } else { a };
+        let next = if self.act.is_some() {
+            self.next_act(a, rate, h)
+        } else {
+            a
+        };
         (force, next)
     }
 
@@ -192,14 +202,23 @@ pub fn add_actuator_forces<T: Real>(
             Some(k) => (act.get(k).copied().unwrap_or(T::zero()), rates[k]),
             None => (T::zero(), T::zero()),
         };
-        let f = a.force((q[a.q_at], v[a.dof]), (a.control(ctrl, i), current, rate), h);
+        let f = a.force(
+            (q[a.q_at], v[a.dof]),
+            (a.control(ctrl, i), current, rate),
+            h,
+        );
         force[a.dof] += lift::<T>(a.law.gear) * f;
     }
 }
 
 /// The activations after a step h from act at `rates` (MuJoCo's
 /// nextActivation for each).
-pub fn next_acts<T: Real>(actuators: &[ActuatorTerm], h: f64, (act, rates): (&[T], &[T]), out: &mut [T]) {
+pub fn next_acts<T: Real>(
+    actuators: &[ActuatorTerm],
+    h: f64,
+    (act, rates): (&[T], &[T]),
+    out: &mut [T],
+) {
     for a in actuators {
         if let Some(k) = a.act {
             let current = act.get(k).copied().unwrap_or(T::zero());
@@ -243,7 +262,13 @@ mod tests {
             vd[dof].eps = 1.0;
             let (cd, ad, rd) = (lift(&ctrl), lift(&act), lift(&rates));
             let mut force = lift(&[0.0, 0.0]);
-            add_actuator_forces(&tree.actuators, 0.01, (&lift(&q), &vd), (&cd, &ad, &rd), &mut force);
+            add_actuator_forces(
+                &tree.actuators,
+                0.01,
+                (&lift(&q), &vd),
+                (&cd, &ad, &rd),
+                &mut force,
+            );
             assert!((force[dof].eps - diagonal[dof]).abs() < 1e-14, "dof {dof}");
         }
         // Position servo: -kv gear^2. The general: its gain slope times its early

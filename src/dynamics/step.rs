@@ -52,11 +52,11 @@ pub enum StepError {
          yet (their identification with modelled constraints is)"
     )]
     NoFluidDerivatives,
-    /// Step Jacobians under RK4 of actuators whose force moves within a
-    /// step (activations, length or velocity terms) are not written yet.
+    /// The residuals with unknown constraints of models whose actuators act
+    /// at zero control (servos, activations) are not written yet.
     #[error(
-        "step Jacobians under RK4 with actuators whose force depends on the state (activation \
-         dynamics, position or velocity gains) are not supported yet; use Euler"
+        "identification with unknown constraints of models whose actuators act at zero control \
+         (position or velocity servos, activations) is not supported yet"
     )]
     NoActuatorDerivatives,
     /// The next state is finite but a Jacobian block overflowed.
@@ -119,7 +119,11 @@ pub fn step_actuated<T: Real>(
     if act_next.len() != expected {
         let got = act_next.len();
         let name = "act_next";
-        return Err(StepError::Length { name, got, expected });
+        return Err(StepError::Length {
+            name,
+            got,
+            expected,
+        });
     }
     let idle = ctrl.is_empty() && act.is_empty() && idle_without_inputs(&tree.actuators);
     if idle {
@@ -142,9 +146,22 @@ pub fn step_actuated<T: Real>(
             }
             (data.actuated, data.act_rate) = (total, rate);
         }
-        Some(t) => runge_kutta(tree, (t, h), data, (q, v), (ctrl, Some(act), tau), next, act_next),
+        Some(t) => runge_kutta(
+            tree,
+            (t, h),
+            data,
+            (q, v),
+            (ctrl, Some(act), tau),
+            next,
+            act_next,
+        ),
     }
-    if q_next.iter().chain(v_next.iter()).chain(act_next.iter()).all(|x| x.is_finite()) {
+    if q_next
+        .iter()
+        .chain(v_next.iter())
+        .chain(act_next.iter())
+        .all(|x| x.is_finite())
+    {
         Ok(())
     } else {
         Err(StepError::Diverged)
@@ -186,10 +203,7 @@ fn prepare<T: Real>(
     (nq_next, nv_next): (usize, usize),
 ) -> Result<(), StepError> {
     check_inputs(tree, (q, v, tau))?;
-    let lengths = [
-        ("q_next", nq_next, q.len()),
-        ("v_next", nv_next, v.len()),
-    ];
+    let lengths = [("q_next", nq_next, q.len()), ("v_next", nv_next, v.len())];
     for (name, got, expected) in lengths {
         if got != expected {
             return Err(StepError::Length {
@@ -225,7 +239,10 @@ pub fn check_inputs<T: Real>(
 
 /// Checks that ctrl has length nu and act na (either may be empty: zero),
 /// and both are finite.
-pub fn check_actuation<T: Real>(tree: &Tree<T>, (ctrl, act): (&[T], &[T])) -> Result<(), StepError> {
+pub fn check_actuation<T: Real>(
+    tree: &Tree<T>,
+    (ctrl, act): (&[T], &[T]),
+) -> Result<(), StepError> {
     check("ctrl", ctrl, if ctrl.is_empty() { 0 } else { tree.nu() })?;
     check("act", act, if act.is_empty() { 0 } else { tree.na })
 }

@@ -279,7 +279,8 @@ impl Actuator {
             ActDynamics::Filter(t) | ActDynamics::FilterExact(t) => t,
             _ => 0.0,
         };
-        if !prm(self.gain).iter().chain(&bias).all(|x| x.is_finite()) || !(tau >= 0.0) {
+        let finite = prm(self.gain).iter().chain(&bias).all(|x| x.is_finite());
+        if !finite || tau.is_nan() || tau < 0.0 {
             return Err("gain, bias and time constant must be finite (tau >= 0)".into());
         }
         let ranges = [
@@ -289,8 +290,10 @@ impl Actuator {
         ];
         for (name, range) in ranges {
             if let Some((lo, hi)) = range {
-                if !(lo < hi) || !lo.is_finite() || !hi.is_finite() {
-                    return Err(format!("{name} must be finite and increasing, got ({lo}, {hi})"));
+                if lo >= hi || !lo.is_finite() || !hi.is_finite() {
+                    return Err(format!(
+                        "{name} must be finite and increasing, got ({lo}, {hi})"
+                    ));
                 }
             }
         }

@@ -197,7 +197,9 @@ impl<'a> Reader<'a> {
         };
         let non_negative = |name: &str, default: Option<f64>| -> Result<Option<f64>> {
             match own.number(name)?.or(default) {
-                Some(x) if x < 0.0 => Err(self.error(a.element, format!("{name} cannot be negative"))),
+                Some(x) if x < 0.0 => {
+                    Err(self.error(a.element, format!("{name} cannot be negative")))
+                }
                 x => Ok(x),
             }
         };
@@ -206,7 +208,11 @@ impl<'a> Reader<'a> {
             "velocity" => {
                 let kv = non_negative("kv", Some(1.0))?.unwrap_or(1.0);
                 let bias = Bias::Affine([0.0, 0.0, -kv]);
-                Law { gain: Gain::Fixed(kv), bias, ..Law::MOTOR }
+                Law {
+                    gain: Gain::Fixed(kv),
+                    bias,
+                    ..Law::MOTOR
+                }
             }
             "damper" => {
                 let kv = non_negative("kv", Some(0.0))?.unwrap_or(0.0);
@@ -266,7 +272,17 @@ impl<'a> Reader<'a> {
             let keys = [
                 ("gaintype", &["fixed", "affine", "muscle", "user"][..]),
                 ("biastype", &["none", "affine", "muscle", "user"][..]),
-                ("dyntype", &["none", "integrator", "filter", "filterexact", "muscle", "user"][..]),
+                (
+                    "dyntype",
+                    &[
+                        "none",
+                        "integrator",
+                        "filter",
+                        "filterexact",
+                        "muscle",
+                        "user",
+                    ][..],
+                ),
             ];
             for (t, (key, allowed)) in types.iter_mut().zip(keys) {
                 *t = own.keyword(key, allowed)?.unwrap_or(t);
@@ -290,7 +306,13 @@ impl<'a> Reader<'a> {
             "filterexact" => ActDynamics::FilterExact(dynprm),
             other => return refuse(format!("dyntype \"{other}\" is not supported")),
         };
-        Ok(Law { gain, bias, dynamics, act_early, inherit_range: 0.0 })
+        Ok(Law {
+            gain,
+            bias,
+            dynamics,
+            act_early,
+            inherit_range: 0.0,
+        })
     }
 }
 

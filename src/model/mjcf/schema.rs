@@ -91,7 +91,14 @@ pub fn actuator_attributes(kind: &str) -> Option<Vec<&'static str>> {
         "motor" => &[],
         "general" => GENERAL_ONLY_ATTRS,
         "position" => &["kp", "kv", "dampratio", "timeconst", "inheritrange"],
-        "intvelocity" => &["kp", "kv", "dampratio", "timeconst", "inheritrange", "actrange"],
+        "intvelocity" => &[
+            "kp",
+            "kv",
+            "dampratio",
+            "timeconst",
+            "inheritrange",
+            "actrange",
+        ],
         "velocity" | "damper" => &["kv"],
         _ => return None,
     };

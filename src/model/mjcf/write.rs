@@ -35,8 +35,8 @@ use nalgebra::{Rotation3, UnitQuaternion};
 
 use crate::model::params::inertia_to_six;
 use crate::model::{
-    ActDynamics, Actuator, Bias, Body, Cone, Gain, ContactModel, Geom, Integrator, Joint, JointKind, ModelError, Options,
-    PassiveMode, Shape, SoftOptions, SolParams, Spec,
+    ActDynamics, Actuator, Bias, Body, Cone, ContactModel, Gain, Geom, Integrator, Joint,
+    JointKind, ModelError, Options, PassiveMode, Shape, SoftOptions, SolParams, Spec,
 };
 
 /// Writes `spec` as an MJCF document, checked by reading and validating it.
