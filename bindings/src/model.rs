@@ -380,6 +380,7 @@ impl PyModel {
     /// (na x n, zero), dact_dact (na x na) and dact_dctrl (na x nu):
     /// mjd_transitionFD's A and B in blocks.
     #[pyo3(signature = (q, v, tau, params = None, ctrl = None, act = None))]
+    #[allow(clippy::too_many_arguments)]
     fn step_jacobians<'py>(
         &mut self,
         py: Python<'py>,
