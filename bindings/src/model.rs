@@ -314,9 +314,10 @@ impl PyModel {
             self.model.na(),
         );
         let steps = taus.nrows();
+        // No ctrls: empty rows, zero controls.
         let ctrls = match ctrls {
             Some(c) => matrix(c, "ctrls", nu, "nu")?,
-            None => Array2::zeros((steps, nu)),
+            None => Array2::zeros((steps, 0)),
         };
         if ctrls.nrows() != steps {
             return Err(PyValueError::new_err(format!(
@@ -324,7 +325,10 @@ impl PyModel {
                 ctrls.nrows()
             )));
         }
-        let (_, act0) = self.actuation(None, act0)?;
+        let act0 = match act0 {
+            Some(a) => vector(a, "act0", na, "na")?,
+            None => vec![0.0; na],
+        };
         let (mut qs, mut vs, mut acts) = (
             Array2::zeros((steps + 1, nq)),
             Array2::zeros((steps + 1, nv)),
@@ -577,7 +581,8 @@ impl PyModel {
     }
 
     /// Converts and checks (q, v, tau).
-    /// ctrl (nu) and act (na), zeros where None.
+    /// ctrl (nu) and act (na); empty where None, which the engine reads as
+    /// zeros (a step without them is the plain step, bit for bit).
     fn actuation(
         &self,
         ctrl: Option<&Bound<'_, PyAny>>,
@@ -586,7 +591,7 @@ impl PyModel {
         let (nu, na) = (self.model.nu(), self.model.na());
         let read = |x: Option<&Bound<'_, PyAny>>, name, n, what| match x {
             Some(x) => vector(x, name, n, what),
-            None => Ok(vec![0.0; n]),
+            None => Ok(vec![]),
         };
         Ok((read(ctrl, "ctrl", nu, "nu")?, read(act, "act", na, "na")?))
     }
