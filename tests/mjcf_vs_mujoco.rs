@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 mod common;
 
 use common::gym_assets;
-use diffosi::model::{Integrator, JointKind, PassiveMode, Shape};
+use diffosi::model::{Gain, Integrator, JointKind, PassiveMode, Shape};
 use diffosi::Model;
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 use serde_json::Value;
@@ -281,8 +281,11 @@ fn compare(model: &Model, g: &Value) -> [(&'static str, Worst); 5] {
             a.name
         );
         let at = |what: &str| format!("actuator {} {what}", a.name);
-        let torque_per_control = f(&e["gear"]) * f(&e["gain"]);
-        actuators.scalar(&at("gear"), a.gear, torque_per_control, f64::MIN_POSITIVE);
+        actuators.scalar(&at("gear"), a.gear, f(&e["gear"]), f64::MIN_POSITIVE);
+        let gain = match a.gain {
+            Gain::Fixed(g) | Gain::Affine([g, _, _]) => g,
+        };
+        actuators.scalar(&at("gainprm[0]"), gain, f(&e["gain"]), f64::MIN_POSITIVE);
         assert_eq!(
             a.ctrl_range.is_some(),
             e["ctrllimited"] == true,

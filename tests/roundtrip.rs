@@ -288,10 +288,27 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
             joint,
             gear,
             ctrl_range,
+            force_range,
+            act_range,
+            gain,
+            bias,
+            dynamics,
+            act_early,
         } = a;
         assert_eq!(
-            (name, joint, ctrl_range),
-            (&b.name, &b.joint, &b.ctrl_range),
+            (name, joint, ctrl_range, force_range, act_range),
+            (
+                &b.name,
+                &b.joint,
+                &b.ctrl_range,
+                &b.force_range,
+                &b.act_range
+            ),
+            "{model}"
+        );
+        assert_eq!(
+            (gain, bias, dynamics, act_early),
+            (&b.gain, &b.bias, &b.dynamics, &b.act_early),
             "{model}"
         );
         worst.number(|| format!("actuator '{name}' gear"), *gear, b.gear);

@@ -2,12 +2,13 @@
 //! rollouts, step Jacobians and contacts, for Python.
 
 use engine::derivatives::{
-    step_jacobians, transition_jacobians, TransitionJacobians, Workspace, Wrt,
+    input_jacobians, step_jacobians, transition_jacobians, TransitionJacobians, Workspace, Wrt,
 };
 use engine::dynamics::{body_contact_forces, Contact, Data};
 use engine::model::urdf::LoadOptions;
-use engine::model::{ContactModel, Integrator, Param, PassiveMode};
+use engine::model::{ContactModel, Inputs, Integrator, Param, PassiveMode, State};
 use engine::Model;
+use nalgebra::DMatrix;
 use numpy::ndarray::Array2;
 use numpy::{PyArray1, PyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyKeyError, PyUserWarning, PyValueError};
@@ -342,70 +343,149 @@ impl PyModel {
         Ok(())
     }
 
-    /// One step from (q, v) under generalized forces tau; returns (q1, v1).
+    /// One step as MuJoCo's mj_step: from (q, v) and activations act
+    /// (length na; zeros if None) under generalized forces tau and actuator
+    /// controls ctrl (length nu; zeros if None). Returns (q1, v1), and
+    /// (q1, v1, act1) for a model with activations (na > 0).
+    #[pyo3(signature = (q, v, tau, ctrl = None, act = None))]
     fn step<'py>(
         &mut self,
         py: Python<'py>,
         q: &Bound<'py, PyAny>,
         v: &Bound<'py, PyAny>,
         tau: &Bound<'py, PyAny>,
+        ctrl: Option<&Bound<'py, PyAny>>,
+        act: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyTuple>> {
         let (q, v, tau) = self.state(q, v, tau)?;
-        let (q1, v1) = self
+        let (ctrl, act) = self.actuation(ctrl, act)?;
+        let x = State { q, v, act };
+        let u = Inputs { ctrl, tau };
+        let next = self
             .model
-            .step(&mut self.data, &q, &v, &tau)
+            .step_inputs(&mut self.data, &x, &u)
             .map_err(|e| PyValueError::new_err(format!("step: {e}")))?;
-        PyTuple::new(py, [PyArray1::from_vec(py, q1), PyArray1::from_vec(py, v1)])
+        let mut out = vec![
+            PyArray1::from_vec(py, next.q),
+            PyArray1::from_vec(py, next.v),
+        ];
+        if self.model.na() > 0 {
+            out.push(PyArray1::from_vec(py, next.act));
+        }
+        PyTuple::new(py, out)
     }
 
-    /// Steps from (q0, v0) under each row of taus (shape (T, nv)); returns the
-    /// visited states as arrays of shapes (T+1, nq) and (T+1, nv).
+    /// Number of activation states (actuators with dynamics).
+    #[getter]
+    fn na(&self) -> usize {
+        self.model.na()
+    }
+
+    /// Actuator names, in the order of ctrl.
+    #[getter]
+    fn actuator_names(&self) -> Vec<String> {
+        self.model
+            .actuators
+            .iter()
+            .map(|a| a.name.clone())
+            .collect()
+    }
+
+    /// Steps from (q0, v0) under each row of taus (shape (T, nv)) and of
+    /// ctrls (shape (T, nu); zeros if None), from activations act0 (na;
+    /// zeros if None); returns the visited states as arrays of shapes
+    /// (T+1, nq) and (T+1, nv), and (T+1, na) for a model with activations.
+    #[pyo3(signature = (q0, v0, taus, ctrls = None, act0 = None))]
     fn rollout<'py>(
         &mut self,
         py: Python<'py>,
         q0: &Bound<'py, PyAny>,
         v0: &Bound<'py, PyAny>,
         taus: &Bound<'py, PyAny>,
+        ctrls: Option<&Bound<'py, PyAny>>,
+        act0: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyTuple>> {
         let q0 = vector(q0, "q0", self.model.nq(), "nq")?;
         let v0 = vector(v0, "v0", self.model.nv(), "nv")?;
         let taus = matrix(taus, "taus", self.model.nv(), "nv")?;
-        let (nq, nv) = (self.model.nq(), self.model.nv());
+        let (nq, nv, nu, na) = (
+            self.model.nq(),
+            self.model.nv(),
+            self.model.nu(),
+            self.model.na(),
+        );
         let steps = taus.nrows();
-        let (mut qs, mut vs) = (
+        // No ctrls: empty rows, zero controls.
+        let ctrls = match ctrls {
+            Some(c) => matrix(c, "ctrls", nu, "nu")?,
+            None => Array2::zeros((steps, 0)),
+        };
+        if ctrls.nrows() != steps {
+            return Err(PyValueError::new_err(format!(
+                "ctrls has {} rows and taus {steps}: one each per step",
+                ctrls.nrows()
+            )));
+        }
+        let act0 = match act0 {
+            Some(a) => vector(a, "act0", na, "na")?,
+            None => vec![0.0; na],
+        };
+        let (mut qs, mut vs, mut acts) = (
             Array2::zeros((steps + 1, nq)),
             Array2::zeros((steps + 1, nv)),
+            Array2::zeros((steps + 1, na)),
         );
         let (model, data) = (&self.model, &mut self.data);
         // Other Python threads run while this one steps.
         py.detach(|| {
-            let (mut q, mut v) = (q0, v0);
+            let mut x = State {
+                q: q0,
+                v: v0,
+                act: act0,
+            };
             for t in 0..=steps {
-                qs.row_mut(t).assign(&numpy::ndarray::ArrayView1::from(&q));
-                vs.row_mut(t).assign(&numpy::ndarray::ArrayView1::from(&v));
+                qs.row_mut(t)
+                    .assign(&numpy::ndarray::ArrayView1::from(&x.q));
+                vs.row_mut(t)
+                    .assign(&numpy::ndarray::ArrayView1::from(&x.v));
+                acts.row_mut(t)
+                    .assign(&numpy::ndarray::ArrayView1::from(&x.act));
                 if t == steps {
                     break;
                 }
-                let tau = taus.row(t);
-                let tau = tau.as_slice().expect("rows of a standard-layout array");
-                (q, v) = model
-                    .step(data, &q, &v, tau)
+                let row = |m: &Array2<f64>| m.row(t).to_vec();
+                let u = Inputs {
+                    ctrl: row(&ctrls),
+                    tau: row(&taus),
+                };
+                x = model
+                    .step_inputs(data, &x, &u)
                     .map_err(|e| format!("rollout step {t}: {e}"))?;
             }
             Ok::<(), String>(())
         })
         .map_err(PyValueError::new_err)?;
-        let qs = PyArray2::from_owned_array(py, qs);
-        let vs = PyArray2::from_owned_array(py, vs);
-        PyTuple::new(py, [qs, vs])
+        let mut out = vec![
+            PyArray2::from_owned_array(py, qs),
+            PyArray2::from_owned_array(py, vs),
+        ];
+        if na > 0 {
+            out.push(PyArray2::from_owned_array(py, acts));
+        }
+        PyTuple::new(py, out)
     }
 
     /// One step with its exact Jacobians: a dict of 2-D float64 arrays
     /// dq_dq, dq_dv, dv_dq, dv_dv (n x n), dq_dtau, dv_dtau (n x n) and
     /// dq_dp, dv_dp (n x total length of `params`, columns in the order of
     /// the flattened parameters); n = nv, positions in the tangent space
-    /// (see `transition_jacobians`).
-    #[pyo3(signature = (q, v, tau, params = None))]
+    /// (see `transition_jacobians`). For a model with actuators, at controls
+    /// ctrl (nu) and activations act (na), zeros where None, also dq_dctrl,
+    /// dv_dctrl (n x nu), dq_dact, dv_dact (n x na), dact_dq, dact_dv
+    /// (na x n, zero), dact_dact (na x na) and dact_dctrl (na x nu):
+    /// mjd_transitionFD's A and B in blocks.
+    #[pyo3(signature = (q, v, tau, params = None, ctrl = None, act = None))]
+    #[allow(clippy::too_many_arguments)]
     fn step_jacobians<'py>(
         &mut self,
         py: Python<'py>,
@@ -413,18 +493,28 @@ impl PyModel {
         v: &Bound<'py, PyAny>,
         tau: &Bound<'py, PyAny>,
         params: Option<Vec<String>>,
+        ctrl: Option<&Bound<'py, PyAny>>,
+        act: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let params = self.params(params.as_deref().unwrap_or_default())?;
         let (q, v, tau) = self.state(q, v, tau)?;
+        let (ctrl, act) = self.actuation(ctrl, act)?;
         let wrt = Wrt {
             state: true,
             control: true,
             params: &params,
         };
         let (model, ws) = (&self.model, &mut self.ws);
-        let j = py
-            .detach(|| step_jacobians(model, ws, (&q, &v, &tau), &wrt))
-            .map_err(|e| PyValueError::new_err(format!("step_jacobians: {e}")))?;
+        let error = |e| PyValueError::new_err(format!("step_jacobians: {e}"));
+        let (j, actuated) = if model.nu() == 0 {
+            let j = py.detach(|| step_jacobians(model, ws, (&q, &v, &tau), &wrt));
+            (j.map_err(error)?, None)
+        } else {
+            let state = (&q[..], &v[..], &act[..]);
+            let j = py.detach(|| input_jacobians(model, ws, state, (&ctrl, &tau), &wrt));
+            let j = j.map_err(error)?;
+            (j.step.clone(), Some(j))
+        };
         let out = PyDict::new(py);
         // Interned keys: a hot call, and the eight strings are the same every time.
         for (key, m) in [
@@ -438,6 +528,22 @@ impl PyModel {
             (intern!(py, "dv_dp"), j.dv_dp()),
         ] {
             out.set_item(key, to_numpy(py, m))?;
+        }
+        if let Some(a) = actuated {
+            let n = model.nv();
+            let zero = DMatrix::<f64>::zeros(model.na(), n);
+            for (key, m) in [
+                ("dq_dctrl", a.dx_dctrl.rows(0, n)),
+                ("dv_dctrl", a.dx_dctrl.rows(n, n)),
+                ("dq_dact", a.dx_dact.rows(0, n)),
+                ("dv_dact", a.dx_dact.rows(n, n)),
+                ("dact_dq", zero.rows(0, zero.nrows())),
+                ("dact_dv", zero.rows(0, zero.nrows())),
+                ("dact_dact", a.dact_dact.rows(0, a.dact_dact.nrows())),
+                ("dact_dctrl", a.dact_dctrl.rows(0, a.dact_dctrl.nrows())),
+            ] {
+                out.set_item(key, to_numpy(py, m))?;
+            }
         }
         Ok(out)
     }
@@ -576,6 +682,21 @@ impl PyModel {
     }
 
     /// Converts and checks (q, v, tau).
+    /// ctrl (nu) and act (na); empty where None, which the engine reads as
+    /// zeros (a step without them is the plain step, bit for bit).
+    fn actuation(
+        &self,
+        ctrl: Option<&Bound<'_, PyAny>>,
+        act: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<(Vec<f64>, Vec<f64>)> {
+        let (nu, na) = (self.model.nu(), self.model.na());
+        let read = |x: Option<&Bound<'_, PyAny>>, name, n, what| match x {
+            Some(x) => vector(x, name, n, what),
+            None => Ok(vec![]),
+        };
+        Ok((read(ctrl, "ctrl", nu, "nu")?, read(act, "act", na, "na")?))
+    }
+
     fn state(
         &self,
         q: &Bound<'_, PyAny>,

@@ -7,6 +7,7 @@
 //! Parameter edits ([`Model::set`], module `edit`) recompile through the same
 //! builders, only where the edit reaches.
 
+mod actuators;
 mod edit;
 mod fluid;
 mod sensors;
@@ -76,10 +77,13 @@ impl Model {
     }
 
     /// Validates `spec` and compiles it.
-    pub fn from_spec(spec: Spec) -> Result<Model, ModelError> {
+    pub fn from_spec(mut spec: Spec) -> Result<Model, ModelError> {
         spec.validate()?;
-        let tree = Tree::build(&spec);
+        let mut tree = Tree::build(&spec);
         check_tree_inertia(&spec, &tree, 1..spec.bodies.len())?;
+        if actuators::resolve_damp_ratios(&mut spec, &tree) {
+            tree.actuators = tree::actuator_terms(&spec);
+        }
         Ok(Model {
             spec,
             tree,

@@ -2,7 +2,7 @@
 
 use super::Model;
 use crate::dynamics::{self, Contact, Data, StepError};
-use crate::model::{ContactModel, State};
+use crate::model::{ContactModel, Inputs, State};
 
 /// A rollout stopped at `step` (0-based) because that step failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -13,12 +13,16 @@ pub struct RolloutError {
 }
 
 impl Model {
-    /// Generalized forces from actuator controls: tau = sum gear * u on each
-    /// actuated joint's dof.
+    /// Generalized forces from motor controls: tau = sum gear * gain * u on
+    /// each actuated joint's dof, for models whose actuators are all
+    /// motor-like ([`crate::model::Actuator::force_per_control`]; others add
+    /// nothing here: step them with ctrl, [`Model::step_inputs`]).
     pub fn actuator_forces(&self, u: &[f64]) -> Vec<f64> {
         let mut tau = vec![0.0; self.nv()];
         for (a, &ui) in self.actuators.iter().zip(u) {
-            tau[self.joint_address(a.joint).1] += a.gear * ui;
+            if let Some(k) = a.force_per_control() {
+                tau[self.joint_address(a.joint).1] += k * ui;
+            }
         }
         tau
     }
@@ -94,6 +98,26 @@ impl Model {
         cause
     }
 
+    /// One step as MuJoCo's mj_step takes it: from the state x = (q, v,
+    /// act) under the inputs u = (ctrl, tau) ([`dynamics::step_actuated`];
+    /// an empty ctrl or act is zero). The next state has na activations.
+    pub fn step_inputs(
+        &self,
+        data: &mut Data<f64>,
+        x: &State,
+        u: &Inputs,
+    ) -> Result<State, StepError> {
+        let mut next = State {
+            q: vec![0.0; self.nq()],
+            v: vec![0.0; self.nv()],
+            act: vec![0.0; self.na()],
+        };
+        let out = (&mut next.q[..], &mut next.v[..], &mut next.act[..]);
+        let state = (&x.q[..], &x.v[..], &x.act[..]);
+        dynamics::step_actuated(&self.tree, data, state, (&u.ctrl, &u.tau), out)?;
+        Ok(next)
+    }
+
     /// The contacts at (q, v) with their forces: those a semi-implicit Euler
     /// step from (q, v) under generalized forces tau applies (net force per
     /// body: [`dynamics::body_contact_forces`]). Under the smooth model the
@@ -119,6 +143,25 @@ impl Model {
         Ok(data.constrained.as_ref().map_or(vec![], |c| {
             dynamics::constraint::contact_forces(&c.contacts, &c.rows, &c.solution.force)
         }))
+    }
+
+    /// Steps from `x0` under each of `inputs`; returns the T+1 states
+    /// visited, the initial state first.
+    pub fn rollout_inputs<'a>(
+        &self,
+        x0: &State,
+        inputs: impl IntoIterator<Item = &'a Inputs>,
+    ) -> Result<Vec<State>, RolloutError> {
+        let mut data = self.data();
+        let mut states = vec![x0.clone()];
+        for (step, u) in inputs.into_iter().enumerate() {
+            let x = states.last().expect("starts non-empty");
+            let next = self
+                .step_inputs(&mut data, x, u)
+                .map_err(|source| RolloutError { step, source })?;
+            states.push(next);
+        }
+        Ok(states)
     }
 
     /// Steps from (q0, v0) under each row of `taus`; returns the T+1 states

@@ -9,6 +9,7 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::fluid::fluid_bodies;
+use crate::dynamics::actuation::ActuatorTerm;
 use crate::dynamics::collision::{collision_pairs, CollisionPair, GeomFrame};
 use crate::dynamics::configuration::Coordinates;
 use crate::dynamics::constraint::{invweight0, Limit};
@@ -85,6 +86,8 @@ impl<T: Real> Tree<T> {
             }
         }
         tree.fluid = fluid_bodies(model, &tree.body_frames(), &lift_param);
+        tree.actuators = actuator_terms(model);
+        tree.na = model.na();
         let soft = &model.opt.soft;
         let constants = [
             (Param::ContactStiffness, soft.stiffness),
@@ -229,4 +232,27 @@ pub fn mass_properties<T: Real>(
     let [xx, yy, zz, xy, xz, yz]: [T; 6] =
         std::array::from_fn(|r| lift_param(Param::Inertia(index), r, six[r]));
     (mass, com, Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz))
+}
+
+/// The actuators with their joints' addresses and their activations'
+/// indices (in actuator order).
+pub(super) fn actuator_terms(model: &Spec) -> Vec<ActuatorTerm> {
+    let mut next_act = 0;
+    model
+        .actuators
+        .iter()
+        .map(|a| {
+            let (q_at, dof) = model.joint_address(a.joint);
+            let act = a.has_act().then(|| {
+                next_act += 1;
+                next_act - 1
+            });
+            ActuatorTerm {
+                law: a.clone(),
+                q_at,
+                dof,
+                act,
+            }
+        })
+        .collect()
 }

@@ -27,7 +27,7 @@ use num_dual::Dual64;
 
 use super::step::Wrt;
 use crate::dynamics::configuration::{integrate, multiply, Coordinates};
-use crate::dynamics::{step, Data, StepError, Tree};
+use crate::dynamics::{step_applied, Data, StepError, Tree};
 use crate::model::Param;
 use crate::Model;
 
@@ -51,7 +51,7 @@ pub(super) type InvweightSlopes = (Vec<[f64; 2]>, Vec<f64>);
 
 impl DualTrees {
     /// The tree seeded along `seed` and the workspace.
-    fn get(
+    pub(super) fn get(
         &mut self,
         model: &Model,
         seed: Option<(Param, usize)>,
@@ -170,13 +170,13 @@ fn dual_step(
     }
     let (vd, td) = (lift(v, n), lift(tau, 2 * n));
     let (mut q1, mut v1) = (vec![Dual64::from(0.0); q.len()], vec![Dual64::from(0.0); n]);
-    step(tree, data, (&qd, &vd, &td), (&mut q1, &mut v1))?;
+    step_applied(tree, data, (&qd, &vd, &td), (&mut q1, &mut v1))?;
     let eps = |x: &[Dual64]| DVector::from_iterator(n, x.iter().map(|d| d.eps));
     Ok((tangent_slope(tree, &q1), eps(&v1)))
 }
 
 /// The tangent-space slope of dual positions q (see the module docs).
-fn tangent_slope(tree: &Tree<Dual64>, q: &[Dual64]) -> DVector<f64> {
+pub(super) fn tangent_slope(tree: &Tree<Dual64>, q: &[Dual64]) -> DVector<f64> {
     let mut out = DVector::zeros(tree.nv());
     for (i, joint) in tree.joint.iter().enumerate() {
         out[i] = match joint.coordinates {

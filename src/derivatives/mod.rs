@@ -27,6 +27,7 @@
 // Node-indexed sweeps read several per-node arrays at the node's index.
 #![allow(clippy::needless_range_loop)]
 
+mod actuation;
 mod constrained;
 mod constraint;
 mod eliminated;
@@ -38,6 +39,7 @@ mod step;
 mod transition;
 mod window;
 
+pub use actuation::{input_jacobians, InputJacobians};
 pub use eliminated::{eliminated_residuals_into, Elimination, Impulses};
 pub use rnea::{rnea_derivatives, Sweep};
 pub use step::{step_jacobians, StepJacobians, Workspace, Wrt};

@@ -12,13 +12,14 @@ use super::params::{mass_product_derivative, residual_derivative};
 use super::rnea::{rnea_derivatives, Sweep};
 use super::soft::{subtract_soft_derivatives, Columns};
 use super::window::WindowScratch;
+use crate::dynamics::actuation::idle_without_inputs;
 use crate::dynamics::cholesky;
 use crate::dynamics::constraint::solver::add_quadratic_rows;
 use crate::dynamics::integrator::{euler, tableau, weighted_sum, ImplicitPassive, Tableau};
 use crate::dynamics::world_frames;
 use crate::dynamics::{
     acceleration, check_inputs, crba, implicit_terms, integrate_euler, ltdl_factor, ltdl_inverse,
-    ltdl_solve_columns, rnea, rnea_with_transforms, step,
+    ltdl_solve_columns, rnea, rnea_with_transforms, step_applied,
 };
 use crate::dynamics::{Constrained, Data, StepError};
 use crate::model::{Param, PassiveMode};
@@ -113,6 +114,26 @@ impl StepJacobians {
         self.jacobian.columns(start, len)
     }
 
+    /// The column of state entry k (q's tangent k < nv, then v's), if the
+    /// state was asked for.
+    pub(super) fn state_column(&self, k: usize) -> Option<usize> {
+        let (start, len) = self.columns[Block::Q as usize];
+        (k < 2 * len).then_some(start + k)
+    }
+
+    /// Without its tau columns (those a caller did not ask for).
+    pub(super) fn without_tau(mut self) -> StepJacobians {
+        let (start, len) = self.columns[Block::Tau as usize];
+        if len == 0 {
+            return self;
+        }
+        self.jacobian = self.jacobian.remove_columns(start, len);
+        self.columns[Block::Tau as usize].1 = 0;
+        let params = &mut self.columns[Block::Params as usize];
+        params.0 -= len;
+        self
+    }
+
     /// The name of the first block with an entry that is not finite.
     fn not_finite(&self) -> Option<&'static str> {
         let blocks = [Block::Q, Block::V, Block::Tau, Block::Params];
@@ -161,7 +182,7 @@ pub struct Workspace {
     /// What the window evaluation keeps between transitions.
     pub(super) window: WindowScratch,
     /// The constraint model's dual-number trees, per model.
-    duals: DualTrees,
+    pub(super) duals: DualTrees,
 }
 
 impl Workspace {
@@ -196,8 +217,24 @@ impl Workspace {
     }
 }
 
-/// One step of `model` from (q, v) under tau, with the Jacobians in `wrt`.
+/// One step of `model` from (q, v) under tau (ctrl = 0 and act = 0, as
+/// [`crate::dynamics::step`]), with the Jacobians in `wrt`; the actuators'
+/// forces and their partials in q and v are in when they act at zero
+/// control ([`super::input_jacobians`] has the ctrl and act blocks).
 pub fn step_jacobians(
+    model: &Model,
+    ws: &mut Workspace,
+    (q, v, tau): (&[f64], &[f64], &[f64]),
+    wrt: &Wrt,
+) -> Result<StepJacobians, StepError> {
+    if idle_without_inputs(&model.tree().actuators) {
+        return applied_jacobians(model, ws, (q, v, tau), wrt);
+    }
+    super::input_jacobians(model, ws, (q, v, &[]), (&[], tau), wrt).map(|j| j.step)
+}
+
+/// The Jacobians of [`step_applied`]: under tau alone, the actuators left out.
+pub(super) fn applied_jacobians(
     model: &Model,
     ws: &mut Workspace,
     (q, v, tau): (&[f64], &[f64], &[f64]),
@@ -245,7 +282,7 @@ pub fn step_jacobians(
     } else {
         let tableau = tableau(model.opt.integrator).expect("not Euler");
         let next = (&mut q_next[..], &mut v_next[..]);
-        step(tree, &mut ws.data, (q, v, tau), next)?;
+        step_applied(tree, &mut ws.data, (q, v, tau), next)?;
         runge_kutta(model, ws, tableau, (q, v, tau), &analytic_wrt)
     };
     let jacobian = match analytic {
@@ -262,23 +299,35 @@ pub fn step_jacobians(
             // The value from the plain step: the dual steps' agrees to rounding only
             // (nalgebra's products sum f64 and dual numbers in different orders).
             let next = (&mut q_next[..], &mut v_next[..]);
-            step(tree, &mut ws.data, (q, v, tau), next)?;
+            step_applied(tree, &mut ws.data, (q, v, tau), next)?;
             stacked(dual_columns(model, &mut ws.duals, (q, v, tau), wrt)?)
         }
     };
     if !q_next.iter().chain(&v_next).all(|x| x.is_finite()) {
         return Err(StepError::Diverged);
     }
-    let columns = block_columns(n, jacobian.ncols(), wrt);
-    let out = StepJacobians {
-        q_next,
-        v_next,
-        jacobian,
-        columns,
-    };
-    match out.not_finite() {
-        Some(block) => Err(StepError::JacobianNotFinite { block }),
-        None => Ok(out),
+    StepJacobians::assemble((q_next, v_next), jacobian, wrt)
+}
+
+impl StepJacobians {
+    /// The next state with its Jacobian, columns the blocks of `wrt` in
+    /// order; an error naming the first block that is not finite.
+    pub(super) fn assemble(
+        (q_next, v_next): (Vec<f64>, Vec<f64>),
+        jacobian: DMatrix<f64>,
+        wrt: &Wrt,
+    ) -> Result<StepJacobians, StepError> {
+        let columns = block_columns(v_next.len(), jacobian.ncols(), wrt);
+        let out = StepJacobians {
+            q_next,
+            v_next,
+            jacobian,
+            columns,
+        };
+        match out.not_finite() {
+            Some(block) => Err(StepError::JacobianNotFinite { block }),
+            None => Ok(out),
+        }
     }
 }
 

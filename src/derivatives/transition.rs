@@ -9,6 +9,7 @@
 use nalgebra::DMatrix;
 
 use super::step::{accel_derivatives, euler_columns, step_jacobians, Workspace, Wrt};
+use crate::dynamics::actuation::idle_without_inputs;
 use crate::dynamics::{check_inputs, integrate_euler, integrator, StepError};
 use crate::Model;
 
@@ -53,7 +54,9 @@ pub fn transition_jacobians(
         control: true,
         params: &[],
     };
-    let euler = integrator::euler(&model.opt).filter(|_| !super::dual_only(model));
+    // Actuators that act at zero control go through step_jacobians.
+    let idle = idle_without_inputs(&model.tree().actuators);
+    let euler = integrator::euler(&model.opt).filter(|_| !super::dual_only(model) && idle);
     if let Some(mode) = euler.filter(|&mode| accel_derivatives(model, ws, mode, (q, v, tau), &wrt))
     {
         let h = mode.1;

@@ -20,6 +20,7 @@ use nalgebra::{DMatrix, DVector};
 
 use super::params::{add_body_force, joint_derivative, node_inertia_derivative};
 use super::step::{step_jacobians, Workspace, Wrt};
+use crate::dynamics::actuation::idle_without_inputs;
 use crate::dynamics::configuration::{subtract, tangent_rate};
 use crate::dynamics::integrator;
 use crate::dynamics::{acceleration, implicit_terms, integrate_euler, Data, StepError, Tree};
@@ -157,6 +158,7 @@ pub fn window_residuals_into(
     let tree = model.tree();
     let euler = integrator::euler(&model.opt).is_some()
         && !tree.has_constraints()
+        && idle_without_inputs(&tree.actuators)
         && !super::dual_only(model)
         && !map.targets.iter().any(|(p, ..)| p.is_contact());
     if jacobian && euler {

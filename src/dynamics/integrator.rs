@@ -3,6 +3,7 @@
 //! Butcher tableau. The step ([`super::step`]) and its chain rule
 //! (`crate::derivatives`) read both from here.
 
+use super::actuation::{act_rates, add_actuator_forces, next_acts};
 use super::configuration::{integrate, tangent_rate};
 use super::constraint::solver::Start;
 use super::{acceleration, stretch, Data, Tree};
@@ -223,6 +224,12 @@ pub struct Stages<T: Real> {
     v: Vec<T>,
     theta: Vec<T>,
     dq: Vec<T>,
+    /// With actuators: the stage's applied forces (nv), activation (na),
+    /// the activation rates per stage and their b-weighted sum (na each).
+    tau: Vec<T>,
+    act: Vec<T>,
+    act_rate: Vec<Vec<T>>,
+    act_sum: Vec<T>,
 }
 
 impl<T: Real> Stages<T> {
@@ -231,6 +238,7 @@ impl<T: Real> Stages<T> {
     pub fn new(tree: &Tree<T>) -> Self {
         let n = tree.nv();
         let per_stage = || vec![vec![T::zero(); n]; RK4.stages()];
+        let na = tree.na;
         Stages {
             qdd: per_stage(),
             rate: per_stage(),
@@ -238,6 +246,10 @@ impl<T: Real> Stages<T> {
             v: vec![T::zero(); n],
             theta: vec![T::zero(); n],
             dq: vec![T::zero(); n],
+            tau: vec![T::zero(); n],
+            act: vec![T::zero(); na],
+            act_rate: vec![vec![T::zero(); na]; RK4.stages()],
+            act_sum: vec![T::zero(); na],
         }
     }
 }
@@ -252,6 +264,10 @@ impl<T: Real> Default for Stages<T> {
             v: vec![],
             theta: vec![],
             dq: vec![],
+            tau: vec![],
+            act: vec![],
+            act_rate: vec![],
+            act_sum: vec![],
         }
     }
 }
@@ -261,13 +277,18 @@ impl<T: Real> Default for Stages<T> {
 /// stage i at (q (+) theta_i, v_i), theta_i = sum_j h a_ij r_j and
 /// v_i = v + sum_j h a_ij qdd_j, r_j the tangent rate of stage j at q
 /// ([`tangent_rate`]); q' = q (+) sum_i h b_i r_i, v' = v + sum_i h b_i qdd_i,
-/// accumulated in (q_next, v_next) stage by stage.
+/// accumulated in (q_next, v_next) stage by stage. With actuators, each
+/// stage's forces add the actuators' at the stage's (q, v, act), the
+/// activation moving as [`super::step_actuated`] states; `act` is None
+/// when the actuators are idle ([`super::actuation::idle_without_inputs`]).
 pub(super) fn runge_kutta<T: Real>(
     tree: &Tree<T>,
     (tableau, timestep): (&Tableau, f64),
     data: &mut Data<T>,
-    (q, v, tau): (&[T], &[T], &[T]),
+    (q, v): (&[T], &[T]),
+    (ctrl, act, tau): (&[T], Option<&[T]>, &[T]),
     (q_next, v_next): (&mut [T], &mut [T]),
+    act_next: &mut [T],
 ) {
     let h: T = lift(timestep);
     let s = tableau.stages();
@@ -275,6 +296,7 @@ pub(super) fn runge_kutta<T: Real>(
     let n = tree.nv();
     stage.qdd.resize_with(s, || vec![T::zero(); n]);
     stage.rate.resize_with(s, || vec![T::zero(); n]);
+    stage.act_rate.resize_with(s, || vec![T::zero(); tree.na]);
     let Stages {
         qdd,
         rate,
@@ -282,12 +304,25 @@ pub(super) fn runge_kutta<T: Real>(
         v: v_stage,
         theta,
         dq,
+        tau: tau_stage,
+        act: act_stage,
+        act_rate,
+        act_sum,
     } = &mut stage;
     q_stage.copy_from_slice(q);
     v_stage.copy_from_slice(v);
     v_next.copy_from_slice(v);
     dq.fill(T::zero());
     theta.fill(T::zero());
+    // Actuators that act: act None when they are idle (no forces, no activation).
+    let actuated = act.is_some();
+    let act = act.unwrap_or_default();
+    if actuated {
+        for (a, x) in act_stage.iter_mut().enumerate() {
+            *x = act.get(a).copied().unwrap_or(T::zero());
+        }
+        act_sum.fill(T::zero());
+    }
     for k in 0..s {
         // Stages after the first start their solve from the stage before's solution.
         data.reuse.start = if k == 0 {
@@ -295,7 +330,22 @@ pub(super) fn runge_kutta<T: Real>(
         } else {
             Start::Previous
         };
-        let stage_state = (&q_stage[..], &v_stage[..], tau);
+        let forces = if actuated {
+            let actuators = &tree.actuators;
+            act_rates(actuators, (ctrl, &act_stage[..]), &mut act_rate[k]);
+            tau_stage.copy_from_slice(tau);
+            let inputs = (ctrl, &act_stage[..], &act_rate[k][..]);
+            add_actuator_forces(actuators, timestep, (q_stage, v_stage), inputs, tau_stage);
+            if let Some(b) = tableau.b[k].times(T::one()) {
+                for (sum, r) in act_sum.iter_mut().zip(&act_rate[k]) {
+                    *sum += b * *r;
+                }
+            }
+            &tau_stage[..]
+        } else {
+            tau
+        };
+        let stage_state = (&q_stage[..], &v_stage[..], forces);
         let explicit = (PassiveMode::Explicit, timestep);
         acceleration(tree, data, explicit, stage_state, &mut qdd[k]);
         // The stage derivative is (tangent rate, qdd).
@@ -311,10 +361,17 @@ pub(super) fn runge_kutta<T: Real>(
                 theta[i] = weighted_sum(tableau.stage_terms(k + 1, h), rate, i);
                 v_stage[i] = v[i] + weighted_sum(tableau.stage_terms(k + 1, h), qdd, i);
             }
+            for (i, x) in act_stage.iter_mut().enumerate() {
+                let start = act.get(i).copied().unwrap_or(T::zero());
+                *x = start + weighted_sum(tableau.stage_terms(k + 1, h), act_rate, i);
+            }
             integrate(tree, q, theta, T::one(), q_stage);
         }
     }
     integrate(tree, q, dq, T::one(), q_next);
+    if !act_next.is_empty() {
+        next_acts(&tree.actuators, timestep, (act, &act_sum[..]), act_next);
+    }
     data.reuse.start = Start::Unconstrained;
     data.stage = stage;
 }

@@ -14,6 +14,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod aba;
+pub mod actuation;
 pub mod cholesky;
 pub mod collision;
 pub mod configuration;
@@ -40,7 +41,10 @@ pub use kinematics::{
 pub use ltdl::{ltdl_factor, ltdl_inverse, ltdl_solve, ltdl_solve_columns};
 pub use passive::{passive_forces, stretch};
 pub use rnea::{bias_forces, bias_forces_with_transforms, rnea, rnea_with_transforms};
-pub use step::{acceleration, check_colliders, check_inputs, step, Constrained, StepError};
+pub use step::{
+    acceleration, check_actuation, check_colliders, check_inputs, step, step_actuated,
+    step_applied, Constrained, StepError,
+};
 pub use tree::{BodyFrame, NodeJoint, Tree};
 
 use crate::spatial::{ArticulatedInertia, Force, Inertia, Motion, Real, Transform};
@@ -78,6 +82,10 @@ pub struct Data<T: Real> {
     pub constrained: Option<Constrained<T>>,
     /// Scratch vectors: the acceleration's (nv each), and the integrator's.
     scratch: [Vec<T>; 3],
+    /// The step's applied forces with the actuators' (nv) and the
+    /// activation rates (na).
+    actuated: Vec<T>,
+    act_rate: Vec<T>,
     stage: integrator::Stages<T>,
     /// The constraint model's buffers.
     reuse: step::Reuse<T>,
@@ -113,6 +121,8 @@ impl<T: Real> Data<T> {
             contacts: vec![],
             constrained: None,
             scratch: std::array::from_fn(|_| vec![T::zero(); n]),
+            actuated: vec![T::zero(); n],
+            act_rate: vec![T::zero(); tree.na],
             stage: integrator::Stages::new(tree),
             reuse: step::Reuse::new(n),
         }

@@ -2,6 +2,9 @@
 
 use nalgebra::DMatrix;
 
+use std::mem::take;
+
+use super::actuation::{act_rates, add_actuator_forces, idle_without_inputs, next_acts};
 use super::collision::{ConstraintContact, Pre};
 use super::constraint::solver::{solve, Scratch, Solution, Start};
 use super::constraint::{rows, unreachable_pair, Rows};
@@ -61,6 +64,13 @@ pub enum StepError {
         element: String,
         why: String,
     },
+    /// The residuals with unknown constraints of models whose actuators act
+    /// at zero control (servos, activations) are not written yet.
+    #[error(
+        "identification with unknown constraints of models whose actuators act at zero control \
+         (position or velocity servos, activations) is not supported yet"
+    )]
+    NoActuatorDerivatives,
     /// The next state is finite but a Jacobian block overflowed.
     #[error("the step Jacobian {block} is not finite (state, forces or parameters too large)")]
     JacobianNotFinite { block: &'static str },
@@ -88,17 +98,124 @@ pub enum StepError {
 ///
 /// Contact and joint-limit forces ([`super::contact`]) join tau on the right:
 /// explicit in the Euler step (evaluated at (q, v)), at each stage under RK4.
+///
+/// Actuators with ctrl = 0 and act = 0 act too (a position servo's bias
+/// pulls toward 0): this is [`step_actuated`] with empty ctrl and act.
 pub fn step<T: Real>(
     tree: &Tree<T>,
     data: &mut Data<T>,
     (q, v, tau): (&[T], &[T], &[T]),
     (q_next, v_next): (&mut [T], &mut [T]),
 ) -> Result<(), StepError> {
+    let next = (q_next, v_next, &mut [][..]);
+    step_actuated(tree, data, (q, v, &[]), (&[], tau), next)
+}
+
+/// One step as MuJoCo's mj_step takes it: from the state (q, v, act) under
+/// the inputs ctrl (nu, through the actuators, [`super::actuation`]) and
+/// tau (nv, applied at the dofs), writing (q', v', act'). The actuators'
+/// generalized forces join tau (under RK4 at each stage, from the stage's
+/// q, v and act); act moves at its rate as MuJoCo's Euler and RK4 move it
+/// (RK4: its stages at act + h sum a_ij act'_j, then MuJoCo's
+/// nextActivation from act at the rate sum b_i act'_i). ctrl and act may be
+/// empty (zero); act_next is written when it has na entries (else empty).
+pub fn step_actuated<T: Real>(
+    tree: &Tree<T>,
+    data: &mut Data<T>,
+    (q, v, act): (&[T], &[T], &[T]),
+    (ctrl, tau): (&[T], &[T]),
+    (q_next, v_next, act_next): (&mut [T], &mut [T], &mut [T]),
+) -> Result<(), StepError> {
+    check_actuation(tree, (ctrl, act))?;
+    let expected = if act_next.is_empty() { 0 } else { tree.na };
+    if act_next.len() != expected {
+        let got = act_next.len();
+        let name = "act_next";
+        return Err(StepError::Length {
+            name,
+            got,
+            expected,
+        });
+    }
+    let idle = ctrl.is_empty() && act.is_empty() && idle_without_inputs(&tree.actuators);
+    if idle {
+        return step_applied(tree, data, (q, v, tau), (q_next, v_next));
+    }
+    prepare(tree, data, (q, v, tau), (q_next.len(), v_next.len()))?;
+    let next = (&mut *q_next, &mut *v_next);
+    let opt = &tree.opt;
+    let h = opt.timestep;
+    match tableau(opt.integrator) {
+        None => {
+            let (mut total, mut rate) = (take(&mut data.actuated), take(&mut data.act_rate));
+            act_rates(&tree.actuators, (ctrl, act), &mut rate);
+            total.copy_from_slice(tau);
+            let inputs = (ctrl, act, &rate[..]);
+            add_actuator_forces(&tree.actuators, h, (q, v), inputs, &mut total);
+            euler_step(tree, (opt.passive, h), data, (q, v, &total), next);
+            if !act_next.is_empty() {
+                next_acts(&tree.actuators, h, (act, &rate), act_next);
+            }
+            (data.actuated, data.act_rate) = (total, rate);
+        }
+        Some(t) => runge_kutta(
+            tree,
+            (t, h),
+            data,
+            (q, v),
+            (ctrl, Some(act), tau),
+            next,
+            act_next,
+        ),
+    }
+    if q_next
+        .iter()
+        .chain(v_next.iter())
+        .chain(act_next.iter())
+        .all(|x| x.is_finite())
+    {
+        Ok(())
+    } else {
+        Err(StepError::Diverged)
+    }
+}
+
+/// A step under the generalized forces tau alone, the actuators left out
+/// (the derivatives add theirs to tau, [`crate::derivatives`]).
+pub fn step_applied<T: Real>(
+    tree: &Tree<T>,
+    data: &mut Data<T>,
+    (q, v, tau): (&[T], &[T], &[T]),
+    (q_next, v_next): (&mut [T], &mut [T]),
+) -> Result<(), StepError> {
+    prepare(tree, data, (q, v, tau), (q_next.len(), v_next.len()))?;
+    let next = (&mut *q_next, &mut *v_next);
+    let opt = &tree.opt;
+    match tableau(opt.integrator) {
+        None => euler_step(tree, (opt.passive, opt.timestep), data, (q, v, tau), next),
+        Some(t) => {
+            let inputs = (&[][..], None, tau);
+            runge_kutta(tree, (t, opt.timestep), data, (q, v), inputs, next, &mut [])
+        }
+    }
+    if q_next.iter().chain(v_next.iter()).all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(StepError::Diverged)
+    }
+}
+
+/// The checks before a step: q, v, tau and the next state's lengths (nq_next,
+/// nv_next), and, under the constraint model, no pair within reach without
+/// a collider.
+fn prepare<T: Real>(
+    tree: &Tree<T>,
+    data: &mut Data<T>,
+    (q, v, tau): (&[T], &[T], &[T]),
+    (nq_next, nv_next): (usize, usize),
+) -> Result<(), StepError> {
     check_inputs(tree, (q, v, tau))?;
-    let lengths = [
-        ("q_next", q_next.len(), q.len()),
-        ("v_next", v_next.len(), v.len()),
-    ];
+    let lengths = [("q_next", nq_next, q.len()), ("v_next", nv_next, v.len())];
     for (name, got, expected) in lengths {
         if got != expected {
             return Err(StepError::Length {
@@ -108,18 +225,7 @@ pub fn step<T: Real>(
             });
         }
     }
-    check_colliders(tree, data, (q, v))?;
-    let (state, next) = ((q, v, tau), (&mut *q_next, &mut *v_next));
-    let opt = &tree.opt;
-    match tableau(opt.integrator) {
-        None => euler_step(tree, (opt.passive, opt.timestep), data, state, next),
-        Some(t) => runge_kutta(tree, (t, opt.timestep), data, state, next),
-    }
-    if q_next.iter().chain(v_next.iter()).all(|x| x.is_finite()) {
-        Ok(())
-    } else {
-        Err(StepError::Diverged)
-    }
+    check_colliders(tree, data, (q, v))
 }
 
 /// Under the constraint model, refuses a state at which two geoms whose
@@ -151,6 +257,16 @@ pub fn check_inputs<T: Real>(
         check(name, x, n)?;
     }
     Ok(())
+}
+
+/// Checks that ctrl has length nu and act na (either may be empty: zero),
+/// and both are finite.
+pub fn check_actuation<T: Real>(
+    tree: &Tree<T>,
+    (ctrl, act): (&[T], &[T]),
+) -> Result<(), StepError> {
+    check("ctrl", ctrl, if ctrl.is_empty() { 0 } else { tree.nu() })?;
+    check("act", act, if act.is_empty() { 0 } else { tree.na })
 }
 
 fn check<T: Real>(name: &'static str, x: &[T], n: usize) -> Result<(), StepError> {

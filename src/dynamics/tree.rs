@@ -13,6 +13,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+use super::actuation::ActuatorTerm;
 use super::collision::GeomFrame;
 use super::configuration::{rotation_matrix, Coordinates};
 use super::constraint::ConstraintConsts;
@@ -164,6 +165,9 @@ pub struct Tree<T: Real> {
     pub constraint: ConstraintConsts<T>,
     /// The bodies the medium (`opt.fluid`) acts on (none without one).
     pub fluid: Vec<FluidBody<T>>,
+    /// The actuators ([`super::actuation`]) and the number of activations.
+    pub actuators: Vec<ActuatorTerm>,
+    pub na: usize,
     /// The model's options, as the spec gives them (timestep, integrator,
     /// which law contacts follow, solver, medium): the step reads them here.
     /// Those with a T-valued form are lifted beside them (`gravity`, `soft`).
@@ -191,6 +195,8 @@ impl<T: Real> Tree<T> {
             soft: Soft::new(&SoftOptions::default(), [T::zero(); 3]),
             constraint: ConstraintConsts::empty(),
             fluid: vec![],
+            actuators: vec![],
+            na: 0,
             opt: Options::default(),
         }
     }
@@ -217,6 +223,10 @@ impl<T: Real> Tree<T> {
 
     pub fn nq(&self) -> usize {
         self.spring_q.len()
+    }
+
+    pub fn nu(&self) -> usize {
+        self.actuators.len()
     }
 
     /// The velocity node i's dof moves within, for its velocity-product

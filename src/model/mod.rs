@@ -47,7 +47,7 @@ pub use constraint::{
 pub use keyframe::Keyframe;
 pub use params::{MapEntry, Param, ParamError, ParamMap};
 pub use sensor::{FrameObject, FrameQuantity, JointQuantity, Sensor, SensorKind, SiteQuantity};
-pub use state::State;
+pub use state::{Inputs, State};
 
 /// Errors from building, loading or editing a model.
 #[derive(Debug, thiserror::Error)]
@@ -186,13 +186,126 @@ pub struct Joint {
     pub friction_sol: SolParams,
 }
 
-/// A control input acting on one joint: tau[joint] += gear * u.
+/// MuJoCo's actuator on one hinge or slide joint (transmission `joint`):
+/// its length is l = gear q and its velocity l' = gear v (q, v the joint's
+/// coordinate and velocity); its scalar force is
+/// f = gain(l, l') w + bias(l, l'), w = ctrl without activation dynamics,
+/// else the activation act, clamped to `force_range`; the generalized force
+/// on the joint's dof is gear f. ctrl is clamped to `ctrl_range` first.
+/// Units: SI; f in N or N m per unit of gear.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Actuator {
     pub name: String,
     pub joint: usize,
     pub gear: f64,
     pub ctrl_range: Option<(f64, f64)>,
+    pub force_range: Option<(f64, f64)>,
+    pub act_range: Option<(f64, f64)>,
+    pub gain: Gain,
+    pub bias: Bias,
+    pub dynamics: ActDynamics,
+    /// Force from the next activation instead of the current one
+    /// (MuJoCo's actearly).
+    pub act_early: bool,
+}
+
+/// MuJoCo's gain types: fixed `gainprm[0]`, or affine
+/// `gainprm[0] + gainprm[1] l + gainprm[2] l'`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Gain {
+    Fixed(f64),
+    Affine([f64; 3]),
+}
+
+/// MuJoCo's bias types: none, or affine `biasprm[0] + biasprm[1] l +
+/// biasprm[2] l'`. In a [`Spec`], an affine bias with `biasprm[1] =
+/// -gain` and a positive `biasprm[2]` holds a damping ratio (MuJoCo's
+/// `dampratio`), which compiling turns into `-kv` ([`crate::Model`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Bias {
+    None,
+    Affine([f64; 3]),
+}
+
+/// MuJoCo's activation dynamics (dyntype): none (the force reads ctrl),
+/// or one activation state with act' = ctrl (integrator) or
+/// act' = (ctrl - act) / tau (filter, integrated by the step's method;
+/// filterexact, integrated exactly over a step).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ActDynamics {
+    None,
+    Integrator,
+    Filter(f64),
+    FilterExact(f64),
+}
+
+impl Actuator {
+    /// A motor: fixed gain 1, no bias, no activation.
+    pub fn motor(name: String, joint: usize, gear: f64, ctrl_range: Option<(f64, f64)>) -> Self {
+        Actuator {
+            name,
+            joint,
+            gear,
+            ctrl_range,
+            force_range: None,
+            act_range: None,
+            gain: Gain::Fixed(1.0),
+            bias: Bias::None,
+            dynamics: ActDynamics::None,
+            act_early: false,
+        }
+    }
+
+    /// The generalized force per unit control, gear times a fixed gain, for
+    /// an actuator whose force is that alone (no bias, activation or force
+    /// limit); None for any other.
+    pub fn force_per_control(&self) -> Option<f64> {
+        match (self.gain, self.bias, self.dynamics, self.force_range) {
+            (Gain::Fixed(g), Bias::None, ActDynamics::None, None) => Some(self.gear * g),
+            _ => None,
+        }
+    }
+
+    /// Whether it has an activation state.
+    pub fn has_act(&self) -> bool {
+        self.dynamics != ActDynamics::None
+    }
+
+    /// Finite parameters, ranges in increasing order, non-negative time
+    /// constants.
+    fn check(&self) -> Result<(), String> {
+        let prm = |g: Gain| match g {
+            Gain::Fixed(x) => [x, 0.0, 0.0],
+            Gain::Affine(p) => p,
+        };
+        let bias = match self.bias {
+            Bias::None => [0.0; 3],
+            Bias::Affine(p) => p,
+        };
+        let tau = match self.dynamics {
+            ActDynamics::Filter(t) | ActDynamics::FilterExact(t) => t,
+            _ => 0.0,
+        };
+        let finite = prm(self.gain).iter().chain(&bias).all(|x| x.is_finite());
+        if !finite || tau.is_nan() || tau < 0.0 {
+            return Err("gain, bias and time constant must be finite (tau >= 0)".into());
+        }
+        let ranges = [
+            ("ctrlrange", self.ctrl_range),
+            ("forcerange", self.force_range),
+            ("actrange", self.act_range),
+        ];
+        for (name, range) in ranges {
+            if let Some((lo, hi)) = range {
+                if lo >= hi || !lo.is_finite() || !hi.is_finite() {
+                    return Err(format!(
+                        "{name} must be finite and increasing, got ({lo}, {hi})"
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Collision and visual shape, in the frame of its body.
@@ -461,6 +574,11 @@ impl Spec {
         self.joints.iter().map(|j| j.kind.nq()).sum()
     }
 
+    /// The number of activation states: one per actuator with dynamics.
+    pub fn na(&self) -> usize {
+        self.actuators.iter().filter(|a| a.has_act()).count()
+    }
+
     pub fn nv(&self) -> usize {
         self.joints.iter().map(|j| j.kind.nv()).sum()
     }
@@ -609,6 +727,9 @@ impl Spec {
         for a in &self.actuators {
             if a.joint >= self.joints.len() || !a.gear.is_finite() {
                 return bad(format!("actuator '{}' has a bad joint or gear", a.name));
+            }
+            if let Err(why) = a.check() {
+                return bad(format!("actuator '{}': {why}", a.name));
             }
             if self.joints[a.joint].kind.nv() != 1 {
                 let j = &self.joints[a.joint].name;

@@ -1,9 +1,9 @@
-//! What a step advances, in MuJoCo's layout.
+//! What a step advances and what drives it, in MuJoCo's layouts.
 
 /// A model's state: positions q (nq coordinates, MuJoCo's qpos), velocities
 /// v (nv, qvel) and actuator activations act (na, act), laid out as the
-/// module documentation of [`crate::model`] gives q and v. act is empty
-/// today: no actuator has activation dynamics yet.
+/// module documentation of [`crate::model`] gives q and v; act holds one
+/// entry per actuator with activation dynamics, in actuator order.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct State {
     pub q: Vec<f64>,
@@ -16,6 +16,15 @@ impl State {
     pub fn new(q: Vec<f64>, v: Vec<f64>) -> State {
         State { q, v, act: vec![] }
     }
+}
+
+/// What drives a step: controls ctrl (nu, through the actuators, MuJoCo's
+/// ctrl) and generalized forces tau (nv, applied at the dofs directly, its
+/// qfrc_applied).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Inputs {
+    pub ctrl: Vec<f64>,
+    pub tau: Vec<f64>,
 }
 
 /// Written as the pair [q, v], with act third only when it has entries (the

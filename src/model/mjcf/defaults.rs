@@ -9,9 +9,8 @@
 
 use super::attributes::{value, Attrs};
 use super::schema::{
-    check_attributes, check_default_attributes, ACTUATOR_KINDS, DEFAULT_TENDON_ONLY_ATTRS,
-    FIXED_TENDON_ATTRS, GENERAL_ONLY_ATTRS, GEOM_ATTRS, JOINT_ATTRS, MOTOR_ATTRS, PAIR_ATTRS,
-    SITE_ATTRS,
+    actuator_attributes, check_attributes, check_default_attributes, ACTUATOR_KINDS,
+    DEFAULT_TENDON_ONLY_ATTRS, FIXED_TENDON_ATTRS, GEOM_ATTRS, JOINT_ATTRS, PAIR_ATTRS, SITE_ATTRS,
 };
 use super::{children, elements, tag, unrecognized, Node, Reader, Result};
 
@@ -78,12 +77,8 @@ impl<'a> Reader<'a> {
                 check_default_attributes(file, child, PAIR_ATTRS)?;
                 class.pair.push(child);
             }
-            "motor" => {
-                check_default_attributes(file, child, MOTOR_ATTRS)?;
-                class.actuator.push(child);
-            }
-            "general" => {
-                let attrs = [MOTOR_ATTRS, GENERAL_ONLY_ATTRS].concat();
+            kind if actuator_attributes(kind).is_some() => {
+                let attrs = actuator_attributes(kind).unwrap_or_default();
                 check_default_attributes(file, child, &attrs)?;
                 class.actuator.push(child);
             }

@@ -39,9 +39,7 @@ impl Reader<'_> {
     fn read_key(&self, node: Node, spec: &Spec) -> Result<Keyframe> {
         check_attributes(self.file, node, KEY_ATTRS)?;
         let a = Attrs::of(self.file, node);
-        // The number of actuators: `act` has na entries, and no actuator has
-        // an activation state yet (na = 0); it becomes na when they do.
-        let (nq, nv, nu, na) = (spec.nq(), spec.nv(), spec.actuators.len(), 0);
+        let (nq, nv, nu, na) = (spec.nq(), spec.nv(), spec.actuators.len(), spec.na());
         let vector = |name: &str, size: usize, mut default: Vec<f64>| -> Result<Vec<f64>> {
             match a.list(name)? {
                 Some(v) if v.len() > size => Err(self.error(

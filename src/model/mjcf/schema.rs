@@ -102,6 +102,27 @@ pub const GENERAL_ONLY_ATTRS: &[&str] = &[
     "gaintype", "biastype", "dynprm", "gainprm", "biasprm", "actearly",
 ];
 
+/// The attributes of an actuator kind we read (besides [`MOTOR_ATTRS`]),
+/// None for the kinds we refuse.
+pub fn actuator_attributes(kind: &str) -> Option<Vec<&'static str>> {
+    let own: &[&str] = match kind {
+        "motor" => &[],
+        "general" => GENERAL_ONLY_ATTRS,
+        "position" => &["kp", "kv", "dampratio", "timeconst", "inheritrange"],
+        "intvelocity" => &[
+            "kp",
+            "kv",
+            "dampratio",
+            "timeconst",
+            "inheritrange",
+            "actrange",
+        ],
+        "velocity" | "damper" => &["kv"],
+        _ => return None,
+    };
+    Some([MOTOR_ATTRS, own].concat())
+}
+
 /// Rejects attributes MuJoCo does not know (its schema check).
 pub fn check_attributes(file: &str, node: Node, allowed: &[&str]) -> Result<()> {
     match node.attributes().find(|a| !allowed.contains(&a.name())) {

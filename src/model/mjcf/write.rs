@@ -39,9 +39,9 @@ use nalgebra::{Rotation3, UnitQuaternion};
 
 use crate::model::params::inertia_to_six;
 use crate::model::{
-    Actuator, Body, Cone, ContactModel, FrameObject, FrameQuantity, Geom, Integrator, Joint,
-    JointKind, JointQuantity, ModelError, Options, PassiveMode, SensorKind, Shape, SiteQuantity,
-    SoftOptions, SolParams, Spec,
+    ActDynamics, Actuator, Bias, Body, Cone, ContactModel, FrameObject, FrameQuantity, Gain, Geom,
+    Integrator, Joint, JointKind, JointQuantity, ModelError, Options, PassiveMode, SensorKind,
+    Shape, SiteQuantity, SoftOptions, SolParams, Spec,
 };
 
 /// Writes `spec` as an MJCF document, checked by reading and validating it.
@@ -72,7 +72,7 @@ fn document(spec: &Spec) -> Result<String, ModelError> {
     write_contact(&mut doc, spec);
     doc.open(1, Tag::new("actuator"));
     for a in &spec.actuators {
-        doc.empty(2, motor(a, &spec.joints[a.joint].name));
+        doc.empty(2, actuator(a, &spec.joints[a.joint].name));
     }
     doc.close(1, "actuator");
     write_sensors(&mut doc, spec)?;
@@ -446,12 +446,41 @@ fn write_contact(doc: &mut Document, spec: &Spec) {
     doc.close(1, "contact");
 }
 
-fn motor(a: &Actuator, joint: &str) -> Tag {
-    Tag::new("motor")
+/// A motor as `<motor>`; any other actuator as the `<general>` with its
+/// gain, bias and dynamics.
+fn actuator(a: &Actuator, joint: &str) -> Tag {
+    let general = a.force_per_control().is_none() || a.gain != Gain::Fixed(1.0);
+    let tag = Tag::new(if general { "general" } else { "motor" })
         .text("name", &a.name)
         .text("joint", joint)
         .number("gear", a.gear)
         .limits("ctrllimited", "ctrlrange", a.ctrl_range)
+        .limits("forcelimited", "forcerange", a.force_range);
+    if !general {
+        return tag;
+    }
+    let (gaintype, gainprm) = match a.gain {
+        Gain::Fixed(g) => ("fixed", [g, 0.0, 0.0]),
+        Gain::Affine(p) => ("affine", p),
+    };
+    let (biastype, biasprm) = match a.bias {
+        Bias::None => ("none", [0.0; 3]),
+        Bias::Affine(p) => ("affine", p),
+    };
+    let (dyntype, dynprm) = match a.dynamics {
+        ActDynamics::None => ("none", 1.0),
+        ActDynamics::Integrator => ("integrator", 1.0),
+        ActDynamics::Filter(t) => ("filter", t),
+        ActDynamics::FilterExact(t) => ("filterexact", t),
+    };
+    tag.limits("actlimited", "actrange", a.act_range)
+        .text("gaintype", gaintype)
+        .numbers("gainprm", &gainprm)
+        .text("biastype", biastype)
+        .numbers("biasprm", &biasprm)
+        .text("dyntype", dyntype)
+        .number("dynprm", dynprm)
+        .text("actearly", if a.act_early { "true" } else { "false" })
 }
 
 /// The unit quaternion (w x y z) of a rotation.

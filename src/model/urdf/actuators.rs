@@ -54,12 +54,12 @@ impl Reader<'_> {
             Some(name) => name,
             None => self.attr(transmission, "name")?,
         };
-        Ok(Some(Actuator {
-            name: name.to_string(),
+        Ok(Some(Actuator::motor(
+            name.to_string(),
             joint,
             gear,
             ctrl_range,
-        }))
+        )))
     }
 
     /// The dof of the one moving `<joint>` a transmission drives, or why

@@ -344,7 +344,8 @@ impl Wiping {
             .map(|a| ArmJoint {
                 limit: a
                     .ctrl_range
-                    .map_or(f64::INFINITY, |(_, hi)| hi * a.gear.abs()),
+                    .zip(a.force_per_control())
+                    .map_or(f64::INFINITY, |((_, hi), k)| hi * k.abs()),
                 inertia: data.mass_matrix[(a.joint, a.joint)],
             })
             .collect()

@@ -1,0 +1,48 @@
+//! Actuator constants MuJoCo's compiler derives: a position servo's damping
+//! from its damping ratio (`dampratio`).
+
+use crate::dynamics::{crba, ltdl_factor, ltdl_solve, Data, Tree};
+use crate::model::{Bias, Gain, Spec};
+
+/// Turns each damping ratio held in an affine bias ([`Bias`]: biasprm[1]
+/// = -gainprm[0], biasprm[2] > 0) into the damping -kv it stands for, as
+/// MuJoCo's compiler does: kv = ratio 2 sqrt(kp m), m = M0 / gear^2 the
+/// mass the actuator sees, M0 the joint dof's diagonal of the mass matrix
+/// (armature included) at the reference configuration (its dof_M0).
+/// Returns whether any changed.
+pub(super) fn resolve_damp_ratios(spec: &mut Spec, tree: &Tree<f64>) -> bool {
+    let has_ratio = |gain: Gain, bias: Bias| match (gain, bias) {
+        (Gain::Fixed(kp) | Gain::Affine([kp, _, _]), Bias::Affine([_, b1, ratio])) => {
+            (kp == -b1 && ratio > 0.0).then_some((kp, ratio))
+        }
+        _ => None,
+    };
+    if !spec
+        .actuators
+        .iter()
+        .any(|a| has_ratio(a.gain, a.bias).is_some())
+    {
+        return false;
+    }
+    let mut data = Data::new(tree);
+    crba(tree, &mut data, &spec.reference_q());
+    let mut factor = data.mass_matrix.clone();
+    ltdl_factor(tree, &mut factor);
+    let mut column = vec![0.0; tree.nv()];
+    for i in 0..spec.actuators.len() {
+        let a = &spec.actuators[i];
+        let Some((kp, ratio)) = has_ratio(a.gain, a.bias) else {
+            continue;
+        };
+        let dof = spec.joint_address(a.joint).1;
+        column.fill(0.0);
+        column[dof] = 1.0;
+        ltdl_solve(tree, &factor, &mut column);
+        let seen = a.gear * a.gear * column[dof];
+        let mass = if seen > 0.0 { 1.0 / seen } else { 0.0 };
+        if let Bias::Affine(prm) = &mut spec.actuators[i].bias {
+            prm[2] = -(ratio * 2.0 * (kp * mass).sqrt());
+        }
+    }
+    true
+}

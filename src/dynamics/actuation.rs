@@ -1,0 +1,280 @@
+//! Actuation as MuJoCo's mj_fwdActuation computes it, for actuators on one
+//! hinge or slide joint ([`crate::model::Actuator`] states the law and its
+//! conventions): controls clamped to their ranges, activation rates, the
+//! actuators' scalar forces clamped to their force ranges, and the
+//! generalized force gear f on each actuated dof (the moment of a joint
+//! transmission is its gear). The activation integrates as MuJoCo's
+//! nextActivation: act + h act' (filterexact: act + act' tau (1 - e^(-h/tau)))
+//! clamped to the actuator's activation range.
+//!
+//! Inputs may be empty: an empty ctrl is zero controls, an empty act zero
+//! activations (so a step without them is MuJoCo's with ctrl = 0, act = 0).
+
+use crate::model::{ActDynamics, Actuator, Bias, Gain};
+use crate::spatial::{lift, Real};
+
+/// MuJoCo's mjMINVAL: the smallest filter time constant used.
+const MIN_TIME_CONSTANT: f64 = 1e-15;
+
+/// One actuator in the compiled tree: where its joint's coordinate and dof
+/// are, and its activation's index if it has one.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ActuatorTerm {
+    pub law: Actuator,
+    pub q_at: usize,
+    pub dof: usize,
+    pub act: Option<usize>,
+}
+
+impl ActuatorTerm {
+    /// The clamped control (0 for an empty ctrl).
+    fn control<T: Real>(&self, ctrl: &[T], i: usize) -> T {
+        let c = ctrl.get(i).copied().unwrap_or(T::zero());
+        clamp(c, self.law.ctrl_range)
+    }
+
+    /// The activation's rate at control c and activation a.
+    fn rate<T: Real>(&self, c: T, a: T) -> T {
+        match self.law.dynamics {
+            ActDynamics::None | ActDynamics::Integrator => c,
+            ActDynamics::Filter(tau) | ActDynamics::FilterExact(tau) => {
+                (c - a) / lift(tau.max(MIN_TIME_CONSTANT))
+            }
+        }
+    }
+
+    /// The activation after a step h from a at rate `rate`, clamped.
+    pub fn next_act<T: Real>(&self, a: T, rate: T, h: f64) -> T {
+        let next = match self.law.dynamics {
+            ActDynamics::FilterExact(tau) => {
+                let tau = tau.max(MIN_TIME_CONSTANT);
+                a + rate * lift(tau) * lift(1.0 - (-h / tau).exp())
+            }
+            _ => a + rate * lift(h),
+        };
+        clamp(next, self.law.act_range)
+    }
+
+    /// The scalar force at joint coordinate x, velocity xd, control c and
+    /// activation a (its rate `rate`), clamped to the force range.
+    fn force<T: Real>(&self, (x, xd): (T, T), (c, a, rate): (T, T, T), h: f64) -> T {
+        clamp(
+            self.raw_force((x, xd), (c, a, rate), h).0,
+            self.law.force_range,
+        )
+    }
+
+    /// The scalar force before clamping, and its derivative in the joint
+    /// velocity xd (the velocity terms of gain and bias, times gear).
+    fn raw_force<T: Real>(&self, (x, xd): (T, T), (c, a, rate): (T, T, T), h: f64) -> (T, T) {
+        let gear: T = lift(self.law.gear);
+        let (length, velocity) = (gear * x, gear * xd);
+        let affine =
+            |p: [f64; 3]| lift::<T>(p[0]) + lift::<T>(p[1]) * length + lift::<T>(p[2]) * velocity;
+        let gain = match self.law.gain {
+            Gain::Fixed(g) => lift(g),
+            Gain::Affine(p) => affine(p),
+        };
+        let input = match (self.act, self.law.act_early) {
+            (None, _) => c,
+            (Some(_), false) => a,
+            (Some(_), true) => self.next_act(a, rate, h),
+        };
+        let (bias, bias_v) = match self.law.bias {
+            Bias::None => (T::zero(), 0.0),
+            Bias::Affine(p) => (affine(p), p[2]),
+        };
+        let gain_v = match self.law.gain {
+            Gain::Fixed(_) => 0.0,
+            Gain::Affine(p) => p[2],
+        };
+        let slope = (lift::<T>(gain_v) * input + lift(bias_v)) * gear;
+        (gain * input + bias, slope)
+    }
+}
+
+/// Whether the actuators exert no force at zero controls and activations
+/// whatever the state (no bias, no activation, a force range holding 0), so
+/// that a step without ctrl skips them.
+pub fn idle_without_inputs(actuators: &[ActuatorTerm]) -> bool {
+    actuators.iter().all(|a| {
+        let law = &a.law;
+        law.bias == Bias::None
+            && a.act.is_none()
+            && law
+                .force_range
+                .is_none_or(|(lo, hi)| lo <= 0.0 && 0.0 <= hi)
+    })
+}
+
+impl ActuatorTerm {
+    /// Its generalized force on its dof and its next activation after a step
+    /// h (a itself without dynamics) at joint coordinate x, velocity xd,
+    /// control c (before clamping) and activation a: one actuator of
+    /// [`add_actuator_forces`] and [`next_acts`] under Euler.
+    pub fn output<T: Real>(&self, h: f64, (x, xd): (T, T), (c, a): (T, T)) -> (T, T) {
+        let c = clamp(c, self.law.ctrl_range);
+        let rate = self.rate(c, a);
+        let force = lift::<T>(self.law.gear) * self.force((x, xd), (c, a, rate), h);
+        let next = if self.act.is_some() {
+            self.next_act(a, rate, h)
+        } else {
+            a
+        };
+        (force, next)
+    }
+
+    /// Whether its force is the same at every (q, v, act): no activation,
+    /// no length or velocity term in gain and bias.
+    pub fn state_independent(&self) -> bool {
+        let fixed = |p: [f64; 3]| p[1] == 0.0 && p[2] == 0.0;
+        let gain = match self.law.gain {
+            Gain::Fixed(_) => true,
+            Gain::Affine(p) => fixed(p),
+        };
+        let bias = match self.law.bias {
+            Bias::None => true,
+            Bias::Affine(p) => fixed(p),
+        };
+        self.act.is_none() && gain && bias
+    }
+}
+
+/// Adds the derivative of the actuators' generalized forces in v at (q, v,
+/// ctrl, act) to `diagonal` (nv): a joint actuator's force moves with its
+/// own dof's velocity only, by gear^2 (gain_v w + bias_v) (gain_v, bias_v
+/// the velocity coefficients of an affine gain and bias, w its control or
+/// activation), and not at all while its force range clamps it. This is
+/// MuJoCo's actuator term of qDeriv (mjd_actuator_vel), which its implicit
+/// and implicitfast integrators take implicitly (Euler does not);
+/// `rates` as in [`add_actuator_forces`].
+pub fn add_force_velocity_derivatives<T: Real>(
+    actuators: &[ActuatorTerm],
+    h: f64,
+    (q, v): (&[T], &[T]),
+    (ctrl, act, rates): (&[T], &[T], &[T]),
+    diagonal: &mut [T],
+) {
+    for (i, a) in actuators.iter().enumerate() {
+        let (current, rate) = match a.act {
+            Some(k) => (act.get(k).copied().unwrap_or(T::zero()), rates[k]),
+            None => (T::zero(), T::zero()),
+        };
+        let inputs = (a.control(ctrl, i), current, rate);
+        let (force, slope) = a.raw_force((q[a.q_at], v[a.dof]), inputs, h);
+        if clamp(force, a.law.force_range) == force {
+            diagonal[a.dof] += lift::<T>(a.law.gear) * slope;
+        }
+    }
+}
+
+/// x clamped to [lo, hi] as mju_clip does; x itself without a range.
+fn clamp<T: Real>(x: T, range: Option<(f64, f64)>) -> T {
+    match range {
+        Some((lo, _)) if x < lift(lo) => lift(lo),
+        Some((_, hi)) if x > lift(hi) => lift(hi),
+        _ => x,
+    }
+}
+
+/// The activation rates (na) at ctrl and act.
+pub fn act_rates<T: Real>(actuators: &[ActuatorTerm], (ctrl, act): (&[T], &[T]), out: &mut [T]) {
+    for (i, a) in actuators.iter().enumerate() {
+        if let Some(k) = a.act {
+            let current = act.get(k).copied().unwrap_or(T::zero());
+            out[k] = a.rate(a.control(ctrl, i), current);
+        }
+    }
+}
+
+/// Adds the actuators' generalized forces at (q, v, ctrl, act) to `force`
+/// (nv); `rates` are the activation rates at (ctrl, act) ([`act_rates`]),
+/// which actearly actuators read.
+pub fn add_actuator_forces<T: Real>(
+    actuators: &[ActuatorTerm],
+    h: f64,
+    (q, v): (&[T], &[T]),
+    (ctrl, act, rates): (&[T], &[T], &[T]),
+    force: &mut [T],
+) {
+    for (i, a) in actuators.iter().enumerate() {
+        let (current, rate) = match a.act {
+            Some(k) => (act.get(k).copied().unwrap_or(T::zero()), rates[k]),
+            None => (T::zero(), T::zero()),
+        };
+        let f = a.force(
+            (q[a.q_at], v[a.dof]),
+            (a.control(ctrl, i), current, rate),
+            h,
+        );
+        force[a.dof] += lift::<T>(a.law.gear) * f;
+    }
+}
+
+/// The activations after a step h from act at `rates` (MuJoCo's
+/// nextActivation for each).
+pub fn next_acts<T: Real>(
+    actuators: &[ActuatorTerm],
+    h: f64,
+    (act, rates): (&[T], &[T]),
+    out: &mut [T],
+) {
+    for a in actuators {
+        if let Some(k) = a.act {
+            let current = act.get(k).copied().unwrap_or(T::zero());
+            out[k] = a.next_act(current, rates[k], h);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Model;
+    use num_dual::Dual64;
+
+    const XML: &str = r#"<mujoco><compiler autolimits="true"/><worldbody>
+      <body><joint name="a" axis="0 1 0"/><geom size="0.1"/>
+        <body pos="0.3 0 0"><joint name="b" type="slide"/><geom size="0.1"/></body></body>
+      </worldbody><actuator>
+        <position joint="a" kp="20" kv="2" gear="1.5"/>
+        <general joint="b" gaintype="affine" gainprm="1 0.5 -0.7" biastype="affine"
+                 biasprm="0 -1 -0.3" dyntype="filter" dynprm="0.2" actearly="true"/>
+        <velocity joint="b" kv="4" forcerange="-0.1 0.1"/>
+      </actuator></mujoco>"#;
+
+    /// The velocity derivative equals the dual-number slope of the forces in v,
+    /// and a clamped force (the velocity servo) contributes nothing.
+    #[test]
+    fn velocity_derivative_is_the_forces_slope() {
+        let model = Model::from_mjcf(XML, "t.xml").unwrap();
+        let tree = model.tree();
+        let (q, ctrl, act) = ([0.3, -0.1], [0.4, 0.9, 2.0], [0.25]);
+        let v = [0.7, -1.2];
+        let mut rates = [0.0];
+        act_rates(&tree.actuators, (&ctrl[..], &act[..]), &mut rates);
+        let mut diagonal = [0.0; 2];
+        let inputs = (&ctrl[..], &act[..], &rates[..]);
+        add_force_velocity_derivatives(&tree.actuators, 0.01, (&q, &v), inputs, &mut diagonal);
+        for dof in 0..2 {
+            let lift = |x: &[f64]| x.iter().map(|&x| Dual64::from(x)).collect::<Vec<_>>();
+            let mut vd = lift(&v);
+            vd[dof].eps = 1.0;
+            let (cd, ad, rd) = (lift(&ctrl), lift(&act), lift(&rates));
+            let mut force = lift(&[0.0, 0.0]);
+            add_actuator_forces(
+                &tree.actuators,
+                0.01,
+                (&lift(&q), &vd),
+                (&cd, &ad, &rd),
+                &mut force,
+            );
+            assert!((force[dof].eps - diagonal[dof]).abs() < 1e-14, "dof {dof}");
+        }
+        // Position servo: -kv gear^2. The general: its gain slope times its early
+        // activation 0.25 + 0.01 (0.9 - 0.25) / 0.2, plus its bias slope (gear 1).
+        assert!((diagonal[0] + 2.0 * 1.5 * 1.5).abs() < 1e-14);
+        let early = 0.25 + 0.01 * (0.9 - 0.25) / 0.2;
+        assert!((diagonal[1] - (-0.7 * early - 0.3)).abs() < 1e-14);
+    }
+}
