@@ -186,6 +186,7 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
             inertia,
             inertia_frame,
             joints,
+            gravcomp,
         } = a;
         let at = |what: &str| format!("body '{name}' {what}");
         assert_eq!(
@@ -196,6 +197,7 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         worst.numbers(|| at("pos"), pos.as_slice(), b.pos.as_slice());
         rebuilt.rotation(|| at("rot"), rot, &b.rot);
         worst.number(|| at("mass"), *mass, b.mass);
+        assert_eq!(*gravcomp, b.gravcomp, "{model}: body '{name}' gravcomp");
         worst.numbers(|| at("com"), com.as_slice(), b.com.as_slice());
         rebuilt.tensor(|| at("inertia"), inertia, &b.inertia);
         // The inertial frame survives where the inertia is diagonal in it (written

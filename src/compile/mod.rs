@@ -9,6 +9,7 @@
 
 mod edit;
 mod fluid;
+mod gravcomp;
 mod simulate;
 mod tree;
 

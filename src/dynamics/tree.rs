@@ -18,6 +18,7 @@ use super::configuration::{rotation_matrix, Coordinates};
 use super::constraint::ConstraintConsts;
 use super::contact::{Pair, Soft};
 use super::fluid::FluidBody;
+use super::gravcomp::GravcompBody;
 use crate::model::{JointKind, Options, SoftOptions};
 use crate::spatial::{Inertia, Motion, Real, Transform};
 
@@ -164,6 +165,12 @@ pub struct Tree<T: Real> {
     pub constraint: ConstraintConsts<T>,
     /// The bodies the medium (`opt.fluid`) acts on (none without one).
     pub fluid: Vec<FluidBody<T>>,
+    /// The bodies with gravity compensation ([`super::gravcomp`]).
+    pub gravcomp: Vec<GravcompBody<T>>,
+    /// The first node of each standalone free body: a free joint whose body
+    /// has no descendants with joints or mass (MuJoCo's mj_isFreeBody; see
+    /// [`super::implicit`]).
+    pub free_bodies: Vec<usize>,
     /// The model's options, as the spec gives them (timestep, integrator,
     /// which law contacts follow, solver, medium): the step reads them here.
     /// Those with a T-valued form are lifted beside them (`gravity`, `soft`).
@@ -191,6 +198,8 @@ impl<T: Real> Tree<T> {
             soft: Soft::new(&SoftOptions::default(), [T::zero(); 3]),
             constraint: ConstraintConsts::empty(),
             fluid: vec![],
+            gravcomp: vec![],
+            free_bodies: vec![],
             opt: Options::default(),
         }
     }

@@ -106,12 +106,11 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
             read_flags(file, flag, &mut flags)?;
         }
     }
-    if integrator == "implicitfast" && opt.fluid.acts() {
-        let (rho, mu) = (opt.fluid.density, opt.fluid.viscosity);
-        let msg = format!(
-            "integrator \"implicitfast\" is not supported in a fluid (density {rho}, viscosity \
-             {mu}): it takes the fluid forces' velocity derivative implicitly; use Euler or RK4"
-        );
+    let (_, chosen) = *Integrator::NAMES
+        .iter()
+        .find(|(name, _)| *name == integrator)
+        .expect("read from the names");
+    if let Some(msg) = opt.fluid.implicit_refusal(chosen) {
         return Err(xml::invalid(file, named, msg));
     }
     if !flags.gravity {
@@ -124,11 +123,7 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
     opt.solver.frictionloss = flags.frictionloss && flags.constraint;
     (opt.solver.refsafe, opt.solver.filterparent) = (flags.refsafe, flags.filterparent);
     opt.contact_model = contact_model(file, root)?;
-    opt.integrator = if integrator == "RK4" {
-        Integrator::Rk4
-    } else {
-        Integrator::Euler
-    };
+    opt.integrator = chosen;
     opt.passive = match integrator {
         "RK4" => PassiveMode::Explicit,
         "Euler" if !flags.eulerdamp => PassiveMode::Explicit,
@@ -203,13 +198,7 @@ fn contact_model(file: &str, root: Node) -> Result<ContactModel> {
 }
 
 fn read_integrator(a: &Attrs) -> Result<Option<&'static str>> {
-    let integrator = a.keyword("integrator", &["Euler", "RK4", "implicit", "implicitfast"])?;
-    if integrator == Some("implicit") {
-        let msg = "integrator \"implicit\" is not supported: it linearises Coriolis forces; \
-                   use Euler, RK4 or implicitfast";
-        return Err(a.error(a.element, msg));
-    }
-    Ok(integrator)
+    a.keyword("integrator", &Integrator::NAMES.map(|(name, _)| name))
 }
 
 /// The medium: `density`, `viscosity` (finite, >= 0) and `wind`.

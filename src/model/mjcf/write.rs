@@ -102,6 +102,8 @@ fn write_options(doc: &mut Document, opt: &Options) -> Result<(), ModelError> {
     let integrator = match opt.integrator {
         Integrator::Euler => "Euler",
         Integrator::Rk4 => "RK4",
+        Integrator::ImplicitFast => "implicitfast",
+        Integrator::Implicit => "implicit",
     };
     let cone = match opt.solver.cone {
         Cone::Pyramidal => "pyramidal",
