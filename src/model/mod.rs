@@ -275,7 +275,9 @@ impl Integrator {
 }
 
 /// How joint damping and stiffness enter a semi-implicit Euler step.
-/// (Under RK4 passive forces are always explicit, as in MuJoCo.)
+/// (Under RK4 passive forces are always explicit, as in MuJoCo; under
+/// `implicitfast` and `implicit` damping enters through qDeriv and the
+/// mode is not read.)
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PassiveMode {
     /// Forces at the current state: PyBullet, MuJoCo with eulerdamp disabled.

@@ -1,16 +1,16 @@
 //! `<option>` and its `<flag>`s, read into [`Options`]; every `<option>`
 //! applies in document order over MuJoCo's defaults.
 //!
-//! `Euler` and `RK4` map to [`Integrator::Euler`] and [`Integrator::Rk4`].
-//! `implicitfast` differs from Euler only by treating velocity-dependent forces
-//! implicitly (their velocity derivative, MuJoCo's qDeriv, joins the mass
-//! matrix); with joint damping the only such force here, that is Euler with
-//! implicit damping, so it loads as [`Integrator::Euler`] with
-//! [`PassiveMode::ImplicitDamping`]. In a fluid (density or viscosity
-//! nonzero) MuJoCo's qDeriv holds the fluid forces' derivative too, so
-//! `implicitfast` is rejected there. `implicit` also linearises Coriolis
-//! forces (an O(h) difference) and is rejected. Passive forces are explicit under RK4
-//! or when `<flag eulerdamp="disable">` (Euler only), else damping is implicit.
+//! `Euler`, `RK4`, `implicitfast` and `implicit` map to the [`Integrator`]
+//! of the same name ([`Integrator::NAMES`]). The implicit ones treat
+//! velocity-dependent forces implicitly (their velocity derivative,
+//! MuJoCo's qDeriv, joins the mass matrix; `implicit` with the Coriolis
+//! forces'); in a fluid (density or viscosity nonzero) MuJoCo's qDeriv holds
+//! the fluid forces' derivative too, which is not written, so both are
+//! rejected there. Passive forces are explicit under RK4 or when
+//! `<flag eulerdamp="disable">` (Euler only), else damping is implicit (the
+//! implicit integrators ignore eulerdamp, as MuJoCo does, and load with
+//! [`PassiveMode::ImplicitDamping`], which they do not read).
 //! `<flag gravity="disable">` loads as zero gravity; `<flag contact="disable">`
 //! and `<flag limit="disable">` switch off [`Options::contact`] and
 //! [`Options::limits`].
@@ -283,16 +283,17 @@ mod tests {
 
     #[test]
     fn options_map_to_integrator_and_passive_mode() {
-        use Integrator::{Euler, Rk4};
+        use Integrator::{Euler, Implicit, ImplicitFast, Rk4};
         use PassiveMode::{Explicit, ImplicitDamping};
         #[rustfmt::skip]
         let cases = [
             ("", Euler, ImplicitDamping),
             (r#"<option integrator="RK4"/>"#, Rk4, Explicit),
             (r#"<option><flag eulerdamp="disable"/></option>"#, Euler, Explicit),
-            (r#"<option integrator="implicitfast"/>"#, Euler, ImplicitDamping),
+            (r#"<option integrator="implicitfast"/>"#, ImplicitFast, ImplicitDamping),
             (r#"<option integrator="implicitfast"><flag eulerdamp="disable"/></option>"#,
-             Euler, ImplicitDamping),
+             ImplicitFast, ImplicitDamping),
+            (r#"<option integrator="implicit"/>"#, Implicit, ImplicitDamping),
         ];
         for (option, integrator, passive) in cases {
             let m = load(&model(option, &body(""), ""));
@@ -313,8 +314,9 @@ mod tests {
         assert_eq!(m.opt.gravity, Vector3::zeros());
     }
 
-    /// implicitfast in a fluid is refused at the element naming it (its
-    /// fluid derivative is not computed); without a fluid it loads.
+    /// implicitfast (and implicit) in a fluid is refused at the element
+    /// naming it (its fluid derivative is not computed), and by an edit that
+    /// switches it on; without a fluid it loads.
     #[test]
     fn implicitfast_in_a_fluid_is_refused() {
         let fluid = r#"<option density="1.2"/>"#;
@@ -337,8 +339,17 @@ mod tests {
             "",
         );
         assert!(error(&viscous).2.contains("viscosity 0.00001"));
+        let implicit = r#"<option integrator="implicit" density="1"/>"#;
+        assert!(error(&model(implicit, &body(""), ""))
+            .2
+            .contains("\"implicit\""));
         let m = load(&model(implicitfast, &body(""), ""));
         assert_eq!(m.opt.passive, PassiveMode::ImplicitDamping);
+        let in_fluid = m.edited(|s| s.opt.fluid.density = 1.2).unwrap_err();
+        assert!(
+            in_fluid.to_string().contains("not supported in a fluid"),
+            "{in_fluid}"
+        );
         let m = load(&model(
             &format!("{fluid}<option integrator=\"RK4\"/>"),
             &body(""),
