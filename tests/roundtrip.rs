@@ -378,6 +378,28 @@ fn random_trees_round_trip() {
     }
 }
 
+/// `implicitfast` and `implicit` are their MuJoCo names, gravcomp a body attribute.
+#[test]
+fn implicit_integrators_and_gravcomp_round_trip() {
+    for (seed, integrator) in [(3, Integrator::ImplicitFast), (4, Integrator::Implicit)] {
+        let model = common::random_model(seed, 6, PassiveMode::ImplicitDamping, integrator);
+        let model = model
+            .edited(|s| {
+                for (i, b) in s.bodies.iter_mut().enumerate().skip(1) {
+                    b.parent = i - 1;
+                    b.gravcomp = if i % 2 == 0 { 0.25 * i as f64 } else { 0.0 };
+                }
+            })
+            .unwrap();
+        assert!(model.has_gravcomp());
+        let text = mjcf::write(&model).unwrap();
+        let name = Integrator::NAMES.iter().find(|(_, i)| *i == integrator);
+        assert!(text.contains(&format!("integrator=\"{}\"", name.unwrap().0)));
+        assert_round_trips(&format!("{integrator:?}"), &model);
+        assert_eq!(round_trip("again", &model).opt.integrator, integrator);
+    }
+}
+
 #[test]
 fn rk4_reads_back_with_explicit_passive_forces() {
     let model = Model::load(common::model_path("reference_models/pendulum.xml")).unwrap();

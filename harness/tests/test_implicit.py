@@ -113,3 +113,17 @@ def test_implicit_in_a_fluid_is_refused(tmp_path):
         ours.with_options(density=1.2, integrator="implicitfast")
     with pytest.raises(ValueError, match="not supported in a fluid"):
         ours.with_options(viscosity=1e-5).with_options(integrator="implicit")
+
+
+@pytest.mark.parametrize("integrator", ["Euler", "RK4"])
+def test_gravcomp_under_the_explicit_integrators(tmp_path, integrator):
+    m, ours = models(tmp_path, "gravcomp", integrator)
+    d = mujoco.MjData(m)
+    q, v, tau = state(m, "gravcomp", 2)
+    d.qpos[:], d.qvel[:], d.qfrc_applied[:] = q, v, tau
+    mujoco.mj_forward(m, d)
+    assert np.abs(d.qfrc_gravcomp).max() > 1.0  # the compensation acts
+    mujoco.mj_step(m, d)
+    q1, v1 = ours.step(q, v, tau)
+    np.testing.assert_allclose(q1, d.qpos, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(v1, d.qvel, rtol=0, atol=1e-12)
