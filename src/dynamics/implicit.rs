@@ -144,7 +144,7 @@ fn add_bias_derivative<T: Real>(
     for i in 0..n {
         let s = tree.joint[i].s;
         let parent = tree.parent[i].map(|p| data.x_up[i].apply_motion(&b.vel[p]));
-        b.vel[i] = parent.unwrap_or(Motion::zero()) + s * v[i];
+        b.vel[i] = parent.unwrap_or_default() + s * v[i];
     }
     for j in columns {
         b.unit.fill(T::zero());

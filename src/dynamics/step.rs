@@ -344,9 +344,9 @@ impl<T: Real> Reuse<T> {
 /// 2. a0 = M^-1 (tau + tau_passive - c), M from CRBA (armature included);
 /// 3. the constrained acceleration and forces f ([`super::constraint::solver`]);
 /// 4. with implicit passive terms (MuJoCo's Euler), the acceleration is
-///    solved again with them: (M + diag(extra)) qdd = tau + tau_passive - c
-///    + J^T f; under the implicit integrators with M - h qDeriv instead
-///    (mj_implicit); otherwise qdd is the solver's.
+///    solved again with them, (M + diag(extra)) qdd = tau + tau_passive - c
+///    plus J^T f, and under the implicit integrators with M - h qDeriv
+///    instead (mj_implicit); otherwise qdd is the solver's.
 ///
 /// `force` holds tau + tau_passive on entry; `data.x_up` is at q; `c` holds
 /// the contacts and rows, and receives the solution.
