@@ -23,7 +23,8 @@ CHAIN = f"""
     <body pos="0.2 0 0"><joint type="slide" axis="0 0.6 0.8" damping="0.4" stiffness="3"/>
       <geom type="sphere" size="0.07" {OFF}/></body></body></body>"""
 FREE = f"""
-<body pos="0 0 1"><freejoint/><geom type="box" size=".1 .2 .3" pos="0.05 0.02 0" {OFF}/></body>"""
+<body pos="0 0 1"><joint type="free" damping="0.2"/>
+  <geom type="box" size=".1 .2 .3" pos="0.05 0.02 0" {OFF}/></body>"""
 FREE_CHILD = f"""
 <body pos="0 0 1"><freejoint/><geom type="box" size=".1 .2 .3" {OFF}/>
   <body pos="0.2 0 0"><joint type="hinge" axis="0 0 1" damping="0.3"/>

@@ -82,9 +82,9 @@ pub fn implicit_matrix<T: Real>(
         }
     }
     if !full {
+        // A lone free body's block: all of qDeriv (not mirrored) with its
+        // own gyroscopic term (its columns of dc/dv vanish off the block).
         for &k in &tree.free_bodies {
-            b.qderiv.view_mut((k, k), (6, 6)).fill(T::zero());
-            add_damping_derivative(tree, k..k + 6, &mut b.qderiv);
             add_bias_derivative(tree, data, v, k..k + 6, &mut b);
             for i in k..k + 6 {
                 for j in k..k + 6 {
@@ -105,22 +105,17 @@ fn velocity_derivative<T: Real>(
     bias: bool,
     b: &mut Buffers<T>,
 ) {
-    let n = tree.nv();
     b.qderiv.fill(T::zero());
-    add_damping_derivative(tree, 0..n, &mut b.qderiv);
+    add_damping_derivative(tree, &mut b.qderiv);
     // The actuators' d(tau_actuator)/dv adds here.
     if bias {
-        add_bias_derivative(tree, data, v, 0..n, b);
+        add_bias_derivative(tree, data, v, 0..tree.nv(), b);
     }
 }
 
-/// The joint damping's derivative -diag(damping) on the dofs `dofs`.
-fn add_damping_derivative<T: Real>(
-    tree: &Tree<T>,
-    dofs: std::ops::Range<usize>,
-    qderiv: &mut DMatrix<T>,
-) {
-    for i in dofs {
+/// The joint damping's derivative -diag(damping).
+fn add_damping_derivative<T: Real>(tree: &Tree<T>, qderiv: &mut DMatrix<T>) {
+    for i in 0..tree.nv() {
         qderiv[(i, i)] -= tree.damping[i];
     }
 }
