@@ -12,8 +12,7 @@ MJCF model (reference_*, data_*, gym_*; not *_urdf, random*) must also compile
 to the same model as its original: body poses and inertias, joints, dofs,
 geoms, actuators, options, and 200 steps of the smooth dynamics (constraints
 and contacts disabled; the Spec holds neither) under random controls. Our
-loader reads `implicitfast` as Euler with implicit damping, the same dynamics
-here, which the rollout confirms, and disabled gravity as zero gravity.
+loader reads disabled gravity as zero gravity.
 Tolerance 1e-12, relative (inertia tensors: to their largest entry); exit 1
 on any failure.
 """
@@ -96,8 +95,6 @@ def sizes(m):
 def options(m):
     """Timestep, effective gravity and integrator, as our loader reads them."""
     integrator = int(m.opt.integrator)
-    if integrator == int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST):
-        integrator = int(mujoco.mjtIntegrator.mjINT_EULER)
     gravity_on = not m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY
     return [m.opt.timestep, *(m.opt.gravity * gravity_on), integrator]
 

@@ -135,11 +135,11 @@ fn compare(model: &Model, g: &Value) -> [(&'static str, Worst); 5] {
     };
     opt.vector("gravity", &model.opt.gravity, &gravity);
     let integrator = o["integrator"].as_str().unwrap();
-    let expected_integrator = if integrator == "RK4" {
-        Integrator::Rk4
-    } else {
-        Integrator::Euler
-    };
+    let expected_integrator = Integrator::NAMES
+        .iter()
+        .find(|(name, _)| *name == integrator)
+        .expect("MuJoCo's integrator names")
+        .1;
     assert_eq!(
         model.opt.integrator, expected_integrator,
         "integrator {integrator}"

@@ -200,6 +200,7 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
             inertia,
             inertia_frame,
             joints,
+            gravcomp,
         } = a;
         let at = |what: &str| format!("body '{name}' {what}");
         assert_eq!(
@@ -210,6 +211,7 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         worst.numbers(|| at("pos"), pos.as_slice(), b.pos.as_slice());
         rebuilt.rotation(|| at("rot"), rot, &b.rot);
         worst.number(|| at("mass"), *mass, b.mass);
+        assert_eq!(*gravcomp, b.gravcomp, "{model}: body '{name}' gravcomp");
         worst.numbers(|| at("com"), com.as_slice(), b.com.as_slice());
         rebuilt.tensor(|| at("inertia"), inertia, &b.inertia);
         // The inertial frame survives where the inertia is diagonal in it (written
@@ -417,6 +419,28 @@ fn random_trees_round_trip() {
             })
             .unwrap();
         assert_round_trips(&format!("random{seed}"), &model);
+    }
+}
+
+/// `implicitfast` and `implicit` are their MuJoCo names, gravcomp a body attribute.
+#[test]
+fn implicit_integrators_and_gravcomp_round_trip() {
+    for (seed, integrator) in [(3, Integrator::ImplicitFast), (4, Integrator::Implicit)] {
+        let model = common::random_model(seed, 6, PassiveMode::ImplicitDamping, integrator);
+        let model = model
+            .edited(|s| {
+                for (i, b) in s.bodies.iter_mut().enumerate().skip(1) {
+                    b.parent = i - 1;
+                    b.gravcomp = if i % 2 == 0 { 0.25 * i as f64 } else { 0.0 };
+                }
+            })
+            .unwrap();
+        assert!(model.has_gravcomp());
+        let text = mjcf::write(&model).unwrap();
+        let name = Integrator::NAMES.iter().find(|(_, i)| *i == integrator);
+        assert!(text.contains(&format!("integrator=\"{}\"", name.unwrap().0)));
+        assert_round_trips(&format!("{integrator:?}"), &model);
+        assert_eq!(round_trip("again", &model).opt.integrator, integrator);
     }
 }
 

@@ -3,7 +3,9 @@
 //! finite differences taken on the manifold: q moved by q (+) d, q' read as the tangent
 //! of q'_+ against q'_- (mj_differentiatePos). Our free_ball model under Euler, RK4 and in
 //! a wind, and gymnasium's ant as its file runs it (RK4, contacts and limits on, standing
-//! on its floor), parameters included.
+//! on its floor), parameters included; under MuJoCo's implicitfast and implicit
+//! integrators free_ball (with and without gravcomp), the lone free box (its
+//! gyroscopic block) and the ant standing.
 
 mod common;
 
@@ -204,8 +206,57 @@ fn free_and_ball_jacobians_match_manifold_differences() {
 }
 
 #[test]
+fn implicit_integrators_jacobians_match_manifold_differences() {
+    let params = [
+        "body/box/mass",
+        "body/arm/com",
+        "joint/shoulder/damping",
+        "joint/elbow/damping",
+    ];
+    for integrator in [Integrator::ImplicitFast, Integrator::Implicit] {
+        let ball = free_ball(integrator, Fluid::default());
+        let compensated = ball
+            .edited(|s| {
+                s.bodies[2].gravcomp = 0.6;
+                s.bodies[4].gravcomp = 1.0;
+            })
+            .unwrap();
+        let lone_box = Model::load(common::model_path("reference_models/free_box.xml"))
+            .unwrap()
+            .edited(|s| s.opt.integrator = integrator)
+            .unwrap();
+        for (name, model, params) in [
+            (format!("free_ball {integrator:?}"), ball, &params[..]),
+            (
+                format!("free_ball {integrator:?} with gravcomp"),
+                compensated,
+                &params[..],
+            ),
+            (
+                format!("free_box {integrator:?} in the air"),
+                lone_box,
+                &["body/box/inertia"][..],
+            ),
+        ] {
+            let (q, v, tau) = state(&model);
+            check(&name, &model, (&q, &v, &tau), params);
+        }
+        standing_ant(integrator);
+    }
+}
+
+#[test]
 fn the_ants_jacobians_in_contact_match_manifold_differences() {
-    let model = Model::load(common::model_path("gymnasium:ant.xml")).unwrap();
+    standing_ant(Integrator::Rk4);
+}
+
+/// The ant standing on its floor under `integrator` (its file's RK4, or
+/// another), its Jacobians checked.
+fn standing_ant(integrator: Integrator) {
+    let model = Model::load(common::model_path("gymnasium:ant.xml"))
+        .unwrap()
+        .edited(|s| s.opt.integrator = integrator)
+        .unwrap();
     // standing on its floor: 100 steps from its reference pose
     let mut data = model.data();
     let (mut q, mut v) = (model.reference_q(), vec![0.0; model.nv()]);
@@ -219,7 +270,7 @@ fn the_ants_jacobians_in_contact_match_manifold_differences() {
     );
     let tau: Vec<f64> = (0..model.nv()).map(|i| (i as f64).sin()).collect();
     check(
-        "ant (RK4, in contact)",
+        &format!("ant ({integrator:?}, in contact)"),
         &model,
         (&q, &v, &tau),
         &["body/torso/mass"],

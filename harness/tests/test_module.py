@@ -113,7 +113,7 @@ def test_options_follow_the_file_and_with_options_copies():
 
 @pytest.mark.parametrize("kwargs, match", [
     ({"passive": "implicit"}, "passive must be one of explicit, implicit_damping"),
-    ({"integrator": "implicitfast"}, "integrator must be one of Euler, RK4"),
+    ({"integrator": "Verlet"}, "integrator must be one of Euler, RK4, implicitfast, implicit"),
     ({"timestep": 0.0}, "timestep must be positive"),
     ({"timestep": float("nan")}, "timestep must be positive"),
     ({"gravity": [0.0, 1.0]}, "gravity"),

@@ -9,6 +9,8 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::fluid::fluid_bodies;
+use super::gravcomp::gravcomp_bodies;
+use super::tree::free_bodies;
 use super::{body_inertia, check_tree_inertia, Model};
 use crate::dynamics::constraint::invweight0;
 use crate::dynamics::Tree;
@@ -278,6 +280,8 @@ impl Model {
         }
         // The fluid's equivalent boxes follow the masses and inertias.
         tree.fluid = fluid_bodies(&self.spec, &tree.body_frames(), &|_, _, x| x);
+        tree.gravcomp = gravcomp_bodies(&self.spec, &tree.body_frames(), &|_, _, x| x);
+        tree.free_bodies = free_bodies(&self.spec, &tree.body_frames());
         if tree.opt.contact_model == ContactModel::Constraint {
             // MuJoCo's mj_setConst after an edit of inertial values.
             let (body, dof) = invweight0(tree, &self.spec, &|_, _, x| x);

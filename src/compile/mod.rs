@@ -10,6 +10,7 @@
 mod actuators;
 mod edit;
 mod fluid;
+mod gravcomp;
 mod sensors;
 mod simulate;
 mod tree;

@@ -9,6 +9,7 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::fluid::fluid_bodies;
+use super::gravcomp::gravcomp_bodies;
 use crate::dynamics::actuation::ActuatorTerm;
 use crate::dynamics::collision::{collision_pairs, CollisionPair, GeomFrame};
 use crate::dynamics::configuration::Coordinates;
@@ -88,6 +89,8 @@ impl<T: Real> Tree<T> {
         tree.fluid = fluid_bodies(model, &tree.body_frames(), &lift_param);
         tree.actuators = actuator_terms(model);
         tree.na = model.na();
+        tree.gravcomp = gravcomp_bodies(model, &tree.body_frames(), &lift_param);
+        tree.free_bodies = free_bodies(model, &tree.body_frames());
         let soft = &model.opt.soft;
         let constants = [
             (Param::ContactStiffness, soft.stiffness),
@@ -173,6 +176,40 @@ impl<T: Real> Tree<T> {
             self.pairs.push(Pair { geoms, friction });
         }
     }
+}
+
+/// The first node of every standalone free body of `model` (see
+/// [`Tree::free_bodies`]), with the tree's body frames.
+pub(super) fn free_bodies<T: Real>(
+    model: &Spec,
+    frames: &[(Option<usize>, Transform<T>)],
+) -> Vec<usize> {
+    let descends = |k: usize, b: usize| {
+        let mut p = k;
+        while p != 0 {
+            p = model.bodies[p].parent;
+            if p == b {
+                return true;
+            }
+        }
+        false
+    };
+    let standalone = |b: usize| {
+        let body = &model.bodies[b];
+        let free = &model.joints[body.joints.clone()];
+        free.len() == 1
+            && free[0].kind == JointKind::Free
+            && model
+                .bodies
+                .iter()
+                .enumerate()
+                .skip(b + 1)
+                .all(|(k, d)| !descends(k, b) || (d.joints.is_empty() && d.mass == 0.0))
+    };
+    (1..model.bodies.len())
+        .filter(|&b| standalone(b))
+        .filter_map(|b| frames[b].0.map(|last| last - 5))
+        .collect()
 }
 
 /// The nodes of joint `j`, whose coordinates start at q[at] (see the module

@@ -52,19 +52,26 @@ use crate::Model;
 
 /// Whether a model's step Jacobians come from dual numbers alone: ball and
 /// free joints (their columns in the tangent space, see module
-/// `constrained`) and fluid forces have no analytic derivatives yet.
+/// `constrained`), fluid forces, gravity compensation and the implicit
+/// integrators (`implicitfast`, `implicit`: exact through their generic
+/// step) have no analytic derivatives yet.
 fn dual_only(model: &Model) -> bool {
-    !model.one_dof_joints() || model.opt.fluid.acts()
+    !model.one_dof_joints()
+        || model.opt.fluid.acts()
+        || model.has_gravcomp()
+        || model.opt.integrator.is_implicit()
 }
 
 /// Refuses, for the residuals with unknown constraints (which index q and v
-/// alike and differentiate analytically), a model with ball or free joints
-/// or fluid forces.
+/// alike and differentiate analytically), a model with ball or free joints,
+/// fluid forces or gravity compensation.
 pub(crate) fn one_dof_joints(model: &Model) -> Result<(), StepError> {
     if !model.one_dof_joints() {
         Err(StepError::NoTangentDerivatives)
     } else if model.opt.fluid.acts() {
         Err(StepError::NoFluidDerivatives)
+    } else if model.has_gravcomp() {
+        Err(StepError::NoGravcompDerivatives)
     } else {
         Ok(())
     }

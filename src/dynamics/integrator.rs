@@ -6,7 +6,7 @@
 use super::actuation::{act_rates, add_actuator_forces, next_acts};
 use super::configuration::{integrate, tangent_rate};
 use super::constraint::solver::Start;
-use super::{acceleration, stretch, Data, Tree};
+use super::{acceleration, implicit_acceleration, stretch, Data, Tree};
 use crate::model::{Integrator, Options, Param, PassiveMode};
 use crate::spatial::{lift, Real};
 
@@ -19,10 +19,10 @@ pub fn euler(opt: &Options) -> Option<(PassiveMode, f64)> {
     (opt.integrator == Integrator::Euler).then_some((opt.passive, opt.timestep))
 }
 
-/// The integrator's Runge-Kutta tableau; None for Euler.
+/// The integrator's Runge-Kutta tableau; None for Euler and the implicit ones.
 pub fn tableau(integrator: Integrator) -> Option<&'static Tableau> {
     match integrator {
-        Integrator::Euler => None,
+        Integrator::Euler | Integrator::ImplicitFast | Integrator::Implicit => None,
         Integrator::Rk4 => Some(&RK4),
     }
 }
@@ -196,6 +196,20 @@ pub(super) fn euler_step<T: Real>(
     let mut qdd = std::mem::take(&mut data.stage.qdd[0]);
     acceleration(tree, data, (mode, h), (q, v, tau), &mut qdd);
     integrate_euler(tree, h, (q, v, &qdd), (q_next, v_next));
+    data.stage.qdd[0] = qdd;
+}
+
+/// MuJoCo's `implicitfast` or `implicit` step (the tree's integrator): the
+/// acceleration of [`implicit_acceleration`], then [`integrate_euler`].
+pub(super) fn implicit_step<T: Real>(
+    tree: &Tree<T>,
+    data: &mut Data<T>,
+    (q, v, tau): (&[T], &[T], &[T]),
+    (q_next, v_next): (&mut [T], &mut [T]),
+) {
+    let mut qdd = std::mem::take(&mut data.stage.qdd[0]);
+    implicit_acceleration(tree, data, tree.opt.integrator, (q, v, tau), &mut qdd);
+    integrate_euler(tree, tree.opt.timestep, (q, v, &qdd), (q_next, v_next));
     data.stage.qdd[0] = qdd;
 }
 

@@ -22,6 +22,8 @@ pub mod constraint;
 pub mod contact;
 mod crba;
 pub mod fluid;
+pub mod gravcomp;
+pub mod implicit;
 pub mod integrator;
 mod kinematics;
 mod ltdl;
@@ -42,8 +44,8 @@ pub use ltdl::{ltdl_factor, ltdl_inverse, ltdl_solve, ltdl_solve_columns};
 pub use passive::{passive_forces, stretch};
 pub use rnea::{bias_forces, bias_forces_with_transforms, rnea, rnea_with_transforms};
 pub use step::{
-    acceleration, check_actuation, check_colliders, check_inputs, step, step_actuated,
-    step_applied, Constrained, StepError,
+    acceleration, check_actuation, check_colliders, check_inputs, implicit_acceleration, step,
+    step_actuated, step_applied, Constrained, StepError,
 };
 pub use tree::{BodyFrame, NodeJoint, Tree};
 
@@ -89,12 +91,16 @@ pub struct Data<T: Real> {
     stage: integrator::Stages<T>,
     /// The constraint model's buffers.
     reuse: step::Reuse<T>,
+    /// The implicit integrators' buffers.
+    implicit: implicit::Buffers<T>,
 }
 
 impl<T: Real> Data<T> {
     /// The mass matrix the last constraint-model acceleration with rows
     /// solved with, factored by [`ltdl_factor`]: M + E (E the implicit
-    /// passive diagonal) under implicit passive forces, else M.
+    /// passive diagonal) under Euler's implicit passive forces, else M
+    /// (under the implicit integrators too, whose solve with M - h qDeriv
+    /// follows the constraint solver's, [`implicit`]).
     pub fn factored_mass(&self) -> &DMatrix<T> {
         self.reuse.factored_mass()
     }
@@ -125,6 +131,7 @@ impl<T: Real> Data<T> {
             act_rate: vec![T::zero(); tree.na],
             stage: integrator::Stages::new(tree),
             reuse: step::Reuse::new(n),
+            implicit: implicit::Buffers::new(n),
         }
     }
 }

@@ -4,18 +4,24 @@ use nalgebra::DMatrix;
 
 use std::mem::take;
 
-use super::actuation::{act_rates, add_actuator_forces, idle_without_inputs, next_acts};
+use super::actuation::{
+    act_rates, add_actuator_forces, add_force_velocity_derivatives, idle_without_inputs, next_acts,
+};
 use super::collision::{ConstraintContact, Pre};
 use super::constraint::solver::{solve, Scratch, Solution, Start};
 use super::constraint::{rows, unreachable_pair, Rows};
 use super::fluid::add_fluid_forces;
-use super::integrator::{euler_step, implicit_terms, runge_kutta, tableau, ImplicitPassive};
+use super::gravcomp::add_gravcomp_forces;
+use super::implicit::{implicit_matrix, lu_solve};
+use super::integrator::{
+    euler_step, implicit_step, implicit_terms, runge_kutta, tableau, ImplicitPassive,
+};
 use super::{
     aba_with_transforms, add_soft_forces_with_transforms, bias_forces_with_transforms,
     crba_with_transforms, ltdl_factor, ltdl_solve, passive_forces, update_transforms, world_frames,
     Data, Tree,
 };
-use crate::model::{ContactModel, PassiveMode};
+use crate::model::{ContactModel, Integrator, PassiveMode};
 use crate::spatial::{lift, Real};
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -71,6 +77,12 @@ pub enum StepError {
          (position or velocity servos, activations) is not supported yet"
     )]
     NoActuatorDerivatives,
+    /// The same for models with gravity compensation.
+    #[error(
+        "identification with unknown constraints of models with gravity compensation \
+         (gravcomp) is not supported yet (their identification with modelled constraints is)"
+    )]
+    NoGravcompDerivatives,
     /// The next state is finite but a Jacobian block overflowed.
     #[error("the step Jacobian {block} is not finite (state, forces or parameters too large)")]
     JacobianNotFinite { block: &'static str },
@@ -90,6 +102,10 @@ pub enum StepError {
 ///   i.e. damping acts at v' (MuJoCo's Euler)
 /// - `ImplicitDampingStiffness`: (M + hD + h^2 K) qdd = tau - c - D v - K (s(q) + h v),
 ///   i.e. damping at v' and the spring at q' (DART)
+///
+/// `implicitfast` and `implicit` solve (M - h qDeriv) qdd = tau - c - D v - K s(q)
+/// (+ the constraint forces), MuJoCo's mj_implicit ([`super::implicit`]);
+/// the passive mode is not used there (damping enters through qDeriv).
 ///
 /// RK4 integrates dq/dt = v, dv/dt = M^-1 (tau - c - D v - K s(q)) classically
 /// by its Butcher tableau, its stages and result moved along the manifold as
@@ -152,7 +168,14 @@ pub fn step_actuated<T: Real>(
             total.copy_from_slice(tau);
             let inputs = (ctrl, act, &rate[..]);
             add_actuator_forces(&tree.actuators, h, (q, v), inputs, &mut total);
-            euler_step(tree, (opt.passive, h), data, (q, v, &total), next);
+            if opt.integrator.is_implicit() {
+                let slope = data.implicit.actuator_slope();
+                add_force_velocity_derivatives(&tree.actuators, h, (q, v), inputs, slope);
+                implicit_step(tree, data, (q, v, &total), next);
+                data.implicit.actuator_slope();
+            } else {
+                euler_step(tree, (opt.passive, h), data, (q, v, &total), next);
+            }
             if !act_next.is_empty() {
                 next_acts(&tree.actuators, h, (act, &rate), act_next);
             }
@@ -192,6 +215,7 @@ pub fn step_applied<T: Real>(
     let next = (&mut *q_next, &mut *v_next);
     let opt = &tree.opt;
     match tableau(opt.integrator) {
+        None if opt.integrator.is_implicit() => implicit_step(tree, data, (q, v, tau), next),
         None => euler_step(tree, (opt.passive, opt.timestep), data, (q, v, tau), next),
         Some(t) => {
             let inputs = (&[][..], None, tau);
@@ -292,6 +316,41 @@ pub fn acceleration<T: Real>(
     tree: &Tree<T>,
     data: &mut Data<T>,
     (mode, h): (PassiveMode, f64),
+    state: (&[T], &[T], &[T]),
+    qdd: &mut [T],
+) {
+    accelerate(tree, data, (mode, h), None, state, qdd);
+}
+
+/// The acceleration of an `implicitfast` or `implicit` step (`integrator`):
+/// qdd solving (M - h qDeriv) qdd = tau + tau_passive + tau_soft - c (+ J^T f,
+/// the constraint forces solved under M) ([`super::implicit`]).
+pub fn implicit_acceleration<T: Real>(
+    tree: &Tree<T>,
+    data: &mut Data<T>,
+    integrator: Integrator,
+    state: (&[T], &[T], &[T]),
+    qdd: &mut [T],
+) {
+    let explicit = (PassiveMode::Explicit, tree.opt.timestep);
+    accelerate(tree, data, explicit, Some(integrator), state, qdd);
+}
+
+/// What the acceleration's solve adds to M on the left.
+#[derive(Clone, Copy)]
+enum Lhs<'a, T> {
+    /// The implicit passive diagonal of a semi-implicit Euler step.
+    Diagonal(&'a [T]),
+    /// -h qDeriv, MuJoCo's implicit integrators.
+    Implicit(Integrator),
+}
+
+/// [`acceleration`] (`integrator` None) or [`implicit_acceleration`].
+fn accelerate<T: Real>(
+    tree: &Tree<T>,
+    data: &mut Data<T>,
+    (mode, h): (PassiveMode, f64),
+    integrator: Option<Integrator>,
     (q, v, tau): (&[T], &[T], &[T]),
     qdd: &mut [T],
 ) {
@@ -303,14 +362,20 @@ pub fn acceleration<T: Real>(
         force[i] += tau[i];
     }
     let implicit = ImplicitPassive::new(mode, lift::<T>(h)).acts();
-    let implicit = implicit.then_some(&extra[..]);
+    let lhs = match integrator {
+        Some(integrator) => Some(Lhs::Implicit(integrator)),
+        None => implicit.then_some(Lhs::Diagonal(&extra[..])),
+    };
     update_transforms(tree, data, q);
     let constraints = tree.opt.contact_model == ContactModel::Constraint && tree.has_constraints();
-    if constraints || !tree.fluid.is_empty() {
+    if constraints || !tree.fluid.is_empty() || !tree.gravcomp.is_empty() {
         world_frames(tree, data, v);
     }
     if !tree.fluid.is_empty() {
         add_fluid_forces(tree, data, force);
+    }
+    if !tree.gravcomp.is_empty() {
+        add_gravcomp_forces(tree, data, force);
     }
     let previous = data.constrained.take();
     if constraints {
@@ -327,7 +392,7 @@ pub fn acceleration<T: Real>(
         rows(tree, data, (q, v), (&mut c.contacts, &mut c.rows, &mut pre));
         data.reuse.pre = pre;
         if !c.rows.is_empty() {
-            constrained(tree, data, (v, start), force, implicit, &mut c, qdd);
+            constrained(tree, data, (v, start), force, lhs, &mut c, qdd);
             data.constrained = Some(c);
             data.scratch = scratch;
             return;
@@ -336,8 +401,35 @@ pub fn acceleration<T: Real>(
     } else {
         add_soft_forces_with_transforms(tree, data, (q, v), force);
     }
-    aba_with_transforms(tree, data, v, force, implicit, qdd);
+    match lhs {
+        Some(Lhs::Implicit(integrator)) => {
+            bias_forces_with_transforms(tree, data, v, qdd);
+            for i in 0..tree.nv() {
+                qdd[i] = force[i] - qdd[i];
+            }
+            crba_with_transforms(tree, data);
+            implicit_solve(tree, data, integrator, v, qdd);
+        }
+        Some(Lhs::Diagonal(extra)) => aba_with_transforms(tree, data, v, force, Some(extra), qdd),
+        None => aba_with_transforms(tree, data, v, force, None, qdd),
+    }
     data.scratch = scratch;
+}
+
+/// Solves (M - h qDeriv) qdd = f for the implicit integrators, f in `qdd`
+/// on entry (`data.mass_matrix` holds M, `data.x_up` is at q); a singular
+/// matrix gives a qdd that is not finite (the step reports divergence).
+fn implicit_solve<T: Real>(
+    tree: &Tree<T>,
+    data: &mut Data<T>,
+    integrator: Integrator,
+    v: &[T],
+    qdd: &mut [T],
+) {
+    implicit_matrix(tree, data, integrator, v);
+    if !lu_solve(&mut data.implicit.matrix, qdd) {
+        qdd.fill(lift(f64::NAN));
+    }
 }
 
 /// The constraint model's last evaluation (see `constrained`).
@@ -400,8 +492,9 @@ impl<T: Real> Reuse<T> {
 /// 2. a0 = M^-1 (tau + tau_passive - c), M from CRBA (armature included);
 /// 3. the constrained acceleration and forces f ([`super::constraint::solver`]);
 /// 4. with implicit passive terms (MuJoCo's Euler), the acceleration is
-///    solved again with them: (M + diag(extra)) qdd = tau + tau_passive - c
-///    + J^T f; otherwise qdd is the solver's.
+///    solved again with them, (M + diag(extra)) qdd = tau + tau_passive - c
+///    plus J^T f, and under the implicit integrators with M - h qDeriv
+///    instead (mj_implicit); otherwise qdd is the solver's.
 ///
 /// `force` holds tau + tau_passive on entry; `data.x_up` is at q; `c` holds
 /// the contacts and rows, and receives the solution.
@@ -410,7 +503,7 @@ fn constrained<T: Real>(
     data: &mut Data<T>,
     (v, start): (&[T], Start),
     force: &mut [T],
-    implicit: Option<&[T]>,
+    lhs: Option<Lhs<'_, T>>,
     c: &mut Constrained<T>,
     qdd: &mut [T],
 ) {
@@ -434,15 +527,21 @@ fn constrained<T: Real>(
         (iterations, start),
         (&mut c.solution, &mut r.solver),
     );
-    match implicit {
-        None => qdd.copy_from_slice(&c.solution.qacc),
-        Some(extra) => {
-            qdd.copy_from_slice(force);
-            for (row, f) in c.rows.j.chunks_exact(n).zip(&c.solution.force) {
-                for i in 0..n {
-                    qdd[i] += row[i] * *f;
-                }
-            }
+    let Some(lhs) = lhs else {
+        qdd.copy_from_slice(&c.solution.qacc);
+        return;
+    };
+    // tau + tau_passive - c + J^T f
+    qdd.copy_from_slice(force);
+    for (row, f) in c.rows.j.chunks_exact(n).zip(&c.solution.force) {
+        for i in 0..n {
+            qdd[i] += row[i] * *f;
+        }
+    }
+    match lhs {
+        Lhs::Implicit(integrator) => implicit_solve(tree, data, integrator, v, qdd),
+        Lhs::Diagonal(extra) => {
+            let (mass, r) = (&data.mass_matrix, &mut data.reuse);
             r.factor.copy_from(mass);
             for i in 0..n {
                 r.factor[(i, i)] += extra[i];

@@ -19,6 +19,7 @@ use super::configuration::{rotation_matrix, Coordinates};
 use super::constraint::ConstraintConsts;
 use super::contact::{Pair, Soft};
 use super::fluid::FluidBody;
+use super::gravcomp::GravcompBody;
 use crate::model::{JointKind, Options, SoftOptions};
 use crate::spatial::{Inertia, Motion, Real, Transform};
 
@@ -168,6 +169,12 @@ pub struct Tree<T: Real> {
     /// The actuators ([`super::actuation`]) and the number of activations.
     pub actuators: Vec<ActuatorTerm>,
     pub na: usize,
+    /// The bodies with gravity compensation ([`super::gravcomp`]).
+    pub gravcomp: Vec<GravcompBody<T>>,
+    /// The first node of each standalone free body: a free joint whose body
+    /// has no descendants with joints or mass (MuJoCo's mj_isFreeBody; see
+    /// [`super::implicit`]).
+    pub free_bodies: Vec<usize>,
     /// The model's options, as the spec gives them (timestep, integrator,
     /// which law contacts follow, solver, medium): the step reads them here.
     /// Those with a T-valued form are lifted beside them (`gravity`, `soft`).
@@ -197,6 +204,8 @@ impl<T: Real> Tree<T> {
             fluid: vec![],
             actuators: vec![],
             na: 0,
+            gravcomp: vec![],
+            free_bodies: vec![],
             opt: Options::default(),
         }
     }

@@ -72,6 +72,9 @@ pub enum ModelError {
     UnknownFormat(String),
     #[error("model is not physical: {0}")]
     NotPhysical(String),
+    /// A model that is valid but needs what is not implemented yet.
+    #[error("not supported: {0}")]
+    Unsupported(String),
     /// A model a file format cannot express, or a file we cannot write.
     #[error("cannot write {0}")]
     Unwritable(String),
@@ -99,6 +102,9 @@ pub struct Body {
     pub inertia_frame: Rotation3<f64>,
     /// The joints of this body, as a range of joint (= dof) indices.
     pub joints: std::ops::Range<usize>,
+    /// MuJoCo's gravity compensation: the body feels -gravcomp m g at its
+    /// COM ([`crate::dynamics::gravcomp`]); 0 (none) by default.
+    pub gravcomp: f64,
 }
 
 impl Body {
@@ -114,6 +120,7 @@ impl Body {
             inertia: Matrix3::zeros(),
             inertia_frame: Rotation3::identity(),
             joints: 0..0,
+            gravcomp: 0.0,
         }
     }
 }
@@ -369,16 +376,39 @@ pub enum Integrator {
     Euler,
     /// Classic fourth-order Runge-Kutta on (q, v); passive forces explicit.
     Rk4,
+    /// MuJoCo's `implicitfast`: v' = v + h qdd, q' = q (+) h v', with
+    /// (M - h D) qdd = f, D the velocity derivative of the passive and
+    /// actuator forces (MuJoCo's qDeriv without the Coriolis term, its lower
+    /// triangle mirrored), f the forces at (q, v) with the constraint forces
+    /// solved under M; a standalone free body's block adds its exact
+    /// gyroscopic derivative. See [`crate::dynamics::implicit`].
+    ImplicitFast,
+    /// MuJoCo's `implicit`: as [`Integrator::ImplicitFast`] with the full
+    /// qDeriv, Coriolis and centrifugal forces' velocity derivative included
+    /// (an unsymmetric matrix, solved by LU).
+    Implicit,
 }
 
 impl Integrator {
     /// The spelling in files and at the Python boundary (MuJoCo's).
-    pub const NAMES: [(&'static str, Integrator); 2] =
-        [("Euler", Integrator::Euler), ("RK4", Integrator::Rk4)];
+    pub const NAMES: [(&'static str, Integrator); 4] = [
+        ("Euler", Integrator::Euler),
+        ("RK4", Integrator::Rk4),
+        ("implicitfast", Integrator::ImplicitFast),
+        ("implicit", Integrator::Implicit),
+    ];
+
+    /// Whether the step solves with MuJoCo's implicit matrix M - h qDeriv
+    /// (`implicitfast`, `implicit`).
+    pub fn is_implicit(self) -> bool {
+        matches!(self, Integrator::ImplicitFast | Integrator::Implicit)
+    }
 }
 
 /// How joint damping and stiffness enter a semi-implicit Euler step.
-/// (Under RK4 passive forces are always explicit, as in MuJoCo.)
+/// (Under RK4 passive forces are always explicit, as in MuJoCo; under
+/// `implicitfast` and `implicit` damping enters through qDeriv and the
+/// mode is not read.)
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PassiveMode {
     /// Forces at the current state: PyBullet, MuJoCo with eulerdamp disabled.
@@ -436,6 +466,21 @@ impl Fluid {
     /// Whether the medium exerts any force (MuJoCo's test: density or viscosity).
     pub fn acts(&self) -> bool {
         self.density != 0.0 || self.viscosity != 0.0
+    }
+
+    /// Why `integrator` cannot run in this medium, if it cannot: MuJoCo's
+    /// implicit integrators take the fluid forces' velocity derivative into
+    /// qDeriv, which is not written yet.
+    pub fn implicit_refusal(&self, integrator: Integrator) -> Option<String> {
+        let name = Integrator::NAMES.iter().find(|(_, i)| *i == integrator)?.0;
+        (integrator.is_implicit() && self.acts()).then(|| {
+            format!(
+                "integrator \"{name}\" is not supported in a fluid (density {}, viscosity {}): \
+                 it takes the fluid forces' velocity derivative implicitly, which is not \
+                 implemented; use Euler or RK4",
+                self.density, self.viscosity
+            )
+        })
     }
 }
 
@@ -589,6 +634,21 @@ impl Spec {
         self.joints.iter().all(|j| j.kind.nv() == 1)
     }
 
+    /// Whether a body with joints above it has gravity compensation.
+    pub fn has_gravcomp(&self) -> bool {
+        let moves = |b: &Body| {
+            let mut k = b;
+            while k.joints.is_empty() && k.parent != 0 {
+                k = &self.bodies[k.parent];
+            }
+            !k.joints.is_empty()
+        };
+        self.bodies
+            .iter()
+            .skip(1)
+            .any(|b| b.gravcomp != 0.0 && moves(b))
+    }
+
     /// Names of q's coordinates and of the dofs (v's entries): a hinge's or
     /// slide's joint name; for a ball or free joint its name with a suffix
     /// (`:qw`, `:qx`, ... for the quaternion, `:x`, `:y`, `:z` for a free
@@ -664,8 +724,14 @@ impl Spec {
                 "fluid density and viscosity must be finite and >= 0, wind finite, got {f:?}"
             ));
         }
+        if let Some(msg) = f.implicit_refusal(o.integrator) {
+            return Err(ModelError::Unsupported(msg));
+        }
         let mut next_joint = 0;
         for (i, b) in self.bodies.iter().enumerate().skip(1) {
+            if !b.gravcomp.is_finite() {
+                return bad(format!("body '{}': gravcomp must be finite", b.name));
+            }
             if b.parent >= i {
                 return bad(format!("body '{}' must come after its parent", b.name));
             }

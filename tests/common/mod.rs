@@ -88,6 +88,7 @@ pub fn random_model(seed: u64, n: usize, passive: PassiveMode, integrator: Integ
             inertia: inertia(&mut r),
             inertia_frame: Rotation3::identity(),
             joints: start..joints.len(),
+            gravcomp: 0.0,
         });
     }
     let opt = Options {

@@ -125,6 +125,7 @@ impl<'a> Reader<'a> {
             inertia: Matrix3::zeros(),
             inertia_frame: Rotation3::identity(),
             joints,
+            gravcomp: a.number("gravcomp")?.unwrap_or(0.0),
         });
         tree.inertials.push(principal);
         tree.nodes.push(Some(node));
@@ -141,14 +142,13 @@ impl<'a> Reader<'a> {
     }
 }
 
-/// Mocap bodies and gravity compensation.
+/// Mocap bodies (not supported yet) and gravity compensation (finite).
 fn check_body_attributes(a: &Attrs) -> Result<()> {
     if a.flag("mocap")? == Some(true) {
         return Err(a.error(a.element, "mocap bodies are not supported"));
     }
-    if a.number("gravcomp")?.is_some_and(|g| g != 0.0) {
-        let msg = "gravity compensation (gravcomp) is not supported";
-        return Err(a.error(a.element, msg));
+    if let Some(g) = a.number("gravcomp")?.filter(|g| !g.is_finite()) {
+        return Err(a.error(a.element, format!("gravcomp must be finite, got {g}")));
     }
     Ok(())
 }

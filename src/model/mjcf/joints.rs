@@ -38,6 +38,12 @@ impl<'a> Reader<'a> {
         if force_limits.is_some() {
             return Err(self.error(node, "actuator force limits on joints are not supported"));
         }
+        if a.flag("actuatorgravcomp")? == Some(true) {
+            let msg = "actuatorgravcomp (gravity compensation routed through the actuators, \
+                       clamped by their force range) is not supported; leave it false to apply \
+                       gravcomp as a passive force";
+            return Err(self.error(node, msg));
+        }
         let (damping, stiffness) = damping_and_stiffness(&a)?;
         let joint = Joint {
             name: tree.claim(self.file, node, Kind::Joint, &m.suffix)?,

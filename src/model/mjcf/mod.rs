@@ -32,8 +32,9 @@
 //!   limits and dry friction on ball and free joints, a free joint that is not
 //!   the only joint of a child of the world, spatial tendons and fixed tendons
 //!   that act (limit, spring, damping, dry friction, armature), equalities,
-//!   flexes and skins, the ellipsoid fluid model (fluidshape), gravcomp,
-//!   mocap bodies, the `implicit` integrator, noslip iterations, the
+//!   flexes and skins, the ellipsoid fluid model (fluidshape), gravcomp
+//!   routed through actuators (`actuatorgravcomp`), mocap bodies, the
+//!   implicit integrators in a fluid, noslip iterations, the
 //!   `override` flag, disabling springs, dampers, actuation or control
 //!   clamping, polynomial or springdamper joint parameters, joint
 //!   actuator-force limits, and actuators other than motors on hinges and
@@ -331,7 +332,7 @@ mod tests {
             ("", "", r#"<equality><weld body1="b"/></equality>"#, "equality"),
             (r#"<option density="-1"/>"#, "", "", "density must be finite and >= 0"),
             ("", r#"<geom size="1" fluidshape="ellipsoid"/>"#, "", "fluidshape"),
-            (r#"<option integrator="implicit"/>"#, "", "", "implicit"),
+            (r#"<option integrator="Verlet"/>"#, "", "", "must be one of"),
             (r#"<option><flag damper="disable"/></option>"#, "", "", "damper=\"disable\""),
             ("", r#"<composite type="grid"/>"#, "", "<composite> is not supported"),
             ("", r#"<body gravcomp="1"><joint/><geom size="1"/></body>"#, "", "gravcomp"),
@@ -339,6 +340,9 @@ mod tests {
              "<muscle> is not supported"),
             ("", r#"<joint name="j"/>"#, r#"<actuator><cylinder joint="j"/></actuator>"#,
              "<cylinder> is not supported"),
+            ("", r#"<body gravcomp="nan"><joint/><geom size="1"/></body>"#, "", "gravcomp"),
+            ("", r#"<joint actuatorgravcomp="true"/>"#, "", "actuatorgravcomp"),
+            ("", r#"<body mocap="true"><geom size="1"/></body>"#, "", "mocap"),
             ("", r#"<joint name="j"/>"#, r#"<actuator><motor tendon="t"/></actuator>"#,
              "on a tendon"),
             ("", r#"<joint name="j"/>"#, r#"<actuator><motor site="s"/></actuator>"#,

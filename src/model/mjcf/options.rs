@@ -1,16 +1,16 @@
 //! `<option>` and its `<flag>`s, read into [`Options`]; every `<option>`
 //! applies in document order over MuJoCo's defaults.
 //!
-//! `Euler` and `RK4` map to [`Integrator::Euler`] and [`Integrator::Rk4`].
-//! `implicitfast` differs from Euler only by treating velocity-dependent forces
-//! implicitly (their velocity derivative, MuJoCo's qDeriv, joins the mass
-//! matrix); with joint damping the only such force here, that is Euler with
-//! implicit damping, so it loads as [`Integrator::Euler`] with
-//! [`PassiveMode::ImplicitDamping`]. In a fluid (density or viscosity
-//! nonzero) MuJoCo's qDeriv holds the fluid forces' derivative too, so
-//! `implicitfast` is rejected there. `implicit` also linearises Coriolis
-//! forces (an O(h) difference) and is rejected. Passive forces are explicit under RK4
-//! or when `<flag eulerdamp="disable">` (Euler only), else damping is implicit.
+//! `Euler`, `RK4`, `implicitfast` and `implicit` map to the [`Integrator`]
+//! of the same name ([`Integrator::NAMES`]). The implicit ones treat
+//! velocity-dependent forces implicitly (their velocity derivative,
+//! MuJoCo's qDeriv, joins the mass matrix; `implicit` with the Coriolis
+//! forces'); in a fluid (density or viscosity nonzero) MuJoCo's qDeriv holds
+//! the fluid forces' derivative too, which is not written, so both are
+//! rejected there. Passive forces are explicit under RK4 or when
+//! `<flag eulerdamp="disable">` (Euler only), else damping is implicit (the
+//! implicit integrators ignore eulerdamp, as MuJoCo does, and load with
+//! [`PassiveMode::ImplicitDamping`], which they do not read).
 //! `<flag gravity="disable">` loads as zero gravity; `<flag contact="disable">`
 //! and `<flag limit="disable">` switch off [`Options::contact`] and
 //! [`Options::limits`].
@@ -106,12 +106,11 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
             read_flags(file, flag, &mut flags)?;
         }
     }
-    if integrator == "implicitfast" && opt.fluid.acts() {
-        let (rho, mu) = (opt.fluid.density, opt.fluid.viscosity);
-        let msg = format!(
-            "integrator \"implicitfast\" is not supported in a fluid (density {rho}, viscosity \
-             {mu}): it takes the fluid forces' velocity derivative implicitly; use Euler or RK4"
-        );
+    let (_, chosen) = *Integrator::NAMES
+        .iter()
+        .find(|(name, _)| *name == integrator)
+        .expect("read from the names");
+    if let Some(msg) = opt.fluid.implicit_refusal(chosen) {
         return Err(xml::invalid(file, named, msg));
     }
     if !flags.gravity {
@@ -124,11 +123,7 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
     opt.solver.frictionloss = flags.frictionloss && flags.constraint;
     (opt.solver.refsafe, opt.solver.filterparent) = (flags.refsafe, flags.filterparent);
     opt.contact_model = contact_model(file, root)?;
-    opt.integrator = if integrator == "RK4" {
-        Integrator::Rk4
-    } else {
-        Integrator::Euler
-    };
+    opt.integrator = chosen;
     opt.passive = match integrator {
         "RK4" => PassiveMode::Explicit,
         "Euler" if !flags.eulerdamp => PassiveMode::Explicit,
@@ -203,13 +198,7 @@ fn contact_model(file: &str, root: Node) -> Result<ContactModel> {
 }
 
 fn read_integrator(a: &Attrs) -> Result<Option<&'static str>> {
-    let integrator = a.keyword("integrator", &["Euler", "RK4", "implicit", "implicitfast"])?;
-    if integrator == Some("implicit") {
-        let msg = "integrator \"implicit\" is not supported: it linearises Coriolis forces; \
-                   use Euler, RK4 or implicitfast";
-        return Err(a.error(a.element, msg));
-    }
-    Ok(integrator)
+    a.keyword("integrator", &Integrator::NAMES.map(|(name, _)| name))
 }
 
 /// The medium: `density`, `viscosity` (finite, >= 0) and `wind`.
@@ -294,16 +283,17 @@ mod tests {
 
     #[test]
     fn options_map_to_integrator_and_passive_mode() {
-        use Integrator::{Euler, Rk4};
+        use Integrator::{Euler, Implicit, ImplicitFast, Rk4};
         use PassiveMode::{Explicit, ImplicitDamping};
         #[rustfmt::skip]
         let cases = [
             ("", Euler, ImplicitDamping),
             (r#"<option integrator="RK4"/>"#, Rk4, Explicit),
             (r#"<option><flag eulerdamp="disable"/></option>"#, Euler, Explicit),
-            (r#"<option integrator="implicitfast"/>"#, Euler, ImplicitDamping),
+            (r#"<option integrator="implicitfast"/>"#, ImplicitFast, ImplicitDamping),
             (r#"<option integrator="implicitfast"><flag eulerdamp="disable"/></option>"#,
-             Euler, ImplicitDamping),
+             ImplicitFast, ImplicitDamping),
+            (r#"<option integrator="implicit"/>"#, Implicit, ImplicitDamping),
         ];
         for (option, integrator, passive) in cases {
             let m = load(&model(option, &body(""), ""));
@@ -324,8 +314,9 @@ mod tests {
         assert_eq!(m.opt.gravity, Vector3::zeros());
     }
 
-    /// implicitfast in a fluid is refused at the element naming it (its
-    /// fluid derivative is not computed); without a fluid it loads.
+    /// implicitfast (and implicit) in a fluid is refused at the element
+    /// naming it (its fluid derivative is not computed), and by an edit that
+    /// switches it on; without a fluid it loads.
     #[test]
     fn implicitfast_in_a_fluid_is_refused() {
         let fluid = r#"<option density="1.2"/>"#;
@@ -348,8 +339,17 @@ mod tests {
             "",
         );
         assert!(error(&viscous).2.contains("viscosity 0.00001"));
+        let implicit = r#"<option integrator="implicit" density="1"/>"#;
+        assert!(error(&model(implicit, &body(""), ""))
+            .2
+            .contains("\"implicit\""));
         let m = load(&model(implicitfast, &body(""), ""));
         assert_eq!(m.opt.passive, PassiveMode::ImplicitDamping);
+        let in_fluid = m.edited(|s| s.opt.fluid.density = 1.2).unwrap_err();
+        assert!(
+            in_fluid.to_string().contains("not supported in a fluid"),
+            "{in_fluid}"
+        );
         let m = load(&model(
             &format!("{fluid}<option integrator=\"RK4\"/>"),
             &body(""),

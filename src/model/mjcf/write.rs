@@ -15,7 +15,9 @@
 //! - Options: Euler with implicit damping is MuJoCo's default; explicit
 //!   passive forces under Euler are `<flag eulerdamp="disable"/>`. Under RK4
 //!   passive forces are always explicit, so the passive mode, which RK4 does
-//!   not use, reads back as [`PassiveMode::Explicit`]. Contacts or limits
+//!   not use, reads back as [`PassiveMode::Explicit`]; `implicitfast` and
+//!   `implicit` do not use it either and read back with
+//!   [`PassiveMode::ImplicitDamping`]. A body's gravcomp is its attribute. Contacts or limits
 //!   switched off are `<flag contact="disable"/>`, `<flag limit="disable"/>`;
 //!   the soft-contact constants ([`crate::model::SoftOptions`]) are custom
 //!   numerics, `<custom><numeric name="diffosi:contact_stiffness" data=".."/>`
@@ -130,6 +132,8 @@ fn write_options(doc: &mut Document, opt: &Options) -> Result<(), ModelError> {
     let integrator = match opt.integrator {
         Integrator::Euler => "Euler",
         Integrator::Rk4 => "RK4",
+        Integrator::ImplicitFast => "implicitfast",
+        Integrator::Implicit => "implicit",
     };
     let cone = match opt.solver.cone {
         Cone::Pyramidal => "pyramidal",
@@ -220,10 +224,13 @@ fn write_bodies(doc: &mut Document, spec: &Spec) -> Result<(), ModelError> {
 /// Opens body `b`'s element and writes its joints, inertial and geoms.
 fn write_body(doc: &mut Document, depth: usize, spec: &Spec, b: usize) {
     let body = &spec.bodies[b];
-    let tag = Tag::new("body")
+    let mut tag = Tag::new("body")
         .text("name", &body.name)
         .numbers("pos", body.pos.as_slice())
         .numbers("quat", &quat(&body.rot));
+    if body.gravcomp != 0.0 {
+        tag = tag.number("gravcomp", body.gravcomp);
+    }
     doc.open(depth, tag);
     for joint in &spec.joints[body.joints.clone()] {
         doc.empty(depth + 1, joint_tag(joint));

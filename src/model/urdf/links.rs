@@ -170,6 +170,7 @@ impl Reader<'_> {
             inertia,
             inertia_frame,
             joints: first_joint..parts.joints.len(),
+            gravcomp: 0.0,
         });
         parts.geoms.extend(self.geoms(link.node, body)?);
         Ok(())
