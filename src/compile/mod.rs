@@ -62,6 +62,7 @@ impl Model {
             opt,
             pairs: vec![],
             excludes: vec![],
+            meshes: vec![],
         })
     }
 

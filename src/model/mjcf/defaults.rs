@@ -1,6 +1,6 @@
 //! Default classes.
 //!
-//! A class holds the `<joint>`, `<geom>` and actuator elements of its
+//! A class holds the `<joint>`, `<geom>`, `<mesh>` and actuator elements of its
 //! `<default>` and of every enclosing one; see [`Attrs`] for how an attribute
 //! is resolved through them. A short list of numbers (`size`, `friction`,
 //! `gear`, ...) overwrites only the leading entries of the inherited one. An
@@ -10,7 +10,7 @@
 use super::attributes::{value, Attrs};
 use super::schema::{
     check_attributes, check_default_attributes, ACTUATOR_KINDS, FIXED_TENDON_ATTRS,
-    GENERAL_ONLY_ATTRS, GEOM_ATTRS, JOINT_ATTRS, MOTOR_ATTRS, PAIR_ATTRS,
+    GENERAL_ONLY_ATTRS, GEOM_ATTRS, JOINT_ATTRS, MESH_DEFAULT_ATTRS, MOTOR_ATTRS, PAIR_ATTRS,
 };
 use super::{children, elements, tag, unrecognized, Node, Reader, Result};
 
@@ -23,12 +23,13 @@ pub struct Class<'a> {
     pub pair: Vec<Node<'a>>,
     pub actuator: Vec<Node<'a>>,
     pub tendon: Vec<Node<'a>>,
+    pub mesh: Vec<Node<'a>>,
 }
 
 /// Default elements that only set up elements we ignore or reject anyway.
 #[rustfmt::skip]
 const INERT_DEFAULTS: &[&str] = &[
-    "mesh", "material", "site", "camera", "light", "equality",
+    "material", "site", "camera", "light", "equality",
 ];
 
 impl<'a> Reader<'a> {
@@ -85,6 +86,10 @@ impl<'a> Reader<'a> {
             "tendon" => {
                 check_default_attributes(file, child, FIXED_TENDON_ATTRS)?;
                 class.tendon.push(child);
+            }
+            "mesh" => {
+                check_attributes(file, child, MESH_DEFAULT_ATTRS)?;
+                class.mesh.push(child);
             }
             "default" => {}
             kind if INERT_DEFAULTS.contains(&kind) => {}

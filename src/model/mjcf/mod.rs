@@ -63,6 +63,7 @@ mod defaults;
 mod geoms;
 mod inertial;
 mod joints;
+mod meshes;
 mod options;
 mod orientation;
 mod schema;
@@ -97,11 +98,13 @@ pub fn parse(text: &str, file: &str) -> Result<Spec> {
         file,
         compiler: Compiler::read(file, root)?,
         classes: HashMap::from([("main", Class::default())]),
+        meshes: meshes::Meshes::default(),
     };
     let opt = options::read(file, root)?;
     for section in children(root, "default") {
         reader.read_default(section, None)?;
     }
+    reader.meshes = reader.read_meshes(root)?;
     let mut tree = Tree::new();
     reader.read_world(&mut tree, &children(root, "worldbody"))?;
     check_unsupported_sections(file, root)?;
@@ -113,6 +116,9 @@ pub fn parse(text: &str, file: &str) -> Result<Spec> {
     let (bodies, joints, geoms) = tree.finish();
     let body_names: Vec<&str> = bodies.iter().map(|b| b.name.as_str()).collect();
     let (pairs, excludes) = reader.read_contact(root, &geoms, &body_names)?;
+    let mut meshes = std::mem::take(&mut reader.meshes);
+    let paired: Vec<usize> = pairs.iter().flat_map(|p| p.geoms).collect();
+    reader.add_hulls(&mut meshes, &geoms, &paired)?;
     let name = root
         .attribute("model")
         .unwrap_or("MuJoCo Model")
@@ -126,6 +132,7 @@ pub fn parse(text: &str, file: &str) -> Result<Spec> {
         opt,
         pairs,
         excludes,
+        meshes: meshes.compiled,
     })
 }
 
@@ -135,6 +142,7 @@ struct Reader<'a> {
     file: &'a str,
     compiler: Compiler,
     classes: HashMap<&'a str, Class<'a>>,
+    meshes: meshes::Meshes<'a>,
 }
 
 impl Reader<'_> {

@@ -1,11 +1,27 @@
 //! `<collision>` elements become geoms, with the friction of the link's
 //! PyBullet `<contact>`.
+//!
+//! A `<mesh filename scale>` becomes a mesh geom as MuJoCo's URDF importer
+//! makes it: the mesh compiled with MuJoCo's defaults (legacy inertia) and
+//! `scale`, its convex hull built (the geom collides), the geom's pose
+//! moved to the mesh's inertial frame. One mesh per file and scale.
+//! Where the file is: [`mesh_path`].
+
+use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
 
 use super::attributes::value;
 use super::{child, children, Node, Reader, Result};
+use crate::model::mesh::{self, Mesh, MeshSettings};
 use crate::model::{Geom, Shape};
+
+/// A mesh of a collision geom: its file and scale, and the compiled mesh.
+pub struct UrdfMesh {
+    path: PathBuf,
+    scale: [f64; 3],
+    pub mesh: Mesh,
+}
 
 impl Reader<'_> {
     /// The geoms of `link`, attached to `body`.
@@ -16,13 +32,16 @@ impl Reader<'_> {
             .collect()
     }
 
-    /// The geom of a `<collision>`; `None` for a mesh.
+    /// The geom of a `<collision>`.
     fn geom(&self, collision: Node, body: usize, friction: [f64; 3]) -> Result<Option<Geom>> {
         let geometry = self.required_child(collision, "geometry")?;
-        let Some(shape) = self.shape(geometry)? else {
-            return Ok(None);
-        };
-        let (pos, rot) = self.origin(collision)?;
+        let shape = self.shape(geometry)?;
+        let (mut pos, mut rot) = self.origin(collision)?;
+        if let Shape::Mesh { mesh } = shape {
+            let m = &self.meshes.borrow()[mesh].mesh;
+            pos += rot * m.pos;
+            rot *= mesh::rotation(&m.quat);
+        }
         Ok(Some(Geom {
             name: collision.attribute("name").unwrap_or_default().to_string(),
             body,
@@ -36,8 +55,8 @@ impl Reader<'_> {
         }))
     }
 
-    /// The shape inside `<geometry>`; `None` for a mesh.
-    fn shape(&self, geometry: Node) -> Result<Option<Shape>> {
+    /// The shape inside `<geometry>`.
+    fn shape(&self, geometry: Node) -> Result<Shape> {
         let Some(node) = geometry.children().find(|n| n.is_element()) else {
             return Err(self.error(geometry, "empty <geometry>"));
         };
@@ -56,10 +75,48 @@ impl Reader<'_> {
                 radius: self.positive(node, "radius")?,
                 half_length: self.positive(node, "length")? / 2.0,
             },
-            "mesh" => return Ok(None),
+            "mesh" => self.mesh(node)?,
             other => return Err(self.error(node, format!("unknown geometry '{other}'"))),
         };
-        Ok(Some(shape))
+        Ok(shape)
+    }
+
+    /// A `<mesh>`: its file read and compiled once per scale.
+    fn mesh(&self, node: Node) -> Result<Shape> {
+        let filename = value(node, "filename")
+            .ok_or_else(|| self.error(node, "required attribute missing: 'filename'"))?;
+        let scale = match value(node, "scale") {
+            Some(_) => self.required_numbers::<3>(node, "scale")?,
+            None => [1.0; 3],
+        };
+        let path = mesh_path(Path::new(self.file), filename)
+            .map_err(|e| self.error(node, format!("mesh '{filename}': {e}")))?;
+        let mut meshes = self.meshes.borrow_mut();
+        if let Some(i) = meshes
+            .iter()
+            .position(|m| m.path == path && m.scale == scale)
+        {
+            return Ok(Shape::Mesh { mesh: i });
+        }
+        let settings = MeshSettings {
+            scale,
+            needs_hull: true,
+            ..Default::default()
+        };
+        let name = path
+            .file_stem()
+            .map_or(String::new(), |s| s.to_string_lossy().into_owned());
+        let compiled = mesh::read_file(&path)
+            .and_then(|raw| mesh::compile(&name, &raw, &settings))
+            .map_err(|e| self.error(node, format!("mesh file '{}': {e}", path.display())))?;
+        meshes.push(UrdfMesh {
+            path,
+            scale,
+            mesh: compiled,
+        });
+        Ok(Shape::Mesh {
+            mesh: meshes.len() - 1,
+        })
     }
 
     fn box_size(&self, node: Node) -> Result<Vector3<f64>> {
@@ -99,6 +156,28 @@ impl Reader<'_> {
     }
 }
 
+/// Where a URDF mesh file is, found minimally (the lead may swap in the
+/// "urdf" helper's package resolution): `package://NAME/rest` is `rest` in
+/// the nearest directory named NAME above the URDF file's directory (or
+/// that directory itself); `file://` is a path; anything else is relative
+/// to the URDF file's directory.
+pub fn mesh_path(urdf: &Path, filename: &str) -> std::result::Result<PathBuf, String> {
+    let dir = urdf.parent().unwrap_or(Path::new(""));
+    if let Some(rest) = filename.strip_prefix("file://") {
+        return Ok(dir.join(rest));
+    }
+    let Some(rest) = filename.strip_prefix("package://") else {
+        return Ok(dir.join(filename));
+    };
+    let (package, inner) = rest.split_once('/').unwrap_or((rest, ""));
+    let start = std::fs::canonicalize(dir).unwrap_or(dir.to_path_buf());
+    start
+        .ancestors()
+        .find(|d| d.file_name().is_some_and(|n| n == package))
+        .map(|d| d.join(inner))
+        .ok_or_else(|| format!("package '{package}' not found above {}", dir.display()))
+}
+
 #[cfg(test)]
 mod tests {
     use nalgebra::Vector3;
@@ -107,12 +186,11 @@ mod tests {
     use crate::model::Shape;
 
     #[test]
-    fn collisions_become_geoms_and_meshes_are_skipped() {
+    fn collisions_become_geoms() {
         let text = "<link name=\"world\">\
             <collision name=\"floor\" diffosi:conaffinity=\"0\"><origin xyz=\"0 0 -0.5\"/><geometry><box size=\"2 4 1\"/></geometry></collision>\
             <collision><geometry><cylinder radius=\"0.1\" length=\"1\"/></geometry></collision>\
             <collision><geometry><capsule radius=\"0.1\" length=\"0.4\"/></geometry></collision>\
-            <collision><geometry><mesh filename=\"x.stl\"/></geometry></collision>\
             <contact><lateral_friction value=\"0.9\"/></contact></link>";
         let m = load(text).unwrap();
         let shapes: Vec<_> = m.geoms.iter().map(|g| g.shape).collect();

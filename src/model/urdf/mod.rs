@@ -28,8 +28,8 @@
 //!   world.
 //! - `<collision>` box, sphere, cylinder (along z, `length` the full length) and
 //!   PyBullet's capsule (`length` between the sphere centres) become geoms with
-//!   contype = conaffinity = 1; mesh collisions are skipped (no geom), and
-//!   `<visual>` is ignored. Friction comes from PyBullet's `<contact>` element
+//!   contype = conaffinity = 1; a mesh collision becomes a mesh geom as
+//!   MuJoCo's importer makes it (see `geoms.rs`), and `<visual>` is ignored. Friction comes from PyBullet's `<contact>` element
 //!   of the link (lateral, spinning, rolling), default PyBullet's (0.5, 0, 0).
 //! - A `<transmission>` with one `<joint>` is an actuator on that joint: gear =
 //!   `<mechanicalReduction>` (default 1), name = its `<actuator name>`, else
@@ -77,7 +77,10 @@ type Result<T> = std::result::Result<T, ModelError>;
 pub fn parse(text: &str, file: &str) -> Result<Spec> {
     let doc = xml::document(text, file)?;
     let robot = doc.root_element();
-    let reader = Reader { file };
+    let reader = Reader {
+        file,
+        meshes: Default::default(),
+    };
     if !is(robot, "robot") {
         return Err(reader.error(robot, "the root element must be <robot>"));
     }
@@ -98,6 +101,12 @@ pub fn parse(text: &str, file: &str) -> Result<Spec> {
         opt,
         pairs: vec![],
         excludes: vec![],
+        meshes: reader
+            .meshes
+            .into_inner()
+            .into_iter()
+            .map(|m| m.mesh)
+            .collect(),
     })
 }
 
@@ -105,6 +114,8 @@ pub fn parse(text: &str, file: &str) -> Result<Spec> {
 /// read.
 struct Reader<'f> {
     file: &'f str,
+    /// The meshes of the collision geoms so far (see `geoms.rs`).
+    meshes: std::cell::RefCell<Vec<geoms::UrdfMesh>>,
 }
 
 impl Reader<'_> {
