@@ -142,8 +142,10 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         opt,
         pairs,
         excludes,
+        meshes,
     } = ours;
     assert_eq!(name, &theirs.name, "{model}: model name");
+    assert_eq!(meshes, &theirs.meshes, "{model}: meshes");
     assert_eq!(
         (pairs, excludes),
         (&theirs.pairs, &theirs.excludes),

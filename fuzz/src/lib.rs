@@ -91,7 +91,7 @@ pub fn check_mesh(data: &[u8]) {
         };
         let settings = MeshSettings {
             needs_hull: true,
-            max_hull_vertices: (data.len() % 3 == 0).then_some(8),
+            max_hull_vertices: data.len().is_multiple_of(3).then_some(8),
             ..Default::default()
         };
         match mesh::compile("fuzz", &raw, &settings) {

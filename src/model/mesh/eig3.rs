@@ -129,6 +129,8 @@ pub fn eig3(mat: &[f64; 9]) -> ([f64; 3], [f64; 4]) {
         let j1 = j % 2;
         if eigval[j1] + tol < eigval[j1 + 1] {
             eigval.swap(j1, j1 + 1);
+            // MuJoCo's rounded cos(pi/4), kept for its exact quaternions.
+            #[allow(clippy::approx_constant)]
             let mut rot = [0.707106781186548, 0.0, 0.0, 0.0];
             rot[(j1 + 2) % 3 + 1] = rot[0];
             quat = mul_quat(&quat, &rot);

@@ -29,7 +29,7 @@ pub fn read(bytes: &[u8]) -> Result<RawMesh, String> {
     let vertices = (0..nv)
         .map(|i| std::array::from_fn(|c| f32::from_le_bytes(word(4 + 3 * i + c))))
         .collect();
-    let first_face = (4 + 3 * nv + 3 * nn as usize + 2 * nt as usize) as usize;
+    let first_face = 4 + 3 * nv + 3 * nn as usize + 2 * nt as usize;
     let faces = (0..nf)
         .map(|i| {
             let f: [i32; 3] =

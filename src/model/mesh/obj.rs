@@ -1,10 +1,10 @@
 //! Wavefront OBJ as MuJoCo 4 reads it (tinyobjloader, triangulating): every
 //! `v` line is a vertex (single precision, in file order, kept whether used
 //! or not); `f` lines are faces, indices 1-based or negative (relative to
-//! the vertices read so far), `v/vt/vn` forms allowed. A quad is split along
-//! its shorter diagonal (as tinyobjloader does, in single precision); a
-//! polygon of more vertices is fanned from its first vertex (tinyobjloader
-//! clips ears, the same triangles for a convex polygon). MuJoCo keeps only
+//! the vertices read so far), `v/vt/vn` forms allowed. Polygons are
+//! triangulated as tinyobjloader does, in single precision: a quad along
+//! its shorter diagonal, a larger polygon by its ear clipping in the
+//! coordinate plane its first corner faces most ([`clip_ears`]). MuJoCo keeps only
 //! the first shape: faces after a `g` or `o` line that follows faces are
 //! not part of the mesh. Other lines (normals, texture, materials) are
 //! skipped.
@@ -14,6 +14,7 @@ use super::RawMesh;
 pub fn read(bytes: &[u8]) -> Result<RawMesh, String> {
     let text = String::from_utf8_lossy(bytes);
     let mut mesh = RawMesh::default();
+    let mut polygons: Vec<Vec<usize>> = vec![];
     let mut first_shape_done = false;
     for (n, line) in text.lines().enumerate() {
         let at = |msg: String| format!("line {}: {msg}", n + 1);
@@ -30,15 +31,18 @@ pub fn read(bytes: &[u8]) -> Result<RawMesh, String> {
                 }
                 mesh.vertices.push(v);
             }
-            Some("g" | "o") if !mesh.faces.is_empty() => first_shape_done = true,
+            Some("g" | "o") if polygons.iter().any(|p| p.len() >= 3) => first_shape_done = true,
             Some("f") if !first_shape_done => {
                 let corners = words
                     .map(|w| vertex_index(w, mesh.vertices.len()).map_err(&at))
                     .collect::<Result<Vec<usize>, String>>()?;
-                triangulate(&mesh.vertices, &corners, &mut mesh.faces);
+                polygons.push(corners);
             }
             _ => {}
         }
+    }
+    for p in &polygons {
+        triangulate(&mesh.vertices, p, &mut mesh.faces);
     }
     Ok(mesh)
 }
@@ -77,9 +81,90 @@ fn triangulate(vertices: &[[f32; 3]], p: &[usize], faces: &mut Vec<[usize; 3]>) 
         }
         return;
     }
-    for k in 2..p.len() {
-        faces.push([p[0], p[k - 1], p[k]]);
+    if p.len() == 3 {
+        faces.push([p[0], p[1], p[2]]);
+    } else if p.len() > 4 {
+        clip_ears(vertices, p, faces);
     }
+}
+
+/// tinyobjloader's ear clipping (single precision): project on the two
+/// axes the first corner with a turn faces least, then repeatedly cut off
+/// the ear at the guessed corner unless its turn is reflex (by
+/// tinyobjloader's sign test) or another corner lies inside it; what is
+/// left after a full round without progress is dropped.
+fn clip_ears(vertices: &[[f32; 3]], p: &[usize], faces: &mut Vec<[usize; 3]>) {
+    let at = |i: usize| vertices.get(i).copied().unwrap_or([0.0; 3]);
+    let n = p.len();
+    let mut axes = [1, 2];
+    for k in 0..n {
+        let [a, b, c] = [p[k], p[(k + 1) % n], p[(k + 2) % n]];
+        if [a, b, c].iter().any(|&i| i >= vertices.len()) {
+            continue;
+        }
+        let (a, b, c) = (at(a), at(b), at(c));
+        let e0 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        let e1 = [c[0] - b[0], c[1] - b[1], c[2] - b[2]];
+        let cx = (e0[1] * e1[2] - e0[2] * e1[1]).abs();
+        let cy = (e0[2] * e1[0] - e0[0] * e1[2]).abs();
+        let cz = (e0[0] * e1[1] - e0[1] * e1[0]).abs();
+        if cx > f32::EPSILON || cy > f32::EPSILON || cz > f32::EPSILON {
+            if !(cx > cy && cx > cz) {
+                axes[0] = 0;
+                if cz > cx && cz > cy {
+                    axes[1] = 1;
+                }
+            }
+            break;
+        }
+    }
+    let plane = |i: usize| {
+        let v = at(i);
+        (v[axes[0]], v[axes[1]])
+    };
+    let mut left = p.to_vec();
+    let (mut guess, mut tries, mut before) = (0, n, n);
+    while left.len() > 3 && tries > 0 {
+        let m = left.len();
+        if guess >= m {
+            guess -= m;
+        }
+        if before != m {
+            (before, tries) = (m, m);
+        } else {
+            tries -= 1;
+        }
+        let ind: [usize; 3] = std::array::from_fn(|k| left[(guess + k) % m]);
+        let (x, y): (Vec<f32>, Vec<f32>) = ind.iter().map(|&i| plane(i)).unzip();
+        let cross = (x[1] - x[0]) * (y[2] - y[1]) - (y[1] - y[0]) * (x[2] - x[1]);
+        let area = (x[0] * y[1] - y[0] * x[1]) * 0.5;
+        let inside = |k: usize| {
+            let (tx, ty) = plane(left[(guess + k) % m]);
+            in_triangle(&x, &y, tx, ty)
+        };
+        if cross * area < 0.0 || (3..m).any(inside) {
+            guess += 1;
+            continue;
+        }
+        faces.push(ind);
+        left.remove((guess + 1) % m);
+    }
+    if left.len() == 3 {
+        faces.push([left[0], left[1], left[2]]);
+    }
+}
+
+/// The even-odd crossing test of a point against a triangle.
+fn in_triangle(x: &[f32], y: &[f32], tx: f32, ty: f32) -> bool {
+    let mut inside = false;
+    let mut j = 2;
+    for i in 0..3 {
+        if (y[i] > ty) != (y[j] > ty) && tx < (x[j] - x[i]) * (ty - y[i]) / (y[j] - y[i]) + x[i] {
+            inside = !inside;
+        }
+        j = i;
+    }
+    inside
 }
 
 #[cfg(test)]
@@ -96,6 +181,21 @@ mod tests {
         assert_eq!(m.faces, vec![[0, 1, 3], [1, 2, 3], [0, 2, 3]]);
         let skew = read(b"v 0 0 0\nv 3 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n").unwrap();
         assert_eq!(skew.faces, vec![[0, 1, 2], [0, 2, 3]]);
+    }
+
+    #[test]
+    fn larger_polygons_are_clipped_into_ears_covering_them() {
+        // A concave pentagon (a notch at corner 3) in the z = 1 plane.
+        let text = "v 0 0 1\nv 4 0 1\nv 4 3 1\nv 2 1 1\nv 0 3 1\nf 1 2 3 4 5\n";
+        let m = read(text.as_bytes()).unwrap();
+        assert_eq!(m.faces.len(), 3);
+        let area = |f: &[usize; 3]| {
+            let [a, b, c] = f.map(|i| m.vertices[i]);
+            ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])) / 2.0
+        };
+        // Every ear turns the polygon's way and together they cover it.
+        assert!(m.faces.iter().all(|f| area(f) > 0.0), "{:?}", m.faces);
+        assert_eq!(m.faces.iter().map(area).sum::<f32>(), 8.0);
     }
 
     #[test]

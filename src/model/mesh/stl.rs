@@ -18,7 +18,7 @@ const MAX_COORDINATE: f32 = (1u32 << 30) as f32;
 pub fn read(bytes: &[u8]) -> Result<RawMesh, String> {
     if bytes.len() >= 84 {
         let count = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as usize;
-        if (bytes.len() - 84) % 50 == 0 && (bytes.len() - 84) / 50 == count {
+        if (bytes.len() - 84).is_multiple_of(50) && (bytes.len() - 84) / 50 == count {
             return read_binary(&bytes[84..], count);
         }
     }
@@ -82,7 +82,7 @@ fn merge(corners: &[[f32; 3]]) -> Result<RawMesh, String> {
     let mut mesh = RawMesh::default();
     let mut face = [0usize; 3];
     for (k, c) in corners.iter().enumerate() {
-        if c.iter().any(|x| !(x.abs() <= MAX_COORDINATE)) {
+        if !c.iter().all(|x| x.abs() <= MAX_COORDINATE) {
             return Err(format!("vertex {c:?} exceeds MuJoCo's bound 2^30"));
         }
         let next = mesh.vertices.len();

@@ -65,7 +65,7 @@ impl<'a> Reader<'a> {
 
     fn read_mesh(&self, node: Node<'a>) -> Result<(Source<'a>, Mesh)> {
         check_attributes(self.file, node, MESH_ATTRS)?;
-        if value(node, "builtin").is_some() || children(node, "plugin").first().is_some() {
+        if value(node, "builtin").is_some() || !children(node, "plugin").is_empty() {
             return Err(self.error(node, "builtin and plugin meshes are not supported"));
         }
         let a = self.attrs(node, "main", |c| &c.mesh)?;
@@ -253,10 +253,12 @@ mod tests {
         )
     }
 
+    type Compiled = (&'static str, f64, [f64; 3], [f64; 3], [f64; 4], f64);
+
     /// MuJoCo 4.0.0's body_mass, body_ipos, body_inertia and body_iquat
     /// (= geom_pos, geom_quat) and geom_rbound of `block_model` per mode.
     #[rustfmt::skip]
-    const MUJOCO: [(&str, f64, [f64; 3], [f64; 3], [f64; 4], f64); 4] = [
+    const MUJOCO: [Compiled; 4] = [
         ("legacy", 147.5460034196377, [0.4535410776215345, -0.1408778402129871, 0.3461761029514847],
          [12.386594207849704, 10.518476685545593, 5.93718378828174],
          [0.7491356008263073, 0.0654981273331126, 0.11344088237985187, 0.6493358245895147],

@@ -8,13 +8,14 @@
 //! `options.rs`), `<default>` classes for joints, geoms, pairs, tendons and
 //! actuators, `<worldbody>` with nested `<body>`, `<joint>` (hinge, slide,
 //! ball, free) and `<freejoint>`, `<inertial>`, `<geom>` (plane, sphere,
-//! capsule, cylinder, box, ellipsoid, with their contact settings),
+//! capsule, cylinder, box, ellipsoid, mesh, with their contact settings),
+//! `<asset><mesh>` and `meshdir`/`assetdir` (`meshes.rs`),
 //! `<contact>` (`<pair>` and `<exclude>`), `<actuator>` `<motor>`/`<general>`
 //! on hinges and slides, and `<custom>`'s `diffosi:` settings (the contact
 //! model, the smooth model's constants). The medium's forces are MuJoCo's
 //! inertia-box model (`dynamics/fluid.rs`).
 //!
-//! Ignored, since they do not change the dynamics: visual, asset, size,
+//! Ignored, since they do not change the dynamics: visual, the other assets, size,
 //! statistic, keyframe, sensor, other custom data, site, camera, light, fixed
 //! tendons that only measure, and the solver settings that only tune how the
 //! answer is approached (`options.rs`).
@@ -34,8 +35,9 @@
 //!   gains with bias or dynamics, force limits, actuator
 //!   damping/armature/delay, disabled actuator groups);
 //! - what builds the model from elsewhere: include, frame, replicate,
-//!   composite, flexcomp, attach, plugins, meshes, height fields, SDFs, shell
-//!   inertia, fusestatic, global coordinates;
+//!   composite, flexcomp, attach, plugins, builtin meshes, primitives fitted
+//!   to meshes, height fields, SDFs, shell inertia of geoms, fusestatic,
+//!   global coordinates;
 //! - what MuJoCo rejects: unknown elements and attributes, malformed or
 //!   miscounted numbers, unknown classes, joints, geoms and bodies, repeated
 //!   names, zero axes and quaternions, bad ranges, non-physical inertias,

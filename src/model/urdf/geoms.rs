@@ -222,4 +222,64 @@ mod tests {
         );
         assert_eq!((floor.pos.z, floor.friction), (-0.5, [0.9, 0.0, 0.0]));
     }
+
+    /// `block.obj`: an irregular hexahedron with non-planar quad faces.
+    const BLOCK: &str = "v 0 0 0\nv 1 0 0\nv 1.2 0.7 0\nv 0 0.5 0\nv 0.1 0.1 0.9\nv 0.9 0 1\n\
+                         v 1 0.8 1.1\nv 0 0.6 0.8\nf 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\n\
+                         f 3 4 8 7\nf 4 1 5 8\n";
+
+    #[test]
+    fn mesh_collisions_become_mujocos_hull_geoms() {
+        let dir = std::env::temp_dir().join(format!("diffosi-urdf-{}", std::process::id()));
+        let urdf_dir = dir.join("mypkg").join("urdf");
+        std::fs::create_dir_all(&urdf_dir).unwrap();
+        std::fs::write(urdf_dir.join("block.obj"), BLOCK).unwrap();
+        let path = urdf_dir.join("r.urdf");
+        let collision = |file: &str| {
+            format!(
+                "<link name=\"base\"><inertial><mass value=\"1\"/><inertia ixx=\"1\" iyy=\"1\" \
+                 izz=\"1\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial><collision><origin \
+                 xyz=\"0.1 -0.2 0.3\" rpy=\"0.1 0.2 0.3\"/><geometry><mesh filename=\"{file}\" \
+                 scale=\"0.5 0.7 0.9\"/></geometry></collision></link>"
+            )
+        };
+        let load_file =
+            |file: &str| super::super::parse(&urdf(&collision(file)), path.to_str().unwrap());
+        for file in ["block.obj", "package://mypkg/urdf/block.obj"] {
+            let spec = load_file(file).unwrap();
+            let g = &spec.geoms[0];
+            assert_eq!(
+                (g.shape, g.contype, g.conaffinity),
+                (Shape::Mesh { mesh: 0 }, 1, 1)
+            );
+            assert!(spec.meshes[0].hull.is_some());
+            // MuJoCo 4.0.0's geom_pos and geom_quat of this URDF.
+            let pos = [0.3978574735501256, 0.10826382722212369, 0.6771872690057856];
+            assert!((g.pos - Vector3::from(pos)).amax() < 1e-14, "{}", g.pos);
+            let quat = [
+                0.3761892927377824,
+                0.09838674678388007,
+                0.08622423290853162,
+                0.917260620405165,
+            ];
+            let q = nalgebra::UnitQuaternion::from_rotation_matrix(&g.rot);
+            let ours = [q.w, q.i, q.j, q.k].map(|x| x * q.w.signum());
+            assert!(
+                ours.iter().zip(quat).all(|(a, b)| (a - b).abs() < 1e-9),
+                "{ours:?}"
+            );
+        }
+        let err = load_file("package://nowhere/block.obj")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("<mesh>") && err.contains("package 'nowhere'"),
+            "{err}"
+        );
+        let err = load_file("missing.stl").unwrap_err().to_string();
+        assert!(
+            err.contains("<mesh>") && err.contains("missing.stl"),
+            "{err}"
+        );
+    }
 }
