@@ -27,6 +27,8 @@ use std::path::Path;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
+use crate::spatial::{lift_vector, Real};
+
 pub use compile::compile;
 pub use hull::Hull;
 
@@ -121,6 +123,25 @@ impl Mesh {
         lo.abs().sup(&hi.abs()).norm()
     }
 
+    /// The support function of the shape colliders see, the convex hull (all
+    /// vertices when no hull was built): a hull vertex farthest along `dir`
+    /// (mesh frame; ties to the lowest index).
+    pub fn support<T: Real>(&self, dir: &Vector3<T>) -> Vector3<T> {
+        let on_hull: Box<dyn Iterator<Item = usize>> = match &self.hull {
+            Some(h) => Box::new(h.vertices.iter().copied()),
+            None => Box::new(0..self.vertices.len()),
+        };
+        let mut best: Option<(T, Vector3<T>)> = None;
+        for i in on_hull {
+            let v = lift_vector::<T>(&self.vertices[i]);
+            let reach = dir.dot(&v);
+            if best.as_ref().is_none_or(|(r, _)| reach > *r) {
+                best = Some((reach, v));
+            }
+        }
+        best.map_or_else(Vector3::zeros, |(_, v)| v)
+    }
+
     /// Principal moments of inertia of the mesh with mass `mass`, along the
     /// mesh axes (MuJoCo's, from the inertia box).
     pub fn principal_moments(&self, mass: f64) -> Vector3<f64> {
@@ -166,5 +187,38 @@ pub fn read_bytes(ext: &str, bytes: &[u8]) -> Result<RawMesh, String> {
         "obj" => obj::read(bytes),
         "msh" => msh::read(bytes),
         _ => Err(format!("unknown mesh file type '{ext}'")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::Vector3;
+
+    use super::*;
+
+    #[test]
+    fn a_tetrahedron_compiles_with_its_hull_support_and_bound() {
+        let raw = RawMesh {
+            vertices: vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 0.0, 1.0],
+            ],
+            faces: vec![],
+        };
+        let settings = MeshSettings {
+            needs_hull: true,
+            ..Default::default()
+        };
+        let m = compile("t", &raw, &settings).unwrap();
+        assert!((m.volume - 1.0 / 6.0).abs() < 1e-16);
+        assert!((m.pos - Vector3::repeat(0.25)).amax() < 1e-16);
+        // The support along each hull vertex's own direction is that vertex.
+        for v in &m.vertices {
+            assert_eq!(&m.support(v), v);
+        }
+        let far = m.vertices.iter().map(|v| v.norm()).fold(0.0, f64::max);
+        assert!(m.rbound() >= far - 1e-7 && m.rbound() <= 3f64.sqrt() * far);
     }
 }
