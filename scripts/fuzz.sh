@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The long fuzz run of issue 10: each cargo-fuzz target of fuzz/ (mjcf, urdf,
-# step; see fuzz/src/lib.rs for what they check) for RUNS executions.
+# mesh, step; see fuzz/src/lib.rs for what they check) for RUNS executions.
 #
 #   scripts/fuzz.sh [RUNS]          RUNS defaults to 1000000 per target
 #   FUZZ_TARGETS="step" scripts/fuzz.sh 10000
@@ -18,7 +18,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 RUNS=${1:-1000000}
-TARGETS=${FUZZ_TARGETS:-mjcf urdf step}
+TARGETS=${FUZZ_TARGETS:-mjcf urdf mesh step}
 
 rustup toolchain list | grep -q '^nightly' || rustup toolchain install nightly --profile minimal
 command -v cargo-fuzz >/dev/null || cargo install cargo-fuzz --locked
@@ -34,6 +34,7 @@ seed() { # seed DIR FILES...: copies the existing FILES into DIR
 gym=$(ls -d .venv/lib/python3*/site-packages/gymnasium/envs/mujoco/assets 2>/dev/null | head -n1 || true)
 seed fuzz/corpus/mjcf reference_models/*.xml tests/data/*.xml fuzz/seeds/mjcf/* ${gym:+$gym/*.xml}
 seed fuzz/corpus/urdf reference_models/*.urdf fuzz/seeds/urdf/*
+seed fuzz/corpus/mesh fuzz/seeds/mesh/*
 mkdir -p fuzz/corpus/step fuzz/logs
 
 for t in $TARGETS; do

@@ -4,7 +4,7 @@
 //! The long run is `make fuzz` (scripts/fuzz.sh).
 //!
 //! Corpus: reference_models/, tests/data/, fuzz/seeds/ and gymnasium's MJCF
-//! assets. A mutation applies 1-8 edits (flip a byte, insert a token of the
+//! assets; the mesh readers' is fuzz/seeds/mesh/. A mutation applies 1-8 edits (flip a byte, insert a token of the
 //! target's libFuzzer dictionary, delete or duplicate a span); the generator
 //! is seeded, so every run checks the same inputs.
 
@@ -125,6 +125,17 @@ fn urdf_loader_survives_its_corpus_and_mutations() {
     let corpus = urdf_corpus();
     assert!(corpus.len() >= 6, "{corpus:?}");
     replay_and_mutate(&corpus, "urdf.dict", 2, checks::check_urdf);
+}
+
+#[test]
+fn mesh_readers_survive_their_corpus_and_mutations() {
+    let dirs = [root().join("fuzz/seeds/mesh")];
+    let corpus: Vec<PathBuf> = [".stl", ".obj", ".msh"]
+        .iter()
+        .flat_map(|ext| files(&dirs, ext))
+        .collect();
+    assert!(corpus.len() >= 4, "{corpus:?}");
+    replay_and_mutate(&corpus, "mesh.dict", 4, checks::check_mesh);
 }
 
 #[test]

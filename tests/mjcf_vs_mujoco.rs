@@ -339,6 +339,15 @@ fn compare(model: &Model, g: &Value) -> [(&'static str, Worst); 5] {
                 "ellipsoid",
                 radii.iter().copied().zip(size.iter().copied()).collect(),
             ),
+            // MuJoCo's size of a mesh geom: its bounding box's half-extents.
+            Shape::Mesh { mesh } => {
+                let [lo, hi] = &model.meshes[mesh].aabb;
+                let half = lo.abs().sup(&hi.abs());
+                (
+                    "mesh",
+                    half.iter().copied().zip(size.iter().copied()).collect(),
+                )
+            }
         };
         assert_eq!(kind, e["type"], "{}", at("type"));
         for (ours, theirs) in ours {

@@ -16,6 +16,7 @@
 
 use diffosi::derivatives::{step_jacobians, StepJacobians, Workspace, Wrt};
 use diffosi::dynamics::StepError;
+use diffosi::model::mesh::{self, MeshSettings};
 use diffosi::model::{mjcf, Integrator, Param, PassiveMode};
 use diffosi::Model;
 
@@ -73,6 +74,40 @@ pub fn check_mjcf(data: &[u8]) {
 /// URDF loader: as [`check_mjcf`].
 pub fn check_urdf(data: &[u8]) {
     check_loader("fuzz.urdf", data);
+}
+
+/// Mesh readers: the bytes read as STL, OBJ and MSH each either give a
+/// mesh or a message; a mesh read compiles (with its hull) or is refused
+/// with a message, and a compiled mesh has finite numbers and a hull whose
+/// faces index its vertices.
+pub fn check_mesh(data: &[u8]) {
+    for ext in ["stl", "obj", "msh"] {
+        let raw = match mesh::read_bytes(ext, data) {
+            Ok(raw) => raw,
+            Err(e) => {
+                assert!(!e.is_empty(), "an empty {ext} error message");
+                continue;
+            }
+        };
+        let settings = MeshSettings {
+            needs_hull: true,
+            max_hull_vertices: data.len().is_multiple_of(3).then_some(8),
+            ..Default::default()
+        };
+        match mesh::compile("fuzz", &raw, &settings) {
+            Ok(m) => {
+                let numbers = m.vertices.iter().flat_map(|v| v.iter()).chain(m.pos.iter());
+                assert!(numbers.chain(m.inertia_box.iter()).all(|x| x.is_finite()));
+                assert!(m.volume.is_finite() && m.volume > 0.0);
+                let hull = m.hull.expect("a hull was asked for");
+                assert!(hull.faces.iter().flatten().all(|&i| i < m.vertices.len()));
+                assert!(settings
+                    .max_hull_vertices
+                    .is_none_or(|k| hull.vertices.len() <= k));
+            }
+            Err(e) => assert!(!e.is_empty(), "an empty compile error message"),
+        }
+    }
 }
 
 fn check_loader(name: &str, data: &[u8]) {

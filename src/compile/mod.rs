@@ -74,6 +74,7 @@ impl Model {
             inertia_rule: InertiaRule::Triangle,
             sites: vec![],
             sensors: vec![],
+            meshes: vec![],
         })
     }
 

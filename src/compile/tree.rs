@@ -163,7 +163,7 @@ impl<T: Real> Tree<T> {
         self.geoms.push(GeomFrame::new(
             (g, geom.body, frame.node),
             offset,
-            geom.shape,
+            (geom.shape, model.rbound(&geom.shape)),
         ));
         self.geoms.len() - 1
     }

@@ -8,6 +8,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+use super::mesh::Mesh;
 use super::Shape;
 
 /// MuJoCo's `mjEPS`: the smallest volume an explicit mass is spread over; in
@@ -15,10 +16,12 @@ use super::Shape;
 /// geom mass it counts and smallest principal moment of a full inertia tensor.
 pub(super) const MJ_EPS: f64 = 1e-14;
 
-/// Volume of a solid primitive (zero for a plane).
-pub fn volume(shape: &Shape) -> f64 {
+/// Volume of a solid primitive (zero for a plane) or of a mesh of `meshes`
+/// (its area for a shell mesh).
+pub fn volume(shape: &Shape, meshes: &[Mesh]) -> f64 {
     use std::f64::consts::PI;
     match *shape {
+        Shape::Mesh { mesh } => meshes[mesh].volume,
         Shape::Plane => 0.0,
         Shape::Sphere { radius: r } => 4.0 * PI * r * r * r / 3.0,
         Shape::Capsule {
@@ -36,20 +39,22 @@ pub fn volume(shape: &Shape) -> f64 {
 
 /// A geom's mass by MuJoCo's rule: an explicit `mass` wins (zero if the volume
 /// is too small to hold it), else `density * volume`.
-pub fn mass(shape: &Shape, explicit_mass: Option<f64>, density: f64) -> f64 {
+pub fn mass(shape: &Shape, meshes: &[Mesh], explicit_mass: Option<f64>, density: f64) -> f64 {
     match explicit_mass {
-        Some(m) if m == 0.0 || volume(shape) <= MJ_EPS => 0.0,
+        Some(m) if m == 0.0 || volume(shape, meshes) <= MJ_EPS => 0.0,
         Some(m) => m,
         None if density == 0.0 => 0.0,
-        None => density * volume(shape),
+        None => density * volume(shape, meshes),
     }
 }
 
 /// Principal moments of inertia of a solid primitive of the given mass about
 /// its centre, along the geom's axes. A capsule is a cylinder plus two
 /// hemispheres, each hemisphere displaced along z with its own centre of mass.
-pub fn principal_moments(shape: &Shape, mass: f64) -> Vector3<f64> {
+/// A mesh's are along its mesh axes ([`Mesh::principal_moments`]).
+pub fn principal_moments(shape: &Shape, meshes: &[Mesh], mass: f64) -> Vector3<f64> {
     match *shape {
+        Shape::Mesh { mesh } => meshes[mesh].principal_moments(mass),
         Shape::Plane => Vector3::zeros(),
         Shape::Sphere { radius: r } => Vector3::repeat(2.0 * mass * r * r / 5.0),
         Shape::Capsule {
@@ -154,14 +159,14 @@ mod tests {
         let rho = 2.0;
         let m_c = rho * PI * r * r * h;
         let m_s = rho * 4.0 / 3.0 * PI * r * r * r;
-        let m = mass(&shape, None, rho);
+        let m = mass(&shape, &[], None, rho);
         assert!(close(m, m_c + m_s));
         let c = 3.0 * r / 8.0;
         let hemi_own = m_s * (2.0 / 5.0 * r * r - c * c); // both halves, about own COM
         let hemi_side = hemi_own + m_s * (h / 2.0 + c).powi(2);
         let side = m_c * (3.0 * r * r + h * h) / 12.0 + hemi_side;
         let axial = m_c * r * r / 2.0 + m_s * 2.0 / 5.0 * r * r;
-        let i = principal_moments(&shape, m);
+        let i = principal_moments(&shape, &[], m);
         assert!(
             close(i.x, side) && close(i.y, side) && close(i.z, axial),
             "{i:?}"
@@ -171,13 +176,13 @@ mod tests {
     #[test]
     fn explicit_mass_wins_and_planes_are_massless() {
         let sphere = Shape::Sphere { radius: 0.1 };
-        assert_eq!(mass(&sphere, Some(2.5), 1000.0), 2.5);
+        assert_eq!(mass(&sphere, &[], Some(2.5), 1000.0), 2.5);
         assert!(close(
-            mass(&sphere, None, 1000.0),
+            mass(&sphere, &[], None, 1000.0),
             1000.0 * 4.0 / 3.0 * PI * 1e-3
         ));
-        assert_eq!(mass(&Shape::Plane, None, 1000.0), 0.0);
-        assert_eq!(mass(&Shape::Plane, Some(1.0), 1000.0), 0.0);
+        assert_eq!(mass(&Shape::Plane, &[], None, 1000.0), 0.0);
+        assert_eq!(mass(&Shape::Plane, &[], Some(1.0), 1000.0), 0.0);
     }
 
     #[test]

@@ -32,6 +32,7 @@
 pub mod constraint;
 pub mod geom_inertia;
 mod keyframe;
+pub mod mesh;
 pub mod mjcf;
 pub mod params;
 pub mod sensor;
@@ -339,6 +340,12 @@ pub enum Shape {
     Ellipsoid {
         radii: Vector3<f64>,
     },
+    /// The triangle mesh `Spec::meshes[mesh]`, in its mesh frame (centred
+    /// at its centre of mass, along its principal axes: see [`mesh`]).
+    /// Colliders see its convex hull.
+    Mesh {
+        mesh: usize,
+    },
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -594,6 +601,8 @@ pub struct Spec {
     /// (`<sensor>`); neither changes the dynamics.
     pub sites: Vec<Site>,
     pub sensors: Vec<Sensor>,
+    /// The meshes that [`Shape::Mesh`] geoms index.
+    pub meshes: Vec<mesh::Mesh>,
 }
 
 /// Which inertia tensors a model accepts, beyond finite, symmetric and
@@ -626,6 +635,16 @@ impl Spec {
 
     pub fn nv(&self) -> usize {
         self.joints.iter().map(|j| j.kind.nv()).sum()
+    }
+
+    /// The radius of a sphere about a geom's centre that holds `shape`
+    /// (MuJoCo's geom_rbound; [`Shape::rbound`] for primitives, a mesh's
+    /// [`mesh::Mesh::rbound`]).
+    pub fn rbound(&self, shape: &Shape) -> f64 {
+        match *shape {
+            Shape::Mesh { mesh } => self.meshes[mesh].rbound(),
+            _ => shape.rbound(),
+        }
     }
 
     /// Whether every joint is a hinge or a slide (then nq = nv and joint i
@@ -764,6 +783,11 @@ impl Spec {
         }
         for g in &self.geoms {
             let owner = format!("geom '{}'", g.name);
+            if let Shape::Mesh { mesh } = g.shape {
+                if mesh >= self.meshes.len() {
+                    return bad(format!("{owner}: mesh {mesh} does not exist"));
+                }
+            }
             constraint::check_friction(&g.friction, &owner)
                 .and_then(|()| g.contact.check(&owner))
                 .map_err(ModelError::NotPhysical)?;

@@ -16,16 +16,17 @@ pub struct GeomFrame<T: Real> {
     /// From the node's frame (or the world's) to the geom's frame.
     pub offset: Transform<T>,
     pub shape: Shape,
-    /// The shape's bounding radius ([`Shape::rbound`]), computed once.
+    /// The shape's bounding radius ([`Spec::rbound`](crate::model::Spec::rbound)), computed once.
     pub rbound: f64,
 }
 
 impl<T: Real> GeomFrame<T> {
-    /// Model geom `geom` of body `body`, fixed to `node` by `offset`.
+    /// Model geom `geom` of body `body`, fixed to `node` by `offset`, its
+    /// shape bounded by a sphere of radius `rbound`.
     pub fn new(
         (geom, body, node): (usize, usize, Option<usize>),
         offset: Transform<T>,
-        shape: Shape,
+        (shape, rbound): (Shape, f64),
     ) -> Self {
         GeomFrame {
             geom,
@@ -33,7 +34,7 @@ impl<T: Real> GeomFrame<T> {
             node,
             offset,
             shape,
-            rbound: shape.rbound(),
+            rbound,
         }
     }
 

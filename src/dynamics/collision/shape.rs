@@ -19,15 +19,17 @@ impl Shape {
             Shape::Ellipsoid { .. } => GeomType::Ellipsoid,
             Shape::Cylinder { .. } => GeomType::Cylinder,
             Shape::Box { .. } => GeomType::Box,
+            Shape::Mesh { .. } => GeomType::Mesh,
         }
     }
 
     /// MuJoCo's geom_size: a sphere's [radius, 0, 0], a capsule's or
     /// cylinder's [radius, half length, 0], a box's half-sizes, an
-    /// ellipsoid's radii; zero for a plane (infinite here).
+    /// ellipsoid's radii; zero for a plane (infinite here) and for a mesh
+    /// (whose extent is its [`Mesh::aabb`](crate::model::mesh::Mesh)).
     pub fn size(&self) -> [f64; 3] {
         match *self {
-            Shape::Plane => [0.0; 3],
+            Shape::Plane | Shape::Mesh { .. } => [0.0; 3],
             Shape::Sphere { radius } => [radius, 0.0, 0.0],
             Shape::Capsule {
                 radius,
@@ -44,10 +46,12 @@ impl Shape {
 
     /// The radius of a sphere about the centre that holds the shape
     /// (MuJoCo's geom_rbound; infinite for a plane). A cylinder's is
-    /// radius + half length, a looser bound than MuJoCo's hypotenuse.
+    /// radius + half length, a looser bound than MuJoCo's hypotenuse. A
+    /// mesh's needs its mesh ([`Spec::rbound`](crate::model::Spec::rbound));
+    /// without it, infinite.
     pub fn rbound(&self) -> f64 {
         match *self {
-            Shape::Plane => f64::INFINITY,
+            Shape::Plane | Shape::Mesh { .. } => f64::INFINITY,
             Shape::Sphere { radius } => radius,
             Shape::Capsule {
                 radius,
@@ -64,12 +68,14 @@ impl Shape {
 
     /// The support function: a point of the shape farthest along `dir`
     /// (geom frame; `dir` need not be unit, a zero one counts as +x, ties
-    /// between faces go to the + side). None for a plane, which has none.
+    /// between faces go to the + side). None for a plane, which has none,
+    /// and for a mesh, whose support is its mesh's
+    /// ([`Mesh::support`](crate::model::mesh::Mesh::support)).
     pub fn support<T: Real>(&self, dir: &Vector3<T>) -> Option<Vector3<T>> {
         let side = |x: T, h: f64| if x >= T::zero() { lift(h) } else { lift(-h) };
         let along_z = |h: f64| Vector3::new(T::zero(), T::zero(), side(dir.z, h));
         Some(match *self {
-            Shape::Plane => return None,
+            Shape::Plane | Shape::Mesh { .. } => return None,
             Shape::Sphere { radius } => normalize(*dir).0 * lift::<T>(radius),
             Shape::Capsule {
                 radius,
@@ -136,6 +142,7 @@ mod tests {
             Shape::Box { half } => (p.abs() - half).max(),
             Shape::Ellipsoid { radii } => p.component_div(&radii).norm() - 1.0,
             Shape::Plane => p.z,
+            Shape::Mesh { .. } => unreachable!("the test shapes are primitives"),
         }
     }
 

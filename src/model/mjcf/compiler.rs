@@ -30,6 +30,10 @@ pub struct Compiler {
     pub boundmass: f64,
     pub boundinertia: f64,
     pub balanceinertia: bool,
+    /// Where mesh files are, relative to the model file's directory
+    /// (`meshdir`, else `assetdir`); `strippath` drops a file's directories.
+    pub meshdir: String,
+    pub strippath: bool,
 }
 
 impl Default for Compiler {
@@ -45,6 +49,8 @@ impl Default for Compiler {
             boundmass: 0.0,
             boundinertia: 0.0,
             balanceinertia: false,
+            meshdir: String::new(),
+            strippath: false,
         }
     }
 }
@@ -57,6 +63,7 @@ impl Compiler {
             let a = Attrs::of(file, node);
             c.read_angles(&a)?;
             c.read_inertia(&a)?;
+            c.read_paths(&a)?;
             check_rejected(&a)?;
         }
         Ok(c)
@@ -94,6 +101,17 @@ impl Compiler {
         self.boundmass = a.number("boundmass")?.unwrap_or(self.boundmass);
         self.boundinertia = a.number("boundinertia")?.unwrap_or(self.boundinertia);
         self.balanceinertia = a.flag("balanceinertia")?.unwrap_or(self.balanceinertia);
+        Ok(())
+    }
+
+    /// `assetdir`, then `meshdir` over it (MuJoCo's order), and `strippath`.
+    fn read_paths(&mut self, a: &Attrs) -> Result<()> {
+        for dir in ["assetdir", "meshdir"] {
+            if let Some(d) = a.text(dir) {
+                self.meshdir = d.to_string();
+            }
+        }
+        self.strippath = a.flag("strippath")?.unwrap_or(self.strippath);
         Ok(())
     }
 

@@ -51,11 +51,14 @@ impl<'a> Reader<'a> {
         let kind = geom_type(&a)?;
         let mut size = a.leading::<3>("size", [0.0; 3])?;
         let mut pos = a.vector("pos")?.unwrap_or_default();
-        let rot = match a.exact::<6>("fromto")? {
+        let mut rot = match a.exact::<6>("fromto")? {
             Some(ft) => self.fromto_frame(node, kind, ft, &mut pos, &mut size)?,
             None => self.orientation(&a)?,
         };
-        let shape = self.shape(node, kind, size)?;
+        let shape = match kind {
+            "mesh" => self.mesh_shape(&a, &mut pos, &mut rot)?,
+            _ => self.shape(node, kind, size)?,
+        };
         if kind == "plane" && !is_static {
             return Err(self.error(node, "planes are only allowed in static bodies"));
         }
@@ -92,7 +95,8 @@ impl<'a> Reader<'a> {
         }
         let density = a.number("density")?.unwrap_or(1000.0);
         let explicit = a.number("mass")?;
-        let mass = geom_inertia::mass(&geom.shape, explicit, density);
+        let meshes = &self.meshes.compiled;
+        let mass = geom_inertia::mass(&geom.shape, meshes, explicit, density);
         if mass < 0.0 || (explicit.is_none() && density < 0.0) {
             return Err(a.error(a.element, "geom mass and density cannot be negative"));
         }
@@ -100,8 +104,33 @@ impl<'a> Reader<'a> {
             mass,
             com: geom.pos,
             axes: *geom.rot.matrix(),
-            moments: geom_inertia::principal_moments(&geom.shape, mass),
+            moments: geom_inertia::principal_moments(&geom.shape, meshes, mass),
         }))
+    }
+
+    /// A mesh geom: its mesh, and its pose moved to the mesh's inertial
+    /// frame (MuJoCo composes the mesh's pos/quat into geom_pos/geom_quat).
+    fn mesh_shape(
+        &self,
+        a: &Attrs,
+        pos: &mut Vector3<f64>,
+        rot: &mut Rotation3<f64>,
+    ) -> Result<Shape> {
+        let node = a.element;
+        if a.text("fromto").is_some() {
+            return Err(self.error(node, "fromto cannot be used with mesh geom"));
+        }
+        let name = a
+            .text("mesh")
+            .ok_or_else(|| self.error(node, "a mesh geom needs a mesh"))?;
+        let mesh = self
+            .meshes
+            .find(name)
+            .ok_or_else(|| self.error(node, format!("unknown mesh '{name}'")))?;
+        let m = &self.meshes.compiled[mesh];
+        *pos += *rot * m.pos;
+        *rot *= crate::model::mesh::rotation(&m.quat);
+        Ok(Shape::Mesh { mesh })
     }
 
     /// MuJoCo's `fromto`: the geom sits midway, its z axis along from - to, its
@@ -178,18 +207,20 @@ impl<'a> Reader<'a> {
 }
 
 /// The geom type (sphere by default); rejects what is not a primitive solid
-/// or needs fluid forces.
+/// or a mesh, a primitive fitted to a mesh, and fluid forces.
 fn geom_type(a: &Attrs) -> Result<&'static str> {
     #[rustfmt::skip]
     let types = [
         "plane", "sphere", "capsule", "ellipsoid", "cylinder", "box", "mesh", "hfield", "sdf",
     ];
     let kind = a.keyword("type", &types)?.unwrap_or("sphere");
-    if ["mesh", "hfield", "sdf"].contains(&kind)
-        || a.text("mesh").is_some()
-        || a.text("hfield").is_some()
-    {
-        let msg = "mesh, height field and SDF geoms are not supported";
+    if ["hfield", "sdf"].contains(&kind) || a.text("hfield").is_some() {
+        let msg = "height field and SDF geoms are not supported";
+        return Err(a.error(a.element, msg));
+    }
+    if kind != "mesh" && a.text("mesh").is_some() {
+        let msg =
+            format!("a {kind} fitted to a mesh (type=\"{kind}\" with mesh=) is not supported");
         return Err(a.error(a.element, msg));
     }
     if a.flag("shellinertia")? == Some(true) {
@@ -256,7 +287,7 @@ mod tests {
         assert_close(b.com.as_slice(), g.pos.as_slice(), 1e-16);
         let axis = g.rot * Vector3::z();
         let axial = (b.inertia * axis).dot(&axis);
-        assert!((axial - geom_inertia::principal_moments(&g.shape, mass).z).abs() < 1e-15);
+        assert!((axial - geom_inertia::principal_moments(&g.shape, &[], mass).z).abs() < 1e-15);
 
         let sphere = r#"<geom fromto="0 0 0 0 0 1" size="0.1"/>"#;
         assert_rejects(&model("", &body(sphere), ""), "fromto requires");

@@ -2,48 +2,49 @@
 //! with the meaning MuJoCo 4's compiler gives it.
 //!
 //! Read: `<compiler>` (angle, eulerseq, inertiafromgeom, inertiagrouprange,
-//! autolimits, settotalmass, boundmass, boundinertia, balanceinertia),
-//! `<option>` (timestep, gravity, integrator, the solver's cone, impratio and
-//! iterations, the medium's density, viscosity and wind, and `<flag>`s: see
-//! `options.rs`), `<default>` classes for joints, geoms, sites, pairs, tendons
-//! and actuators, `<worldbody>` with nested `<body>`, `<joint>` (hinge, slide,
-//! ball, free) and `<freejoint>`, `<inertial>`, `<geom>` (plane, sphere,
-//! capsule, cylinder, box, ellipsoid, with their contact settings),
-//! `<contact>` (`<pair>` and `<exclude>`), `<actuator>` `<motor>`/`<general>`
-//! on hinges and slides, `<site>` and `<sensor>` (`sites.rs`, `sensors.rs`:
-//! every sensor type laid out, the common ones computed), and `<custom>`'s
-//! `diffosi:` settings (the contact model, the smooth model's constants). The medium's forces are MuJoCo's
-//! inertia-box model (`dynamics/fluid.rs`).
-//!
-//! Ignored, since they do not change the dynamics: visual, asset (textures,
-//! materials), size, statistic, other custom data, camera,
-//! light, skin, the looks of geoms and tendons (rgba, material, group,
-//! width), `<compiler>`'s meshdir, texturedir and assetdir, fixed tendons
-//! that only measure, and the solver settings that only tune how the answer
-//! is approached (`options.rs`).
+//! autolimits, settotalmass, boundmass, boundinertia, balanceinertia,
+//! meshdir, assetdir), `<option>` (timestep, gravity, integrator: Euler, RK4,
+//! implicit, implicitfast; the solver's cone, impratio and iterations, the
+//! medium's density, viscosity and wind, and `<flag>`s: see `options.rs`),
+//! `<default>` classes for joints, geoms, sites, meshes, pairs, tendons and
+//! actuators, `<worldbody>` with nested `<body>` (gravcomp), `<joint>`
+//! (hinge, slide, ball, free) and `<freejoint>`, `<inertial>`, `<geom>`
+//! (plane, sphere, capsule, cylinder, box, ellipsoid, mesh, with their
+//! contact settings), `<asset><mesh>` (`meshes.rs`), `<contact>` (`<pair>`
+//! and `<exclude>`), `<actuator>` (MuJoCo's motor, position, velocity,
+//! intvelocity, damper and general on hinges and slides: `actuators.rs`),
+//! `<site>` and `<sensor>` (`sites.rs`, `sensors.rs`: every sensor type laid
+//! out, the common ones computed), `<keyframe>` (`keyframes.rs`), and
+//! `<custom>`'s `diffosi:` settings (the contact model, the smooth model's
+//! constants). The medium's forces are MuJoCo's inertia-box model
+//! (`dynamics/fluid.rs`).
 //!
 //! Composition, as MuJoCo's XML reader does it: `<include>` (`include.rs`),
-//! `<frame>`, `<replicate>` and `childclass` (`frames.rs`); `<keyframe>`s are
-//! read into the spec (`keyframes.rs`).
+//! `<frame>`, `<replicate>` and `childclass` (`frames.rs`).
+//!
+//! Ignored, since they do not change the dynamics: visual, the other assets
+//! (textures, materials, skins), size, statistic, other custom data, camera,
+//! light, the looks of geoms and tendons (rgba, material, group, width),
+//! `<compiler>`'s texturedir, fixed tendons that only measure, and the solver
+//! settings that only tune how the answer is approached (`options.rs`).
 //!
 //! Rejected with [`ModelError::Invalid`] naming the element and its line:
 //! - what changes the dynamics beyond a tree of joints with linear passive
-//!   forces, motors, contacts, limits, dry friction and the inertia-box fluid:
-//!   limits and dry friction on ball and free joints, a free joint that is not
-//!   the only joint of a child of the world, spatial tendons and fixed tendons
-//!   that act (limit, spring, damping, dry friction, armature), equalities,
-//!   flexes and skins, the ellipsoid fluid model (fluidshape), gravcomp
-//!   routed through actuators (`actuatorgravcomp`), mocap bodies, the
-//!   implicit integrators in a fluid, noslip iterations, the
-//!   `override` flag, disabling springs, dampers, actuation or control
-//!   clamping, polynomial or springdamper joint parameters, joint
-//!   actuator-force limits, and actuators other than motors on hinges and
-//!   slides (servos, muscles, ball/free-joint/tendon/site/body transmissions,
-//!   gains with bias or dynamics, force limits, actuator
-//!   damping/armature/delay, disabled actuator groups);
+//!   forces, actuators, contacts, limits, dry friction and the inertia-box
+//!   fluid: limits and dry friction on ball and free joints, a free joint
+//!   that is not the only joint of a child of the world, spatial tendons and
+//!   fixed tendons that act (limit, spring, damping, dry friction, armature),
+//!   equalities, flexes and skins, the ellipsoid fluid model (fluidshape),
+//!   gravcomp routed through actuators (`actuatorgravcomp`), mocap bodies,
+//!   the implicit integrators in a fluid, noslip iterations, the `override`
+//!   flag, disabling springs, dampers, actuation or control clamping,
+//!   polynomial or springdamper joint parameters, joint actuator-force
+//!   limits, and the actuators `actuators.rs` lists (muscles, cylinders,
+//!   adhesion, PID and DC motors; tendon, site, body, ball and free-joint
+//!   transmissions; actuator damping, armature and delay);
 //! - what builds the model from elsewhere: composite, flexcomp, attach,
-//!   plugins, meshes, height fields, SDFs, shell
-//!   inertia, fusestatic, global coordinates;
+//!   plugins, builtin meshes, primitives fitted to meshes, height fields,
+//!   SDFs, shell inertia of geoms, fusestatic, global coordinates;
 //! - what MuJoCo rejects: unknown elements and attributes, malformed or
 //!   miscounted numbers, unknown classes, joints, geoms and bodies, repeated
 //!   names, zero axes and quaternions, bad ranges, non-physical inertias,
@@ -74,6 +75,7 @@ mod include;
 mod inertial;
 mod joints;
 mod keyframes;
+mod meshes;
 mod options;
 mod orientation;
 mod schema;
@@ -119,11 +121,13 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
         compiler: Compiler::read(file, root)?,
         classes: HashMap::from([("main", Class::default())]),
         unfolded: Cell::new(0),
+        meshes: meshes::Meshes::default(),
     };
     let opt = options::read(file, root)?;
     for section in children(root, "default") {
         reader.read_default(section, None)?;
     }
+    reader.meshes = reader.read_meshes(root)?;
     let mut tree = Tree::new();
     reader.read_world(&mut tree, &children(root, "worldbody"))?;
     check_unsupported_sections(file, root)?;
@@ -137,6 +141,9 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
     let (bodies, joints, geoms, sites) = tree.finish();
     let body_names: Vec<&str> = bodies.iter().map(|b| b.name.as_str()).collect();
     let (pairs, excludes) = reader.read_contact(root, &geoms, &body_names)?;
+    let mut meshes = std::mem::take(&mut reader.meshes);
+    let paired: Vec<usize> = pairs.iter().flat_map(|p| p.geoms).collect();
+    reader.add_hulls(&mut meshes, &geoms, &paired)?;
     let name = root
         .attribute("model")
         .unwrap_or("MuJoCo Model")
@@ -154,6 +161,7 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
         inertia_rule: InertiaRule::Triangle,
         sites,
         sensors,
+        meshes: meshes.compiled,
     };
     spec.keyframes = reader.read_keyframes(root, &spec)?;
     Ok(spec)
@@ -168,6 +176,7 @@ struct Reader<'a> {
     /// Body elements read so far, frames and replicates unfolded (see
     /// [`frames::MAX_MEMBERS`]).
     unfolded: Cell<usize>,
+    meshes: meshes::Meshes<'a>,
 }
 
 impl Reader<'_> {

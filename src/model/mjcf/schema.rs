@@ -88,6 +88,13 @@ pub const PAIR_ATTRS: &[&str] = &[
     "name", "class", "geom1", "geom2", "condim", "friction", "solref", "solreffriction", "solimp",
     "gap", "margin",
 ];
+#[rustfmt::skip]
+pub const MESH_ATTRS: &[&str] = &[
+    "name", "class", "content_type", "file", "vertex", "normal", "texcoord", "face", "refpos",
+    "refquat", "scale", "smoothnormal", "maxhullvert", "inertia", "builtin", "params", "material",
+];
+/// What a `<default>`'s `<mesh>` may set.
+pub const MESH_DEFAULT_ATTRS: &[&str] = &["scale", "maxhullvert", "inertia"];
 pub const EXCLUDE_ATTRS: &[&str] = &["name", "body1", "body2"];
 #[rustfmt::skip]
 pub const MOTOR_ATTRS: &[&str] = &[

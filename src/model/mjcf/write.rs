@@ -63,6 +63,9 @@ pub fn write(spec: &Spec) -> Result<String, ModelError> {
 }
 
 fn document(spec: &Spec) -> Result<String, ModelError> {
+    if !spec.meshes.is_empty() {
+        return Err(unwritable("meshes (their files are not kept)"));
+    }
     let mut doc = Document::default();
     doc.open(0, Tag::new("mujoco").text("model", &spec.name));
     let compiler = Tag::new("compiler")
@@ -407,6 +410,7 @@ fn geom_tag(g: &Geom) -> Tag {
         } => ("cylinder", vec![radius, half_length]),
         Shape::Box { half } => ("box", half.as_slice().to_vec()),
         Shape::Ellipsoid { radii } => ("ellipsoid", radii.as_slice().to_vec()),
+        Shape::Mesh { .. } => unreachable!("models with meshes are refused first"),
     };
     Tag::new("geom")
         .text("name", &g.name)

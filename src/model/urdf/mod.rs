@@ -43,8 +43,8 @@
 //!   first q and v index by name: [`crate::Model::joint_address_of`].
 //! - `<collision>` box, sphere, cylinder (along z, `length` the full length) and
 //!   PyBullet's capsule (`length` between the sphere centres) become geoms with
-//!   contype = conaffinity = 1; mesh collisions are skipped (no geom), and
-//!   `<visual>` is ignored. Friction comes from PyBullet's `<contact>` element
+//!   contype = conaffinity = 1; a mesh collision becomes a mesh geom as
+//!   MuJoCo's importer makes it (see `geoms.rs`), and `<visual>` is ignored. Friction comes from PyBullet's `<contact>` element
 //!   of the link (lateral, spinning, rolling), default PyBullet's (0.5, 0, 0).
 //! - A `<transmission>` with one `<joint>` that moves is an actuator on that
 //!   joint: gear = `<mechanicalReduction>` (default 1), name = its
@@ -129,6 +129,7 @@ pub fn parse(text: &str, file: &str, options: &LoadOptions) -> Result<Loaded> {
         file,
         options,
         warnings: Default::default(),
+        meshes: Default::default(),
     };
     if !is(robot, "robot") {
         return Err(reader.error(robot, "the root element must be <robot>"));
@@ -154,6 +155,7 @@ pub fn parse(text: &str, file: &str, options: &LoadOptions) -> Result<Loaded> {
         inertia_rule: InertiaRule::SemiDefinite,
         sites: vec![],
         sensors: vec![],
+        meshes: reader.meshes.take().into_iter().map(|m| m.mesh).collect(),
     };
     Ok(Loaded {
         spec,
@@ -167,6 +169,8 @@ struct Reader<'f> {
     file: &'f str,
     options: &'f LoadOptions,
     warnings: std::cell::RefCell<Vec<String>>,
+    /// The meshes of the collision geoms so far (see `geoms.rs`).
+    meshes: std::cell::RefCell<Vec<geoms::UrdfMesh>>,
 }
 
 impl Reader<'_> {
