@@ -128,3 +128,48 @@ def test_gravcomp_under_the_explicit_integrators(tmp_path, integrator):
     q1, v1 = ours.step(q, v, tau)
     np.testing.assert_allclose(q1, d.qpos, rtol=0, atol=1e-12)
     np.testing.assert_allclose(v1, d.qvel, rtol=0, atol=1e-12)
+
+
+SERVOS = f"""
+<worldbody>
+<body pos="0 0 1"><joint name="a" type="hinge" axis="0 1 0" damping="0.3"/>
+  <geom type="capsule" fromto="0 0 0 0.3 0 0.1" size="0.05" {OFF}/>
+  <body pos="0.3 0 0.1"><joint name="b" type="slide" axis="1 0 0"/>
+    <geom type="box" size="0.1 0.05 0.2" {OFF}/></body></body>
+</worldbody>
+<actuator>
+  <position joint="a" kp="40" kv="3" gear="1.5"/>
+  <velocity joint="b" kv="7" forcerange="-2 2"/>
+  <general joint="a" gaintype="affine" gainprm="2 0 -0.5" biastype="affine" biasprm="0 0 -1"/>
+</actuator>"""
+
+
+@pytest.mark.parametrize("integrator", ["implicitfast", "implicit"])
+def test_servos_velocity_slopes_are_implicit(tmp_path, integrator):
+    """The actuators' d(force)/dv (kv, an affine gain's and bias's velocity
+    terms; zero where the force range clamps) joins qDeriv under the implicit
+    integrators, as in MuJoCo: one step and A, B against mj_step and
+    mjd_transitionFD."""
+    path = tmp_path / f"servos_{integrator}.xml"
+    path.write_text(f'<mujoco><option integrator="{integrator}" timestep="0.01"/>{SERVOS}</mujoco>')
+    m, ours = mujoco.MjModel.from_xml_path(str(path)), diffosi.Model.load(str(path))
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(7)
+    for _ in range(4):
+        q, v = rng.normal(size=m.nq), 3 * rng.normal(size=m.nv)
+        tau, ctrl = rng.normal(size=m.nv), rng.normal(size=m.nu)
+        d.qpos[:], d.qvel[:], d.qfrc_applied[:], d.ctrl[:] = q, v, tau, ctrl
+        mujoco.mj_forward(m, d)
+        A = np.zeros((2 * m.nv, 2 * m.nv))
+        B = np.zeros((2 * m.nv, m.nu))
+        mujoco.mjd_transitionFD(m, d, 1e-6, True, A, B, None, None)
+        mujoco.mj_step(m, d)
+        q1, v1 = ours.step(q, v, tau, ctrl=ctrl)
+        np.testing.assert_allclose(q1, d.qpos, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(v1, d.qvel, rtol=0, atol=1e-12)
+        J = ours.step_jacobians(q, v, tau, ctrl=ctrl)
+        a = np.block([[J["dq_dq"], J["dq_dv"]], [J["dv_dq"], J["dv_dv"]]])
+        b = np.vstack([J["dq_dctrl"], J["dv_dctrl"]])
+        for ours_, theirs in [(a, A), (b, B)]:
+            err = np.abs(ours_ - theirs).max() / max(1.0, np.abs(theirs).max())
+            assert err < 1e-6, f"{integrator}: {err:.1e}"

@@ -12,7 +12,9 @@
 //! from dual numbers through the generic actuation code (one actuator at a
 //! time: it reads its joint's q and v, its ctrl and its act). The same holds
 //! under RK4 when F is the same at every stage (no activation, no length
-//! or velocity terms); with other actuators under RK4 every block comes
+//! or velocity terms), and under the implicit integrators then (F's velocity
+//! slope, which they take implicitly, is zero); with other actuators under
+//! RK4 or the implicit integrators every block comes
 //! from dual numbers through the whole actuated step (one step per column,
 //! positions in the tangent space as module `constrained` seeds them).
 //! Where a clamp (ctrl, force or act range) is active the derivative is the
@@ -61,8 +63,10 @@ pub fn input_jacobians(
     let tree = model.tree();
     check_inputs(tree, (q, v, tau))?;
     check_actuation(tree, (ctrl, act))?;
-    let runge_kutta = tableau(model.opt.integrator).is_some();
-    if runge_kutta && !tree.actuators.iter().all(|a| a.state_independent()) {
+    // Under RK4 F changes between stages; under the implicit integrators
+    // its velocity slope joins the matrix solved: no chain rule through tau.
+    let staged = tableau(model.opt.integrator).is_some() || model.opt.integrator.is_implicit();
+    if staged && !tree.actuators.iter().all(|a| a.state_independent()) {
         return dual_jacobians(model, ws, (q, v, act), (ctrl, tau), wrt);
     }
     let (n, nu, na) = (model.nv(), model.nu(), model.na());
