@@ -67,6 +67,9 @@ impl Model {
         else {
             return "the model has no dofs".into();
         };
+        if speed == 0.0 {
+            return "at rest: the forces are not finite (parameters that overflow?)".into();
+        }
         let joint = (0..self.joints.len())
             .rev()
             .find(|&j| self.joint_address(j).1 <= dof)

@@ -192,13 +192,14 @@ impl Reader<'_> {
     /// and dropped, with a warning, on one welded to the world, where it
     /// takes no part in the dynamics.
     fn inertial(&self, link: Link, moves: bool) -> Result<Inertial> {
+        let massless = (
+            0.0,
+            Vector3::zeros(),
+            Matrix3::zeros(),
+            Rotation3::identity(),
+        );
         let Some(inertial) = child(link.node, "inertial") else {
-            return Ok((
-                0.0,
-                Vector3::zeros(),
-                Matrix3::zeros(),
-                Rotation3::identity(),
-            ));
+            return Ok(massless);
         };
         let mass = self.mass(inertial)?;
         let tensor = self.inertia(inertial)?;
@@ -213,13 +214,7 @@ impl Reader<'_> {
                      takes no part in the dynamics"
                 );
                 self.warn(inertial, msg);
-                let zero = (
-                    0.0,
-                    Vector3::zeros(),
-                    Matrix3::zeros(),
-                    Rotation3::identity(),
-                );
-                return Ok(zero);
+                return Ok(massless);
             }
             Ok(()) => {}
         }
