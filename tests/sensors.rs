@@ -119,3 +119,22 @@ fn smooth_contact_forces_enter_force_sensors() {
         "{mast:?}"
     );
 }
+
+/// Limit sensors read the constraint model's limit rows; the smooth model
+/// has none, so they fail there, naming the sensor.
+#[test]
+fn limit_sensors_need_the_constraint_model() {
+    let model = Model::load(root().join("tests/data/sensor_chain.xml")).unwrap();
+    let smooth = model
+        .edited(|s| s.opt.contact_model = diffosi::model::ContactModel::Smooth)
+        .unwrap();
+    let (q, v) = (smooth.reference_q(), vec![0.0; smooth.nv()]);
+    let err = smooth
+        .sensor_readings(&mut smooth.data(), &q, &v, &v)
+        .unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("smooth contact model has no limit rows"),
+        "{err}"
+    );
+}

@@ -15,14 +15,14 @@
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 
 use super::Model;
-use crate::dynamics::constraint::contact_forces;
+use crate::dynamics::constraint::{contact_forces, ConstraintKind, Origin};
 use crate::dynamics::{
-    acceleration, check_colliders, check_inputs, rnea_with_transforms, world_frames, Contact, Data,
-    StepError,
+    acceleration, check_colliders, check_inputs, rnea_with_transforms, world_frames, Constrained,
+    Contact, Data, StepError,
 };
 use crate::model::{
-    ContactModel, FrameObject, FrameQuantity, JointKind, JointQuantity, PassiveMode, SensorKind,
-    SiteQuantity,
+    ContactModel, FrameObject, FrameQuantity, JointKind, JointQuantity, PassiveMode, Sensor,
+    SensorKind, SiteQuantity,
 };
 use crate::spatial::{Force, Inertia, Motion, Transform};
 
@@ -65,6 +65,23 @@ impl Model {
                 why: why.clone(),
             });
         }
+        let limit = |s: &&Sensor| {
+            matches!(
+                s.kind,
+                SensorKind::Joint(
+                    JointQuantity::LimitPos | JointQuantity::LimitVel | JointQuantity::LimitForce,
+                    _
+                )
+            )
+        };
+        let smooth = self.opt.contact_model == ContactModel::Smooth;
+        if let Some(s) = self.sensors.iter().find(limit).filter(|_| smooth) {
+            return Err(StepError::SensorNotComputed {
+                name: s.name.clone(),
+                element: "jointlimit*".into(),
+                why: "the smooth contact model has no limit rows (MuJoCo's efc)".into(),
+            });
+        }
         let tree = self.tree();
         check_inputs(tree, (q, v, tau))?;
         check_colliders(tree, data, (q, v))?;
@@ -84,7 +101,13 @@ impl Model {
         let mut out = Vec::with_capacity(self.sensors.iter().map(|s| s.dim).sum());
         for s in &self.sensors {
             let start = out.len();
-            self.read(&bodies, (q, v), &s.kind, &mut out);
+            self.read(
+                &bodies,
+                (q, v),
+                &s.kind,
+                data.constrained.as_ref(),
+                &mut out,
+            );
             if s.cutoff > 0.0 && s.kind.clipped() {
                 for x in &mut out[start..] {
                     *x = x.clamp(-s.cutoff, s.cutoff);
@@ -94,11 +117,31 @@ impl Model {
         Ok(out)
     }
 
-    /// Appends one sensor's readings.
-    fn read(&self, b: &Bodies, (q, v): (&[f64], &[f64]), kind: &SensorKind, out: &mut Vec<f64>) {
+    /// Appends one sensor's readings; `constrained` holds the constraint
+    /// model's rows and forces (none without rows).
+    fn read(
+        &self,
+        b: &Bodies,
+        (q, v): (&[f64], &[f64]),
+        kind: &SensorKind,
+        constrained: Option<&Constrained<f64>>,
+        out: &mut Vec<f64>,
+    ) {
         match kind {
             SensorKind::Joint(quantity, j) => {
                 let (qa, va) = self.joint_address(*j);
+                let joint = &self.joints[*j];
+                // The first limit row of the joint's dof: its row and the
+                // sign of its J (+1 below the range, -1 above).
+                let row = constrained.and_then(|c| {
+                    let origin = Origin {
+                        kind: ConstraintKind::JointLimit,
+                        id: va,
+                    };
+                    let r = c.rows.origin.iter().position(|o| *o == origin)?;
+                    Some((r, c.rows.j[r * self.nv() + va], c.solution.force[r]))
+                });
+                let (lo, hi) = joint.range.unwrap_or_default();
                 match quantity {
                     JointQuantity::Pos => out.push(q[qa]),
                     JointQuantity::Vel => out.push(v[va]),
@@ -107,6 +150,12 @@ impl Model {
                         out.extend([u.w, u.i, u.j, u.k]);
                     }
                     JointQuantity::BallAngVel => out.extend_from_slice(&v[va..va + 3]),
+                    JointQuantity::LimitPos => out.push(row.map_or(0.0, |(_, sign, _)| {
+                        let dist = if sign > 0.0 { q[qa] - lo } else { hi - q[qa] };
+                        dist - joint.margin
+                    })),
+                    JointQuantity::LimitVel => out.push(row.map_or(0.0, |(_, s, _)| s * v[va])),
+                    JointQuantity::LimitForce => out.push(row.map_or(0.0, |(.., f)| f)),
                 }
             }
             SensorKind::Frame {

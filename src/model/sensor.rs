@@ -65,6 +65,12 @@ pub enum JointQuantity {
     /// A ball's normalised quaternion (4), its angular velocity (3).
     BallQuat,
     BallAngVel,
+    /// A limited hinge's or slide's first active limit row (lower side
+    /// first; 0 without one), under the constraint model: its distance less
+    /// the margin, its velocity J v and its force (1 each).
+    LimitPos,
+    LimitVel,
+    LimitForce,
 }
 
 /// What a sensor on a site reads (3 each).
@@ -113,7 +119,14 @@ impl SensorKind {
     /// reader knows its size).
     pub fn dim(&self) -> Option<usize> {
         Some(match self {
-            SensorKind::Joint(JointQuantity::Pos | JointQuantity::Vel, _) => 1,
+            SensorKind::Joint(
+                JointQuantity::Pos
+                | JointQuantity::Vel
+                | JointQuantity::LimitPos
+                | JointQuantity::LimitVel
+                | JointQuantity::LimitForce,
+                _,
+            ) => 1,
             SensorKind::Joint(JointQuantity::BallQuat, _) => 4,
             SensorKind::Frame {
                 quantity: FrameQuantity::Quat,
@@ -161,6 +174,7 @@ impl Sensor {
                 match quantity {
                     JointQuantity::Pos | JointQuantity::Vel => one_dof,
                     JointQuantity::BallQuat | JointQuantity::BallAngVel => ball,
+                    _ => one_dof && j.range.is_some(),
                 }
             }),
             SensorKind::Frame {

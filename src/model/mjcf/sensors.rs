@@ -2,7 +2,7 @@
 //! compiler checks it (known objects of the right kind, non-negative cutoff
 //! and noise) and laid out with MuJoCo's size. Those [`crate::model::sensor`]
 //! computes become their [`SensorKind`]; the others (touch, rangefinder,
-//! tendon, actuator, limit, contact, distance, energy, clock, user sensors,
+//! tendon, actuator, tendon limit, contact, distance, energy, clock, user sensors,
 //! frame sensors on cameras, and any sensor whose readings are delayed or
 //! sampled at an interval) are kept as [`SensorKind::Unsupported`], so that
 //! a model using them loads and only evaluating its sensors fails, naming
@@ -34,8 +34,7 @@ const OTHERS: &[(&str, &[&str], usize)] = &[
     ("actuatorpos", &["actuator"], 1), ("actuatorvel", &["actuator"], 1),
     ("actuatorfrc", &["actuator"], 1), ("jointactuatorfrc", &["joint"], 1),
     ("tendonactuatorfrc", &["tendon"], 1),
-    ("jointlimitpos", &["joint"], 1), ("jointlimitvel", &["joint"], 1),
-    ("jointlimitfrc", &["joint"], 1), ("tendonlimitpos", &["tendon"], 1),
+    ("tendonlimitpos", &["tendon"], 1),
     ("tendonlimitvel", &["tendon"], 1), ("tendonlimitfrc", &["tendon"], 1),
     ("subtreeangmom", &["body"], 3), ("insidesite", &["site", "objtype", "objname"], 1),
     ("distance", &["body1", "geom1", "body2", "geom2"], 1),
@@ -68,11 +67,14 @@ const SITES: [(&str, SiteQuantity); 5] = [
     ("torque", SiteQuantity::Torque),
 ];
 
-const JOINTS: [(&str, JointQuantity); 4] = [
+const JOINTS: [(&str, JointQuantity); 7] = [
     ("jointpos", JointQuantity::Pos),
     ("jointvel", JointQuantity::Vel),
     ("ballquat", JointQuantity::BallQuat),
     ("ballangvel", JointQuantity::BallAngVel),
+    ("jointlimitpos", JointQuantity::LimitPos),
+    ("jointlimitvel", JointQuantity::LimitVel),
+    ("jointlimitfrc", JointQuantity::LimitForce),
 ];
 
 /// The sizes of the fields of a contact sensor's and a rangefinder's
@@ -162,16 +164,15 @@ impl<'a> Reader<'a> {
         if let Some((_, quantity)) = JOINTS.iter().find(|(t, _)| *t == element) {
             check_attributes(self.file, node, &attrs(&["joint"]))?;
             let j = self.named(tree, node, "joint", "joint")?;
-            let kind = tree.joints[j].kind;
-            let fits = match quantity {
-                JointQuantity::Pos | JointQuantity::Vel => kind.nv() == 1,
-                _ => kind == JointKind::Ball,
+            let joint = &tree.joints[j];
+            let (fits, need) = match quantity {
+                JointQuantity::Pos | JointQuantity::Vel => (joint.kind.nv() == 1, "slide or hinge"),
+                JointQuantity::BallQuat | JointQuantity::BallAngVel => {
+                    (joint.kind == JointKind::Ball, "ball")
+                }
+                _ => (joint.range.is_some(), "limited"),
             };
             if !fits {
-                let need = match quantity {
-                    JointQuantity::Pos | JointQuantity::Vel => "slide or hinge",
-                    _ => "ball",
-                };
                 return Err(self.error(node, format!("joint must be {need} in sensor")));
             }
             return Ok(Some(SensorKind::Joint(*quantity, j)));
@@ -424,6 +425,7 @@ mod tests {
         let cases = [
             (r#"<jointpos joint="ball"/>"#, "joint must be slide or hinge in sensor"),
             (r#"<ballquat joint="j"/>"#, "joint must be ball in sensor"),
+            (r#"<jointlimitfrc joint="j"/>"#, "joint must be limited in sensor"),
             (r#"<jointpos joint="nope"/>"#, "unknown joint 'nope'"),
             (r#"<accelerometer site="nope"/>"#, "unknown site 'nope'"),
             ("<gyro/>", "the sensor needs 'site'"),

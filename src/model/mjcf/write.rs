@@ -320,6 +320,9 @@ fn write_sensors(doc: &mut Document, spec: &Spec) -> Result<(), ModelError> {
                     JointQuantity::Vel => "jointvel",
                     JointQuantity::BallQuat => "ballquat",
                     JointQuantity::BallAngVel => "ballangvel",
+                    JointQuantity::LimitPos => "jointlimitpos",
+                    JointQuantity::LimitVel => "jointlimitvel",
+                    JointQuantity::LimitForce => "jointlimitfrc",
                 };
                 Tag::new(element).text("joint", &spec.joints[*j].name)
             }
