@@ -479,11 +479,11 @@ impl PyModel {
     /// dq_dq, dq_dv, dv_dq, dv_dv (n x n), dq_dtau, dv_dtau (n x n) and
     /// dq_dp, dv_dp (n x total length of `params`, columns in the order of
     /// the flattened parameters); n = nv, positions in the tangent space
-    /// (see `transition_jacobians`). For a model with actuators, at controls
-    /// ctrl (nu) and activations act (na), zeros where None, also dq_dctrl,
-    /// dv_dctrl (n x nu), dq_dact, dv_dact (n x na), dact_dq, dact_dv
-    /// (na x n, zero), dact_dact (na x na) and dact_dctrl (na x nu):
-    /// mjd_transitionFD's A and B in blocks.
+    /// (see `transition_jacobians`), at ctrl = 0 and act = 0 as `step`. Given
+    /// controls ctrl (nu) or activations act (na; the other zeros), at those,
+    /// and also dq_dctrl, dv_dctrl (n x nu), dq_dact, dv_dact (n x na),
+    /// dact_dq, dact_dv (na x n, zero), dact_dact (na x na) and dact_dctrl
+    /// (na x nu): mjd_transitionFD's A and B in blocks.
     #[pyo3(signature = (q, v, tau, params = None, ctrl = None, act = None))]
     #[allow(clippy::too_many_arguments)]
     fn step_jacobians<'py>(
@@ -498,6 +498,7 @@ impl PyModel {
     ) -> PyResult<Bound<'py, PyDict>> {
         let params = self.params(params.as_deref().unwrap_or_default())?;
         let (q, v, tau) = self.state(q, v, tau)?;
+        let with_inputs = ctrl.is_some() || act.is_some();
         let (ctrl, act) = self.actuation(ctrl, act)?;
         let wrt = Wrt {
             state: true,
@@ -506,7 +507,7 @@ impl PyModel {
         };
         let (model, ws) = (&self.model, &mut self.ws);
         let error = |e| PyValueError::new_err(format!("step_jacobians: {e}"));
-        let (j, actuated) = if model.nu() == 0 {
+        let (j, actuated) = if !with_inputs {
             let j = py.detach(|| step_jacobians(model, ws, (&q, &v, &tau), &wrt));
             (j.map_err(error)?, None)
         } else {
