@@ -344,7 +344,6 @@ mod tests {
             (r#"<option integrator="Verlet"/>"#, "", "", "must be one of"),
             (r#"<option><flag damper="disable"/></option>"#, "", "", "damper=\"disable\""),
             ("", r#"<composite type="grid"/>"#, "", "<composite> is not supported"),
-            ("", r#"<body gravcomp="1"><joint/><geom size="1"/></body>"#, "", "gravcomp"),
             ("", r#"<joint name="j"/>"#, r#"<actuator><muscle joint="j"/></actuator>"#,
              "<muscle> is not supported"),
             ("", r#"<joint name="j"/>"#, r#"<actuator><cylinder joint="j"/></actuator>"#,
