@@ -31,8 +31,8 @@ The checks of a model (each "ok", an error message, or "-" when it does not appl
 3. Pinocchio (example-robot-data): the acceleration at SAMPLES random states and tau (q and v
    uniform in [-1, 1], tau in [-5, 5], as harness/tests/test_pinocchio.py) vs pinocchio.aba
    on buildModelFromUrdf (fixed base; no damping, friction or armature in Pinocchio's ABA, so
-   ours has damping zeroed and runs one explicit step of h = 1 s: a = v' - v), relative error
-   max|a - a_pin| / max|a_pin|, PASS at <= 1e-12.
+   ours has damping and dry friction zeroed and runs one explicit step of h = 1 s: a = v' - v),
+   relative error max|a - a_pin| / max|a_pin|, PASS at <= 1e-12.
 4. rest: 1000 steps of the model as loaded (the file's defaults: contacts, limits and options
    on) from the reference configuration at rest under zero tau: no step raises (our engine
    refuses a non-finite state) and every velocity is finite.
@@ -305,6 +305,8 @@ def pybullet_steps(case: Case, ours, seed: int, p, body: int) -> tuple[float, di
     settings: dict = {}
     strip(p, body, list(range(p.getNumJoints(body))), movable, settings)
     ours = ours.with_options(passive="explicit", contact=False, limits=False)
+    for joint in ours.joint_names:  # PyBullet has no dry joint friction (MuJoCo's frictionloss rows)
+        ours.set_param(f"joint/{joint}/frictionloss", 0.0)
     n = len(names)
     rng = seeded(seed, case, "one_step")
     M = np.array(p.calculateMassMatrix(body, [0.0] * n)) if n else np.zeros((0, 0))
@@ -339,8 +341,9 @@ def pinocchio_error(case: Case, ours, seed: int) -> float:
         raise ValueError(f"joints differ: Pinocchio {pin_names} (nv {model.nv}), ours {ours.joint_names}")
     index = [model.joints[model.getJointId(n)].idx_v for n in ours.joint_names]  # Pinocchio's v index
     ours = ours.with_options(passive="explicit", timestep=1.0, contact=False, limits=False)
-    for joint in ours.joint_names:
-        ours.set_param(f"joint/{joint}/damping", 0.0)
+    for joint in ours.joint_names:  # the dry friction's constraint rows too (MuJoCo's frictionloss)
+        for name in ("damping", "frictionloss"):
+            ours.set_param(f"joint/{joint}/{name}", 0.0)
     rng, n = seeded(seed, case, "pinocchio"), ours.nv
     worst = 0.0
     for _ in range(SAMPLES if n else 0):
