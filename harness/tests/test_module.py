@@ -99,7 +99,7 @@ def test_urdf_twin_steps_like_mjcf():
 def test_options_follow_the_file_and_with_options_copies():
     mj, ur = load(CARTPOLE), load(str(MODELS / "cartpole.urdf"))
     assert (mj.integrator, mj.passive) == ("Euler", "implicit_damping")  # MuJoCo's Euler
-    assert ur.passive == "explicit"  # PyBullet's
+    assert ur.passive == "implicit_damping"  # MuJoCo's URDF importer's (was PyBullet's explicit)
     np.testing.assert_array_equal(mj.gravity, [0.0, 0.0, -9.81])
     dart = mj.with_options(passive="implicit_damping_stiffness", timestep=0.005, gravity=[0, 0, -1])
     assert (dart.passive, dart.timestep, list(dart.gravity)) == ("implicit_damping_stiffness", 0.005, [0, 0, -1])
