@@ -375,10 +375,6 @@ pub fn check_step_and_jacobians(
         (Ok(_), Ok(j)) => assert_finite_jacobians(j),
         // Model::step names the cause of a divergence; the Jacobians do not.
         (Err(StepError::DivergedAt { .. }), Err(StepError::Diverged)) => {}
-        // Known gap (derivatives' owner): step_jacobians does not yet refuse
-        // geoms within reach that have no collider, as the step does; it
-        // steps without their contact. URDF's constraint default reaches it.
-        (Err(StepError::NoCollider(_)), _) => {}
         (Err(a), Err(b)) => assert_eq!(a, b),
         // Jacobians may overflow where the state does not.
         (Ok(_), Err(StepError::JacobianNotFinite { .. })) => {}

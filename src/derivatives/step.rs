@@ -18,8 +18,8 @@ use crate::dynamics::constraint::solver::add_quadratic_rows;
 use crate::dynamics::integrator::{euler, tableau, weighted_sum, ImplicitPassive, Tableau};
 use crate::dynamics::world_frames;
 use crate::dynamics::{
-    acceleration, check_inputs, crba, implicit_terms, integrate_euler, ltdl_factor, ltdl_inverse,
-    ltdl_solve_columns, rnea, rnea_with_transforms, step_applied,
+    acceleration, check_colliders, check_inputs, crba, implicit_terms, integrate_euler,
+    ltdl_factor, ltdl_inverse, ltdl_solve_columns, rnea, rnea_with_transforms, step_applied,
 };
 use crate::dynamics::{Constrained, Data, StepError};
 use crate::model::{Param, PassiveMode};
@@ -244,6 +244,8 @@ pub(super) fn applied_jacobians(
     let tree = model.tree();
     check_inputs(tree, (q, v, tau))?;
     ws.size_for(model);
+    // A pair within reach without a collider: refused as the step refuses it.
+    check_colliders(tree, &mut ws.data, (q, v))?;
     let (mut q_next, mut v_next) = (vec![0.0; model.nq()], vec![0.0; n]);
     // Under the constraint model the columns are analytic but the contact
     // parameters' (friction, solref, solimp, dry friction), which are dual
