@@ -10,7 +10,7 @@ use crate::model::{Param, Spec};
 use crate::spatial::{lift, lift_matrix, Real, Transform};
 
 /// MuJoCo's mjMINVAL: lighter bodies feel no fluid.
-const MIN_MASS: f64 = 1e-15;
+const MIN_MASS: f64 = crate::model::MINVAL;
 
 /// The bodies of `spec` the fluid acts on (none without a medium), each
 /// carried by node `frames[b]` at the offset given (the tree's body frames),

@@ -20,14 +20,12 @@ use crate::dynamics::{
     acceleration, check_colliders, check_inputs, rnea_with_transforms, world_frames, Constrained,
     Contact, Data, StepError,
 };
+use crate::model::MINVAL;
 use crate::model::{
     ContactModel, FrameObject, FrameQuantity, JointKind, JointQuantity, PassiveMode, Sensor,
     SensorKind, SiteQuantity,
 };
 use crate::spatial::{Force, Inertia, Motion, Transform};
-
-/// MuJoCo's mjMINVAL: below it a subtree has no mass.
-const MJ_MINVAL: f64 = 1e-15;
 
 impl Model {
     /// Each sensor's first entry in the readings and its number of entries
@@ -367,12 +365,12 @@ impl Bodies {
                 momentum += self.velocity(i, &com(i)).lin * body.mass;
             }
         }
-        let centre = if mass < MJ_MINVAL {
+        let centre = if mass < MINVAL {
             com(root)
         } else {
             moment / mass
         };
-        (centre, momentum / mass.max(MJ_MINVAL))
+        (centre, momentum / mass.max(MINVAL))
     }
 }
 
@@ -412,7 +410,7 @@ fn quaternions(model: &Model, q: &[f64]) -> Vec<UnitQuaternion<f64>> {
 /// does: the identity if its norm is below mjMINVAL.
 fn normalized(w_xyz: &[f64]) -> UnitQuaternion<f64> {
     let q = Quaternion::new(w_xyz[0], w_xyz[1], w_xyz[2], w_xyz[3]);
-    if q.norm() < MJ_MINVAL {
+    if q.norm() < MINVAL {
         UnitQuaternion::identity()
     } else {
         UnitQuaternion::new_normalize(q)

@@ -14,7 +14,7 @@ use crate::model::{ActDynamics, Actuator, Bias, Gain};
 use crate::spatial::{lift, Real};
 
 /// MuJoCo's mjMINVAL: the smallest filter time constant used.
-const MIN_TIME_CONSTANT: f64 = 1e-15;
+const MIN_TIME_CONSTANT: f64 = crate::model::MINVAL;
 
 /// One actuator in the compiled tree: where its joint's coordinate and dof
 /// are, and its activation's index if it has one.

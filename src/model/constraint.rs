@@ -15,6 +15,8 @@
 //! - condim 1: frictionless; 3: sliding friction; 4: and torsional; 6: and
 //!   rolling. Friction is (sliding, torsional, rolling).
 
+use super::MINVAL;
+
 /// MuJoCo's default `solref` and `solimp`.
 pub const SOLREF: [f64; 2] = [0.02, 1.0];
 pub const SOLIMP: [f64; 5] = [0.9, 0.95, 0.001, 0.5, 2.0];
@@ -272,7 +274,6 @@ impl SolverOptions {
 /// priority mix theirs: solmix_1 / (solmix_1 + solmix_2), with MuJoCo's
 /// rule for weights below 1e-15 (both: 0.5; one: the other geom's values).
 pub fn solmix(first: f64, second: f64) -> f64 {
-    const MINVAL: f64 = 1e-15;
     match (first >= MINVAL, second >= MINVAL) {
         (true, true) => first / (first + second),
         (false, false) => 0.5,

@@ -86,8 +86,7 @@ pub use pairs::{candidates, collision_pairs, Filter};
 pub use plane::fixed_sphere;
 pub use record::{body_contact_forces, Contact};
 
-/// MuJoCo's mjMINVAL: lengths below it count as zero.
-pub const MINVAL: f64 = 1e-15;
+pub use crate::model::MINVAL;
 
 /// A geom pair that may touch: indices into the tree's geom frames, in
 /// MuJoCo's order (see the module documentation), and whether a collider

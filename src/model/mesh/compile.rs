@@ -6,8 +6,9 @@ use nalgebra::Vector3;
 
 use super::eig3::{eig3, mul_mat_t_vec, mul_mat_vec, normalize, quat_to_mat};
 use super::hull::{check_spread, hull};
-use super::inertia::{self, MIN_VAL};
+use super::inertia;
 use super::{Mesh, MeshInertia, MeshSettings, RawMesh};
+use crate::model::MINVAL;
 
 /// Compiles mesh `name` read as `raw` with `settings`.
 pub fn compile(name: &str, raw: &RawMesh, settings: &MeshSettings) -> Result<Mesh, String> {
@@ -32,7 +33,7 @@ pub fn compile(name: &str, raw: &RawMesh, settings: &MeshSettings) -> Result<Mes
     }
     transform(&mut p, settings);
     let (cen, area) = inertia::face_centroid(&p, &faces);
-    if area < MIN_VAL {
+    if area < MINVAL {
         return Err(format!("mesh surface area is too small: {name}"));
     }
     let weighed: &[[usize; 3]] = match (&hull, mode) {
@@ -40,7 +41,7 @@ pub fn compile(name: &str, raw: &RawMesh, settings: &MeshSettings) -> Result<Mes
         _ => &faces,
     };
     let (volume, com) = inertia::volume_and_com(&p, weighed, &cen, mode);
-    if volume < MIN_VAL {
+    if volume < MINVAL {
         return Err(match mode {
             MeshInertia::Shell => format!("mesh surface area is too small: {name}"),
             _ if volume < 0.0 => {
@@ -122,7 +123,7 @@ fn check(raw: &RawMesh) -> Result<Vec<Vector3<f64>>, String> {
 fn check_orientation(p: &[Vector3<f64>], faces: &[[usize; 3]], name: &str) -> Result<(), String> {
     let mut half_edges: Vec<(usize, usize)> = faces
         .iter()
-        .filter(|f| inertia::area(p, f) > MIN_VAL.sqrt())
+        .filter(|f| inertia::area(p, f) > MINVAL.sqrt())
         .flat_map(|f| [(f[0], f[1]), (f[1], f[2]), (f[2], f[0])])
         .collect();
     half_edges.sort_unstable();

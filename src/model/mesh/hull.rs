@@ -16,8 +16,7 @@ use std::collections::HashMap;
 
 use nalgebra::Vector3;
 
-/// MuJoCo's `mjMINVAL`.
-const MIN_VAL: f64 = 1e-15;
+use crate::model::MINVAL;
 
 /// A convex hull: the mesh vertices on it and its triangles.
 #[derive(Clone, Debug, PartialEq)]
@@ -61,7 +60,7 @@ pub fn check_spread(p: &[Vector3<f64>], name: &str) -> Result<(), String> {
         .enumerate()
         .skip(1)
         .map(|(i, x)| (i, (x - p[0]).norm()))
-        .find(|(_, d)| *d > MIN_VAL)
+        .find(|(_, d)| *d > MINVAL)
     else {
         return Err(format!(
             "mesh '{name}' has colocated vertices, cannot compute convex hull. \
@@ -72,11 +71,11 @@ pub fn check_spread(p: &[Vector3<f64>], name: &str) -> Result<(), String> {
     let normal = p.iter().enumerate().skip(1).find_map(|(i, x)| {
         let edge2 = x - p[0];
         let len2 = edge2.norm();
-        if i == v1 || len2 < MIN_VAL {
+        if i == v1 || len2 < MINVAL {
             return None;
         }
         let n = edge1.cross(&edge2);
-        (n.norm() > MIN_VAL * len1 * len2).then(|| n / n.norm())
+        (n.norm() > MINVAL * len1 * len2).then(|| n / n.norm())
     });
     let Some(normal) = normal else {
         return Err(format!(
@@ -85,9 +84,7 @@ pub fn check_spread(p: &[Vector3<f64>], name: &str) -> Result<(), String> {
         ));
     };
     let d = normal.dot(&p[0]);
-    if p.iter()
-        .all(|x| (normal.dot(x) - d).abs() <= MIN_VAL * len1)
-    {
+    if p.iter().all(|x| (normal.dot(x) - d).abs() <= MINVAL * len1) {
         return Err(format!(
             "mesh '{name}' has coplanar vertices, cannot compute convex hull. \
              Consider using a primitive geom type (plane or thin box) instead"
@@ -100,7 +97,7 @@ pub fn check_spread(p: &[Vector3<f64>], name: &str) -> Result<(), String> {
 /// with at most `max_vertices` vertices (None: all it needs).
 pub fn hull(p: &[Vector3<f64>], max_vertices: Option<usize>) -> Result<Hull, String> {
     let scale = p.iter().map(|x| x.amax()).fold(0.0, f64::max);
-    let eps = 1e-12 * scale.max(MIN_VAL);
+    let eps = 1e-12 * scale.max(MINVAL);
     let start = initial_simplex(p, eps).ok_or("the convex hull is degenerate (flat)")?;
     let mut faces: Vec<Face> = vec![];
     let mut edges: HashMap<(usize, usize), usize> = HashMap::new();

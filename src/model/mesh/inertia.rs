@@ -9,8 +9,7 @@ use nalgebra::Vector3;
 
 use super::MeshInertia;
 
-/// MuJoCo's `mjMINVAL`.
-pub const MIN_VAL: f64 = 1e-15;
+use crate::model::MINVAL;
 
 /// Area (0 below mjMINVAL), unit normal and centre of a triangle.
 fn triangle(
@@ -25,7 +24,7 @@ fn triangle(
     );
     let n = (b - a).cross(&(c - a));
     let len = n.dot(&n).sqrt();
-    if len < MIN_VAL {
+    if len < MINVAL {
         return (0.0, Vector3::zeros(), center);
     }
     (0.5 * len, n / len, center)
@@ -44,7 +43,7 @@ pub fn face_centroid(p: &[Vector3<f64>], faces: &[[usize; 3]]) -> (Vector3<f64>,
         sum += area * center;
         total += area;
     }
-    if total >= MIN_VAL {
+    if total >= MINVAL {
         sum /= total;
     }
     (sum, total)
@@ -71,7 +70,7 @@ pub fn volume_and_com(
             com[k] += weight * (center[k] * 3.0 / 4.0 + cen[k] / 4.0);
         }
     }
-    if total >= MIN_VAL {
+    if total >= MINVAL {
         com /= total;
     }
     (total, com)

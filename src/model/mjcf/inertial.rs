@@ -14,9 +14,10 @@ use super::attributes::{value, Attrs};
 use super::orientation::ALTERNATIVES;
 use super::schema::{check_attributes, INERTIAL_ATTRS};
 use super::tree::Tree;
-use super::{Node, Reader, Result, MJ_MINVAL};
+use super::{Node, Reader, Result};
 use crate::model::geom_inertia::{MassProperties, MJ_EPS};
 use crate::model::params::inertia_from_six;
+use crate::model::MINVAL;
 
 /// A body's inertial properties in MuJoCo's form: principal `moments` along
 /// the columns of `axes` (body coordinates), about `com`.
@@ -65,7 +66,7 @@ impl Principal {
     }
 
     fn has_mass(&self) -> bool {
-        self.mass >= MJ_MINVAL && self.moments.min() >= MJ_MINVAL
+        self.mass >= MINVAL && self.moments.min() >= MINVAL
     }
 }
 
@@ -184,7 +185,7 @@ impl<'a> Reader<'a> {
             return;
         }
         let total: f64 = tree.inertials.iter().skip(1).map(|p| p.mass).sum();
-        let scale = (target / total.max(MJ_MINVAL)).max(MJ_MINVAL);
+        let scale = (target / total.max(MINVAL)).max(MINVAL);
         for p in tree.inertials.iter_mut().skip(1) {
             p.mass *= scale;
             p.moments *= scale;

@@ -100,9 +100,6 @@ pub use write::write;
 type Node<'a> = roxmltree::Node<'a, 'a>;
 type Result<T> = std::result::Result<T, ModelError>;
 
-/// MuJoCo's `mjMINVAL`: smallest mass and principal moment of a moving body.
-const MJ_MINVAL: f64 = 1e-15;
-
 /// Parses an MJCF document into its spec (validated and compiled by
 /// [`crate::Model::from_spec`]); `file` names it in errors and is where its
 /// `<include>`s are looked up (`include.rs`).
