@@ -200,6 +200,31 @@ pub struct Joint {
 /// f = gain(l, l') w + bias(l, l'), w = ctrl without activation dynamics,
 /// else the activation act, clamped to `force_range`; the generalized force
 /// on the joint's dof is gear f. ctrl is clamped to `ctrl_range` first.
+impl Joint {
+    /// A free joint of `body` without damping, spring, armature, dry
+    /// friction or limits (MJCF `<freejoint>`, a URDF floating base); its
+    /// axis is MuJoCo's default z, unused by a free joint.
+    pub fn free(name: String, body: usize) -> Joint {
+        Joint {
+            name,
+            kind: JointKind::Free,
+            body,
+            axis: Vector3::z(),
+            anchor: Vector3::zeros(),
+            reference: 0.0,
+            damping: 0.0,
+            stiffness: 0.0,
+            springref: 0.0,
+            armature: 0.0,
+            frictionloss: 0.0,
+            range: None,
+            margin: 0.0,
+            limit_sol: SolParams::default(),
+            friction_sol: SolParams::default(),
+        }
+    }
+}
+
 /// Units: SI; f in N or N m per unit of gear.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Actuator {

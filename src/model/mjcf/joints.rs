@@ -11,7 +11,7 @@ use super::orientation::unit;
 use super::schema::{check_attributes, FREEJOINT_ATTRS, JOINT_ATTRS};
 use super::tree::{Kind, Tree};
 use super::{Reader, Result};
-use crate::model::{Joint, JointKind, SolParams};
+use crate::model::{Joint, JointKind};
 
 impl<'a> Reader<'a> {
     /// A `<joint>`; its anchor and axis are moved out of its frames.
@@ -107,23 +107,8 @@ impl<'a> Reader<'a> {
         body: usize,
     ) -> Result<Joint> {
         check_attributes(self.file, m.node, FREEJOINT_ATTRS)?;
-        Ok(Joint {
-            name: tree.claim(self.file, m.node, Kind::Joint, &m.suffix)?,
-            kind: JointKind::Free,
-            body,
-            axis: Vector3::z(),
-            anchor: Vector3::zeros(),
-            reference: 0.0,
-            damping: 0.0,
-            stiffness: 0.0,
-            springref: 0.0,
-            armature: 0.0,
-            frictionloss: 0.0,
-            range: None,
-            margin: 0.0,
-            limit_sol: SolParams::default(),
-            friction_sol: SolParams::default(),
-        })
+        let name = tree.claim(self.file, m.node, Kind::Joint, &m.suffix)?;
+        Ok(Joint::free(name, body))
     }
 }
 

@@ -95,23 +95,7 @@ impl Reader<'_> {
 /// The free joint that floats the root link's `body`
 /// ([`super::LoadOptions::floating_base`]), named as Pinocchio names it.
 pub(super) fn free_root(body: usize) -> Joint {
-    Joint {
-        name: "root_joint".to_string(),
-        kind: JointKind::Free,
-        body,
-        axis: Vector3::x(),
-        anchor: Vector3::zeros(),
-        reference: 0.0,
-        damping: 0.0,
-        stiffness: 0.0,
-        springref: 0.0,
-        armature: 0.0,
-        frictionloss: 0.0,
-        range: None,
-        margin: 0.0,
-        limit_sol: Default::default(),
-        friction_sol: Default::default(),
-    }
+    Joint::free("root_joint".to_string(), body)
 }
 
 #[cfg(test)]
