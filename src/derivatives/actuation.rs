@@ -23,9 +23,8 @@
 use nalgebra::{DMatrix, DVector};
 use num_dual::Dual64;
 
-use super::constrained::{tangent_slope, DualTrees};
+use super::constrained::{tangent_point, tangent_slope, DualTrees};
 use super::step::{applied_jacobians, StepJacobians, Workspace, Wrt};
-use crate::dynamics::configuration::integrate;
 use crate::dynamics::integrator::tableau;
 use crate::dynamics::{check_actuation, check_inputs, step_actuated, StepError};
 use crate::model::Param;
@@ -252,18 +251,7 @@ fn dual_column(
             .map(|(i, &xi)| Dual64::new(xi, slope(i)))
             .collect()
     };
-    let plain: Vec<Dual64> = x.q.iter().map(|&xi| Dual64::from(xi)).collect();
-    let mut qd = plain.clone();
-    if seed.0.is_some_and(|s| s < n) {
-        // q (+) eps e_k for a seed in q's tangent.
-        integrate(
-            tree,
-            &plain,
-            &lift(&vec![0.0; n], 0),
-            Dual64::from(1.0),
-            &mut qd,
-        );
-    }
+    let qd = tangent_point(tree, x.q, seed.0);
     let (vd, actd) = (lift(x.v, n), lift(x.act, 2 * n));
     let (taud, ctrld) = (lift(x.tau, 2 * n + na), lift(x.ctrl, 3 * n + na));
     let zero = Dual64::from(0.0);

@@ -156,23 +156,28 @@ fn dual_step(
             .map(|(i, &xi)| Dual64::new(xi, if seed == Some(offset + i) { 1.0 } else { 0.0 }))
             .collect()
     };
-    let mut qd = lift(q, 3 * n); // seeds are below 3 n: q plain
-    if seed.is_some_and(|s| s < n) {
-        // q (+) eps e_k
-        let plain = qd.clone();
-        integrate(
-            tree,
-            &plain,
-            &lift(&vec![0.0; n], 0),
-            Dual64::from(1.0),
-            &mut qd,
-        );
-    }
+    let qd = tangent_point(tree, q, seed);
     let (vd, td) = (lift(v, n), lift(tau, 2 * n));
     let (mut q1, mut v1) = (vec![Dual64::from(0.0); q.len()], vec![Dual64::from(0.0); n]);
     step_applied(tree, data, (&qd, &vd, &td), (&mut q1, &mut v1))?;
     let eps = |x: &[Dual64]| DVector::from_iterator(n, x.iter().map(|d| d.eps));
     Ok((tangent_slope(tree, &q1), eps(&v1)))
+}
+
+/// Dual positions q (+) eps e_k for a `seed` k < nv in q's tangent space,
+/// else q with no slope (the inverse of [`tangent_slope`]).
+pub(super) fn tangent_point(tree: &Tree<Dual64>, q: &[f64], seed: Option<usize>) -> Vec<Dual64> {
+    let plain: Vec<Dual64> = q.iter().map(|&x| Dual64::from(x)).collect();
+    let n = tree.nv();
+    let Some(k) = seed.filter(|&k| k < n) else {
+        return plain;
+    };
+    let unit: Vec<Dual64> = (0..n)
+        .map(|i| Dual64::new(0.0, f64::from(i == k)))
+        .collect();
+    let mut qd = plain.clone();
+    integrate(tree, &plain, &unit, Dual64::from(1.0), &mut qd);
+    qd
 }
 
 /// The tangent-space slope of dual positions q (see the module docs).
