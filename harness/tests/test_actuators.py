@@ -5,11 +5,11 @@ and RK4, one step from the same state to 1e-12, and activation trajectories."""
 
 import re
 
+import mujoco
 import numpy as np
 import pytest
 
-mujoco = pytest.importorskip("mujoco")
-diffosi = pytest.importorskip("diffosi")
+import diffosi
 
 MODEL = """
 <mujoco>
