@@ -26,6 +26,7 @@ COMMANDS = {
     "wiping-replay": "harness.wiping_replay",
     "sweep": "harness.sweep",
     "corpus": "harness.corpus",
+    "check": "harness.check",
 }
 
 

@@ -49,7 +49,7 @@ ROUNDINGS = 10.0  # roundings of the output assumed in one step, for the bound r
 RESOLVE = 1e-6  # a block is judged relative to itself down to this resolution
 TINY = 1e-300  # keeps an all-zero block from dividing by 0
 MAX_SHRINK = 6  # times a refused step is divided by 10 before the check gives up
-NONNEGATIVE = ("mass", "damping", "stiffness", "armature", "friction", "solimp")
+NONNEGATIVE = ("mass", "damping", "stiffness", "armature", "friction", "frictionloss", "solimp")
 STATE_INPUTS = ("q", "v", "tau")
 
 # first derivative stencils, error O(s^4): (offsets in steps, weights per step)
@@ -99,7 +99,8 @@ def param_stepper(e):
     |p| and the size at which it starts to matter, M_jj, M_jj / h and M_jj / h^2 (M at
     the engine's reference configuration)."""
     inertia = dict(zip(e.joint_names, np.diag(e.mass_matrix(e.q_ref))))
-    per = {"armature": 1.0, "damping": 1.0 / e.timestep, "stiffness": 1.0 / e.timestep ** 2}
+    per = {"armature": 1.0, "damping": 1.0 / e.timestep, "frictionloss": 1.0 / e.timestep,
+           "stiffness": 1.0 / e.timestep ** 2}
 
     def steps(name, p):
         kind, owner, fld = name.split("/")

@@ -72,25 +72,32 @@ def rollout(e: engines.Engine, ours, q0, v0, taus) -> dict:
     return {"max_error": max(errors), "max_speed": float(np.abs(V).max()), "error": errors}
 
 
+def compare(loaded: list, model: str, steps: int, samples: int, seed: int) -> tuple[dict, dict]:
+    """(rollout start, {engine: its numbers}): the one-step and rollout checks of each loaded
+    engine against ours (`engine.ours()`); the rollout's torque scale is the smallest among them."""
+    rng = case_seed(seed, f"replay_{model}")
+    scale = np.min([tau_scale(e) for e in loaded], axis=0) * ROLLOUT_TAU_FRACTION
+    q0, v0, taus = sample_rollout(loaded[0], rng, scale, steps)
+    results = {}
+    for e in loaded:
+        assert e.joint_names == loaded[0].joint_names, f"{e.name}: joints {e.joint_names}"
+        ours = e.ours()
+        first = one_step(e, ours, case_seed(seed, f"replay_{model}_{e.name}"), samples)
+        roll = rollout(e, ours, q0, v0, taus)
+        results[e.name] = {
+            "version": e.version, "model": e.label, "passive": e.passive, "integrator": e.integrator,
+            "timestep": e.timestep, "gravity": e.gravity, "settings": e.settings, "ignored": e.ignored,
+            "one_step": first, "rollout": roll,
+            "pass": first["max_error"] <= ONE_STEP_TOL and roll["max_error"] <= ROLLOUT_TOL,
+        }
+    return {"q0": q0, "v0": v0, "tau_scale": scale}, results
+
+
 def replay(model: str, names: list[str], steps: int, samples: int, seed: int) -> dict:
     """Every number of the report, as a JSON-ready dict."""
     loaded = [engines.load(n, model) for n in names]
     try:
-        rng = case_seed(seed, f"replay_{model}")
-        scale = np.min([tau_scale(e) for e in loaded], axis=0) * ROLLOUT_TAU_FRACTION
-        q0, v0, taus = sample_rollout(loaded[0], rng, scale, steps)
-        results = {}
-        for e in loaded:
-            assert e.joint_names == loaded[0].joint_names, f"{e.name}: joints {e.joint_names}"
-            ours = e.ours()
-            first = one_step(e, ours, case_seed(seed, f"replay_{model}_{e.name}"), samples)
-            roll = rollout(e, ours, q0, v0, taus)
-            results[e.name] = {
-                "version": e.version, "model": e.label, "passive": e.passive, "integrator": e.integrator,
-                "timestep": e.timestep, "gravity": e.gravity, "settings": e.settings, "ignored": e.ignored,
-                "one_step": first, "rollout": roll,
-                "pass": first["max_error"] <= ONE_STEP_TOL and roll["max_error"] <= ROLLOUT_TOL,
-            }
+        start, results = compare(loaded, model, steps, samples, seed)
     finally:
         for e in loaded:
             e.close()
@@ -98,8 +105,7 @@ def replay(model: str, names: list[str], steps: int, samples: int, seed: int) ->
         "model": model, "seed": seed, "steps": steps, "samples": samples,
         "thresholds": {"one_step": ONE_STEP_TOL, "rollout": ROLLOUT_TOL},
         "error": "max(|dq| / max(1, |q|), |dv| / max(1, |v|)), ours vs the engine, max norms",
-        "rollout_start": {"q0": q0, "v0": v0, "tau_scale": scale},
-        "engines": results, "pass": all(r["pass"] for r in results.values()),
+        "rollout_start": start, "engines": results, "pass": all(r["pass"] for r in results.values()),
     }
 
 

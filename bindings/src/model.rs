@@ -6,7 +6,7 @@ use engine::derivatives::{
 };
 use engine::dynamics::{body_contact_forces, Contact, Data};
 use engine::model::urdf::LoadOptions;
-use engine::model::{ContactModel, Inputs, Integrator, Param, PassiveMode, State};
+use engine::model::{ContactModel, Inputs, Integrator, JointKind, Param, PassiveMode, State};
 use engine::Model;
 use nalgebra::DMatrix;
 use numpy::ndarray::Array2;
@@ -268,6 +268,52 @@ impl PyModel {
         dict.set_item("ctrl", PyArray1::from_slice(py, &key.ctrl))?;
         dict.set_item("act", PyArray1::from_slice(py, &key.act))?;
         dict.set_item("time", key.time)?;
+        Ok(dict)
+    }
+
+    /// The compiled model, for comparing it with another engine's: a dict
+    /// with "bodies" (one dict per body, the world first: "name", "parent"
+    /// (the parent's name; the world's is None), "mass" (kg), "com" (m, body
+    /// frame), "inertia" (3x3 about the COM, body axes, kg m^2)) and "joints"
+    /// (one per joint: "name", "type" (hinge, slide, ball, free), "body",
+    /// "axis" (unit, body frame), "range" ((lo, hi) or None), "damping",
+    /// "armature", "stiffness", "frictionloss").
+    fn compiled<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let m = &self.model;
+        let bodies = PyList::empty(py);
+        for (i, b) in m.bodies.iter().enumerate() {
+            let body = PyDict::new(py);
+            body.set_item("name", &b.name)?;
+            body.set_item("parent", (i > 0).then(|| m.bodies[b.parent].name.clone()))?;
+            body.set_item("mass", b.mass)?;
+            body.set_item("com", PyArray1::from_slice(py, b.com.as_slice()))?;
+            let inertia = DMatrix::from_column_slice(3, 3, b.inertia.as_slice());
+            body.set_item("inertia", to_numpy(py, inertia.as_view()))?;
+            bodies.append(body)?;
+        }
+        let joints = PyList::empty(py);
+        for j in &m.joints {
+            let joint = PyDict::new(py);
+            let kind = match j.kind {
+                JointKind::Hinge => "hinge",
+                JointKind::Slide => "slide",
+                JointKind::Ball => "ball",
+                JointKind::Free => "free",
+            };
+            joint.set_item("name", &j.name)?;
+            joint.set_item("type", kind)?;
+            joint.set_item("body", &m.bodies[j.body].name)?;
+            joint.set_item("axis", PyArray1::from_slice(py, j.axis.as_slice()))?;
+            joint.set_item("range", j.range)?;
+            joint.set_item("damping", j.damping)?;
+            joint.set_item("armature", j.armature)?;
+            joint.set_item("stiffness", j.stiffness)?;
+            joint.set_item("frictionloss", j.frictionloss)?;
+            joints.append(joint)?;
+        }
+        let dict = PyDict::new(py);
+        dict.set_item("bodies", bodies)?;
+        dict.set_item("joints", joints)?;
         Ok(dict)
     }
 

@@ -119,6 +119,7 @@ class Engine:
     q_ref: np.ndarray
     ranges: list
     free = None
+    package_dirs: tuple = ()  # where our loader resolves package:// paths (ours())
 
     def __init__(self):
         self._changed: dict = {}  # parameters changed by set_param, in order, for ours()
@@ -156,6 +157,17 @@ class Engine:
 
     def close(self) -> None:
         """Release the engine."""
+
+    def _set_timestep(self, h: float) -> None:
+        raise NotImplementedError
+
+    def set_timestep(self, h: float) -> None:
+        """Run the model at timestep h (s) instead of the file's (or the default)."""
+        if not (np.isfinite(h) and h > 0):
+            raise ValueError(f"timestep must be finite and > 0, got {h}")
+        self._set_timestep(float(h))
+        self.settings["timestep_override"] = {"file": self.timestep, "used": float(h)}
+        self.timestep = float(h)
 
     def _set(self, kind: str, owner: str, field: str, value: np.ndarray) -> None:
         """Write one parameter into the engine (kind body|joint, value already checked)."""
@@ -223,7 +235,8 @@ class Engine:
         import diffosi
 
         floating_base = getattr(self, "floating_base", False)
-        m = diffosi.Model.load(str(self.model_path), floating_base=floating_base).with_options(
+        m = diffosi.Model.load(str(self.model_path), floating_base=floating_base,
+                               package_dirs=[str(d) for d in self.package_dirs]).with_options(
             timestep=self.timestep, gravity=list(self.gravity), integrator=self.integrator,
             passive=self.passive, contact=False, limits=False)
         for param, joints in self.ignored.items():

@@ -122,6 +122,9 @@ class DartEngine(Engine):
         self.q_ref = np.r_[self.free.reference() if self.free else [], np.zeros(n)]
         self.ranges = [j.limit for j in facts["joints"]]
 
+    def _set_timestep(self, h):
+        self.world.setTimeStep(h)
+
     def set_state(self, q, v):
         q, v = np.asarray(q, float), np.asarray(v, float)
         if self.free:

@@ -131,7 +131,13 @@ class MujocoEngine(Engine):
         self.damping, self.stiffness = m.dof_damping.copy(), m.jnt_stiffness.copy()
         self.springref, self.q_ref = m.qpos_spring.copy(), m.qpos0.copy()
         self.settings["armature_in_mass_matrix"] = nonzero_by_joint(self.joint_names, m.dof_armature)
-        self.ignored = {}  # MuJoCo simulates every parameter our engine reads from an MJCF file
+        # MuJoCo simulates every parameter our engine reads from an MJCF file; frictionloss (a
+        # constraint row) is switched off above unless native or friction asks for it
+        off = "frictionloss" in self.settings["disableflags"] and not self._constrained
+        self.ignored = {"frictionloss": nonzero_by_joint(self.joint_names, m.dof_frictionloss)} if off else {}
+
+    def _set_timestep(self, h):
+        self.m.opt.timestep = h
 
     def set_state(self, q, v):
         self.d.qpos[:], self.d.qvel[:] = q, v

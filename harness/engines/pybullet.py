@@ -183,6 +183,9 @@ class PybulletEngine(Engine):
             settings["joint_friction"] = {n: f"velocity motor, target 0, max force {f}"
                                           for n, f in self._friction.items()}
 
+    def _set_timestep(self, h):
+        self._p.setTimeStep(h)
+
     def set_state(self, q, v):
         q, v = np.asarray(q, float), np.asarray(v, float)
         if self.free:

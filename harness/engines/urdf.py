@@ -19,6 +19,7 @@ from harness.engines.floating import rpy_quat
 MOVABLE = {"revolute": "hinge", "continuous": "hinge", "prismatic": "slide"}
 DIFFOSI_NS = "{urn:diffosi:urdf}"
 DEFAULT_GRAVITY = [0.0, 0.0, -9.81]
+DEFAULT_TIMESTEP = 0.002  # s: MuJoCo's and our URDF loader's
 
 
 @dataclass
@@ -107,8 +108,8 @@ def mjcf_twin_facts(urdf: Path) -> dict | None:
 
 
 def timestep_gravity(urdf: Path, facts: dict) -> tuple[float, list, dict]:
-    """From the URDF's <diffosi:options> (gravity default -9.81 z), else from the MJCF twin;
-    when both exist they must agree."""
+    """From the URDF's <diffosi:options> (gravity default -9.81 z), else from the MJCF twin,
+    else the defaults; when both exist they must agree."""
     twin = urdf.with_suffix(".xml")
     from_twin = mjcf_twin_facts(urdf)
     opts = facts["options"]
@@ -121,7 +122,9 @@ def timestep_gravity(urdf: Path, facts: dict) -> tuple[float, list, dict]:
                 f"{urdf}: timestep/gravity {h} {g} differ from the MJCF twin's"
             source["mjcf_twin_agrees"] = label_of(twin)
         return h, g, source
-    assert from_twin, f"{urdf}: no <diffosi:options timestep> and no MJCF twin"
+    if from_twin is None:  # a user's URDF: the defaults our loader and MuJoCo's importer use
+        return DEFAULT_TIMESTEP, DEFAULT_GRAVITY, {
+            "timestep_gravity_from": f"defaults (the file sets none): h = {DEFAULT_TIMESTEP} s, gravity {DEFAULT_GRAVITY}"}
     return from_twin["timestep"], from_twin["gravity"], {"timestep_gravity_from": label_of(twin)}
 
 
