@@ -318,7 +318,12 @@ def mismatch_lines(doc: dict) -> list[str]:
         mism = r.get("compiled_mismatches")
         if isinstance(mism, list) and mism:
             lines += [f"### ours vs {name}: what differs (ours first)", ""]
-            lines += [f"- {field_text(m)}" for m in mism] + [""]
+            lines += [f"- {field_text(m)}" for m in mism if not m["inert"]]
+            inert = [f"{m['name']} ({m['field']})" for m in mism if m["inert"]]
+            if inert:
+                lines.append("- bodies welded to the world, or massless without joints (no effect on the "
+                             f"dynamics): {', '.join(inert)}")
+            lines.append("")
     return lines or ["Every body and joint matches in every engine that loaded the file.", ""]
 
 

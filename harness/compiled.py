@@ -165,13 +165,14 @@ def close(a, b, tol: float) -> bool:
     return a.shape == b.shape and float(np.abs(a - b).max(initial=0.0)) <= tol * scale
 
 
-def body_values(b: dict) -> dict:
-    return {"parent": b["parent"], "mass": b["mass"], "com": b["com"],
+def body_values(b: dict, still: set) -> dict:
+    return {"parent": WORLD if b["parent"] in still else b["parent"], "mass": b["mass"], "com": b["com"],
             "principal moments": np.linalg.eigvalsh(b["inertia"]), "principal axes": b["inertia"]}
 
 
-def values(kind: str, item: dict) -> dict:
-    return body_values(item) if kind == "body" else {f: item[f] for f in JOINT_FIELDS}
+def values(kind: str, item: dict, still: set) -> dict:
+    """The compared fields; a parent welded to the world counts as the world."""
+    return body_values(item, still) if kind == "body" else {f: item[f] for f in JOINT_FIELDS}
 
 
 def shown(x):
@@ -183,10 +184,27 @@ def shown(x):
     return round(x, 12) if isinstance(x, float) else x
 
 
+def welded(c: dict) -> set:
+    """The bodies welded to the world (no joint between them and it): with a fixed base they
+    do not move, so their inertia does not enter the dynamics (engines drop or merge them)."""
+    moving = {j["body"] for j in c["joints"].values()}
+    out: set = set()
+    for name in c["bodies"]:
+        chain, x = [], name
+        while x in c["bodies"] and x not in moving and x not in out:
+            chain.append(x)
+            x = c["bodies"][x]["parent"]
+        if x == WORLD or x in out:
+            out.update(chain)
+    return out
+
+
 def compare(a: dict, b: dict, tol: float = COMPILED_TOL) -> list[dict]:
-    """One row per body and joint of either model: {"kind", "name", "match", "fields": [every
-    differing field as {"field", "a", "b"}]}; an element only one model has differs in the
-    field "present"."""
+    """One row per body and joint of either model: {"kind", "name", "match", "inert" (a body
+    welded to the world in either, or massless, jointless and in one model only), "fields": [every differing field as {"field", "a", "b"}]};
+    an element only one model has differs in the field "present"."""
+    still = welded(a) | welded(b)
+    moving = {j["body"] for c in (a, b) for j in c["joints"].values()}
     rows = []
     for kind, group in (("body", "bodies"), ("joint", "joints")):
         names = list(a[group]) + [n for n in b[group] if n not in a[group]]
@@ -194,13 +212,17 @@ def compare(a: dict, b: dict, tol: float = COMPILED_TOL) -> list[dict]:
             x, y = a[group].get(name), b[group].get(name)
             if x is None or y is None:
                 fields = [{"field": "present", "a": x is not None, "b": y is not None}]
+                lone = x if x is not None else y
+                inert = kind == "body" and (name in still or (not lone["mass"] and not lone["inertia"].any() and
+                                                              name not in moving))
             else:
-                vx, vy = values(kind, x), values(kind, y)
+                vx, vy = values(kind, x, still), values(kind, y, still)
                 fields = [{"field": f, "a": shown(vx[f]), "b": shown(vy[f])} for f in vx if not close(vx[f], vy[f], tol)]
-            rows.append({"kind": kind, "name": name, "match": not fields, "fields": fields})
+                inert = kind == "body" and name in still
+            rows.append({"kind": kind, "name": name, "match": not fields, "fields": fields, "inert": inert})
     return rows
 
 
 def mismatches(rows: list[dict]) -> list[dict]:
-    """Every differing field as {"kind", "name", "field", "a", "b"}."""
-    return [{"kind": r["kind"], "name": r["name"], **f} for r in rows for f in r["fields"]]
+    """Every differing field as {"kind", "name", "inert", "field", "a", "b"}."""
+    return [{"kind": r["kind"], "name": r["name"], "inert": r["inert"], **f} for r in rows for f in r["fields"]]

@@ -53,6 +53,8 @@ FREE_TOL = 1e-9  # ours vs MuJoCo, one step from a state neither constrains
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
+    ap.add_argument("--model", type=Path, help="an MJCF file: only its row of the model-by-model table "
+                    "(harness/agreement.py), written to contact-<stem>.{md,json}")
     ap.add_argument("--steps", type=int, default=500, help="replay length, 0.01 s steps (default %(default)s)")
     ap.add_argument("--samples", type=int, default=200,
                     help="one-step states per torque sequence (default %(default)s)")
@@ -704,7 +706,23 @@ def markdown(doc: dict, png: str) -> list[str]:
     return lines
 
 
+def run_file(args) -> int:
+    """`--model FILE`: the file's agreement with MuJoCo alone (the model-by-model table's row)."""
+    from harness.agreement import AGREEMENT_TOL, one_model
+
+    row = one_model(args.model.stem, args.model, args.steps, args.samples, args.seed)
+    doc = {"agreement_tol": AGREEMENT_TOL, "agreement": [row]}
+    stem = f"contact-{args.model.stem}"
+    write_json(args.out / f"{stem}.json", doc)
+    md = write_markdown(args.out / f"{stem}.md", [f"# Contact: `{args.model}`", "", *agreement_lines(doc)])
+    print(f"{row['model']}: one step vs converged MuJoCo max {row['worst']:.1e} ({row['contact_states']} of "
+          f"{row['steps']} states in contact); wrote {md}, {md.with_suffix('.json')}")
+    return 0 if row["pass"] else 1
+
+
 def run(args) -> int:
+    if args.model is not None:
+        return run_file(args)
     doc = cheetah_report(args.steps, args.samples, args.seed)
     stem = "contact-half_cheetah"
     png = plot(args.out / f"{stem}.png", doc)

@@ -279,7 +279,8 @@ def markdown(doc: dict) -> list[str]:
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--model", required=True, help="a reference model: cartpole, double_pendulum, ... "
+    parser.add_argument("--model", required=True, help="a reference model (cartpole, double_pendulum, ...) or "
+                        "an MJCF or URDF file MuJoCo loads "
                         "(with --contact: gymnasium's hopper or half_cheetah)")
     parser.add_argument("--contact", action="store_true",
                         help="states in contact, MuJoCo's solver converged (harness/gradcheck_contact.py)")
@@ -295,7 +296,8 @@ def run(args) -> int:
         return gradcheck_contact.run(args)
     doc = gradcheck(args.model, args.states, args.seed)
     lines = markdown(doc)
-    write_markdown(args.out / f"gradcheck-{args.model}.md", lines)
-    write_json(args.out / f"gradcheck-{args.model}.json", doc)
+    stem = f"gradcheck-{Path(args.model).stem}"  # a model name, or a file's stem
+    write_markdown(args.out / f"{stem}.md", lines)
+    write_json(args.out / f"{stem}.json", doc)
     print("\n".join(lines))
     return 0 if doc["pass"] else 1

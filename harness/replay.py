@@ -38,7 +38,8 @@ ROLLOUT_TOL = 1e-9
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
-    ap.add_argument("--model", required=True, help="reference model name (cartpole, half_cheetah, ...)")
+    ap.add_argument("--model", required=True, help="reference model name (cartpole, half_cheetah, ...) or a "
+                    ".xml / .urdf file")
     ap.add_argument("--engines", default=",".join(engines.ENGINES),
                     help="comma-separated engines (default %(default)s)")
     ap.add_argument("--steps", type=int, default=500, help="rollout length (default %(default)s)")
@@ -162,7 +163,7 @@ def run(args) -> int:
         print(f"replay: unknown engines {unknown}; choose from {', '.join(engines.ENGINES)}")
         return 2
     doc = replay(args.model, names, args.steps, args.samples, args.seed)
-    stem = f"replay-{args.model}"
+    stem = f"replay-{Path(args.model).stem}"  # a model name, or a file's stem
     png = plot_lines(args.out / f"{stem}.png", {n: r["rollout"]["error"] for n, r in doc["engines"].items()},
                      title=f"{args.model}: ours vs each engine, seed {args.seed}", xlabel="step",
                      ylabel="relative state error (0 drawn at 1e-18)",
