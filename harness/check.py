@@ -64,7 +64,9 @@ class Unreadable(Exception):
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
-    ap.add_argument("model", type=Path, help="an MJCF (.xml) or URDF (.urdf) file")
+    ap.add_argument("model", type=Path, nargs="?", help="an MJCF (.xml) or URDF (.urdf) file")
+    ap.add_argument("--corpus", action="store_true",
+                    help="check every model of harness/corpus.py's collections instead: reports/check-corpus.*")
     ap.add_argument("--twin", type=Path, help="the same robot in the other format: compare the two")
     ap.add_argument("--engines", default=",".join(engines.ENGINES), help="comma-separated (default %(default)s)")
     ap.add_argument("--timestep", type=float, help="override the file's (or the default) timestep, s")
@@ -232,7 +234,14 @@ def twin_of(ours, other, loaded: dict, other_loaded: dict, args) -> dict:
 # ---- the whole check
 
 
-def check(args) -> dict:
+class Silent:
+    """A progress bar that shows nothing (the corpus shows one per model instead)."""
+
+    def tick(self, failed: bool = False) -> None:
+        pass
+
+
+def check(args, progress=None) -> dict:
     from harness.sweep import Progress
 
     path = args.model.resolve()
@@ -243,7 +252,7 @@ def check(args) -> dict:
     ours = load_ours(path, args.package_dir)
     other = load_ours(args.twin.resolve(), args.package_dir) if args.twin else None
     loaded = {n: load_engine(n, path, args) for n in names}
-    progress = Progress(len(names) + 2, 0)
+    progress = progress or Progress(len(names) + 2, 0)
     ours_compiled = compiled.ours(ours)
     doc: dict = {"model": str(args.model), "twin": str(args.twin) if args.twin else None, "seed": args.seed,
                  "steps": args.steps, "samples": args.samples, "max_error": args.max_error,
@@ -268,7 +277,8 @@ def check(args) -> dict:
                     if e is not None:
                         e.close()
     finally:
-        print(file=sys.stderr)  # end the progress line
+        if not isinstance(progress, Silent):
+            print(file=sys.stderr)  # end the progress line
         for e, _ in loaded.values():
             if e is not None:
                 e.close()
@@ -383,7 +393,82 @@ def markdown(doc: dict, png: str) -> list[str]:
     ]
 
 
+# ---- the corpus
+
+
+def corpus_row(case, args) -> dict:
+    """One corpus model's row: per engine loaded, one-step error and the compiled mismatches
+    that reach the dynamics (not inert), or why we could not read or check it."""
+    row: dict = {"model": case.name, "kind": case.kind}
+    if case.excluded:
+        return {**row, "excluded": case.excluded}
+    one = argparse.Namespace(**{**vars(args), "model": case.path, "twin": None, "package_dir": case.package_dirs})
+    try:
+        doc = check(one, Silent())
+    except Unreadable as e:
+        return {**row, "ours": str(e).replace(str(case.root), f"<{case.source}>"), "pass": False}
+    row["ours"] = "ok"
+    row["engines"] = {n: {"loaded": r["loaded"], "one_step_error": r.get("one_step_error"),
+                          "error": r.get("error"),
+                          "compiled_mismatches": [m for m in r.get("compiled_mismatches") or [] if not m["inert"]]
+                          if isinstance(r.get("compiled_mismatches"), list) else r.get("compiled_mismatches")}
+                      for n, r in doc["engines"].items()}
+    row["pass"] = doc["pass"]
+    return row
+
+
+def corpus_cell(r: dict) -> str:
+    if not r["loaded"]:
+        return "not loaded"
+    mism = r["compiled_mismatches"]
+    count = len(mism) if isinstance(mism, list) else "?"
+    return f"{fmt(r['one_step_error'])}, {count} mismatches"
+
+
+def corpus_markdown(doc: dict) -> list[str]:
+    names = doc["engines"]
+    rows = [[r["model"], r.get("excluded") or r["ours"]] + [corpus_cell(r["engines"][n]) if "engines" in r else "-"
+                                                           for n in names]
+            + ["excluded" if "excluded" in r else "PASS" if r["pass"] else "**FAIL**"] for r in doc["models"]]
+    loaded = {n: sum(1 for r in doc["models"] if r.get("engines", {}).get(n, {}).get("loaded")) for n in names}
+    return [
+        "# Check over the corpus", "",
+        f"`python -m harness check --corpus --steps {doc['steps']} --samples {doc['samples']} --seed {doc['seed']}`"
+        " (harness/check.py on every model of harness/corpus.py). Per engine: the one-step error against ours "
+        f"(contact-free) and the compiled mismatches that reach the dynamics; PASS as the check's exit status 0 "
+        f"(one-step error <= {doc['max_error']:.0e}).", "",
+        "Loaded: " + ", ".join(f"{n} {k} of {len(doc['models'])}" for n, k in loaded.items()) + "; pass: "
+        f"{sum(r.get('pass') is True for r in doc['models'])}.", "",
+        *markdown_table(["model", "ours", *names, "result"], [[str(c).replace("|", "/") for c in row] for row in rows]),
+    ]
+
+
+def run_corpus(args) -> int:
+    from harness.corpus import discover
+    from harness.sweep import Progress
+
+    cases = discover()
+    progress = Progress(len(cases), 0)
+    rows = []
+    for case in cases:
+        rows.append(corpus_row(case, args))
+        progress.tick(failed=rows[-1].get("pass") is False)
+    print(file=sys.stderr)
+    names = [n.strip() for n in args.engines.split(",") if n.strip()]
+    doc = {"seed": args.seed, "steps": args.steps, "samples": args.samples, "max_error": args.max_error,
+           "engines": names, "models": rows}
+    write_json(args.out / "check-corpus.json", doc)
+    md = write_markdown(args.out / "check-corpus.md", corpus_markdown(doc))
+    print(f"wrote {md}, {md.with_suffix('.json')}")
+    return 0 if all(r.get("pass") is not False for r in rows) else 1
+
+
 def run(args) -> int:
+    if args.corpus:
+        return run_corpus(args)
+    if args.model is None:
+        print("check: give a model file (or --corpus)")
+        return 2
     try:
         doc = check(args)
     except Unreadable as e:

@@ -135,3 +135,25 @@ def test_replay_takes_a_urdf_without_options(tmp_path):
                                          "--out", str(tmp_path)])) == 0
     doc = json.loads((tmp_path / "replay-model.json").read_text())
     assert all(r["timestep"] == 0.002 for r in doc["engines"].values())
+
+
+def test_corpus_report_has_a_row_per_model_and_a_column_per_engine(tmp_path, monkeypatch):
+    from harness import corpus
+
+    everything = corpus.discover()
+    picked = [c for c in everything if c.name in ("dm_control:pendulum.xml", "pybullet_data:kuka_iiwa/model.urdf")]
+    picked.append(next(c for c in everything if c.excluded))  # tendons or equality constraints: issue 39
+    monkeypatch.setattr(corpus, "discover", lambda: picked)
+    parser = argparse.ArgumentParser()
+    check.add_arguments(parser)
+    assert check.run(parser.parse_args(["--corpus", "--steps", "10", "--samples", "2", "--out", str(tmp_path)])) == 0
+    doc = json.loads((tmp_path / "check-corpus.json").read_text())
+    rows = {r["model"]: r for r in doc["models"]}
+    assert rows["pybullet_data:kuka_iiwa/model.urdf"]["pass"]
+    kuka = rows["pybullet_data:kuka_iiwa/model.urdf"]["engines"]
+    assert all(kuka[n]["loaded"] and kuka[n]["one_step_error"] <= 1e-9 for n in ("mujoco", "pybullet", "dart"))
+    pendulum = rows["dm_control:pendulum.xml"]["engines"]
+    assert pendulum["mujoco"]["one_step_error"] <= 1e-9 and not pendulum["dart"]["loaded"]
+    assert picked[-1].name in rows and "excluded" in rows[picked[-1].name]
+    md = (tmp_path / "check-corpus.md").read_text()
+    assert "| model | ours | mujoco | pybullet | dart | result |" in md
