@@ -116,6 +116,11 @@ def test_a_twin_with_a_renamed_joint_gets_a_table(tmp_path):
                  '</robot>\n', "nan.urdf:3: <mass>"),
     ("cut.xml", "<mujoco>\n<worldbody>\n<body>\n</worldbody>\n", "cut.xml: XML syntax error"),
     ("missing.urdf", None, "missing.urdf: no such file"),
+    ("mesh.urdf", '<robot name="m">\n  <link name="base"/>\n  <link name="arm">\n    <inertial><mass value="1"/>'
+                  '<inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial>\n'
+                  '    <collision><geometry><mesh filename="package://nope/arm.stl"/></geometry></collision>\n'
+                  '  </link>\n  <joint name="j" type="continuous"><parent link="base"/><child link="arm"/></joint>\n'
+                  '</robot>\n', "mesh.urdf:5: <mesh>: mesh 'package://nope/arm.stl'"),
 ])
 def test_a_file_we_cannot_read_exits_2_with_one_line(tmp_path, capsys, name, text, message):
     path = tmp_path / name
@@ -124,6 +129,8 @@ def test_a_file_we_cannot_read_exits_2_with_one_line(tmp_path, capsys, name, tex
     assert run_check(tmp_path, path) == 2
     out = capsys.readouterr().out.strip()
     assert len(out.splitlines()) == 1 and message in out, out
+    if name == "mesh.urdf":  # the package paths searched are named
+        assert f"package 'nope' not found (tried {tmp_path}/nope/arm.stl" in out, out
     assert not (tmp_path / f"check-{path.stem}.json").exists()
 
 
