@@ -164,3 +164,16 @@ def test_corpus_report_has_a_row_per_model_and_a_column_per_engine(tmp_path, mon
     assert picked[-1].name in rows and "excluded" in rows[picked[-1].name]
     md = (tmp_path / "check-corpus.md").read_text()
     assert "| model | ours | mujoco | pybullet | dart | result |" in md
+
+
+def test_timestep_override_and_seeded_reports(tmp_path):
+    model = MODELS / "cartpole.urdf"
+    for out in ("a", "b"):
+        assert run_check(tmp_path / out, model, "--timestep", "0.005") == 0
+    first = (tmp_path / "a" / "check-cartpole.json").read_text()
+    assert first == (tmp_path / "b" / "check-cartpole.json").read_text()
+    doc = json.loads(first)
+    for name, row in doc["engines"].items():
+        assert row["settings"]["timestep"] == 0.005, name
+        assert row["settings"]["settings"]["timestep_override"]["used"] == 0.005, name
+        assert row["one_step_error"] <= 1e-9, name
