@@ -36,7 +36,9 @@ def body(parent: str, mass: float, com, inertia) -> dict:
 
 
 def joint(kind: str, owner: str, axis, limits, damping: float, armature: float) -> dict:
-    return {"type": kind, "body": owner, "axis": np.asarray(axis, float).reshape(3),
+    """A ball or free joint has no axis: zeros (engines store any)."""
+    axis = np.asarray(axis, float).reshape(3) if kind in ("hinge", "slide") else np.zeros(3)
+    return {"type": kind, "body": owner, "axis": axis,
             "range": None if limits is None else (float(limits[0]), float(limits[1])),
             "damping": float(damping), "armature": float(armature)}
 
@@ -130,7 +132,7 @@ def dart(skel) -> dict:
         if j.getType() not in kinds:
             continue
         lo, hi = j.getPositionLowerLimit(0), j.getPositionUpperLimit(0)
-        axis = j.getAxis() if j.getType() in ("RevoluteJoint", "PrismaticJoint") else np.zeros(3)
+        axis = j.getAxis() if j.getType() in ("RevoluteJoint", "PrismaticJoint") else None
         joints[j.getName()] = joint(kinds[j.getType()], node.getName(), axis,
                                     (lo, hi) if np.isfinite(lo) and np.isfinite(hi) and lo < hi else None,
                                     j.getDampingCoefficient(0), 0.0)

@@ -177,3 +177,11 @@ def test_timestep_override_and_seeded_reports(tmp_path):
         assert row["settings"]["timestep"] == 0.005, name
         assert row["settings"]["settings"]["timestep_override"]["used"] == 0.005, name
         assert row["one_step_error"] <= 1e-9, name
+
+
+@pytest.mark.parametrize("name", ["box", "cartpole", "double_pendulum", "floating_arm", "pendulum", "wiping_arm"])
+def test_every_shipped_twin_is_the_same_robot(tmp_path, name):
+    model = MODELS / f"{name}.xml"
+    assert run_check(tmp_path, model, "--twin", str(MODELS / f"{name}.urdf"), "--engines", "mujoco") == 0
+    t = report(tmp_path, model)[0]["twin_check"]
+    assert not t["differs"] and t["ours"] == [] and t["steps"]["max_error"] <= 1e-12, t
