@@ -79,7 +79,7 @@ def mujoco(m) -> dict:
 def pybullet(path: Path) -> dict:
     """PyBullet's own reading of a URDF (fixed base, inertia from the file: harness.corpus's
     load), before any adapter changes it. PyBullet's link frame is the COM frame; its
-    dynamics info gives that frame in the URDF link frame, its joint axis is in the latter."""
+    dynamics info gives that frame in the URDF link frame, its joint axis is in the former."""
     import pybullet as pb
 
     from harness.corpus import pybullet_body, pybullet_client
@@ -115,7 +115,9 @@ def pybullet_read(p, index: int, pb, quat_matrix) -> dict:
         bodies[name] = body(names[j[16]], info[0], info[3], tensor)
         if j[2] in kinds:
             lo, hi = j[8], j[9]
-            joints[j[1].decode()] = joint(kinds[j[2]], name, j[13], (lo, hi) if lo < hi else None, j[6], 0.0)
+            # PyBullet gives the axis in the link's COM frame: R takes it to the URDF link frame
+            joints[j[1].decode()] = joint(kinds[j[2]], name, R @ np.array(j[13]), (lo, hi) if lo < hi else None,
+                                          j[6], 0.0)
     return {"bodies": bodies, "joints": joints}
 
 

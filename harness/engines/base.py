@@ -239,6 +239,8 @@ class Engine:
                                package_dirs=[str(d) for d in self.package_dirs]).with_options(
             timestep=self.timestep, gravity=list(self.gravity), integrator=self.integrator,
             passive=self.passive, contact=False, limits=False)
+        if "fluid_off" in self.settings:  # the engine's fluid forces switched off (MuJoCo's adapter)
+            m = m.with_options(density=0.0, viscosity=0.0)
         for param, joints in self.ignored.items():
             for joint in joints:
                 m.set_param(f"joint/{joint}/{param}", 0.0)

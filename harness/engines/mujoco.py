@@ -124,7 +124,8 @@ class MujocoEngine(Engine):
             self._constrained = True
         self.d, self._probe = mujoco.MjData(m), mujoco.MjData(m)
         self.timestep = float(m.opt.timestep)
-        self.gravity = [float(g) for g in m.opt.gravity]
+        gravity_off = bool(m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY)  # <flag gravity="disable"/>
+        self.gravity = [0.0, 0.0, 0.0] if gravity_off else [float(g) for g in m.opt.gravity]
         self.joint_names = [m.joint(i).name for i in range(m.njnt)]
         self.body_names = [m.body(i).name for i in range(1, m.nbody)]
         self.ranges = [tuple(map(float, m.jnt_range[i])) if m.jnt_limited[i] else None for i in range(m.njnt)]
