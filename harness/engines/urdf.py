@@ -29,7 +29,7 @@ class UrdfJoint:
     limit: tuple | None
     damping: float
     friction: float
-    extensions: dict  # other <dynamics> attributes: diffosi:stiffness, diffosi:springref, ...
+    extensions: dict  # our <dynamics> attributes (namespace urn:diffosi:urdf): stiffness, springref, ...
 
 
 @dataclass
@@ -88,10 +88,12 @@ def read_urdf(path: Path, floating_base: bool = False) -> dict:
             lo, hi = float(lim.get("lower", 0)), float(lim.get("upper", 0))
             limit = (lo, hi) if lo < hi else None  # lower = upper (= 0 by default): no limit
         dyn = j.find("dynamics")
-        attrs = {local_name(k): float(v) for k, v in (dyn.attrib if dyn is not None else {}).items()}
+        attrs = dyn.attrib if dyn is not None else {}
+        # other attributes (a vendor's D, K, mu_viscous, ...) are no engine's: only ours are read
+        ours = {local_name(k): float(v) for k, v in attrs.items() if k.startswith(DIFFOSI_NS)}
         joints.append(UrdfJoint(
             name=j.get("name"), kind=MOVABLE[kind], limit=limit,
-            damping=attrs.pop("damping", 0.0), friction=attrs.pop("friction", 0.0), extensions=attrs,
+            damping=float(attrs.get("damping", 0.0)), friction=float(attrs.get("friction", 0.0)), extensions=ours,
         ))
     massless = [link.get("name") for link in root.findall("link")
                 if link.find("inertial") is None and (link.get("name") != roots[0] or floating_base)]
