@@ -136,6 +136,9 @@ def guarded(what, *args) -> dict:
 def steps_of(e, key: str, args) -> dict:
     from harness.replay import compare
 
+    ours = e.ours().joint_names
+    if list(ours) != list(e.joint_names):  # the states are compared index by index
+        raise ValueError(f"the joint order differs: ours {ours}, {e.name} {e.joint_names}")
     _, results = compare([e], key, args.steps, args.samples, args.seed)
     r = results[e.name]
     return {"settings": {k: r[k] for k in ("version", "passive", "integrator", "timestep", "gravity", "settings",
