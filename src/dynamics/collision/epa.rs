@@ -68,9 +68,9 @@ pub(super) fn penetration<T: Real>(
     };
     let bodies = (a, b);
     let built = match simplex.len() {
-        2 => pt.from_segment([simplex[0], simplex[1]], bodies),
-        3 => pt.from_triangle([simplex[0], simplex[1], simplex[2]], bodies),
-        4 => pt.from_tetrahedron(simplex, bodies),
+        2 => pt.around_segment([simplex[0], simplex[1]], bodies),
+        3 => pt.around_triangle([simplex[0], simplex[1], simplex[2]], bodies),
+        4 => pt.around_tetrahedron(simplex, bodies),
         _ => false,
     };
     if !built {
@@ -196,7 +196,7 @@ impl<T: Real> Polytope<T> {
 
     /// MuJoCo's `polytope2`: a hexahedron about the segment, from three
     /// support points 120 degrees apart around it.
-    fn from_segment(&mut self, s: [Vertex<T>; 2], bodies: (&Body<T>, &Body<T>)) -> bool {
+    fn around_segment(&mut self, s: [Vertex<T>; 2], bodies: (&Body<T>, &Body<T>)) -> bool {
         let (v1, v2) = (s[0].w, s[1].w);
         self.center = (v1 + v2) * lift::<T>(0.5);
         let diff = v2 - v1;
@@ -231,7 +231,7 @@ impl<T: Real> Polytope<T> {
             if self.attach(v, adj) < lift(MINVAL * MINVAL) {
                 let tri = v.map(|i| self.verts[i]);
                 self.reset();
-                return self.from_triangle(tri, bodies);
+                return self.around_triangle(tri, bodies);
             }
         }
         let p = |i: usize| self.verts[i].w;
@@ -244,7 +244,7 @@ impl<T: Real> Polytope<T> {
 
     /// MuJoCo's `polytope3`: a hexahedron of the triangle and the support
     /// points along its two normals.
-    fn from_triangle(&mut self, s: [Vertex<T>; 3], bodies: (&Body<T>, &Body<T>)) -> bool {
+    fn around_triangle(&mut self, s: [Vertex<T>; 3], bodies: (&Body<T>, &Body<T>)) -> bool {
         let (v1, v2, v3) = (s[0].w, s[1].w, s[2].w);
         self.center = (v1 + v2 + v3) * lift::<T>(1.0 / 3.0);
         let n = (v2 - v1).cross(&(v3 - v1));
@@ -280,7 +280,7 @@ impl<T: Real> Polytope<T> {
 
     /// MuJoCo's `polytope4`: the tetrahedron itself, or its face through
     /// the origin.
-    fn from_tetrahedron(&mut self, s: &[Vertex<T>], bodies: (&Body<T>, &Body<T>)) -> bool {
+    fn around_tetrahedron(&mut self, s: &[Vertex<T>], bodies: (&Body<T>, &Body<T>)) -> bool {
         let i: Vec<usize> = s.iter().map(|v| self.insert(*v)).collect();
         self.center = (s[0].w + s[1].w + s[2].w + s[3].w) * lift::<T>(0.25);
         let faces = [
@@ -293,7 +293,7 @@ impl<T: Real> Polytope<T> {
             if self.attach(v, adj) < lift(MINVAL * MINVAL) {
                 let tri = v.map(|i| self.verts[i]);
                 self.reset();
-                return self.from_triangle(tri, bodies);
+                return self.around_triangle(tri, bodies);
             }
         }
         if !holds_origin([&s[0].w, &s[1].w, &s[2].w, &s[3].w]) {
