@@ -34,9 +34,10 @@
 //! Supported pairs are those with an entry in [`Colliders::TABLE`]: plane
 //! against sphere, capsule, cylinder and box; sphere against sphere,
 //! capsule, cylinder and box; capsule against capsule and box; box against
-//! box. A model may hold other pairs (ellipsoids, cylinders with capsules,
-//! cylinders or boxes): a step refuses to run while one of them is within
-//! reach ([`super::StepError::NoCollider`]).
+//! box; an ellipsoid against any primitive but the plane (GJK and EPA,
+//! convex.rs). A model may hold other pairs (a plane and an ellipsoid,
+//! cylinders with capsules, cylinders or boxes, meshes): a step refuses to
+//! run while one of them is within reach ([`super::StepError::NoCollider`]).
 //!
 //! # Adding a collider
 //!
@@ -62,9 +63,11 @@
 //! ```
 //!
 //! and, in the table's cylinder row, the cylinder column becomes
-//! `Some(cylinder::cylinder)`. A general convex collider (GJK/EPA) would
-//! read the shapes through [`Shape::support`] and fill every convex entry
-//! still empty.
+//! `Some(cylinder::cylinder)`. The general convex collider (convex.rs,
+//! GJK in gjk.rs and EPA in epa.rs) reads the shapes through
+//! [`Shape::support`]; an entry becomes `Some(convex::convex)` once its
+//! pair's contacts are MuJoCo's (cylinder pairs wait for MuJoCo 4's
+//! multi-contact of cylinder caps, mesh pairs for a mesh body).
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -73,7 +76,10 @@ use crate::spatial::{lift, Real, Transform};
 
 mod box_box;
 mod capsule;
+mod convex;
+mod epa;
 mod geom;
+mod gjk;
 mod mixing;
 pub mod pairs;
 mod plane;
@@ -146,9 +152,9 @@ impl<T: Real> Colliders<T> {
         // plane, hfield, sphere, capsule, ellipsoid, cylinder, box, mesh
         [None, None, Some(plane::sphere), Some(plane::capsule), None, Some(plane::cylinder), Some(plane::cuboid), None],
         [None; NTYPES], // hfield
-        [None, None, Some(sphere::sphere), Some(sphere::capsule), None, Some(sphere::cylinder), Some(sphere::cuboid), None],
-        [None, None, None, Some(capsule::capsule), None, None, Some(capsule::cuboid), None],
-        [None; NTYPES], // ellipsoid
+        [None, None, Some(sphere::sphere), Some(sphere::capsule), Some(convex::convex), Some(sphere::cylinder), Some(sphere::cuboid), None],
+        [None, None, None, Some(capsule::capsule), Some(convex::convex), None, Some(capsule::cuboid), None],
+        [None, None, None, None, Some(convex::convex), Some(convex::convex), Some(convex::convex), None],
         [None; NTYPES], // cylinder
         [None, None, None, None, None, None, Some(box_box::cuboid), None],
         [None; NTYPES], // mesh
@@ -314,9 +320,11 @@ mod tests {
             .flat_map(|&a| types.iter().map(move |&b| (a, b)))
             .filter(|&(a, b)| a <= b && supported(a, b))
             .count();
-        assert_eq!(count, 11);
+        assert_eq!(count, 16);
         assert!(supported(GeomType::Box, GeomType::Capsule));
+        assert!(supported(GeomType::Ellipsoid, GeomType::Capsule));
         assert!(!supported(GeomType::Cylinder, GeomType::Capsule));
+        assert!(!supported(GeomType::Plane, GeomType::Ellipsoid));
     }
 
     #[test]

@@ -5,8 +5,9 @@
 
 use nalgebra::Vector3;
 
-use super::{normalize, GeomType};
+use super::GeomType;
 use crate::model::Shape;
+use crate::model::MINVAL;
 use crate::spatial::{lift, Real};
 
 impl Shape {
@@ -66,34 +67,49 @@ impl Shape {
         }
     }
 
-    /// The support function: a point of the shape farthest along `dir`
-    /// (geom frame; `dir` need not be unit, a zero one counts as +x, ties
-    /// between faces go to the + side). None for a plane, which has none,
-    /// and for a mesh, whose support is its mesh's
-    /// ([`Mesh::support`](crate::model::mesh::Mesh::support)).
+    /// The support function: a point of the shape farthest along the unit
+    /// direction `dir` (geom frame), as MuJoCo's convex collider computes
+    /// it (mjc_*Support, in its arithmetic so that GJK and EPA take its
+    /// branches): ties between faces go to the + side, a cylinder's axial
+    /// direction to its cap's centre, an ellipsoid's vanishing one to +x.
+    /// None for a plane, which has none, and for a mesh, whose support is
+    /// its mesh's ([`Mesh::support`](crate::model::mesh::Mesh::support)).
     pub fn support<T: Real>(&self, dir: &Vector3<T>) -> Option<Vector3<T>> {
         let side = |x: T, h: f64| if x >= T::zero() { lift(h) } else { lift(-h) };
-        let along_z = |h: f64| Vector3::new(T::zero(), T::zero(), side(dir.z, h));
         Some(match *self {
             Shape::Plane | Shape::Mesh { .. } => return None,
-            Shape::Sphere { radius } => normalize(*dir).0 * lift::<T>(radius),
+            Shape::Sphere { radius } => dir * lift::<T>(radius),
             Shape::Capsule {
                 radius,
                 half_length,
-            } => along_z(half_length) + normalize(*dir).0 * lift::<T>(radius),
+            } => {
+                let mut s = dir * lift::<T>(radius);
+                s.z += side(dir.z, half_length);
+                s
+            }
             Shape::Cylinder {
                 radius,
                 half_length,
             } => {
-                let flat = Vector3::new(dir.x, dir.y, T::zero());
-                along_z(half_length) + normalize(flat).0 * lift::<T>(radius)
+                let n2 = dir.x * dir.x + dir.y * dir.y;
+                let scale = if n2 >= lift(MINVAL * MINVAL) {
+                    lift::<T>(radius) / n2.sqrt()
+                } else {
+                    T::zero()
+                };
+                Vector3::new(dir.x * scale, dir.y * scale, side(dir.z, half_length))
             }
             Shape::Box { half } => Vector3::from_fn(|i, _| side(dir[i], half[i])),
             Shape::Ellipsoid { radii } => {
                 // The point x = R^2 d / |R d| of the ellipsoid with radii R.
                 let r: Vector3<T> = radii.map(lift);
                 let scaled = dir.component_mul(&r);
-                normalize(scaled).0.component_mul(&r)
+                let n2 = scaled.norm_squared();
+                if n2 < lift(MINVAL * MINVAL) {
+                    return Some(Vector3::new(r.x, T::zero(), T::zero()));
+                }
+                let inv = T::one() / n2.sqrt();
+                Vector3::from_fn(|i, _| scaled[i] * (inv * r[i]))
             }
         })
     }
@@ -164,11 +180,12 @@ mod tests {
             .collect();
         for shape in shapes() {
             for d in &dirs {
+                let d = &d.normalize();
                 let s = shape.support(d).expect("bounded");
                 let reach = d.dot(&s);
                 assert!(surface_distance(&shape, &s).abs() < 1e-15, "{shape:?} {d}");
                 for u in &samples {
-                    let far = shape.support(u).expect("bounded");
+                    let far = shape.support(&u.normalize()).expect("bounded");
                     assert!(d.dot(&far) <= reach + 1e-15, "{shape:?} {d} {u}");
                 }
                 // Within the bounding sphere.
@@ -180,7 +197,7 @@ mod tests {
 
     #[test]
     fn supports_are_those_of_the_shapes() {
-        let d = Vector3::new(0.0, 3.0, 4.0);
+        let d = Vector3::new(0.0, 0.6, 0.8);
         let at = |s: Shape| s.support(&d).expect("bounded");
         assert!((at(Shape::Sphere { radius: 0.5 }) - Vector3::new(0.0, 0.3, 0.4)).norm() < 1e-15);
         let capsule = Shape::Capsule {
@@ -201,11 +218,13 @@ mod tests {
             radii: Vector3::new(0.5, 0.5, 0.5),
         };
         assert!((at(ball) - Vector3::new(0.0, 0.3, 0.4)).norm() < 1e-15);
-        // A zero direction gives a point all the same (+x).
+        // A vanishing direction gives a point all the same: an ellipsoid's +x,
+        // a cylinder's cap centre along the axis.
         let zero = Vector3::<f64>::zeros();
+        assert_eq!(ball.support(&zero), Some(Vector3::new(0.5, 0.0, 0.0)));
         assert_eq!(
-            Shape::Sphere { radius: 2.0 }.support(&zero),
-            Some(Vector3::new(2.0, 0.0, 0.0))
+            cylinder.support(&Vector3::z()),
+            Some(Vector3::new(0.0, 0.0, 1.0))
         );
     }
 

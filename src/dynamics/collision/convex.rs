@@ -1,0 +1,292 @@
+//! MuJoCo's general convex collider (`mjc_Convex` with its native CCD:
+//! engine_collision_convex.c and `mjc_ccd` of engine_collision_gjk.c, as
+//! published up to 3.12), for the ellipsoid pairs MuJoCo routes to it: an
+//! ellipsoid against a sphere, a capsule, an ellipsoid, a cylinder or a box.
+//! These pairs take one contact in MuJoCo (no multiccd for ellipsoids).
+//!
+//! Each geom is a [`Body`]: its shape at its world pose, grown by half the
+//! pair margin (so the bodies overlap exactly when the geoms are within the
+//! margin). A sphere or capsule is first shrunk to its centre or segment and
+//! GJK measures the distance of the cores: a shallow contact is that
+//! distance less the radii. Otherwise GJK finds a simplex holding the
+//! origin and EPA the penetration ([`super::epa`]). The contact lies midway
+//! between the witness points x1 (on geom 1) and x2 (on geom 2); its normal
+//! is x1 - x2 normalised (from geom 1 into geom 2 when they overlap), its
+//! distance the margin plus the signed distance of the witness points.
+//!
+//! Accuracy: GJK stops within ccd_tolerance (1e-6) of the distance and EPA
+//! after at most ccd_iterations (35) expansions, which on smooth shapes
+//! often ends before the tolerance (a deep contact's normal may then be off
+//! by a few 1e-2 rad, as MuJoCo's is). MuJoCo 4.0.0's binary takes another
+//! iteration path than this source in about half the states, so contacts
+//! agree with its mj_forward only to the iterations' accuracy (see
+//! harness/tests/test_convex.py), not to rounding. Derivatives are those of
+//! the iterations (dual numbers), not yet the implicit ones of the
+//! converged geometry. Settings are MuJoCo's defaults (ccd_iterations 35,
+//! ccd_tolerance 1e-6, native CCD).
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::epa::penetration;
+use super::gjk::gjk;
+use super::{normalize, Placed, Pre};
+use crate::model::Shape;
+use crate::spatial::{lift, Real};
+
+/// MuJoCo's default ccd_iterations and ccd_tolerance.
+pub const CCD_ITERATIONS: usize = 35;
+pub const CCD_TOLERANCE: f64 = 1e-6;
+
+/// How GJK sees a geom: whole, or a sphere as its centre and a capsule as
+/// its segment (their radii added back to the distance).
+#[derive(Clone, Copy, PartialEq)]
+enum Core {
+    Whole,
+    Point,
+    Segment,
+}
+
+/// A convex geom for GJK and EPA (MuJoCo's mjCCDObj): shape, world pose,
+/// and the margin that grows it by half along every direction.
+#[derive(Clone, Copy)]
+pub(super) struct Body<'a, T: Real> {
+    shape: &'a Shape,
+    pos: Vector3<T>,
+    mat: Matrix3<T>,
+    margin: T,
+    core: Core,
+}
+
+impl<T: Real> Body<'_, T> {
+    /// The geom's centre, where GJK starts.
+    pub fn centre(&self) -> Vector3<T> {
+        self.pos
+    }
+
+    /// The point farthest along the unit world direction `dir`.
+    pub fn support(&self, dir: &Vector3<T>) -> Vector3<T> {
+        let [_, half_length, _] = self.shape.size();
+        match self.core {
+            Core::Point => self.pos,
+            Core::Segment => {
+                let axis = self.mat.column(2).into_owned();
+                let h = if axis.dot(dir) >= T::zero() {
+                    half_length
+                } else {
+                    -half_length
+                };
+                self.pos + axis * lift::<T>(h)
+            }
+            Core::Whole => {
+                let mut p = if let Shape::Sphere { radius } = self.shape {
+                    dir * lift::<T>(*radius) + self.pos
+                } else {
+                    let local = self.mat.tr_mul(dir);
+                    let s = self.shape.support(&local).unwrap_or_else(Vector3::zeros);
+                    self.mat * s + self.pos
+                };
+                if self.margin > T::zero() {
+                    p += dir * (lift::<T>(0.5) * self.margin);
+                }
+                p
+            }
+        }
+    }
+
+    /// The radius GJK's core leaves out (with half the margin), zero for a
+    /// whole body.
+    fn core_radius(&self) -> T {
+        let [radius, _, _] = self.shape.size();
+        match self.shape {
+            Shape::Sphere { .. } | Shape::Capsule { .. } => {
+                lift::<T>(radius) + lift::<T>(0.5) * self.margin
+            }
+            _ => T::zero(),
+        }
+    }
+
+    fn shrunk(&self) -> Body<'_, T> {
+        let core = match self.shape {
+            Shape::Sphere { .. } => Core::Point,
+            Shape::Capsule { .. } => Core::Segment,
+            _ => Core::Whole,
+        };
+        Body {
+            core,
+            margin: if core == Core::Whole {
+                self.margin
+            } else {
+                T::zero()
+            },
+            ..*self
+        }
+    }
+}
+
+/// The collider of the table: see the module documentation.
+pub(super) fn convex<T: Real>(
+    (s1, p1): (&Shape, &Placed<T>),
+    (s2, p2): (&Shape, &Placed<T>),
+    margin: T,
+    out: &mut Vec<Pre<T>>,
+) {
+    let body = |shape, p: &Placed<T>| Body {
+        shape,
+        pos: p.pos,
+        mat: p.mat,
+        margin,
+        core: Core::Whole,
+    };
+    let (a, b) = (body(s1, p1), body(s2, p2));
+    out.extend(contact(&a, &b, margin));
+}
+
+/// One contact of the bodies (MuJoCo's `mjc_penetration` over `mjc_ccd`),
+/// if they overlap.
+fn contact<T: Real>(a: &Body<T>, b: &Body<T>, margin: T) -> Option<Pre<T>> {
+    let (x1, x2, dist) = witnesses(a, b)?;
+    (dist < T::zero()).then(|| Pre {
+        dist: margin + dist,
+        pos: (x1 + x2) * lift::<T>(0.5),
+        normal: normalize(x1 - x2).0,
+        tangent: Vector3::zeros(),
+    })
+}
+
+/// The witness points on the bodies and their signed distance, when GJK
+/// or EPA recover them (MuJoCo's `mjc_ccd` with no distance cutoff).
+fn witnesses<T: Real>(a: &Body<T>, b: &Body<T>) -> Option<(Vector3<T>, Vector3<T>, T)> {
+    let (r1, r2) = (a.core_radius(), b.core_radius());
+    if r1 > T::zero() || r2 > T::zero() {
+        let shallow = gjk(
+            (&a.shrunk(), &b.shrunk()),
+            r1 + r2,
+            CCD_TOLERANCE,
+            CCD_ITERATIONS,
+        );
+        if shallow.dist > lift(CCD_TOLERANCE) {
+            let n = normalize(shallow.x2 - shallow.x1).0;
+            let dist = shallow.dist - (r1 + r2);
+            return (dist <= T::zero()).then(|| (shallow.x1 + n * r1, shallow.x2 - n * r2, dist));
+        }
+    }
+    let found = gjk((a, b), T::zero(), CCD_TOLERANCE, CCD_ITERATIONS);
+    if found.dist > lift(CCD_TOLERANCE) || found.simplex.len() < 2 || found.separated {
+        return None;
+    }
+    let p = penetration(&found.simplex, (a, b), CCD_TOLERANCE, CCD_ITERATIONS)?;
+    Some((p.x1, p.x2, p.dist))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn contacts(
+        s1: Shape,
+        pos1: Vector3<f64>,
+        s2: Shape,
+        pos2: Vector3<f64>,
+        margin: f64,
+    ) -> Vec<Pre<f64>> {
+        let place = |pos| Placed {
+            pos,
+            mat: Matrix3::identity(),
+        };
+        let mut out = vec![];
+        convex((&s1, &place(pos1)), (&s2, &place(pos2)), margin, &mut out);
+        out
+    }
+
+    #[test]
+    fn a_sphere_on_a_round_ellipsoid_is_gjks_distance_less_the_radius() {
+        // Centres 0.49 apart, radii 0.2 and 0.3: 0.01 deep along the centre line,
+        // the normal from the sphere (geom 1) to the ellipsoid.
+        let ball = Shape::Ellipsoid {
+            radii: Vector3::new(0.3, 0.3, 0.3),
+        };
+        let dir = Vector3::new(2.0, -3.0, 6.0) / 7.0;
+        let c = contacts(
+            Shape::Sphere { radius: 0.2 },
+            dir * 0.49,
+            ball,
+            Vector3::zeros(),
+            0.0,
+        );
+        assert_eq!(c.len(), 1);
+        assert!((c[0].dist + 0.01).abs() < 1e-6, "{}", c[0].dist);
+        assert!((c[0].normal + dir).norm() < 1e-5, "{}", c[0].normal);
+        assert!((c[0].pos - dir * 0.295).norm() < 1e-5, "{}", c[0].pos);
+        // Apart by 0.01: none, unless the margin reaches.
+        let far = |margin| {
+            contacts(
+                Shape::Sphere { radius: 0.2 },
+                dir * 0.51,
+                ball,
+                Vector3::zeros(),
+                margin,
+            )
+        };
+        assert!(far(0.0).is_empty());
+        let c = far(0.02);
+        assert_eq!(c.len(), 1);
+        assert!((c[0].dist - 0.01).abs() < 1e-6, "{}", c[0].dist);
+    }
+
+    #[test]
+    fn an_ellipsoid_on_a_box_face_takes_the_face_normal() {
+        // The ellipsoid's lowest point 0.01 below the box's top face (z = 0.1).
+        let slab = Shape::Box {
+            half: Vector3::new(1.0, 1.0, 0.1),
+        };
+        let egg = Shape::Ellipsoid {
+            radii: Vector3::new(0.1, 0.2, 0.3),
+        };
+        let c = contacts(
+            egg,
+            Vector3::new(0.1, 0.2, 0.39),
+            slab,
+            Vector3::zeros(),
+            0.0,
+        );
+        assert_eq!(c.len(), 1);
+        assert!((c[0].dist + 0.01).abs() < 1e-6, "{}", c[0].dist);
+        assert!(
+            (c[0].normal + Vector3::z()).norm() < 1e-6,
+            "{}",
+            c[0].normal
+        );
+        assert!(
+            (c[0].pos - Vector3::new(0.1, 0.2, 0.095)).norm() < 1e-3,
+            "{}",
+            c[0].pos
+        );
+        let apart = contacts(
+            egg,
+            Vector3::new(0.1, 0.2, 0.41),
+            slab,
+            Vector3::zeros(),
+            0.0,
+        );
+        assert!(apart.is_empty());
+    }
+
+    #[test]
+    fn deep_round_ellipsoids_stay_near_the_exact_contact() {
+        // Two balls 0.07 deep: EPA ends at its iteration budget near the exact
+        // depth and normal (the centre line).
+        let ball = |r| Shape::Ellipsoid {
+            radii: Vector3::new(r, r, r),
+        };
+        let centre = Vector3::new(0.1, 0.05, 0.2);
+        let c = contacts(ball(0.2), Vector3::zeros(), ball(0.1), centre, 0.0);
+        assert_eq!(c.len(), 1);
+        let exact = centre.norm() - 0.3;
+        assert!((c[0].dist - exact).abs() < 1e-4, "{} {exact}", c[0].dist);
+        assert!(
+            (c[0].normal - centre.normalize()).norm() < 0.05,
+            "{}",
+            c[0].normal
+        );
+    }
+}
