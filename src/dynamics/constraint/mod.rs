@@ -25,8 +25,8 @@
 //! (efc_type mjCNSTR_EQUALITY, efc_id the equality's index): three rows
 //! holding an anchor of body b2 on an anchor of body b1.
 //! 1. The constants: `ConstraintConsts::equalities`, per equality its bodies,
-//!    anchors and solver parameters, filled where the tree is built (as
-//!    `limits` are).
+//!    anchors and solver parameters, compiled where `limits` are (the
+//!    compile layer's `Tree::add_constraints`, src/compile/tree.rs).
 //! 2. `ConstraintKind::Equality`, first in [`ConstraintKind::ORDER`] (MuJoCo
 //!    builds equalities first), and its arm in `ConstraintKind::append`:
 //!    `ConstraintKind::Equality => equality::append(at, rows)`.
