@@ -322,6 +322,23 @@ mod tests {
     use nalgebra::{DMatrix, DVector};
     use num_dual::Dual64;
 
+    /// dID/dq, dID/dv and d(M(q) y)/dq at (q, v, a) by [`rnea_derivatives`].
+    fn analytic(
+        model: &Model,
+        (q, v, a, y): (&[f64], &[f64], &[f64], &[f64]),
+    ) -> [DMatrix<f64>; 3] {
+        let (tree, n) = (model.tree(), model.nv());
+        let mut data = model.data();
+        let mut tau = vec![0.0; n];
+        rnea(tree, &mut data, q, v, a, &mut tau);
+        world_frames(tree, &mut data, v);
+        let [mut d_dq, mut d_dv, mut d_my] = [(); 3].map(|_| DMatrix::zeros(n, n));
+        let columns = (d_dq.as_mut_slice(), d_dv.as_mut_slice());
+        let mass = Some((y, d_my.as_mut_slice()));
+        rnea_derivatives(tree, &data, &mut Sweep::new(n), (v, a), columns, mass);
+        [d_dq, d_dv, d_my]
+    }
+
     /// dID/dq, dID/dv and d(M(q) y)/dq equal central differences of RNEA
     /// and of the mass matrix times y, on a branched tree with slides and
     /// hinges, away from any special pose.
@@ -343,20 +360,9 @@ mod tests {
             wave(4.0, 3.0),
             wave(1.0, 4.0),
         );
+        let [d_dq, d_dv, d_my] = analytic(&model, (&q, &v, &a, &y));
         let mut data = model.data();
         let mut tau = vec![0.0; n];
-        rnea(tree, &mut data, &q, &v, &a, &mut tau);
-        world_frames(tree, &mut data, &v);
-        let mut sweep = Sweep::new(n);
-        let (mut d_dq, mut d_dv, mut d_my) = (
-            DMatrix::zeros(n, n),
-            DMatrix::zeros(n, n),
-            DMatrix::zeros(n, n),
-        );
-        let columns = (d_dq.as_mut_slice(), d_dv.as_mut_slice());
-        let mass = Some((&y[..], d_my.as_mut_slice()));
-        rnea_derivatives(tree, &data, &mut sweep, (&v, &a), columns, mass);
-
         let mut id = |q: &[f64], v: &[f64]| {
             rnea(tree, &mut data, q, v, &a, &mut tau);
             DVector::from_column_slice(&tau)
@@ -407,19 +413,7 @@ mod tests {
         let (v, a, y) = (wave(1.5, 2.0), wave(4.0, 3.0), wave(1.0, 4.0));
         let mut q = vec![0.0; model.nq()];
         integrate(tree, &model.reference_q(), &wave(0.7, 1.0), 1.0, &mut q);
-        let mut data = model.data();
-        let mut tau = vec![0.0; n];
-        rnea(tree, &mut data, &q, &v, &a, &mut tau);
-        world_frames(tree, &mut data, &v);
-        let mut sweep = Sweep::new(n);
-        let (mut d_dq, mut d_dv, mut d_my) = (
-            DMatrix::zeros(n, n),
-            DMatrix::zeros(n, n),
-            DMatrix::zeros(n, n),
-        );
-        let columns = (d_dq.as_mut_slice(), d_dv.as_mut_slice());
-        let mass = Some((&y[..], d_my.as_mut_slice()));
-        rnea_derivatives(tree, &data, &mut sweep, (&v, &a), columns, mass);
+        let [d_dq, d_dv, d_my] = analytic(&model, (&q, &v, &a, &y));
 
         // ID(q (+) dq, v + dv) and M(q (+) dq) y, in any scalar.
         fn evaluate<T: Real>(
