@@ -11,8 +11,7 @@
 
 use std::io::Write;
 
-use diffosi::dynamics::collision::collision_pairs;
-use diffosi::dynamics::contact::contact_pairs;
+use diffosi::compile::{collision_pairs, contact_pairs};
 use diffosi::model::ContactModel;
 use diffosi::Model;
 use indicatif::{ProgressBar, ProgressStyle};

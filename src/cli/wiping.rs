@@ -6,8 +6,8 @@ use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
+use diffosi::compile::contact_pairs;
 use diffosi::control::admittance::Gains;
-use diffosi::dynamics::contact::contact_pairs;
 use diffosi::experiments::wiping::{self as exp, Controllers, Uc};
 use diffosi::experiments::wiping_dims as dims;
 use diffosi::model::State;

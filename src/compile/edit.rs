@@ -10,9 +10,9 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::fluid::fluid_bodies;
 use super::gravcomp::gravcomp_bodies;
+use super::invweight::invweight0;
 use super::tree::free_bodies;
 use super::{body_inertia, check_tree_inertia, Model};
-use crate::dynamics::constraint::invweight0;
 use crate::dynamics::Tree;
 use crate::model::constraint::check_friction;
 use crate::model::params::inertia_from_six;

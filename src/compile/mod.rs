@@ -11,10 +11,15 @@ mod actuators;
 mod edit;
 mod fluid;
 mod gravcomp;
+mod invweight;
+mod mixing;
+mod pairs;
 mod sensors;
 mod simulate;
 mod tree;
 
+pub use invweight::invweight0;
+pub use pairs::{candidates, collision_pairs, contact_pairs, Filter};
 pub use simulate::RolloutError;
 pub use tree::{body_inertia, mass_properties};
 

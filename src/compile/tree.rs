@@ -10,11 +10,13 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::fluid::fluid_bodies;
 use super::gravcomp::gravcomp_bodies;
+use super::invweight::invweight0;
+use super::pairs::{collision_pairs, contact_pairs};
 use crate::dynamics::actuation::ActuatorTerm;
-use crate::dynamics::collision::{collision_pairs, CollisionPair, GeomFrame};
+use crate::dynamics::collision::{CollisionPair, GeomFrame};
 use crate::dynamics::configuration::Coordinates;
-use crate::dynamics::constraint::{invweight0, Limit};
-use crate::dynamics::contact::{contact_pairs, Pair, Soft};
+use crate::dynamics::constraint::Limit;
+use crate::dynamics::contact::{Pair, Soft};
 use crate::dynamics::{BodyFrame, NodeJoint, Tree};
 use crate::model::params::inertia_to_six;
 use crate::model::{Body, ContactModel, Joint, JointKind, Param, Spec};

@@ -36,6 +36,7 @@ mod params;
 mod rnea;
 mod soft;
 mod step;
+mod tangent;
 mod transition;
 mod window;
 
@@ -47,6 +48,7 @@ pub use transition::{transition_jacobians, TransitionJacobians};
 pub(crate) use window::check_transition;
 pub use window::{window_residuals, window_residuals_into, Transition, WindowError, WindowFit};
 
+use crate::dynamics::integrator::euler;
 use crate::dynamics::StepError;
 use crate::Model;
 
@@ -57,6 +59,30 @@ use crate::Model;
 /// step) have no analytic derivatives yet.
 fn dual_only(model: &Model) -> bool {
     !model.one_dof_joints()
+        || model.opt.fluid.acts()
+        || model.has_gravcomp()
+        || model.opt.integrator.is_implicit()
+}
+
+/// Whether a step's Jacobian comes from dual numbers alone: as
+/// [`dual_only`], but with ball and free joints the state, tau and body
+/// parameter columns are analytic (module `tangent`) under semi-implicit
+/// Euler without soft limits or DART's implicit springs on a rotation (and
+/// without constraint rows or soft contacts at the point: `accel_derivatives`
+/// declines those); the joint parameters' columns stay dual there.
+fn dual_step(model: &Model) -> bool {
+    let tree = model.tree();
+    let springs =
+        crate::dynamics::integrator::ImplicitPassive::new(model.opt.passive, model.opt.timestep)
+            .spring_step()
+            != 0.0;
+    let rotations = !model.one_dof_joints()
+        && (euler(&model.opt).is_none()
+            || tree.limits.iter().any(Option::is_some)
+            || springs
+                && (0..tree.nv())
+                    .any(|i| tangent::is_rotation(tree, i) && tree.stiffness[i] != 0.0));
+    rotations
         || model.opt.fluid.acts()
         || model.has_gravcomp()
         || model.opt.integrator.is_implicit()

@@ -26,7 +26,23 @@
 //! A change of v_j turns nothing: dv = S_j, c = 2 v_p x S_j, and G_j has no
 //! S_j x* F_j. d(M y)/dq_j is the q-derivative of ID with no velocity and
 //! no gravity, accelerations y: c = -S_j x ay_p, dv = 0.
+//!
+//! A ball's three nodes share one frame (module `tree`): its velocity
+//! w = sum_m S_m v_m adds to v_p, and its velocity-product term is
+//! v_p x w, not the hinge's v_j x S_j v_j (every S_m turns with the ball,
+//! dS_m/dt = (v_p + w) x S_m, so d w/dt = sum_m S_m a_m + v_p x w); p is the
+//! node the ball hangs from, for all three. q_k of a ball (the tangent q (+)
+//! eps e_k, a turn of the ball's frame about its axis k) turns all three
+//! axes, those before k included, so for rows i of the same ball, before k
+//! or not, dID_i/dq_k takes the subtree form sigma_i . c + rho_i . dv, with
+//! dv and c as above (v_p, a_p entering the ball). A change of v_k changes
+//! the ball's own velocity-product term by v_p x S_k, so that its body's
+//! da = c + S_k x v_b: c = 2 v_p x S_k + w' x S_k, w' the ball's velocity
+//! from its other two axes (w' = 0 on a hinge, and S_k x S_k = 0). Rows of
+//! the ball before k take S_i . G_k there (S_i does not move with v), and
+//! d(M y)/dq_k takes the subtree form on them as d ID/dq_k does.
 
+use crate::dynamics::configuration::Coordinates;
 #[cfg(doc)]
 use crate::dynamics::{rnea, world_frames};
 use crate::dynamics::{Data, Tree};
@@ -120,7 +136,8 @@ impl Sweep {
             let (v_p, a_p) =
                 tree.parent[i].map_or((Motion::zero(), gravity), |p| (self.vel[p], self.acc[p]));
             let (vel, joint) = (v_p + s * v[i], s * v[i]);
-            let acc = a_p + s * a[i] + vel.cross_motion(&joint);
+            let crossed = self.crossed_velocity(tree, i, vel, v);
+            let acc = a_p + s * a[i] + crossed.cross_motion(&joint);
             let inertia = tree.inertia[i].to_source(w);
             let momentum = inertia.mul_motion(&vel);
             self.axis[i] = s;
@@ -150,24 +167,48 @@ impl Sweep {
         }
     }
 
+    /// [`Tree::crossed_velocity`] in world coordinates: `vel` less the
+    /// motion of the axes of node i's ball before it.
+    fn crossed_velocity(
+        &self,
+        tree: &Tree<f64>,
+        i: usize,
+        vel: Motion<f64>,
+        v: &[f64],
+    ) -> Motion<f64> {
+        let before = tree.joint[i].ball_axes_before();
+        (1..=before).fold(vel, |m, k| m - self.axis[i - k] * v[i - k])
+    }
+
+    /// The motion of node j's ball from its axes other than j (zero on a
+    /// hinge or slide): w' of the module documentation.
+    fn other_axes(&self, tree: &Tree<f64>, j: usize, v: &[f64]) -> Option<Motion<f64>> {
+        let ball = ball_nodes(tree, j)?;
+        let others = ball.filter(|&m| m != j);
+        Some(others.fold(Motion::zero(), |w, m| w + self.axis[m] * v[m]))
+    }
+
     /// Phi^C_j(x) of the module documentation.
     fn phi(&self, j: usize, x: &Motion<f64>) -> Force<f64> {
         self.rate[j].mul_motion(x) + x.cross_force(&self.momentum[j])
     }
 
     /// The per-dof terms (c, dv, G) of q_j's and v_j's columns.
-    fn dof_terms(&mut self, tree: &Tree<f64>) {
+    fn dof_terms(&mut self, tree: &Tree<f64>, v: &[f64]) {
         let gravity = Motion::new(nalgebra::Vector3::zeros(), -tree.gravity);
         for j in 0..tree.nv() {
             let (v_p, a_p) =
-                tree.parent[j].map_or((Motion::zero(), gravity), |p| (self.vel[p], self.acc[p]));
+                entering(tree, j).map_or((Motion::zero(), gravity), |p| (self.vel[p], self.acc[p]));
             let s = self.axis[j];
             let dv = v_p.cross_motion(&s);
             let c = -s.cross_motion(&a_p) - dv.cross_motion(&v_p);
             let turn = s.cross_force(&self.force[j]);
             let g = turn + self.composite[j].mul_motion(&c) + self.phi(j, &dv);
             self.position[j] = (c, dv, g);
-            let c = (v_p * 2.0).cross_motion(&s);
+            let mut c = (v_p * 2.0).cross_motion(&s);
+            if let Some(w) = self.other_axes(tree, j, v) {
+                c += w.cross_motion(&s);
+            }
             let g = self.composite[j].mul_motion(&c) + self.phi(j, &s);
             self.velocity[j] = (c, g);
         }
@@ -189,7 +230,7 @@ impl Sweep {
             }
         }
         for j in 0..n {
-            let a_p = tree.parent[j].map_or(Motion::zero(), |p| self.world_acc_y[p]);
+            let a_p = entering(tree, j).map_or(Motion::zero(), |p| self.world_acc_y[p]);
             let s = self.axis[j];
             let c = -s.cross_motion(&a_p);
             let g = s.cross_force(&self.world_force_y[j]) + self.composite[j].mul_motion(&c);
@@ -213,7 +254,7 @@ pub fn rnea_derivatives(
 ) {
     let n = tree.nv();
     sweep.sweep(tree, data, (v, a));
-    sweep.dof_terms(tree);
+    sweep.dof_terms(tree, v);
     d_dq.fill(0.0);
     d_dv.fill(0.0);
     let mut mass = mass.map(|(y, d_my)| {
@@ -221,10 +262,12 @@ pub fn rnea_derivatives(
         d_my.fill(0.0);
         d_my
     });
-    // Entry (i, k) for every k on i's path (i in k's subtree), and (k, i)
-    // for k above i.
+    // Entry (i, j) for every j on i's path (i in j's subtree), and (j, i)
+    // for j above i: in i's ball, the subtree form for q (see the module
+    // documentation).
     for i in 0..n {
         let (sigma, rho) = (&sweep.sigma[i], &sweep.rho[i]);
+        let ball = ball_nodes(tree, i).map_or(i, |mut b| b.next().expect("three axes"));
         let mut k = Some(i);
         while let Some(j) = k {
             let (c, dv, _) = &sweep.position[j];
@@ -236,10 +279,17 @@ pub fn rnea_derivatives(
             }
             if j != i {
                 let s = &sweep.axis[j];
-                d_dq[i * n + j] = s.dot(&sweep.position[i].2);
+                let (sigma_j, rho_j) = (&sweep.sigma[j], &sweep.rho[j]);
+                let (c, dv, g) = &sweep.position[i];
+                d_dq[i * n + j] = if j >= ball {
+                    c.dot(sigma_j) + dv.dot(rho_j)
+                } else {
+                    s.dot(g)
+                };
                 d_dv[i * n + j] = s.dot(&sweep.velocity[i].1);
                 if let Some(d_my) = &mut mass {
-                    d_my[i * n + j] = s.dot(&sweep.mass[i].1);
+                    let (c, g) = &sweep.mass[i];
+                    d_my[i * n + j] = if j >= ball { c.dot(sigma_j) } else { s.dot(g) };
                 }
             }
             k = tree.parent[j];
@@ -247,13 +297,47 @@ pub fn rnea_derivatives(
     }
 }
 
+/// The nodes of node j's ball, in order (None on a hinge or slide).
+fn ball_nodes(tree: &Tree<f64>, j: usize) -> Option<std::ops::Range<usize>> {
+    let Coordinates::Rotation { axis, .. } = tree.joint[j].coordinates else {
+        return None;
+    };
+    Some(j - axis..j - axis + 3)
+}
+
+/// The node whose motion enters node j's joint: j's parent, or for a ball's
+/// axis the parent of its first (None: the world).
+fn entering(tree: &Tree<f64>, j: usize) -> Option<usize> {
+    tree.parent[j - tree.joint[j].ball_axes_before()]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dynamics::configuration::integrate;
     use crate::dynamics::world_frames;
     use crate::dynamics::{crba, rnea};
+    use crate::spatial::Real;
     use crate::Model;
     use nalgebra::{DMatrix, DVector};
+    use num_dual::Dual64;
+
+    /// dID/dq, dID/dv and d(M(q) y)/dq at (q, v, a) by [`rnea_derivatives`].
+    fn analytic(
+        model: &Model,
+        (q, v, a, y): (&[f64], &[f64], &[f64], &[f64]),
+    ) -> [DMatrix<f64>; 3] {
+        let (tree, n) = (model.tree(), model.nv());
+        let mut data = model.data();
+        let mut tau = vec![0.0; n];
+        rnea(tree, &mut data, q, v, a, &mut tau);
+        world_frames(tree, &mut data, v);
+        let [mut d_dq, mut d_dv, mut d_my] = [(); 3].map(|_| DMatrix::zeros(n, n));
+        let columns = (d_dq.as_mut_slice(), d_dv.as_mut_slice());
+        let mass = Some((y, d_my.as_mut_slice()));
+        rnea_derivatives(tree, &data, &mut Sweep::new(n), (v, a), columns, mass);
+        [d_dq, d_dv, d_my]
+    }
 
     /// dID/dq, dID/dv and d(M(q) y)/dq equal central differences of RNEA
     /// and of the mass matrix times y, on a branched tree with slides and
@@ -276,20 +360,9 @@ mod tests {
             wave(4.0, 3.0),
             wave(1.0, 4.0),
         );
+        let [d_dq, d_dv, d_my] = analytic(&model, (&q, &v, &a, &y));
         let mut data = model.data();
         let mut tau = vec![0.0; n];
-        rnea(tree, &mut data, &q, &v, &a, &mut tau);
-        world_frames(tree, &mut data, &v);
-        let mut sweep = Sweep::new(n);
-        let (mut d_dq, mut d_dv, mut d_my) = (
-            DMatrix::zeros(n, n),
-            DMatrix::zeros(n, n),
-            DMatrix::zeros(n, n),
-        );
-        let columns = (d_dq.as_mut_slice(), d_dv.as_mut_slice());
-        let mass = Some((&y[..], d_my.as_mut_slice()));
-        rnea_derivatives(tree, &data, &mut sweep, (&v, &a), columns, mass);
-
         let mut id = |q: &[f64], v: &[f64]| {
             rnea(tree, &mut data, q, v, &a, &mut tau);
             DVector::from_column_slice(&tau)
@@ -318,6 +391,111 @@ mod tests {
             let fd = (my(&shifted(&q, j, h)) - my(&shifted(&q, j, -h))) / (2.0 * h);
             let err = (fd - d_my.column(j)).amax();
             assert!(err < 1e-7, "column {j}: {err:e}");
+        }
+    }
+
+    /// The same derivatives with ball and free joints (free_ball.xml: a
+    /// free box with a ball-jointed arm and a hinge below it, and a ball
+    /// pendulum from the world), q moved in the tangent space (q (+) eps e_j):
+    /// equal to dual numbers through RNEA and M(q) y to rounding, and to
+    /// central differences.
+    #[test]
+    fn ball_and_free_joints_match_dual_numbers_and_finite_differences() {
+        let model = Model::load(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/reference_models/free_ball.xml"
+        ))
+        .unwrap();
+        let (tree, n) = (model.tree(), model.nv());
+        let wave = |k: f64, phase: f64| -> Vec<f64> {
+            (0..n).map(|i| k * (i as f64 + phase).sin()).collect()
+        };
+        let (v, a, y) = (wave(1.5, 2.0), wave(4.0, 3.0), wave(1.0, 4.0));
+        let mut q = vec![0.0; model.nq()];
+        integrate(tree, &model.reference_q(), &wave(0.7, 1.0), 1.0, &mut q);
+        let [d_dq, d_dv, d_my] = analytic(&model, (&q, &v, &a, &y));
+
+        // ID(q (+) dq, v + dv) and M(q (+) dq) y, in any scalar.
+        fn evaluate<T: Real>(
+            tree: &Tree<T>,
+            (q, dq): (&[f64], &[T]),
+            (v, a, y): (&[T], &[f64], &[f64]),
+        ) -> (Vec<T>, Vec<T>) {
+            let n = tree.nv();
+            let lift = |x: &[f64]| {
+                x.iter()
+                    .map(|&x| crate::spatial::lift(x))
+                    .collect::<Vec<T>>()
+            };
+            let mut at = vec![T::zero(); q.len()];
+            integrate(tree, &lift(q), dq, T::one(), &mut at);
+            let mut data = Data::new(tree);
+            let mut tau = vec![T::zero(); n];
+            rnea(tree, &mut data, &at, v, &lift(a), &mut tau);
+            crba(tree, &mut data, &at);
+            let my = (0..n)
+                .map(|i| {
+                    (0..n).fold(T::zero(), |s, k| {
+                        s + data.mass_matrix[(i, k)] * lift(&y[k..=k])[0]
+                    })
+                })
+                .collect();
+            (tau, my)
+        }
+        let dual_tree: Tree<Dual64> = Tree::build(&model);
+        let seed = |j: usize, x: &[f64], on: bool| -> Vec<Dual64> {
+            x.iter()
+                .enumerate()
+                .map(|(i, &xi)| Dual64::new(xi, if on && i == j { 1.0 } else { 0.0 }))
+                .collect()
+        };
+        let zero = vec![0.0; n];
+        let h = 1e-6;
+        let shifted = |x: &[f64], j: usize, by: f64| {
+            let mut x = x.to_vec();
+            x[j] += by;
+            x
+        };
+        for j in 0..n {
+            let (id_q, my_q) = evaluate(
+                &dual_tree,
+                (&q, &seed(j, &zero, true)),
+                (&seed(j, &v, false), &a, &y),
+            );
+            let (id_v, _) = evaluate(
+                &dual_tree,
+                (&q, &seed(j, &zero, false)),
+                (&seed(j, &v, true), &a, &y),
+            );
+            let eps = |x: &[Dual64]| DVector::from_iterator(n, x.iter().map(|d| d.eps));
+            let err = [
+                (eps(&id_q) - d_dq.column(j)).amax(),
+                (eps(&id_v) - d_dv.column(j)).amax(),
+                (eps(&my_q) - d_my.column(j)).amax(),
+            ];
+            assert!(err.iter().all(|&e| e < 1e-11), "column {j}: dual {err:?}");
+
+            let at = |dq: &[f64], v: &[f64]| {
+                let (tau, my) = evaluate(tree, (&q, dq), (v, &a, &y));
+                (DVector::from_vec(tau), DVector::from_vec(my))
+            };
+            let ((tp, mp), (tm, mm)) = (
+                at(&shifted(&zero, j, h), &v),
+                at(&shifted(&zero, j, -h), &v),
+            );
+            let (vp, vm) = (
+                at(&zero, &shifted(&v, j, h)).0,
+                at(&zero, &shifted(&v, j, -h)).0,
+            );
+            let err = [
+                ((tp - tm) / (2.0 * h) - d_dq.column(j)).amax(),
+                ((vp - vm) / (2.0 * h) - d_dv.column(j)).amax(),
+                ((mp - mm) / (2.0 * h) - d_my.column(j)).amax(),
+            ];
+            assert!(
+                err.iter().all(|&e| e < 1e-6),
+                "column {j}: differences {err:?}"
+            );
         }
     }
 }

@@ -11,6 +11,7 @@ use super::gemm::gemm;
 use super::params::{mass_product_derivative, residual_derivative};
 use super::rnea::{rnea_derivatives, Sweep};
 use super::soft::{subtract_soft_derivatives, Columns};
+use super::tangent::{add_rotation_springs, is_rotation, rotate_rows, rotations, Rotation};
 use super::window::WindowScratch;
 use crate::dynamics::actuation::idle_without_inputs;
 use crate::dynamics::cholesky;
@@ -251,7 +252,13 @@ pub(super) fn applied_jacobians(
     // parameters' (friction, solref, solimp, dry friction), which are dual
     // and interleaved back in order; where the zones defeat the analytic
     // derivative (an elliptic cone in its middle zone), every column is dual.
-    let is_dual = |p: Param| tree.has_constraints() && p.is_constraint();
+    // With ball or free joints the joint parameters' columns are dual too
+    // (the analytic ones index a joint's dofs as one).
+    let turning = !model.one_dof_joints();
+    let is_dual = |p: Param| {
+        tree.has_constraints() && p.is_constraint()
+            || turning && !matches!(p, Param::Mass(_) | Param::Com(_) | Param::Inertia(_))
+    };
     let dual_params: Vec<Param> = wrt.params.iter().copied().filter(|p| is_dual(*p)).collect();
     let analytic_params: Vec<Param>;
     let analytic_wrt = if dual_params.is_empty() {
@@ -269,7 +276,7 @@ pub(super) fn applied_jacobians(
         }
     };
     let analytic = if !wrt.state && !wrt.control && analytic_wrt.params.is_empty()
-        || super::dual_only(model)
+        || super::dual_step(model)
     {
         None
     } else if let Some(mode) = euler(&model.opt) {
@@ -278,7 +285,9 @@ pub(super) fn applied_jacobians(
             integrate_euler(tree, h, (q, v, &ws.qdd), (&mut q_next, &mut v_next));
             let mut jacobian = DMatrix::zeros(2 * n, ws.dqdd.ncols());
             let targets = [jacobian.as_mut_slice()];
-            euler_columns(ws.dqdd.as_slice(), (h, n), analytic_wrt.state, targets);
+            let turns = rotations(tree, h, &v_next);
+            let state = analytic_wrt.state;
+            euler_columns(ws.dqdd.as_slice(), (h, n), (state, &turns), targets);
             jacobian
         })
     } else {
@@ -397,11 +406,12 @@ fn block_columns(n: usize, total: usize, wrt: &Wrt) -> [(usize, usize); 4] {
 /// the column-major `targets` in turn (d q' above d v'): v' = v + h qdd and
 /// q' = q + h v' give d v' = h d qdd (+ I on v) and d q' = h d v' (+ h I
 /// on v, I on q), the identity blocks where `state` (the first 2n columns
-/// are the state's).
+/// are the state's); on the `rotations` of ball and free joints, d q' as
+/// module `tangent` states.
 pub(super) fn euler_columns<const N: usize>(
     dqdd: &[f64],
     (h, n): (f64, usize),
-    state: bool,
+    (state, rotations): (bool, &[Rotation]),
     targets: [&mut [f64]; N],
 ) {
     if n == 0 {
@@ -414,14 +424,15 @@ pub(super) fn euler_columns<const N: usize>(
             dv[i] = source[i] * h;
             dq[i] = dv[i] * h;
         }
-        if !state {
-            continue;
-        }
-        if column < n {
+        if state && column < n {
             dq[column] += 1.0;
-        } else if column < 2 * n {
+        } else if state && column < 2 * n {
             dv[column - n] += 1.0;
             dq[column - n] += h;
+        }
+        if !rotations.is_empty() {
+            let q_column = (state && column < n).then_some(column);
+            rotate_rows(rotations, q_column, (dq, dv));
         }
     }
 }
@@ -521,6 +532,11 @@ pub(super) fn accel_derivatives(
     let tree = model.tree();
     acceleration(tree, &mut ws.data, (mode, h), (q, v, tau), &mut ws.qdd);
     implicit_terms(tree, (mode, h), (q, v), &mut ws.stretch, &mut ws.extra);
+    let rotations = !model.one_dof_joints();
+    if rotations && (ws.data.constrained.is_some() || !ws.data.contacts.is_empty()) {
+        // The rows' and the soft contacts' partials index q as v.
+        return false;
+    }
     if let Some(c) = ws.data.constrained.take() {
         let done = differentiable(&c) && constrained_derivatives(model, ws, (mode, h), v, &c, wrt);
         ws.data.constrained = Some(c);
@@ -545,7 +561,7 @@ pub(super) fn accel_derivatives(
         let (r_q, r_v) = ws.r.as_mut_slice()[..2 * n * n].split_at_mut(n * n);
         let at = (v, &ws.qdd[..]);
         rnea_derivatives(tree, &ws.data, &mut ws.sweep, at, (r_q, r_v), None);
-        add_passive_partials(model, (mode, h), (r_q, r_v));
+        add_passive_partials(model, (mode, h), &ws.stretch, (r_q, r_v));
     }
     for i in 0..n_tau {
         ws.r[(i, 2 * n_state + i)] = -1.0;
@@ -591,19 +607,25 @@ pub(super) fn accel_derivatives(
 }
 
 /// dR/dq and dR/dv of the passive force -D v - K stretch,
-/// stretch = q - springref (+ h v for DART), into `r_q` and `r_v` (n x n column-major).
+/// stretch = q - springref (+ h v for DART), into `r_q` and `r_v` (n x n
+/// column-major); a rotation's spring as module `tangent` states (`stretch`
+/// its r: DART's springs on rotations go through dual numbers).
 fn add_passive_partials(
     model: &Model,
     (mode, h): (PassiveMode, f64),
+    stretch: &[f64],
     (r_q, r_v): (&mut [f64], &mut [f64]),
 ) {
     let tree = model.tree();
     let n = model.nv();
     let spring_v = ImplicitPassive::new(mode, h).spring_step();
     for i in 0..n {
-        r_q[i * n + i] += tree.stiffness[i];
+        if !is_rotation(tree, i) {
+            r_q[i * n + i] += tree.stiffness[i];
+        }
         r_v[i * n + i] += tree.damping[i] + spring_v * tree.stiffness[i];
     }
+    add_rotation_springs(tree, stretch, r_q);
 }
 
 /// The derivatives of the constraint model's acceleration in the state and
@@ -675,7 +697,7 @@ fn constrained_derivatives(
         reset(&mut ws.dmy, n, n);
         let mass = implicit.then(|| (&y[..], ws.dmy.as_mut_slice()));
         rnea_derivatives(tree, &ws.data, &mut ws.sweep, (v, a), (r_q, r_v), mass);
-        add_passive_partials(model, (mode, h), (r_q, r_v));
+        add_passive_partials(model, (mode, h), &ws.stretch, (r_q, r_v));
         add_row_partials(tree, &ws.data, (v, a), c, (r_q, r_v), &mut ws.rows);
         let state = ws.dqdd.columns_mut(0, 2 * n);
         gemm(state, -1.0, &ws.gain, ws.r.columns(0, 2 * n), 0.0);

@@ -9,6 +9,7 @@
 use nalgebra::DMatrix;
 
 use super::step::{accel_derivatives, euler_columns, step_jacobians, Workspace, Wrt};
+use super::tangent::rotations;
 use crate::dynamics::actuation::idle_without_inputs;
 use crate::dynamics::{check_inputs, integrate_euler, integrator, StepError};
 use crate::Model;
@@ -56,7 +57,7 @@ pub fn transition_jacobians(
     };
     // Actuators that act at zero control go through step_jacobians.
     let idle = idle_without_inputs(&model.tree().actuators);
-    let euler = integrator::euler(&model.opt).filter(|_| !super::dual_only(model) && idle);
+    let euler = integrator::euler(&model.opt).filter(|_| !super::dual_step(model) && idle);
     if let Some(mode) = euler.filter(|&mode| accel_derivatives(model, ws, mode, (q, v, tau), &wrt))
     {
         let h = mode.1;
@@ -79,7 +80,8 @@ pub fn transition_jacobians(
             }
         }
         let targets = [out.a.as_mut_slice(), out.b.as_mut_slice()];
-        euler_columns(ws.dqdd.as_slice(), (h, n), true, targets);
+        let turns = rotations(model.tree(), h, &out.v_next);
+        euler_columns(ws.dqdd.as_slice(), (h, n), (true, &turns), targets);
     } else {
         // Checked as step_jacobians checks its blocks.
         let j = step_jacobians(model, ws, (q, v, tau), &wrt)?;

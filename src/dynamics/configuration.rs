@@ -150,7 +150,7 @@ pub fn tangent_rate<T: Real>(tree: &Tree<T>, theta: &[T], v: &[T], out: &mut [T]
 /// 1/t^2 - (1 + cos t) / (2 t sin t) of t^2 = `squared`, by its series
 /// 1/12 + t^2/720 below t = 1e-4 (where the difference cancels, and where
 /// the square root's slope would be infinite for dual numbers at t = 0).
-fn second_order<T: Real>(squared: T) -> T {
+pub(crate) fn second_order<T: Real>(squared: T) -> T {
     if squared < lift(1e-8) {
         lift::<T>(1.0 / 12.0) + squared / lift(720.0)
     } else {

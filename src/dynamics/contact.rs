@@ -31,7 +31,7 @@
 //! - k, c, f are the named parameters `contact/stiffness`, `contact/damping`,
 //!   `contact/friction`; the rest are fixed settings ([`SoftOptions`]).
 //!
-//! Pairs ([`contact_pairs`]): geoms of different bodies whose MJCF bitmasks
+//! Pairs ([`crate::compile::contact_pairs`]): geoms of different bodies whose MJCF bitmasks
 //! match (contype_a & conaffinity_b or contype_b & conaffinity_a), unless the
 //! bodies are the same rigid body (welded together) or parent and child
 //! (MuJoCo's rule; the world counts as nobody's parent). Supported shapes:
@@ -48,12 +48,12 @@
 
 use nalgebra::Vector3;
 
-use super::collision::{apart, candidates, make_frame, Contact, Filter, GeomFrame};
+use super::collision::{apart, make_frame, Contact, GeomFrame};
 
 use super::{update_transforms, world_frames, Data, Tree};
 #[cfg(doc)]
 use crate::model::Options;
-use crate::model::{Shape, SoftOptions, Spec};
+use crate::model::{Shape, SoftOptions};
 use crate::spatial::{lift, Force, Motion, Real, Transform};
 
 /// Contacts are skipped beyond this many widths of separation.
@@ -96,27 +96,6 @@ impl<T: Real> Soft<T> {
 pub struct Pair {
     pub geoms: [usize; 2],
     pub friction: f64,
-}
-
-/// The geom pairs that may touch, as model geom indices [a, b] (b the plane
-/// when there is one), in model order: the candidates under the smooth
-/// model's [`Filter`] whose shapes its law supports; empty when contacts
-/// are off.
-pub fn contact_pairs(spec: &Spec) -> Vec<[usize; 2]> {
-    candidates(spec, Filter::SMOOTH)
-        .into_iter()
-        .filter_map(|[i, j]| match (spec.geoms[i].shape, spec.geoms[j].shape) {
-            (Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. }, Shape::Plane)
-            | (
-                Shape::Sphere { .. } | Shape::Capsule { .. },
-                Shape::Sphere { .. } | Shape::Capsule { .. },
-            ) => Some([i, j]),
-            (Shape::Plane, Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. }) => {
-                Some([j, i])
-            }
-            _ => None,
-        })
-        .collect()
 }
 
 /// softplus of width w and its derivative: (w ln(1 + e^(d/w)), sigmoid(d/w)),

@@ -141,7 +141,7 @@ pub fn temp_path(tag: &str, name: &str) -> std::path::PathBuf {
 /// The names of the geom pairs that may touch, [a, b] as the contact code
 /// orders them (b the plane when there is one).
 pub fn contact_pair_names(model: &Model) -> Vec<[&str; 2]> {
-    diffosi::dynamics::contact::contact_pairs(model)
+    diffosi::compile::contact_pairs(model)
         .into_iter()
         .map(|p| p.map(|g| model.geoms[g].name.as_str()))
         .collect()

@@ -1,5 +1,6 @@
 //! Collision detection of the constraint model, as MuJoCo computes it: which
-//! geom pairs may touch (fixed when the model is built, [`pairs`]), the broad
+//! geom pairs may touch (fixed when the model is compiled,
+//! [`crate::compile::collision_pairs`]), the broad
 //! phase ([`apart`]), and the contacts of a pair at a state: one table of
 //! colliders indexed by the two geoms' types, one file per collider family
 //! (plane.rs, sphere.rs, capsule.rs, box_box.rs). The smooth model
@@ -29,7 +30,8 @@
 //! bodies when their bitmasks match (contype of one & conaffinity of the
 //! other), unless the bodies are welded together, both static, excluded
 //! (`<exclude>`), or parent and child when neither is the world
-//! (`filterparent`), or when an explicit pair joins them ([`pairs`]).
+//! (`filterparent`), or when an explicit pair joins them
+//! ([`crate::compile::candidates`]).
 //!
 //! Supported pairs are those with an entry in [`Colliders::TABLE`]: plane
 //! against sphere, capsule, cylinder and box; sphere against sphere,
@@ -80,15 +82,12 @@ mod convex;
 mod epa;
 mod geom;
 mod gjk;
-mod mixing;
-pub mod pairs;
 mod plane;
 mod record;
 mod shape;
 mod sphere;
 
 pub use geom::{apart, GeomFrame};
-pub use pairs::{candidates, collision_pairs, Filter};
 pub use plane::fixed_sphere;
 pub use record::{body_contact_forces, Contact};
 

@@ -4,7 +4,7 @@
 
 use nalgebra::Vector3;
 
-use super::{normalize, Placed, Pre, MINVAL};
+use super::{collider, normalize, GeomType, Placed, Pre, MINVAL};
 use crate::model::Shape;
 use crate::spatial::{lift, Real, Transform};
 
@@ -152,16 +152,20 @@ pub(super) fn cuboid<T: Real>(
     }
 }
 
-/// What the plane colliders above make of a shape at `pose`: each contact
-/// is the point nearest the plane of a sphere of radius r fixed on the
-/// shape (the sphere itself, a capsule's end sphere, a box's corner with
-/// r = 0), and its frame's tangent hint is h (a capsule's axis; zero for
-/// none). None for shapes whose plane contacts are no such sphere's.
+/// What the table's plane collider (its plane row, [`super::Colliders::TABLE`])
+/// makes of a shape at `pose`: each contact is the point nearest the plane
+/// of a sphere of radius r fixed on the shape (the sphere itself, a
+/// capsule's end sphere, a box's corner with r = 0), and its frame's tangent
+/// hint is h (a capsule's axis; zero for none). None for a shape without a
+/// plane collider, and for one whose plane contacts are no such sphere's (a
+/// cylinder's rim points). The derivatives move such contacts in closed form.
 pub fn fixed_sphere(shape: &Shape, pose: &Transform<f64>) -> Option<(f64, Vector3<f64>)> {
-    match *shape {
-        Shape::Sphere { radius } => Some((radius, Vector3::zeros())),
-        Shape::Capsule { radius, .. } => Some((radius, pose.axes().column(2).into())),
-        Shape::Box { .. } => Some((0.0, Vector3::zeros())),
+    collider::<f64>(GeomType::Plane, shape.kind())?;
+    let [radius, ..] = shape.size();
+    match shape.kind() {
+        GeomType::Sphere => Some((radius, Vector3::zeros())),
+        GeomType::Capsule => Some((radius, pose.axes().column(2).into())),
+        GeomType::Box => Some((0.0, Vector3::zeros())),
         _ => None,
     }
 }
@@ -169,7 +173,7 @@ pub fn fixed_sphere(shape: &Shape, pose: &Transform<f64>) -> Option<(f64, Vector
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dynamics::collision::{collider, GeomType};
+    use crate::dynamics::collision::Colliders;
     use nalgebra::Matrix3;
 
     fn floor() -> Placed<f64> {
@@ -214,9 +218,11 @@ mod tests {
 
     #[test]
     fn plane_contacts_are_those_of_the_fixed_sphere() {
-        // A tilted shape 1 cm into the floor: each contact's centre
-        // pos + n (dist / 2 + r) is a point of the shape's fixed sphere's
-        // centres (the centre, an end, a corner).
+        // A tilted shape of every type with a plane collider in the table, 1
+        // cm into the floor: each contact's centre pos + n (dist / 2 + r) is
+        // a point of the shape's fixed sphere's centres (the centre, an end,
+        // a corner); the cylinder alone has none, and a shape without a
+        // plane collider has none.
         let tilt = nalgebra::Rotation3::from_euler_angles(0.3, -0.2, 0.1);
         let pose = Transform::from_pose_f64(&tilt, &Vector3::new(0.1, -0.2, 0.0));
         let shapes = [
@@ -225,18 +231,40 @@ mod tests {
                 radius: 0.05,
                 half_length: 0.1,
             },
+            Shape::Cylinder {
+                radius: 0.05,
+                half_length: 0.1,
+            },
             Shape::Box {
                 half: Vector3::new(0.05, 0.1, 0.02),
             },
+            Shape::Ellipsoid {
+                radii: Vector3::new(0.05, 0.1, 0.02),
+            },
         ];
+        let plane_row = Colliders::<f64>::TABLE[GeomType::Plane as usize];
+        let with_collider = plane_row.iter().filter(|c| c.is_some()).count();
+        assert_eq!(
+            shapes
+                .iter()
+                .filter(|s| collider::<f64>(GeomType::Plane, s.kind()).is_some())
+                .count(),
+            with_collider
+        );
         for shape in shapes {
+            let Some(pair) = collider::<f64>(GeomType::Plane, shape.kind()) else {
+                assert_eq!(fixed_sphere(&shape, &pose), None, "{shape:?}");
+                continue;
+            };
             let mut placed = Placed::of(&pose);
             placed.pos.z = 0.05 - 0.01;
             let mut out = vec![];
-            let pair = collider::<f64>(GeomType::Plane, shape.kind()).expect("a plane collider");
             pair((&Shape::Plane, &floor()), (&shape, &placed), 0.0, &mut out);
             assert!(!out.is_empty());
-            let (r, hint) = fixed_sphere(&shape, &pose).expect("a fixed sphere");
+            let Some((r, hint)) = fixed_sphere(&shape, &pose) else {
+                assert_eq!(shape.kind(), GeomType::Cylinder);
+                continue;
+            };
             for c in &out {
                 let centre = c.pos + c.normal * (c.dist / 2.0 + r);
                 let local = placed.mat.tr_mul(&(centre - placed.pos));

@@ -15,7 +15,7 @@
 //!   ([`contact`]). Each kind's file states its rows' J, distance and A_ii.
 //! - R and aref from the rows' distance and solver parameters as
 //!   [`impedance`](mod@impedance) states; A_ii from the invweight0
-//!   constants ([`invweight`]).
+//!   constants ([`crate::compile::invweight0`]).
 //!
 //! # Adding a constraint-row kind
 //!
@@ -25,8 +25,8 @@
 //! (efc_type mjCNSTR_EQUALITY, efc_id the equality's index): three rows
 //! holding an anchor of body b2 on an anchor of body b1.
 //! 1. The constants: `ConstraintConsts::equalities`, per equality its bodies,
-//!    anchors and solver parameters, filled where the tree is built (as
-//!    `limits` are).
+//!    anchors and solver parameters, compiled where `limits` are (the
+//!    compile layer's `Tree::add_constraints`, src/compile/tree.rs).
 //! 2. `ConstraintKind::Equality`, first in [`ConstraintKind::ORDER`] (MuJoCo
 //!    builds equalities first), and its arm in `ConstraintKind::append`:
 //!    `ConstraintKind::Equality => equality::append(at, rows)`.
@@ -81,13 +81,11 @@ use crate::spatial::{lift, Real};
 pub mod contact;
 pub mod friction;
 pub mod impedance;
-pub mod invweight;
 pub mod limit;
 pub mod solver;
 
 pub use contact::{contact_forces, contacts, mixing, unreachable_pair, Mixing};
 pub use impedance::{impedance, impedance_slope};
-pub use invweight::invweight0;
 pub use limit::Limit;
 
 /// The constants of the constraint model in a tree's scalar.

@@ -3,13 +3,12 @@
 //! Jacobians (body_invweight0), per dof the diagonal of M^-1
 //! (dof_invweight0), at the reference configuration; 1 / mass for MuJoCo's
 //! "simple" bodies (`slides_only`). They stand for A_ii in the rows' R
-//! ([`impedance`](mod@super::impedance)).
+//! ([`crate::dynamics::constraint::impedance`]).
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::dynamics::collision::MINVAL;
 use crate::dynamics::{crba, ltdl_factor, ltdl_solve, point_jacobian, world_frames, Data, Tree};
-use crate::model::{JointKind, Param, Spec};
+use crate::model::{JointKind, Param, Spec, MINVAL};
 use crate::spatial::{lift, Real};
 
 /// MuJoCo's body_invweight0 and dof_invweight0 of a tree built from `spec`,

@@ -1,5 +1,5 @@
 //! The constraint model's pair parameters from its geoms' (see the
-//! conventions of [`super`]), lifted to the tree's scalar.
+//! conventions of [`crate::dynamics::collision`]), lifted to the tree's scalar.
 
 use crate::model::constraint::solmix;
 use crate::model::{PairParams, Param, SolParams, Spec};
@@ -21,7 +21,7 @@ fn geom_params<T: Real>(
     (friction, sol)
 }
 
-/// The parameters of a pair from its geoms' (see the conventions of [`super`]).
+/// The parameters of a pair from its geoms' (see the conventions of [`crate::dynamics::collision`]).
 pub(super) fn mixed<T: Real>(
     spec: &Spec,
     [a, b]: [usize; 2],

@@ -1,8 +1,9 @@
-//! Which geom pairs may touch, fixed when a model is built: one candidate
+//! Which geom pairs may touch, fixed when a model is compiled: one candidate
 //! builder, whose rules both contact models share and whose differences
 //! are its [`Filter`]; each model then keeps the pairs its law supports, in
 //! its own order ([`collision_pairs`] for the constraint model,
-//! [`contact_pairs`](crate::dynamics::contact::contact_pairs) for the smooth one).
+//! [`contact_pairs`] for the smooth one). The broad phase at a state
+//! ([`crate::dynamics::collision::apart`]) runs on these pairs.
 //!
 //! Candidates: geoms of different bodies, in model order (i < j), whose
 //! bitmasks match (contype of one & conaffinity of the other), unless the
@@ -12,12 +13,12 @@
 //! geoms joined by an explicit pair (`<pair>`), when the filter says so.
 
 use super::mixing::{lifted, mixed};
-use super::supported;
-use crate::model::{PairParams, Param, Spec};
+use crate::dynamics::collision::supported;
+use crate::model::{PairParams, Param, Shape, Spec};
 use crate::spatial::Real;
 
 #[cfg(doc)]
-use super::GeomType;
+use crate::dynamics::collision::GeomType;
 
 /// What a model's rules add to the common ones (see the module documentation).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -119,6 +120,27 @@ pub fn collision_pairs<T: Real>(
                 geoms.swap(0, 1);
             }
             (geoms, params, supported(a, b))
+        })
+        .collect()
+}
+
+/// The geom pairs that may touch, as model geom indices [a, b] (b the plane
+/// when there is one), in model order: the candidates under the smooth
+/// model's [`Filter`] whose shapes its law supports; empty when contacts
+/// are off.
+pub fn contact_pairs(spec: &Spec) -> Vec<[usize; 2]> {
+    candidates(spec, Filter::SMOOTH)
+        .into_iter()
+        .filter_map(|[i, j]| match (spec.geoms[i].shape, spec.geoms[j].shape) {
+            (Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. }, Shape::Plane)
+            | (
+                Shape::Sphere { .. } | Shape::Capsule { .. },
+                Shape::Sphere { .. } | Shape::Capsule { .. },
+            ) => Some([i, j]),
+            (Shape::Plane, Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. }) => {
+                Some([j, i])
+            }
+            _ => None,
         })
         .collect()
 }
