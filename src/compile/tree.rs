@@ -11,7 +11,7 @@ use nalgebra::{Matrix3, Vector3};
 use super::fluid::fluid_bodies;
 use super::gravcomp::gravcomp_bodies;
 use crate::dynamics::actuation::ActuatorTerm;
-use crate::dynamics::collision::{collision_pairs, CollisionPair, GeomFrame};
+use crate::dynamics::collision::{collision_pairs, CollisionPair, GeomFrame, Sweep};
 use crate::dynamics::configuration::Coordinates;
 use crate::dynamics::constraint::{invweight0, Limit};
 use crate::dynamics::contact::{contact_pairs, Pair, Soft};
@@ -146,6 +146,9 @@ impl<T: Real> Tree<T> {
                 supported,
             });
         }
+        let reach = self.constraint.pairs.iter();
+        let reach = reach.map(|p| (p.geoms, p.params.margin + p.params.gap));
+        self.constraint.sweep = Sweep::new(&self.geoms, reach);
         let (bodies, dofs) = invweight0(self, model, lift_param);
         self.constraint.body_invweight = bodies;
         self.constraint.dof_invweight = dofs;

@@ -1,6 +1,6 @@
 //! Collision detection of the constraint model, as MuJoCo computes it: which
 //! geom pairs may touch (fixed when the model is built, [`pairs`]), the broad
-//! phase ([`apart`]), and the contacts of a pair at a state: one table of
+//! phase ([`Sweep`], then [`apart`]), and the contacts of a pair at a state: one table of
 //! colliders indexed by the two geoms' types, one file per collider family
 //! (plane.rs, sphere.rs, capsule.rs, box_box.rs). The smooth model
 //! ([`super::contact`]) shares the placed geoms, the broad phase and the
@@ -80,11 +80,13 @@ mod plane;
 mod record;
 mod shape;
 mod sphere;
+mod sweep;
 
 pub use geom::{apart, GeomFrame};
 pub use pairs::{candidates, collision_pairs, Filter};
 pub use plane::fixed_sphere;
 pub use record::{body_contact_forces, Contact};
+pub use sweep::{Sweep, MIN_PAIRS};
 
 pub use crate::model::MINVAL;
 
