@@ -75,6 +75,7 @@ impl Model {
             sites: vec![],
             sensors: vec![],
             meshes: vec![],
+            hfields: vec![],
         })
     }
 

@@ -6,6 +6,7 @@
 use nalgebra::Vector3;
 
 use super::{normalize, GeomType};
+use crate::model::hfield::HField;
 use crate::model::Shape;
 use crate::spatial::{lift, Real};
 
@@ -20,6 +21,7 @@ impl Shape {
             Shape::Cylinder { .. } => GeomType::Cylinder,
             Shape::Box { .. } => GeomType::Box,
             Shape::Mesh { .. } => GeomType::Mesh,
+            Shape::HField { .. } => GeomType::Hfield,
         }
     }
 
@@ -41,6 +43,7 @@ impl Shape {
             } => [radius, half_length, 0.0],
             Shape::Box { half } => half.into(),
             Shape::Ellipsoid { radii } => radii.into(),
+            Shape::HField { size, .. } => HField::geom_size(&size),
         }
     }
 
@@ -63,6 +66,7 @@ impl Shape {
             } => radius + half_length,
             Shape::Box { half } => half.norm(),
             Shape::Ellipsoid { radii } => radii.max(),
+            Shape::HField { size, .. } => HField::rbound(&size),
         }
     }
 
@@ -75,7 +79,7 @@ impl Shape {
         let side = |x: T, h: f64| if x >= T::zero() { lift(h) } else { lift(-h) };
         let along_z = |h: f64| Vector3::new(T::zero(), T::zero(), side(dir.z, h));
         Some(match *self {
-            Shape::Plane | Shape::Mesh { .. } => return None,
+            Shape::Plane | Shape::Mesh { .. } | Shape::HField { .. } => return None,
             Shape::Sphere { radius } => normalize(*dir).0 * lift::<T>(radius),
             Shape::Capsule {
                 radius,
@@ -142,7 +146,9 @@ mod tests {
             Shape::Box { half } => (p.abs() - half).max(),
             Shape::Ellipsoid { radii } => p.component_div(&radii).norm() - 1.0,
             Shape::Plane => p.z,
-            Shape::Mesh { .. } => unreachable!("the test shapes are primitives"),
+            Shape::Mesh { .. } | Shape::HField { .. } => {
+                unreachable!("the test shapes are primitives")
+            }
         }
     }
 
