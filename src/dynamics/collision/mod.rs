@@ -116,8 +116,8 @@ pub struct ConstraintContact<T: Real> {
 }
 
 /// MuJoCo's geom types (mjtGeom), in its order: a pair's geom 1 is the one
-/// of lower type. Height fields and meshes have no shape yet; their rows and
-/// columns of the table wait for them.
+/// of lower type. Height fields and meshes have no colliders yet; their
+/// rows and columns of the table wait for them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum GeomType {
     Plane,
