@@ -1,14 +1,15 @@
 //! Sweep and prune: the pairs whose geoms' bounding spheres may be within
 //! reach, without testing every pair.
 //!
-//! Each geom of a finite bounding radius r is an interval c - R .. c + R on
-//! one world axis, c its centre and R = r plus the largest reach of its
+//! Each geom of a finite bounding radius r is an axis-aligned cube of
+//! half-size R about its centre c, R = r plus the largest reach of its
 //! pairs (widened by a relative 1e-9, so that rounding never drops a pair).
-//! Two geoms whose intervals are disjoint are apart along that axis, hence
-//! apart by [`apart`](super::apart): sorting the intervals by their lower
-//! ends and sweeping finds every overlapping geom pair in O(n log n + k).
-//! Pairs with an unbounded geom (a plane) are always kept. The axis is the
-//! one along which the centres spread most.
+//! Two geoms whose cubes are disjoint are apart along some world axis,
+//! hence apart by [`apart`](super::apart): sorting the cubes by where they
+//! start on one axis and sweeping along it finds every overlapping pair in
+//! O(n log n + k), k the pairs overlapping on that axis, of which those
+//! whose cubes overlap are kept. Pairs with an unbounded geom (a plane) are
+//! always kept. The axis is the one along which the centres spread most.
 //!
 //! The result is a superset of the pairs within reach, as indices into the
 //! pair list, ascending: callers still test [`apart`](super::apart) on each,
@@ -19,8 +20,10 @@ use crate::spatial::{lift, Real, Transform};
 
 use super::GeomFrame;
 
-/// Below this many pairs testing every pair is as cheap as sorting.
-pub const MIN_PAIRS: usize = 64;
+/// Below this many pairs testing every pair is cheaper than sweeping
+/// (measured: the humanoid's 161 pairs take 1 us tested, 5 us swept; 300
+/// geoms' 43500 pairs 1 ms tested, 60-75 us swept).
+pub const MIN_PAIRS: usize = 1000;
 
 /// The relative widening of each interval.
 const SLACK: f64 = 1e-9;
@@ -101,32 +104,32 @@ impl Sweep {
             return;
         }
         let axis = widest_axis(&centres);
-        let mut intervals: Vec<(T, T, usize)> = self
+        // Per geom: its cube's half-size, and where it starts and ends on the axis.
+        let half: Vec<T> = self
             .finite
             .iter()
             .zip(&centres)
-            .map(|(&g, c)| {
-                let x = c[axis];
-                let r: T = lift::<T>(self.bound[g]) + x.abs() * lift(SLACK);
-                (x - r, x + r, g)
-            })
+            .map(|(&g, c)| lift::<T>(self.bound[g]) + c.amax() * lift(SLACK))
             .collect();
-        intervals.sort_by(|a, b| a.0.partial_cmp(&b.0).expect("finite").then(a.2.cmp(&b.2)));
-        let mut active: Vec<(T, usize)> = vec![];
-        for &(lo, hi, g) in &intervals {
-            active.retain(|&(end, _)| end >= lo);
-            for &(_, h) in &active {
+        let mut order: Vec<usize> = (0..centres.len()).collect();
+        let lo = |k: usize| centres[k][axis] - half[k];
+        order.sort_by(|&a, &b| lo(a).partial_cmp(&lo(b)).expect("finite").then(a.cmp(&b)));
+        let mut active: Vec<usize> = vec![];
+        for &k in &order {
+            active.retain(|&j| centres[j][axis] + half[j] >= lo(k));
+            for &j in &active {
+                let reach = half[j] + half[k];
+                if (centres[j] - centres[k]).amax() > reach {
+                    continue;
+                }
+                let [g, h] = [self.finite[j], self.finite[k]];
                 let (a, b) = (g.min(h), g.max(h));
                 let list = &self.partners[a];
                 let start = list.partition_point(|&(o, _)| o < b);
-                out.extend(
-                    list[start..]
-                        .iter()
-                        .take_while(|&&(o, _)| o == b)
-                        .map(|&(_, i)| i),
-                );
+                let same = list[start..].iter().take_while(|&&(o, _)| o == b);
+                out.extend(same.map(|&(_, i)| i));
             }
-            active.push((hi, g));
+            active.push(k);
         }
         out.sort_unstable();
     }
