@@ -339,6 +339,14 @@ fn compare(model: &Model, g: &Value) -> [(&'static str, Worst); 5] {
                 "ellipsoid",
                 radii.iter().copied().zip(size.iter().copied()).collect(),
             ),
+            Shape::HField { .. } => (
+                "hfield",
+                geom.shape
+                    .size()
+                    .into_iter()
+                    .zip(size.iter().copied())
+                    .collect(),
+            ),
             // MuJoCo's size of a mesh geom: its bounding box's half-extents.
             Shape::Mesh { mesh } => {
                 let [lo, hi] = &model.meshes[mesh].aabb;

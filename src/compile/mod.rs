@@ -80,6 +80,7 @@ impl Model {
             sites: vec![],
             sensors: vec![],
             meshes: vec![],
+            hfields: vec![],
         })
     }
 

@@ -13,7 +13,7 @@ use super::gravcomp::gravcomp_bodies;
 use super::invweight::invweight0;
 use super::pairs::{collision_pairs, contact_pairs};
 use crate::dynamics::actuation::ActuatorTerm;
-use crate::dynamics::collision::{CollisionPair, GeomFrame};
+use crate::dynamics::collision::{CollisionPair, GeomFrame, Sweep};
 use crate::dynamics::configuration::Coordinates;
 use crate::dynamics::constraint::Limit;
 use crate::dynamics::contact::{Pair, Soft};
@@ -148,6 +148,9 @@ impl<T: Real> Tree<T> {
                 supported,
             });
         }
+        let reach = self.constraint.pairs.iter();
+        let reach = reach.map(|p| (p.geoms, p.params.margin + p.params.gap));
+        self.constraint.sweep = Sweep::new(&self.geoms, reach);
         let (bodies, dofs) = invweight0(self, model, lift_param);
         self.constraint.body_invweight = bodies;
         self.constraint.dof_invweight = dofs;

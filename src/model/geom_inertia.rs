@@ -17,7 +17,7 @@ use super::Shape;
 pub(super) const MJ_EPS: f64 = 1e-14;
 
 /// Volume of a solid primitive (zero for a plane) or of a mesh of `meshes`
-/// (its area for a shell mesh).
+/// (its area for a shell mesh); a height field's is its box's.
 pub fn volume(shape: &Shape, meshes: &[Mesh]) -> f64 {
     use std::f64::consts::PI;
     match *shape {
@@ -33,6 +33,7 @@ pub fn volume(shape: &Shape, meshes: &[Mesh]) -> f64 {
             half_length,
         } => PI * r * r * (2.0 * half_length),
         Shape::Box { half } => half.x * half.y * half.z * 8.0,
+        Shape::HField { .. } => volume(&hfield_box(shape), meshes),
         Shape::Ellipsoid { radii: s } => 4.0 * PI * s.x * s.y * s.z / 3.0,
     }
 }
@@ -55,6 +56,7 @@ pub fn mass(shape: &Shape, meshes: &[Mesh], explicit_mass: Option<f64>, density:
 pub fn principal_moments(shape: &Shape, meshes: &[Mesh], mass: f64) -> Vector3<f64> {
     match *shape {
         Shape::Mesh { mesh } => meshes[mesh].principal_moments(mass),
+        Shape::HField { .. } => principal_moments(&hfield_box(shape), meshes, mass),
         Shape::Plane => Vector3::zeros(),
         Shape::Sphere { radius: r } => Vector3::repeat(2.0 * mass * r * r / 5.0),
         Shape::Capsule {
@@ -93,6 +95,13 @@ pub fn principal_moments(shape: &Shape, meshes: &[Mesh], mass: f64) -> Vector3<f
                 mass * (x2 + y2) / 5.0,
             )
         }
+    }
+}
+
+/// The box whose mass and inertia a height-field geom has (MuJoCo's).
+fn hfield_box(shape: &Shape) -> Shape {
+    Shape::Box {
+        half: shape.size().into(),
     }
 }
 

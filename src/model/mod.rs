@@ -31,6 +31,7 @@
 
 pub mod constraint;
 pub mod geom_inertia;
+pub mod hfield;
 mod keyframe;
 pub mod mesh;
 pub mod mjcf;
@@ -371,6 +372,14 @@ pub enum Shape {
     Mesh {
         mesh: usize,
     },
+    /// The height field `Spec::hfields[hfield]`, with its `size` (the
+    /// table's, copied: the extent, bounding radius, mass and inertia need
+    /// no elevations). Its mass and inertia are those of the box of
+    /// half-sizes [`hfield::HField::geom_size`], as MuJoCo's.
+    HField {
+        hfield: usize,
+        size: [f64; 4],
+    },
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -628,6 +637,8 @@ pub struct Spec {
     pub sensors: Vec<Sensor>,
     /// The meshes that [`Shape::Mesh`] geoms index.
     pub meshes: Vec<mesh::Mesh>,
+    /// The height fields that [`Shape::HField`] geoms index.
+    pub hfields: Vec<hfield::HField>,
 }
 
 /// Which inertia tensors a model accepts, beyond finite, symmetric and
@@ -811,6 +822,13 @@ impl Spec {
             if let Shape::Mesh { mesh } = g.shape {
                 if mesh >= self.meshes.len() {
                     return bad(format!("{owner}: mesh {mesh} does not exist"));
+                }
+            }
+            if let Shape::HField { hfield, size } = g.shape {
+                if self.hfields.get(hfield).is_none_or(|h| h.size != size) {
+                    return bad(format!(
+                        "{owner}: hfield {hfield} does not exist or has another size"
+                    ));
                 }
             }
             constraint::check_friction(&g.friction, &owner)

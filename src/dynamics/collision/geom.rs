@@ -47,7 +47,7 @@ impl<T: Real> GeomFrame<T> {
     }
 
     /// The geom's centre in world coordinates.
-    fn centre(&self, world: &[Transform<T>]) -> Vector3<T> {
+    pub(super) fn centre(&self, world: &[Transform<T>]) -> Vector3<T> {
         match self.node {
             Some(n) => world[n].trans + world[n].rot.tr_mul(&self.offset.trans),
             None => self.offset.trans,

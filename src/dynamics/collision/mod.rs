@@ -1,7 +1,7 @@
 //! Collision detection of the constraint model, as MuJoCo computes it: which
 //! geom pairs may touch (fixed when the model is compiled,
-//! [`crate::compile::collision_pairs`]), the broad
-//! phase ([`apart`]), and the contacts of a pair at a state: one table of
+//! [`crate::compile::collision_pairs`]), the broad phase ([`Sweep`], then
+//! [`apart`]), and the contacts of a pair at a state: one table of
 //! colliders indexed by the two geoms' types, one file per collider family
 //! (plane.rs, sphere.rs, capsule.rs, box_box.rs). The smooth model
 //! ([`super::contact`]) shares the placed geoms, the broad phase and the
@@ -86,10 +86,12 @@ mod plane;
 mod record;
 mod shape;
 mod sphere;
+mod sweep;
 
 pub use geom::{apart, GeomFrame};
 pub use plane::fixed_sphere;
 pub use record::{body_contact_forces, Contact};
+pub use sweep::{Sweep, MIN_PAIRS};
 
 pub use crate::model::MINVAL;
 
@@ -119,8 +121,8 @@ pub struct ConstraintContact<T: Real> {
 }
 
 /// MuJoCo's geom types (mjtGeom), in its order: a pair's geom 1 is the one
-/// of lower type. Height fields and meshes have no shape yet; their rows and
-/// columns of the table wait for them.
+/// of lower type. Height fields and meshes have no colliders yet; their
+/// rows and columns of the table wait for them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum GeomType {
     Plane,

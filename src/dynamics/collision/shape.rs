@@ -6,6 +6,7 @@
 use nalgebra::Vector3;
 
 use super::GeomType;
+use crate::model::hfield::HField;
 use crate::model::Shape;
 use crate::model::MINVAL;
 use crate::spatial::{lift, Real};
@@ -21,6 +22,7 @@ impl Shape {
             Shape::Cylinder { .. } => GeomType::Cylinder,
             Shape::Box { .. } => GeomType::Box,
             Shape::Mesh { .. } => GeomType::Mesh,
+            Shape::HField { .. } => GeomType::Hfield,
         }
     }
 
@@ -42,6 +44,7 @@ impl Shape {
             } => [radius, half_length, 0.0],
             Shape::Box { half } => half.into(),
             Shape::Ellipsoid { radii } => radii.into(),
+            Shape::HField { size, .. } => HField::geom_size(&size),
         }
     }
 
@@ -64,6 +67,7 @@ impl Shape {
             } => radius + half_length,
             Shape::Box { half } => half.norm(),
             Shape::Ellipsoid { radii } => radii.max(),
+            Shape::HField { size, .. } => HField::rbound(&size),
         }
     }
 
@@ -77,7 +81,7 @@ impl Shape {
     pub fn support<T: Real>(&self, dir: &Vector3<T>) -> Option<Vector3<T>> {
         let side = |x: T, h: f64| if x >= T::zero() { lift(h) } else { lift(-h) };
         Some(match *self {
-            Shape::Plane | Shape::Mesh { .. } => return None,
+            Shape::Plane | Shape::Mesh { .. } | Shape::HField { .. } => return None,
             Shape::Sphere { radius } => dir * lift::<T>(radius),
             Shape::Capsule {
                 radius,
@@ -158,7 +162,9 @@ mod tests {
             Shape::Box { half } => (p.abs() - half).max(),
             Shape::Ellipsoid { radii } => p.component_div(&radii).norm() - 1.0,
             Shape::Plane => p.z,
-            Shape::Mesh { .. } => unreachable!("the test shapes are primitives"),
+            Shape::Mesh { .. } | Shape::HField { .. } => {
+                unreachable!("the test shapes are primitives")
+            }
         }
     }
 

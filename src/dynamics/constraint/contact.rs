@@ -15,7 +15,9 @@
 
 use super::impedance::Block;
 use super::{At, ConstraintKind, Origin, RowKind, Rows};
-use crate::dynamics::collision::{apart, collide, ConstraintContact, Pre};
+use crate::dynamics::collision::{
+    apart, collide, CollisionPair, ConstraintContact, Pre, MIN_PAIRS,
+};
 use crate::dynamics::{Contact, Data, Tree};
 use crate::model::Cone;
 use crate::spatial::{lift, Real};
@@ -29,21 +31,37 @@ pub fn contacts<T: Real>(
 ) {
     out.clear();
     let pairs = &tree.constraint.pairs;
-    for (index, pair) in pairs.iter().enumerate().filter(|(_, p)| p.supported) {
-        let geoms = pair.geoms.map(|g| &tree.geoms[g]);
-        // Bounding spheres farther apart than the pair's reach hold no contact
-        // (MuJoCo's broad phase): the colliders need not run.
-        if apart(
-            geoms[0],
-            geoms[1],
-            &data.world,
-            pair.params.margin + pair.params.gap,
-        ) {
-            continue;
-        }
+    for index in within_reach(tree, data, |p| p.supported) {
+        let geoms = pairs[index].geoms.map(|g| &tree.geoms[g]);
         let poses = geoms.map(|g| g.pose(&data.world));
         collide((pairs, index), geoms, poses, (&mut *out, &mut *pre));
     }
+}
+
+/// The indices of the pairs that `keep` accepts and whose bounding spheres
+/// are within the pair's reach (MuJoCo's broad phase: pairs farther apart
+/// hold no contact, their colliders need not run), in order. Many pairs are
+/// swept and pruned first ([`Sweep`](crate::dynamics::collision::Sweep)),
+/// which finds the same ones.
+fn within_reach<'a, T: Real>(
+    tree: &'a Tree<T>,
+    data: &'a Data<T>,
+    keep: impl Fn(&CollisionPair<T>) -> bool + 'a,
+) -> impl Iterator<Item = usize> + 'a {
+    let consts = &tree.constraint;
+    let pairs = &consts.pairs;
+    let every = pairs.len() < MIN_PAIRS;
+    let mut near = vec![];
+    if !every {
+        consts.sweep.near(&tree.geoms, &data.world, &mut near);
+    }
+    (0..if every { pairs.len() } else { 0 })
+        .chain(near)
+        .filter(move |&i| {
+            let p = &pairs[i];
+            let [a, b] = p.geoms.map(|g| &tree.geoms[g]);
+            keep(p) && !apart(a, b, &data.world, p.params.margin + p.params.gap)
+        })
 }
 
 /// Appends the rows of every contact of the state, in order.
@@ -265,20 +283,9 @@ pub fn contact_forces<T: Real>(
 /// current state (`data.world` filled by
 /// [`world_frames`](crate::dynamics::world_frames)), as model geom indices.
 pub fn unreachable_pair<T: Real>(tree: &Tree<T>, data: &Data<T>) -> Option<[usize; 2]> {
-    tree.constraint
-        .pairs
-        .iter()
-        .filter(|p| !p.supported)
-        .find(|p| {
-            let geoms = p.geoms.map(|g| &tree.geoms[g]);
-            !apart(
-                geoms[0],
-                geoms[1],
-                &data.world,
-                p.params.margin + p.params.gap,
-            )
-        })
-        .map(|p| p.geoms.map(|g| tree.geoms[g].geom))
+    within_reach(tree, data, |p| !p.supported)
+        .next()
+        .map(|i| tree.constraint.pairs[i].geoms.map(|g| tree.geoms[g].geom))
 }
 
 /// A contact's force in its frame from its rows' forces `f` (see [`contact_forces`]).

@@ -73,7 +73,7 @@
 
 use std::ops::Range;
 
-use super::collision::{CollisionPair, ConstraintContact, Pre};
+use super::collision::{CollisionPair, ConstraintContact, Pre, Sweep};
 use super::{Data, Tree};
 use crate::model::SolParams;
 use crate::spatial::{lift, Real};
@@ -92,6 +92,8 @@ pub use limit::Limit;
 #[derive(Clone, Debug, PartialEq)]
 pub struct ConstraintConsts<T: Real> {
     pub pairs: Vec<CollisionPair<T>>,
+    /// The pairs' sweep-and-prune index (pair reach margin + gap).
+    pub sweep: Sweep,
     /// Per model body: MuJoCo's body_invweight0 (translation, rotation).
     pub body_invweight: Vec<[T; 2]>,
     /// Per node (dof): dof_invweight0.
@@ -106,6 +108,7 @@ impl<T: Real> ConstraintConsts<T> {
     pub fn empty() -> Self {
         ConstraintConsts {
             pairs: vec![],
+            sweep: Sweep::default(),
             body_invweight: vec![],
             dof_invweight: vec![],
             limits: vec![],

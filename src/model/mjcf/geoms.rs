@@ -57,6 +57,7 @@ impl<'a> Reader<'a> {
         };
         let shape = match kind {
             "mesh" => self.mesh_shape(&a, &mut pos, &mut rot)?,
+            "hfield" => self.hfield_shape(&a)?,
             _ => self.shape(node, kind, size)?,
         };
         if kind == "plane" && !is_static {
@@ -131,6 +132,21 @@ impl<'a> Reader<'a> {
         *pos += *rot * m.pos;
         *rot *= crate::model::mesh::rotation(&m.quat);
         Ok(Shape::Mesh { mesh })
+    }
+
+    /// A height-field geom: its field (its size is the field's, MuJoCo's
+    /// geom_size).
+    fn hfield_shape(&self, a: &Attrs) -> Result<Shape> {
+        let node = a.element;
+        let name = a
+            .text("hfield")
+            .ok_or_else(|| self.error(node, "an hfield geom needs an hfield"))?;
+        let hfield = self
+            .hfields
+            .find(name)
+            .ok_or_else(|| self.error(node, format!("unknown hfield '{name}'")))?;
+        let size = self.hfields.compiled[hfield].size;
+        Ok(Shape::HField { hfield, size })
     }
 
     /// MuJoCo's `fromto`: the geom sits midway, its z axis along from - to, its
@@ -214,8 +230,11 @@ fn geom_type(a: &Attrs) -> Result<&'static str> {
         "plane", "sphere", "capsule", "ellipsoid", "cylinder", "box", "mesh", "hfield", "sdf",
     ];
     let kind = a.keyword("type", &types)?.unwrap_or("sphere");
-    if ["hfield", "sdf"].contains(&kind) || a.text("hfield").is_some() {
-        let msg = "height field and SDF geoms are not supported";
+    if kind == "sdf" {
+        return Err(a.error(a.element, "SDF geoms are not supported"));
+    }
+    if kind != "hfield" && a.text("hfield").is_some() {
+        let msg = format!("a {kind} geom cannot name a height field (hfield=)");
         return Err(a.error(a.element, msg));
     }
     if kind != "mesh" && a.text("mesh").is_some() {

@@ -172,7 +172,7 @@ impl<'a> Reader<'a> {
     }
 
     /// Where a mesh file is: see the module documentation.
-    fn mesh_path(&self, file: &str) -> PathBuf {
+    pub(super) fn mesh_path(&self, file: &str) -> PathBuf {
         let c = &self.compiler;
         let file = match c.strippath {
             true => Path::new(file)
@@ -210,7 +210,7 @@ impl<'a> Reader<'a> {
 }
 
 /// A file's name without directory and extension.
-fn file_stem(file: &str) -> String {
+pub(super) fn file_stem(file: &str) -> String {
     let name = file.rsplit(['/', '\\']).next().unwrap_or(file);
     match name.rfind('.') {
         Some(dot) => name[..dot].to_string(),

@@ -9,8 +9,10 @@
 //! `<default>` classes for joints, geoms, sites, meshes, pairs, tendons and
 //! actuators, `<worldbody>` with nested `<body>` (gravcomp), `<joint>`
 //! (hinge, slide, ball, free) and `<freejoint>`, `<inertial>`, `<geom>`
-//! (plane, sphere, capsule, cylinder, box, ellipsoid, mesh, with their
-//! contact settings), `<asset><mesh>` (`meshes.rs`), `<contact>` (`<pair>`
+//! (plane, sphere, capsule, cylinder, box, ellipsoid, mesh, hfield, with
+//! their contact settings), `<asset><mesh>` (`meshes.rs`), `<asset><hfield>`
+//! (`hfields.rs`; height fields load, their collisions are not computed
+//! yet: a step refuses while one is within reach), `<contact>` (`<pair>`
 //! and `<exclude>`), `<actuator>` (MuJoCo's motor, position, velocity,
 //! intvelocity, damper and general on hinges and slides: `actuators.rs`),
 //! `<site>` and `<sensor>` (`sites.rs`, `sensors.rs`: every sensor type laid
@@ -43,8 +45,8 @@
 //!   adhesion, PID and DC motors; tendon, site, body, ball and free-joint
 //!   transmissions; actuator damping, armature and delay);
 //! - what builds the model from elsewhere: composite, flexcomp, attach,
-//!   plugins, builtin meshes, primitives fitted to meshes, height fields,
-//!   SDFs, shell inertia of geoms, fusestatic, global coordinates;
+//!   plugins, builtin meshes, primitives fitted to meshes, PNG height
+//!   fields, SDFs, shell inertia of geoms, fusestatic, global coordinates;
 //! - what MuJoCo rejects: unknown elements and attributes, malformed or
 //!   miscounted numbers, unknown classes, joints, geoms and bodies, repeated
 //!   names, zero axes and quaternions, bad ranges, non-physical inertias,
@@ -71,6 +73,7 @@ mod contact;
 mod defaults;
 mod frames;
 mod geoms;
+mod hfields;
 mod include;
 mod inertial;
 mod joints;
@@ -119,12 +122,14 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
         classes: HashMap::from([("main", Class::default())]),
         unfolded: Cell::new(0),
         meshes: meshes::Meshes::default(),
+        hfields: hfields::HFields::default(),
     };
     let opt = options::read(file, root)?;
     for section in children(root, "default") {
         reader.read_default(section, None)?;
     }
     reader.meshes = reader.read_meshes(root)?;
+    reader.hfields = reader.read_hfields(root)?;
     let mut tree = Tree::new();
     reader.read_world(&mut tree, &children(root, "worldbody"))?;
     check_unsupported_sections(file, root)?;
@@ -159,6 +164,7 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
         sites,
         sensors,
         meshes: meshes.compiled,
+        hfields: std::mem::take(&mut reader.hfields.compiled),
     };
     spec.keyframes = reader.read_keyframes(root, &spec)?;
     Ok(spec)
@@ -174,6 +180,7 @@ struct Reader<'a> {
     /// [`frames::MAX_MEMBERS`]).
     unfolded: Cell<usize>,
     meshes: meshes::Meshes<'a>,
+    hfields: hfields::HFields,
 }
 
 impl Reader<'_> {

@@ -93,6 +93,15 @@ pub const MESH_ATTRS: &[&str] = &[
     "name", "class", "content_type", "file", "vertex", "normal", "texcoord", "face", "refpos",
     "refquat", "scale", "smoothnormal", "maxhullvert", "inertia", "builtin", "params", "material",
 ];
+pub const HFIELD_ATTRS: &[&str] = &[
+    "name",
+    "content_type",
+    "file",
+    "nrow",
+    "ncol",
+    "size",
+    "elevation",
+];
 /// What a `<default>`'s `<mesh>` may set.
 pub const MESH_DEFAULT_ATTRS: &[&str] = &["scale", "maxhullvert", "inertia"];
 pub const EXCLUDE_ATTRS: &[&str] = &["name", "body1", "body2"];

@@ -66,6 +66,9 @@ fn document(spec: &Spec) -> Result<String, ModelError> {
     if !spec.meshes.is_empty() {
         return Err(unwritable("meshes (their files are not kept)"));
     }
+    if !spec.hfields.is_empty() {
+        return Err(unwritable("height fields"));
+    }
     let mut doc = Document::default();
     doc.open(0, Tag::new("mujoco").text("model", &spec.name));
     let compiler = Tag::new("compiler")
@@ -414,6 +417,7 @@ fn geom_tag(g: &Geom) -> Tag {
         Shape::Box { half } => ("box", half.as_slice().to_vec()),
         Shape::Ellipsoid { radii } => ("ellipsoid", radii.as_slice().to_vec()),
         Shape::Mesh { .. } => unreachable!("models with meshes are refused first"),
+        Shape::HField { .. } => unreachable!("models with height fields are refused first"),
     };
     Tag::new("geom")
         .text("name", &g.name)
