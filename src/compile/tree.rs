@@ -14,7 +14,7 @@ use crate::dynamics::actuation::ActuatorTerm;
 use crate::dynamics::collision::{collision_pairs, CollisionPair, GeomFrame};
 use crate::dynamics::configuration::Coordinates;
 use crate::dynamics::constraint::{invweight0, Limit};
-use crate::dynamics::contact::{contact_pairs, Pair, Soft};
+use crate::dynamics::contact::{contact_pairs, lawless_pairs, Pair, Soft};
 use crate::dynamics::{BodyFrame, NodeJoint, Tree};
 use crate::model::params::inertia_to_six;
 use crate::model::{Body, ContactModel, Joint, JointKind, Param, Spec};
@@ -168,12 +168,17 @@ impl<T: Real> Tree<T> {
         self.geoms.len() - 1
     }
 
-    /// Places the geoms of the model's contact pairs and indexes the pairs.
+    /// Places the geoms of the model's contact pairs and indexes the pairs
+    /// (and the pairs the smooth law has no force for).
     fn add_pairs(&mut self, model: &Spec) {
         for [a, b] in contact_pairs(model) {
             let geoms = [a, b].map(|g| self.geom_frame(model, g));
             let friction = model.geoms[a].friction[0].max(model.geoms[b].friction[0]);
             self.pairs.push(Pair { geoms, friction });
+        }
+        for pair in lawless_pairs(model) {
+            let geoms = pair.map(|g| self.geom_frame(model, g));
+            self.lawless.push(geoms);
         }
     }
 }

@@ -37,8 +37,12 @@
 //! (MuJoCo's rule; the world counts as nobody's parent). Supported shapes:
 //! plane against sphere, capsule (its two end spheres) and box (its eight
 //! corners); spheres and capsules against each other, as spheres at the
-//! closest points of their segments (a sphere's is a point); other pairs
-//! make no contact.
+//! closest points of their segments (a sphere's is a point). A step refuses
+//! a state at which a pair of other shapes (cylinder, ellipsoid, mesh, ...)
+//! is within the cutoff ([`super::StepError::NoSmoothLaw`]), as the
+//! constraint model refuses a pair without a collider, rather than miss its
+//! contact: refused where it would act, not at load, so that a model whose
+//! such geoms never come near each other runs.
 //!
 //! Non-smooth set: contact forces are smooth in (q, v) except where a contact
 //! crosses the cutoff (30 widths out), where two capsules' closest points are
@@ -105,18 +109,47 @@ pub struct Pair {
 pub fn contact_pairs(spec: &Spec) -> Vec<[usize; 2]> {
     candidates(spec, Filter::SMOOTH)
         .into_iter()
-        .filter_map(|[i, j]| match (spec.geoms[i].shape, spec.geoms[j].shape) {
-            (Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. }, Shape::Plane)
-            | (
-                Shape::Sphere { .. } | Shape::Capsule { .. },
-                Shape::Sphere { .. } | Shape::Capsule { .. },
-            ) => Some([i, j]),
-            (Shape::Plane, Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. }) => {
-                Some([j, i])
-            }
-            _ => None,
-        })
+        .filter_map(|pair| ordered(spec, pair))
         .collect()
+}
+
+/// The candidates under the smooth model's [`Filter`] whose shapes its law
+/// does not cover (cylinder, ellipsoid, mesh, ...), as model geom indices:
+/// a step refuses a state where one is within reach
+/// ([`lawless_within_reach`]) rather than miss its contact.
+pub fn lawless_pairs(spec: &Spec) -> Vec<[usize; 2]> {
+    candidates(spec, Filter::SMOOTH)
+        .into_iter()
+        .filter(|&pair| ordered(spec, pair).is_none())
+        .collect()
+}
+
+/// The pair ordered [a, b] as the law takes it (b the plane), or None
+/// where the law has none for its shapes.
+fn ordered(spec: &Spec, [i, j]: [usize; 2]) -> Option<[usize; 2]> {
+    match (spec.geoms[i].shape, spec.geoms[j].shape) {
+        (Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. }, Shape::Plane)
+        | (
+            Shape::Sphere { .. } | Shape::Capsule { .. },
+            Shape::Sphere { .. } | Shape::Capsule { .. },
+        ) => Some([i, j]),
+        (Shape::Plane, Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. }) => {
+            Some([j, i])
+        }
+        _ => None,
+    }
+}
+
+/// The first pair of [`Tree::lawless`] within the smooth model's reach (the
+/// cutoff, 30 widths) at the current state (`data.world` filled by
+/// [`world_frames`]), as model geom indices.
+pub fn lawless_within_reach<T: Real>(tree: &Tree<T>, data: &Data<T>) -> Option<[usize; 2]> {
+    let cutoff = CUTOFF_WIDTHS * tree.soft.width;
+    tree.lawless
+        .iter()
+        .map(|pair| pair.map(|g| &tree.geoms[g]))
+        .find(|[a, b]| !apart(a, b, &data.world, cutoff))
+        .map(|geoms| geoms.map(|g| g.geom))
 }
 
 /// softplus of width w and its derivative: (w ln(1 + e^(d/w)), sigmoid(d/w)),
