@@ -220,6 +220,33 @@ def test_floating_base_floats_the_root_link_as_pybullets_load_urdf(tmp_path):
         diffosi.Model.load(str(MODELS / "floating_arm.xml"), floating_base=True)
 
 
+@pytest.mark.parametrize("engine", ["dart", "pybullet"])
+def test_floating_base_floats_a_corpus_urdf_in_dart_and_pybullet(tmp_path, engine):
+    """example-robot-data's double_pendulum_simple (a fixed base in the file's reading) with
+    floating_base=True: DART's loader with a FLOATING root joint and PyBullet's useFixedBase=False
+    step as ours with its free joint 'root_joint' (the file copied with a timestep, which the
+    adapters read from <diffosi:options>)."""
+    import xml.etree.ElementTree as ET
+
+    from harness import corpus
+
+    ET.register_namespace("diffosi", "urn:diffosi:urdf")
+    source = corpus.example_robot_data() / "double_pendulum_description/urdf/double_pendulum_simple.urdf"
+    tree = ET.parse(source)
+    tree.getroot().insert(0, ET.Element("{urn:diffosi:urdf}options", timestep="0.002"))
+    path = tmp_path / source.name
+    tree.write(path)
+    with engines.load(engine, path, floating_base=True) as e:
+        assert (e.free.name, len(e.q_ref), e.nv) == ("root_joint", 9, 8)
+        assert e.settings["free_base"].startswith("floating_base: the root link's")
+        ours = e.ours()
+        assert ours.joint_names[0] == "root_joint"
+        np.testing.assert_array_equal(ours.reference_q(), e.q_ref)
+        assert worst_free_step(e, ours, case_seed(11, "floating_base")) <= ONE_STEP_TOL
+    with engines.load(engine, path) as e:
+        assert (e.free, e.nv) == (None, 2)
+
+
 def test_dart_turns_a_slow_free_base_by_a_series():
     """DART's FreeJoint turns by a truncated series when |w| h < 1e-3: the quaternion then
     parts from MuJoCo's (and ours) by about (|w| h)^3 / 20, and agrees to rounding above."""
