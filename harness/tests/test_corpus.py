@@ -16,9 +16,9 @@ from harness import corpus
 SEED = 0
 
 # Each reason is corpus.reason() of the model's row at SEED, reviewed: what fails and why.
-# A one-step mismatch with PyBullet names what PyBullet models differently from the file:
-# links without <inertial> get PyBullet's mass 1 (ours today: mass 0), and PyBullet's importer
-# diagonalises every inertia tensor iteratively, off by up to 6e-8 relative (measured per link).
+# The one-step check against PyBullet loads ours with inertial="pybullet" (PyBullet's reading:
+# mass 1 where a link has no <inertial>, Bullet's principal axes, unphysical tensors zeroed);
+# the Pinocchio check the default reading, the file as written.
 KNOWN_FAILURES = {
     "dm_control:humanoid_CMU.xml":
         "rest: rollout step 497: geoms 0 and 34 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
