@@ -23,8 +23,9 @@ const SETTINGS: [(Integrator, PassiveMode); 4] = [
 /// (a step with them within reach is refused), so the twin runs with its
 /// contacts off: the same step as when the smooth model dropped those pairs.
 fn load(name: &str) -> Model {
-    let model =
-        common::smooth(Model::load(common::model_path(&format!("reference_models/{name}"))).unwrap());
+    let model = common::smooth(
+        Model::load(common::model_path(&format!("reference_models/{name}"))).unwrap(),
+    );
     if name != "half_cheetah.urdf" {
         return model;
     }

@@ -385,7 +385,10 @@ fn the_contact_models_refuse_what_they_cannot_do_yet() {
         let mut ws = Workspace::new(m);
         let refused = step_jacobians(m, &mut ws, (&zero, &zero, &zero), &wrt).unwrap_err();
         assert!(
-            matches!(refused, StepError::NoCollider(_) | StepError::NoSmoothLaw(_)),
+            matches!(
+                refused,
+                StepError::NoCollider(_) | StepError::NoSmoothLaw(_)
+            ),
             "{refused}"
         );
         // Out of reach they step.

@@ -220,6 +220,46 @@ def test_floating_base_floats_the_root_link_as_pybullets_load_urdf(tmp_path):
         diffosi.Model.load(str(MODELS / "floating_arm.xml"), floating_base=True)
 
 
+def test_inertial_reads_a_link_as_pinocchio_or_as_pybullet(tmp_path):
+    """Model.load(path, inertial=...): a link without <inertial> is massless by default (the
+    URDF spec, Pinocchio) and has PyBullet's 1 kg under inertial="pybullet"; an inertia whose
+    principal moments violate the triangle inequality is kept as written, or zeroed as
+    PyBullet zeroes it (its getDynamicsInfo shows the same). Bad values and MJCF refuse."""
+    import pybullet
+
+    import diffosi
+    from harness.engines.base import MODELS
+
+    path = tmp_path / "arm.urdf"
+    limit = '<limit lower="-1" upper="1" effort="1" velocity="1"/>'
+    path.write_text(f"""<robot name="arm">
+<link name="base"/><link name="upper"/>
+<link name="lower"><inertial><origin xyz="0 0 0.5"/><mass value="2"/>
+<inertia ixx="0" iyy="0" izz="3e-6" ixy="0" ixz="0" iyz="0"/></inertial></link>
+<joint name="a" type="revolute"><parent link="base"/><child link="upper"/><axis xyz="0 1 0"/>{limit}</joint>
+<joint name="b" type="revolute"><parent link="upper"/><child link="lower"/><axis xyz="0 1 0"/>{limit}</joint>
+</robot>""")
+    with pytest.warns(UserWarning):
+        ours = {r: diffosi.Model.load(str(path), inertial=r) for r in ("pinocchio", "pybullet")}
+    p = pybullet.connect(pybullet.DIRECT)
+    try:
+        body = pybullet.loadURDF(str(path), useFixedBase=True, flags=pybullet.URDF_USE_INERTIA_FROM_FILE,
+                                 physicsClientId=p)
+        upper, lower = (pybullet.getDynamicsInfo(body, i, physicsClientId=p) for i in (0, 1))
+    finally:
+        pybullet.disconnect(p)
+    assert (upper[0], upper[2], lower[0], lower[2]) == (1.0, (1.0, 1.0, 1.0), 2.0, (0.0, 0.0, 0.0))
+    assert ours["pybullet"].get_param("body/upper/mass")[0] == 1.0
+    np.testing.assert_array_equal(ours["pybullet"].get_param("body/upper/inertia"), [1, 1, 1, 0, 0, 0])
+    np.testing.assert_array_equal(ours["pybullet"].get_param("body/lower/inertia"), np.zeros(6))
+    assert ours["pinocchio"].get_param("body/upper/mass")[0] == 0.0
+    np.testing.assert_array_equal(ours["pinocchio"].get_param("body/lower/inertia"), [0, 0, 3e-6, 0, 0, 0])
+    with pytest.raises(ValueError, match="expected 'pinocchio' or 'pybullet', got 'mujoco'"):
+        diffosi.Model.load(str(path), inertial="mujoco")
+    with pytest.raises(ValueError, match="inertial applies to URDF files"):
+        diffosi.Model.load(str(MODELS / "floating_arm.xml"), inertial="pybullet")
+
+
 @pytest.mark.parametrize("engine", ["dart", "pybullet"])
 def test_floating_base_floats_a_corpus_urdf_in_dart_and_pybullet(tmp_path, engine):
     """example-robot-data's double_pendulum_simple (a fixed base in the file's reading) with

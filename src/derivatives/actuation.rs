@@ -73,7 +73,10 @@ pub fn input_jacobians(
                 x.to_vec()
             }
         };
-        let (act, ctrl) = (zeros_if_empty(act, tree.na), zeros_if_empty(ctrl, tree.nu()));
+        let (act, ctrl) = (
+            zeros_if_empty(act, tree.na),
+            zeros_if_empty(ctrl, tree.nu()),
+        );
         let point = Point {
             q,
             v,

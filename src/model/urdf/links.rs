@@ -141,7 +141,10 @@ impl Reader<'_> {
             };
             self.warn(
                 first.node,
-                format!("moving links without <inertial> {reading}: {}", names.join(", ")),
+                format!(
+                    "moving links without <inertial> {reading}: {}",
+                    names.join(", ")
+                ),
             );
         }
         Ok(())
@@ -448,7 +451,8 @@ mod tests {
 
     #[test]
     fn pybullets_reading_gives_missing_inertials_a_unit_mass_and_zeroes_unphysical_tensors() {
-        let go1_base = "<link name=\"tip\">\n<inertial><origin xyz=\"0 0 0.1\"/><mass value=\"3\"/>\
+        let go1_base =
+            "<link name=\"tip\">\n<inertial><origin xyz=\"0 0 0.1\"/><mass value=\"3\"/>\
                         <inertia ixx=\"0\" iyy=\"0\" izz=\"3e-6\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/>\
                         </inertial></link>";
         let text = format!(
@@ -468,10 +472,16 @@ mod tests {
         let [zeroed, without] = m.warnings() else {
             panic!("two warnings expected, got {:?}", m.warnings());
         };
-        assert!(zeroed.starts_with("test.urdf:4: <inertial>: link 'tip'"), "{zeroed}");
+        assert!(
+            zeroed.starts_with("test.urdf:4: <inertial>: link 'tip'"),
+            "{zeroed}"
+        );
         assert!(zeroed.ends_with("as PyBullet does"), "{zeroed}");
         assert!(without.starts_with("test.urdf:2: <link>:"), "{without}");
-        assert!(without.ends_with("Pinocchio: massless): virtual"), "{without}");
+        assert!(
+            without.ends_with("Pinocchio: massless): virtual"),
+            "{without}"
+        );
         // As written (the default), the same file keeps the tensor.
         assert_eq!(load(&text).unwrap().bodies[2].inertia[(2, 2)], 3e-6);
     }

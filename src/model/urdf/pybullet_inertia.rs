@@ -119,7 +119,10 @@ pub(super) fn reading(tensor: &Matrix3<f64>) -> (Matrix3<f64>, bool) {
     if !physical(&moments) {
         return (Matrix3::zeros(), true);
     }
-    (axes * Matrix3::from_diagonal(&moments) * axes.transpose(), false)
+    (
+        axes * Matrix3::from_diagonal(&moments) * axes.transpose(),
+        false,
+    )
 }
 
 #[cfg(test)]
@@ -134,7 +137,11 @@ mod tests {
     fn principal_axes_are_bullets() {
         let tensor = Matrix3::new(0.3, 0.01, -0.02, 0.01, 0.2, 0.03, -0.02, 0.03, 0.25);
         let (moments, axes) = principal(&tensor);
-        let pybullet = [0.307_018_290_198_224_74, 0.183_258_853_421_063_57, 0.259_722_856_380_711_7];
+        let pybullet = [
+            0.307_018_290_198_224_74,
+            0.183_258_853_421_063_57,
+            0.259_722_856_380_711_7,
+        ];
         for (m, p) in moments.iter().zip(pybullet) {
             assert!((m - p).abs() <= 1e-16, "{m} vs {p}");
         }
