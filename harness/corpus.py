@@ -13,8 +13,8 @@ URDF_IGNORE_VISUAL_SHAPES, URDF_IGNORE_COLLISION_SHAPES) returns a body: no shap
 base is fixed, in PyBullet and in ours (our default, as MuJoCo's importer and Pinocchio).
 
 The checks of a model (each "ok", an error message, or "-" when it does not apply):
-1. load: diffosi.Model.load(path), with the collection's package directories where the loader
-   takes them (`package_dirs`).
+1. load: diffosi.Model.load(path), a URDF with the collection's package directories
+   (`package_dirs`) and our default reading of <inertial> (as written: Pinocchio's).
 2. one step: SAMPLES seeded random states and generalized forces tau (q: the reference
    configuration +- 0.5, quaternions normalised, as golden_free; URDF: a limited joint's q in
    its range, else +- 1; v uniform in [-1, 1]; tau uniform in [-1, 1] times 10 M_ii at the
@@ -22,15 +22,17 @@ The checks of a model (each "ok", an error message, or "-" when it does not appl
    MJCF: MuJoCo's mj_step with the file's options but contacts and joint limits disabled, ours
    with contact=False, limits=False. URDF: PyBullet as the harness runs a URDF twin (no link
    damping or velocity cap, limits and collisions off, velocity motors at force 0, explicit
-   joint damping; links without <inertial> keep PyBullet's mass 1), at our timestep and
-   gravity; ours with passive="explicit", contact=False, limits=False. Joints are matched by
-   name. Error as replay's: max(|dq| / max(1, |q'|), |dv| / max(1, |v'|)), PASS at <= 1e-12.
-   Where PyBullet models a file differently (links without <inertial>: mass 1; its importer's
-   iterative diagonalisation of each inertia tensor, off by up to ~1e-8 relative), the row's
-   notes say so (pybullet_inertia_notes).
+   joint damping), at our timestep and gravity; ours loaded with inertial="pybullet" (PyBullet's
+   reading of <inertial>: mass 1 and unit inertia where a link has none, each tensor in the
+   principal axes of Bullet's Jacobi iteration, off the file by up to ~1e-8 relative, and
+   tensors with negative or triangle-violating moments zeroed) and run with passive="explicit",
+   contact=False, limits=False. Joints are matched by name. Error as replay's:
+   max(|dq| / max(1, |q'|), |dv| / max(1, |v'|)), PASS at <= 1e-12. Where PyBullet's reading
+   departs from the file, the row's notes say how (pybullet_inertia_notes).
 3. Pinocchio (example-robot-data): the acceleration at SAMPLES random states and tau (q and v
    uniform in [-1, 1], tau in [-5, 5], as harness/tests/test_pinocchio.py) vs pinocchio.aba
-   on buildModelFromUrdf (fixed base; no damping, friction or armature in Pinocchio's ABA, so
+   on buildModelFromUrdf (ours as loaded in 1., Pinocchio's reading; fixed base; no damping,
+   friction or armature in Pinocchio's ABA, so
    ours has damping and dry friction zeroed and runs one explicit step of h = 1 s: a = v' - v),
    relative error max|a - a_pin| / max|a_pin|, PASS at <= 1e-12.
 4. rest: 1000 steps of the model as loaded (the file's defaults: contacts, limits and options
@@ -45,7 +47,6 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
-import inspect
 import re
 import sysconfig
 import zlib
@@ -168,12 +169,14 @@ def discover() -> list:
 # ---- ours
 
 
-def load_ours(case: Case):
-    """diffosi.Model.load, with package_dirs where the loader takes them."""
+def load_ours(case: Case, inertial: str = "pinocchio"):
+    """diffosi.Model.load; a URDF with the collection's package_dirs and `inertial`, whose reading of
+    <inertial>: "pinocchio" (as written, our default) or "pybullet" (PyBullet's importer)."""
     import diffosi
 
-    if case.kind == "urdf" and "package_dirs" in inspect.signature(diffosi.Model.load).parameters:
-        return diffosi.Model.load(str(case.path), package_dirs=[str(d) for d in case.package_dirs])
+    if case.kind == "urdf":
+        dirs = [str(d) for d in case.package_dirs]
+        return diffosi.Model.load(str(case.path), package_dirs=dirs, inertial=inertial)
     return diffosi.Model.load(str(case.path))
 
 
@@ -385,7 +388,10 @@ def check(case: Case, seed: int) -> dict:
         return row
     row.update(load="ok", ours=f"{ours.nq}/{ours.nv}/{ours.nu}")
     try:
-        error, row["notes"] = (mujoco_one_step if case.kind == "mjcf" else pybullet_one_step)(case, ours, seed)
+        if case.kind == "mjcf":
+            error, row["notes"] = mujoco_one_step(case, ours, seed)
+        else:
+            error, row["notes"] = pybullet_one_step(case, load_ours(case, inertial="pybullet"), seed)
         row["one_step_error"] = error
         row["one_step"] = "ok" if error <= ONE_STEP_TOL else f"error {error:.1e} > {ONE_STEP_TOL:.0e}"
     except (ValueError, OSError) as e:
@@ -415,7 +421,8 @@ def brief(text: str) -> str:
 
 
 def pybullet_differences(notes: dict) -> list[str]:
-    """What PyBullet models differently from the file (see pybullet_inertia_notes)."""
+    """Where PyBullet's reading departs from the file (see pybullet_inertia_notes); ours follows it
+    under inertial="pybullet"."""
     out = []
     if "links_without_inertial" in notes:
         out.append(f"{len(notes['links_without_inertial'])} links without <inertial> (PyBullet: mass 1)")

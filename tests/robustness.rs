@@ -353,9 +353,12 @@ fn deep_nesting_is_refused() {
     assert!(Model::from_mjcf(&chain(497), "chain.xml").is_err());
 }
 
-/// The constraint model refuses to step geoms without a collider within reach.
+/// Each contact model refuses to step geoms within reach whose contact it
+/// would miss: the constraint model a pair without a collider, the smooth
+/// model one without a force law (an ellipsoid against a box), in the step
+/// and in its Jacobians.
 #[test]
-fn the_constraint_model_refuses_what_it_cannot_do_yet() {
+fn the_contact_models_refuse_what_they_cannot_do_yet() {
     let text = r#"<mujoco><worldbody>
         <body><joint type="slide" axis="0 0 1"/><geom name="a" type="cylinder" size="0.1 0.1"/></body>
         <body pos="0 0 0.19"><joint type="slide" axis="0 0 1"/><geom name="b" type="box" size="0.1 0.1 0.1"/></body>
@@ -367,10 +370,30 @@ fn the_constraint_model_refuses_what_it_cannot_do_yet() {
         .unwrap_err();
     assert_eq!(err, StepError::NoCollider([0, 1]));
     assert!(err.to_string().contains("no collider"), "{err}");
-    // Out of reach they step; so does the smooth model, which ignores the pair.
-    assert!(model
-        .step(&mut model.data(), &[0.0, 1.0], &zero, &zero)
-        .is_ok());
-    let smooth = common::smooth(model);
-    assert!(smooth.step(&mut smooth.data(), &zero, &zero, &zero).is_ok());
+    let smooth = common::smooth(model.clone());
+    let err = smooth
+        .step(&mut smooth.data(), &zero, &zero, &zero)
+        .unwrap_err();
+    assert_eq!(err, StepError::NoSmoothLaw([0, 1]));
+    assert!(err.to_string().contains("no force law"), "{err}");
+    let wrt = Wrt {
+        state: true,
+        control: true,
+        params: &[],
+    };
+    for m in [&model, &smooth] {
+        let mut ws = Workspace::new(m);
+        let refused = step_jacobians(m, &mut ws, (&zero, &zero, &zero), &wrt).unwrap_err();
+        assert!(
+            matches!(
+                refused,
+                StepError::NoCollider(_) | StepError::NoSmoothLaw(_)
+            ),
+            "{refused}"
+        );
+        // Out of reach they step.
+        let apart = [0.0, 1.0];
+        assert!(m.step(&mut m.data(), &apart, &zero, &zero).is_ok());
+        assert!(step_jacobians(m, &mut ws, (&apart, &zero, &zero), &wrt).is_ok());
+    }
 }

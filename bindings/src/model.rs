@@ -69,19 +69,26 @@ impl PyModel {
     /// the element and line. URDF only: `floating_base=True` gives the root
     /// link a free joint `root_joint` (PyBullet's loadURDF default; by
     /// default it is welded to the world, as MuJoCo's importer and Pinocchio
-    /// read it); `package_dirs` are searched first for `package://` paths.
-    /// What the loader took as written or ignored comes as UserWarnings.
+    /// read it); `package_dirs` are searched first for `package://` paths;
+    /// `inertial` is whose reading of `<inertial>`: "pinocchio" (as written,
+    /// a link without one massless; the default) or "pybullet" (PyBullet's
+    /// importer with URDF_USE_INERTIA_FROM_FILE: 1 kg and unit inertia where
+    /// there is none, principal axes by Bullet's iteration, unphysical
+    /// moments zeroed). What the loader took as written or ignored comes as
+    /// UserWarnings.
     #[staticmethod]
-    #[pyo3(signature = (path, floating_base=false, package_dirs=None))]
+    #[pyo3(signature = (path, floating_base=false, package_dirs=None, inertial="pinocchio"))]
     fn load(
         py: Python<'_>,
         path: std::path::PathBuf,
         floating_base: bool,
         package_dirs: Option<Vec<std::path::PathBuf>>,
+        inertial: &str,
     ) -> PyResult<Self> {
         let options = LoadOptions {
             floating_base,
             package_dirs: package_dirs.unwrap_or_default(),
+            inertials: inertial.parse().map_err(PyValueError::new_err)?,
         };
         let model = Model::load_with(&path, &options).map_err(model_error)?;
         let category = py.get_type::<PyUserWarning>();

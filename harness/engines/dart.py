@@ -13,6 +13,10 @@ DegreeOfFreedom.setCoulombFriction(f), a constraint of its LCP solver.
 
 A URDF floating joint from `world` (our free root) is DART's FreeJoint; q, v and tau keep
 our convention (harness/engines/floating.py). M and c are not offered for it.
+floating_base=True floats any other URDF's root link by DART's loader (root joint type
+FLOATING: a FreeJoint at the world origin), as PybulletEngine(floating_base=True) and
+Model.load(path, floating_base=True) read it (a free joint 'root_joint'); by default the root
+link is fixed (root joint type FIXED), as our loader, MuJoCo's importer and Pinocchio read it.
 """
 
 from __future__ import annotations
@@ -27,11 +31,12 @@ from harness.engines.floating import DartBase
 from harness.engines.urdf import ignored_extras, read_urdf, timestep_gravity, twin_only
 
 
-def load_world(urdf: Path, h: float, gravity: list):
+def load_world(urdf: Path, h: float, gravity: list, floating_base: bool = False):
     loader = dart.utils.DartLoader()
     opts = dart.utils.DartLoader.Options()
-    # default root joint is FLOATING (6 extra dofs) unless the root link is named "world"
-    opts.mDefaultRootJointType = dart.utils.DartLoader.RootJointType.FIXED
+    # the root link's joint (unless it is named "world"): DART's default is FLOATING
+    kind = dart.utils.DartLoader.RootJointType
+    opts.mDefaultRootJointType = kind.FLOATING if floating_base else kind.FIXED
     with quiet_stdio():  # DART warns about a zero inertia (it still simulates it exactly)
         # a link without <inertial> gets mass 1 and identity inertia: make it massless instead
         opts.mDefaultInertia = dart.dynamics.Inertia(0.0, np.zeros(3), np.zeros((3, 3)))
@@ -79,14 +84,16 @@ class DartEngine(Engine):
     name = "dart"
     version = dart.__version__
 
-    def __init__(self, path: Path, native: bool = False, friction: dict | None = None):
+    def __init__(self, path: Path, native: bool = False, friction: dict | None = None, floating_base: bool = False):
         super().__init__()
         self.model_path, self.label = Path(path), label_of(Path(path))
-        facts = read_urdf(self.model_path)
+        facts = read_urdf(self.model_path, floating_base)
+        self.floating_base = floating_base
         self.timestep, self.gravity, settings = timestep_gravity(self.model_path, facts)
-        self.world, skel = load_world(self.model_path, self.timestep, self.gravity)
+        self.world, skel = load_world(self.model_path, self.timestep, self.gravity, floating_base)
         self.skel = skel
-        settings.update(root_joint="FIXED", deactivation="off", self_collision="off",
+        settings.update(root_joint="FLOATING" if floating_base else "FIXED", deactivation="off",
+                        self_collision="off",
                         joint_limits="off (position enforcement off; velocity and force limits infinite)",
                         tau_applied_via="skeleton.setForces before every step (cleared by the step)")
         if facts["massless_links"]:
@@ -99,7 +106,8 @@ class DartEngine(Engine):
             assert root.getType() == "FreeJoint" and np.allclose(root.getTransformFromChildBodyNode().matrix(),
                                                                   np.eye(4)), f"{path}: DART's free root"
             self._base, self._quat = DartBase(root.getTransformFromParentBodyNode().matrix()), self.free.reference()[3:]
-            settings["free_base"] = f"floating joint {self.free.name!r} as DART's FreeJoint"
+            how = "floating_base: the root link's" if floating_base else f"floating joint {self.free.name!r} as"
+            settings["free_base"] = f"{how} DART's FreeJoint"
         n = skel.getNumDofs() - first
         names = self.joint_names = [skel.getDof(first + i).getName() for i in range(n)]
         assert names == [j.name for j in facts["joints"]], f"{path}: DART dof order {names}"

@@ -220,6 +220,73 @@ def test_floating_base_floats_the_root_link_as_pybullets_load_urdf(tmp_path):
         diffosi.Model.load(str(MODELS / "floating_arm.xml"), floating_base=True)
 
 
+def test_inertial_reads_a_link_as_pinocchio_or_as_pybullet(tmp_path):
+    """Model.load(path, inertial=...): a link without <inertial> is massless by default (the
+    URDF spec, Pinocchio) and has PyBullet's 1 kg under inertial="pybullet"; an inertia whose
+    principal moments violate the triangle inequality is kept as written, or zeroed as
+    PyBullet zeroes it (its getDynamicsInfo shows the same). Bad values and MJCF refuse."""
+    import pybullet
+
+    import diffosi
+    from harness.engines.base import MODELS
+
+    path = tmp_path / "arm.urdf"
+    limit = '<limit lower="-1" upper="1" effort="1" velocity="1"/>'
+    path.write_text(f"""<robot name="arm">
+<link name="base"/><link name="upper"/>
+<link name="lower"><inertial><origin xyz="0 0 0.5"/><mass value="2"/>
+<inertia ixx="0" iyy="0" izz="3e-6" ixy="0" ixz="0" iyz="0"/></inertial></link>
+<joint name="a" type="revolute"><parent link="base"/><child link="upper"/><axis xyz="0 1 0"/>{limit}</joint>
+<joint name="b" type="revolute"><parent link="upper"/><child link="lower"/><axis xyz="0 1 0"/>{limit}</joint>
+</robot>""")
+    with pytest.warns(UserWarning):
+        ours = {r: diffosi.Model.load(str(path), inertial=r) for r in ("pinocchio", "pybullet")}
+    p = pybullet.connect(pybullet.DIRECT)
+    try:
+        body = pybullet.loadURDF(str(path), useFixedBase=True, flags=pybullet.URDF_USE_INERTIA_FROM_FILE,
+                                 physicsClientId=p)
+        upper, lower = (pybullet.getDynamicsInfo(body, i, physicsClientId=p) for i in (0, 1))
+    finally:
+        pybullet.disconnect(p)
+    assert (upper[0], upper[2], lower[0], lower[2]) == (1.0, (1.0, 1.0, 1.0), 2.0, (0.0, 0.0, 0.0))
+    assert ours["pybullet"].get_param("body/upper/mass")[0] == 1.0
+    np.testing.assert_array_equal(ours["pybullet"].get_param("body/upper/inertia"), [1, 1, 1, 0, 0, 0])
+    np.testing.assert_array_equal(ours["pybullet"].get_param("body/lower/inertia"), np.zeros(6))
+    assert ours["pinocchio"].get_param("body/upper/mass")[0] == 0.0
+    np.testing.assert_array_equal(ours["pinocchio"].get_param("body/lower/inertia"), [0, 0, 3e-6, 0, 0, 0])
+    with pytest.raises(ValueError, match="expected 'pinocchio' or 'pybullet', got 'mujoco'"):
+        diffosi.Model.load(str(path), inertial="mujoco")
+    with pytest.raises(ValueError, match="inertial applies to URDF files"):
+        diffosi.Model.load(str(MODELS / "floating_arm.xml"), inertial="pybullet")
+
+
+@pytest.mark.parametrize("engine", ["dart", "pybullet"])
+def test_floating_base_floats_a_corpus_urdf_in_dart_and_pybullet(tmp_path, engine):
+    """example-robot-data's double_pendulum_simple (a fixed base in the file's reading) with
+    floating_base=True: DART's loader with a FLOATING root joint and PyBullet's useFixedBase=False
+    step as ours with its free joint 'root_joint' (the file copied with a timestep, which the
+    adapters read from <diffosi:options>)."""
+    import xml.etree.ElementTree as ET
+
+    from harness import corpus
+
+    ET.register_namespace("diffosi", "urn:diffosi:urdf")
+    source = corpus.example_robot_data() / "double_pendulum_description/urdf/double_pendulum_simple.urdf"
+    tree = ET.parse(source)
+    tree.getroot().insert(0, ET.Element("{urn:diffosi:urdf}options", timestep="0.002"))
+    path = tmp_path / source.name
+    tree.write(path)
+    with engines.load(engine, path, floating_base=True) as e:
+        assert (e.free.name, len(e.q_ref), e.nv) == ("root_joint", 9, 8)
+        assert e.settings["free_base"].startswith("floating_base: the root link's")
+        ours = e.ours()
+        assert ours.joint_names[0] == "root_joint"
+        np.testing.assert_array_equal(ours.reference_q(), e.q_ref)
+        assert worst_free_step(e, ours, case_seed(11, "floating_base")) <= ONE_STEP_TOL
+    with engines.load(engine, path) as e:
+        assert (e.free, e.nv) == (None, 2)
+
+
 def test_dart_turns_a_slow_free_base_by_a_series():
     """DART's FreeJoint turns by a truncated series when |w| h < 1e-3: the quaternion then
     parts from MuJoCo's (and ours) by about (|w| h)^3 / 20, and agrees to rounding above."""

@@ -36,7 +36,7 @@ RTOL = 1e-10
 def ours(name):
     """Our URDF twin, reduced to what Pinocchio models: rigid bodies under gravity, h = 1."""
     m = diffosi.Model.load(str(MODELS / f"{name}.urdf")).with_options(
-        passive="explicit", timestep=1.0, limits=False, contact_model="smooth")  # as URDF ran before its default became MuJoCo's constraints
+        passive="explicit", timestep=1.0, limits=False, contact_model="smooth", contact=False)  # no contact in ABA
     for joint in m.joint_names:
         for kind in ["damping", "stiffness", "armature"]:
             m.set_param(f"joint/{joint}/{kind}", 0.0)

@@ -11,7 +11,7 @@ pub mod wiping;
 
 use std::path::PathBuf;
 
-use diffosi::model::urdf::LoadOptions;
+use diffosi::model::urdf::{Inertials, LoadOptions};
 use diffosi::model::ContactModel;
 use diffosi::Model;
 
@@ -35,6 +35,12 @@ pub struct ModelFile {
     /// ROS_PACKAGE_PATH).
     #[arg(long = "package-dir", value_name = "DIR")]
     pub package_dirs: Vec<PathBuf>,
+    /// URDF: whose reading of <inertial>: pinocchio (as written, a link
+    /// without one massless; the default) or pybullet (PyBullet's importer:
+    /// 1 kg and unit inertia where none, principal axes, unphysical moments
+    /// zeroed).
+    #[arg(long, value_name = "READING", default_value = "pinocchio")]
+    pub inertial: Inertials,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -49,6 +55,7 @@ impl ModelFile {
         let options = LoadOptions {
             floating_base: self.floating_base,
             package_dirs: self.package_dirs.clone(),
+            inertials: self.inertial,
         };
         let model = Model::load_with(&self.model, &options).map_err(|e| e.to_string())?;
         for warning in model.warnings() {

@@ -19,12 +19,12 @@ mod simulate;
 mod tree;
 
 pub use invweight::invweight0;
-pub use pairs::{candidates, collision_pairs, contact_pairs, Filter};
+pub use pairs::{candidates, collision_pairs, contact_pairs, lawless_pairs, Filter};
 pub use simulate::RolloutError;
 pub use tree::{body_inertia, mass_properties};
 
 use crate::dynamics::Tree;
-use crate::model::urdf::LoadOptions;
+use crate::model::urdf::{Inertials, LoadOptions};
 use crate::model::{
     mjcf, urdf, Actuator, Body, Geom, InertiaRule, Joint, ModelError, Options, Spec,
 };
@@ -127,7 +127,8 @@ impl Model {
     }
 
     /// Loads an MJCF or URDF file; `options` say how to read a URDF (an MJCF
-    /// file takes only the default `floating_base`, off: it says its joints).
+    /// file takes only the default `floating_base`, off: it says its joints,
+    /// and the default `inertials`).
     pub fn load_with(
         path: impl AsRef<std::path::Path>,
         options: &LoadOptions,
@@ -143,6 +144,12 @@ impl Model {
                 Err(ModelError::NotApplicable(format!(
                     "{shown}: floating_base applies to URDF files; an MJCF file floats a body \
                      with a <freejoint>"
+                )))
+            }
+            Some("xml") | Some("mjcf") if options.inertials != Inertials::default() => {
+                Err(ModelError::NotApplicable(format!(
+                    "{shown}: inertial applies to URDF files; MuJoCo reads an MJCF <inertial> \
+                     as written"
                 )))
             }
             Some("xml") | Some("mjcf") => Model::from_mjcf(&text, &shown),

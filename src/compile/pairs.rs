@@ -131,16 +131,34 @@ pub fn collision_pairs<T: Real>(
 pub fn contact_pairs(spec: &Spec) -> Vec<[usize; 2]> {
     candidates(spec, Filter::SMOOTH)
         .into_iter()
-        .filter_map(|[i, j]| match (spec.geoms[i].shape, spec.geoms[j].shape) {
-            (Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. }, Shape::Plane)
-            | (
-                Shape::Sphere { .. } | Shape::Capsule { .. },
-                Shape::Sphere { .. } | Shape::Capsule { .. },
-            ) => Some([i, j]),
-            (Shape::Plane, Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. }) => {
-                Some([j, i])
-            }
-            _ => None,
-        })
+        .filter_map(|pair| ordered(spec, pair))
         .collect()
+}
+
+/// The candidates under the smooth model's [`Filter`] whose shapes its law
+/// does not cover (cylinder, ellipsoid, mesh, ...), as model geom indices:
+/// a step refuses a state where one is within reach
+/// ([`crate::dynamics::contact::lawless_within_reach`]) rather than miss
+/// its contact.
+pub fn lawless_pairs(spec: &Spec) -> Vec<[usize; 2]> {
+    candidates(spec, Filter::SMOOTH)
+        .into_iter()
+        .filter(|&pair| ordered(spec, pair).is_none())
+        .collect()
+}
+
+/// The pair ordered [a, b] as the law takes it (b the plane), or None
+/// where the law has none for its shapes.
+fn ordered(spec: &Spec, [i, j]: [usize; 2]) -> Option<[usize; 2]> {
+    match (spec.geoms[i].shape, spec.geoms[j].shape) {
+        (Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. }, Shape::Plane)
+        | (
+            Shape::Sphere { .. } | Shape::Capsule { .. },
+            Shape::Sphere { .. } | Shape::Capsule { .. },
+        ) => Some([i, j]),
+        (Shape::Plane, Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Box { .. }) => {
+            Some([j, i])
+        }
+        _ => None,
+    }
 }

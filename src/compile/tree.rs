@@ -11,7 +11,7 @@ use nalgebra::{Matrix3, Vector3};
 use super::fluid::fluid_bodies;
 use super::gravcomp::gravcomp_bodies;
 use super::invweight::invweight0;
-use super::pairs::{collision_pairs, contact_pairs};
+use super::pairs::{collision_pairs, contact_pairs, lawless_pairs};
 use crate::dynamics::actuation::ActuatorTerm;
 use crate::dynamics::collision::{CollisionPair, GeomFrame, Sweep};
 use crate::dynamics::configuration::Coordinates;
@@ -173,12 +173,17 @@ impl<T: Real> Tree<T> {
         self.geoms.len() - 1
     }
 
-    /// Places the geoms of the model's contact pairs and indexes the pairs.
+    /// Places the geoms of the model's contact pairs and indexes the pairs
+    /// (and the pairs the smooth law has no force for).
     fn add_pairs(&mut self, model: &Spec) {
         for [a, b] in contact_pairs(model) {
             let geoms = [a, b].map(|g| self.geom_frame(model, g));
             let friction = model.geoms[a].friction[0].max(model.geoms[b].friction[0]);
             self.pairs.push(Pair { geoms, friction });
+        }
+        for pair in lawless_pairs(model) {
+            let geoms = pair.map(|g| self.geom_frame(model, g));
+            self.lawless.push(geoms);
         }
     }
 }

@@ -66,7 +66,25 @@ pub fn input_jacobians(
     // its velocity slope joins the matrix solved: no chain rule through tau.
     let staged = tableau(model.opt.integrator).is_some() || model.opt.integrator.is_implicit();
     if staged && !tree.actuators.iter().all(|a| a.state_independent()) {
-        return dual_jacobians(model, ws, (q, v, act), (ctrl, tau), wrt);
+        let zeros_if_empty = |x: &[f64], len: usize| {
+            if x.is_empty() {
+                vec![0.0; len]
+            } else {
+                x.to_vec()
+            }
+        };
+        let (act, ctrl) = (
+            zeros_if_empty(act, tree.na),
+            zeros_if_empty(ctrl, tree.nu()),
+        );
+        let point = Point {
+            q,
+            v,
+            act: &act,
+            tau,
+            ctrl: &ctrl,
+        };
+        return dual_jacobians(model, ws, &point, wrt);
     }
     let (n, nu, na) = (model.nv(), model.nu(), model.na());
     let h = model.opt.timestep;
@@ -128,28 +146,27 @@ pub fn input_jacobians(
     })
 }
 
-/// Every block by dual numbers through [`step_actuated`]: columns (q, v,
-/// act) if the state is asked for, tau if control is, ctrl, then the
-/// parameters; the value from the plain step.
+/// Every block by dual numbers through [`step_actuated`] at `point` (act
+/// and ctrl full length): columns (q, v, act) if the state is asked for,
+/// tau if control is, ctrl, then the parameters; the value from the plain
+/// step.
 fn dual_jacobians(
     model: &Model,
     ws: &mut Workspace,
-    (q, v, act): (&[f64], &[f64], &[f64]),
-    (ctrl, tau): (&[f64], &[f64]),
+    point: &Point,
     wrt: &Wrt,
 ) -> Result<InputJacobians, StepError> {
     let (n, nu, na) = (model.nv(), model.nu(), model.na());
-    let zeros_if_empty = |x: &[f64], len: usize| {
-        if x.is_empty() {
-            vec![0.0; len]
-        } else {
-            x.to_vec()
-        }
-    };
-    let (act, ctrl) = (zeros_if_empty(act, na), zeros_if_empty(ctrl, nu));
     let mut next = (vec![0.0; model.nq()], vec![0.0; n], vec![0.0; na]);
     let out = (&mut next.0[..], &mut next.1[..], &mut next.2[..]);
-    step_actuated(model.tree(), &mut ws.data, (q, v, &act), (&ctrl, tau), out)?;
+    let Point {
+        q,
+        v,
+        act,
+        tau,
+        ctrl,
+    } = *point;
+    step_actuated(model.tree(), &mut ws.data, (q, v, act), (ctrl, tau), out)?;
     // An input column is an index into (q's tangent, v, act, tau, ctrl).
     let ranges = [
         (wrt.state, 0..2 * n + na),
@@ -171,15 +188,8 @@ fn dual_jacobians(
         .chain(params.map(|p| (None, Some(p))))
         .collect();
     let mut columns = DMatrix::zeros(2 * n + na, seeds.len());
-    let point = Point {
-        q,
-        v,
-        act: &act,
-        tau,
-        ctrl: &ctrl,
-    };
     for (col, &seed) in seeds.iter().enumerate() {
-        let slope = dual_column(model, &mut ws.duals, &point, seed)?;
+        let slope = dual_column(model, &mut ws.duals, point, seed)?;
         columns.set_column(col, &slope);
     }
     // Columns: state (q, v | act), tau, ctrl, params; rows q', v' | act'.
@@ -226,6 +236,7 @@ fn dual_jacobians(
 type Seed = (Option<usize>, Option<(Param, usize)>);
 
 /// The point a dual column is taken at.
+#[derive(Clone, Copy)]
 struct Point<'a> {
     q: &'a [f64],
     v: &'a [f64],

@@ -155,17 +155,27 @@ pub fn add_force_velocity_derivatives<T: Real>(
     (ctrl, act, rates): (&[T], &[T], &[T]),
     diagonal: &mut [T],
 ) {
-    for (i, a) in actuators.iter().enumerate() {
-        let (current, rate) = match a.act {
-            Some(k) => (act.get(k).copied().unwrap_or(T::zero()), rates[k]),
-            None => (T::zero(), T::zero()),
-        };
-        let inputs = (a.control(ctrl, i), current, rate);
+    for (a, inputs) in with_inputs(actuators, (ctrl, act, rates)) {
         let (force, slope) = a.raw_force((q[a.q_at], v[a.dof]), inputs, h);
         if clamp(force, a.law.force_range) == force {
             diagonal[a.dof] += lift::<T>(a.law.gear) * slope;
         }
     }
+}
+
+/// Each actuator with what its force reads besides the state: its clamped
+/// control, its activation and activation rate (0 and 0 without one).
+fn with_inputs<'a, T: Real>(
+    actuators: &'a [ActuatorTerm],
+    (ctrl, act, rates): (&'a [T], &'a [T], &'a [T]),
+) -> impl Iterator<Item = (&'a ActuatorTerm, (T, T, T))> + 'a {
+    actuators.iter().enumerate().map(move |(i, a)| {
+        let (current, rate) = match a.act {
+            Some(k) => (act.get(k).copied().unwrap_or(T::zero()), rates[k]),
+            None => (T::zero(), T::zero()),
+        };
+        (a, (a.control(ctrl, i), current, rate))
+    })
 }
 
 /// x clamped to [lo, hi] as mju_clip does; x itself without a range.
@@ -197,17 +207,8 @@ pub fn add_actuator_forces<T: Real>(
     (ctrl, act, rates): (&[T], &[T], &[T]),
     force: &mut [T],
 ) {
-    for (i, a) in actuators.iter().enumerate() {
-        let (current, rate) = match a.act {
-            Some(k) => (act.get(k).copied().unwrap_or(T::zero()), rates[k]),
-            None => (T::zero(), T::zero()),
-        };
-        let f = a.force(
-            (q[a.q_at], v[a.dof]),
-            (a.control(ctrl, i), current, rate),
-            h,
-        );
-        force[a.dof] += lift::<T>(a.law.gear) * f;
+    for (a, inputs) in with_inputs(actuators, (ctrl, act, rates)) {
+        force[a.dof] += lift::<T>(a.law.gear) * a.force((q[a.q_at], v[a.dof]), inputs, h);
     }
 }
 

@@ -37,8 +37,12 @@
 //! (MuJoCo's rule; the world counts as nobody's parent). Supported shapes:
 //! plane against sphere, capsule (its two end spheres) and box (its eight
 //! corners); spheres and capsules against each other, as spheres at the
-//! closest points of their segments (a sphere's is a point); other pairs
-//! make no contact.
+//! closest points of their segments (a sphere's is a point). A step refuses
+//! a state at which a pair of other shapes (cylinder, ellipsoid, mesh, ...)
+//! is within the cutoff ([`super::StepError::NoSmoothLaw`]), as the
+//! constraint model refuses a pair without a collider, rather than miss its
+//! contact: refused where it would act, not at load, so that a model whose
+//! such geoms never come near each other runs.
 //!
 //! Non-smooth set: contact forces are smooth in (q, v) except where a contact
 //! crosses the cutoff (30 widths out), where two capsules' closest points are
@@ -96,6 +100,18 @@ impl<T: Real> Soft<T> {
 pub struct Pair {
     pub geoms: [usize; 2],
     pub friction: f64,
+}
+
+/// The first pair of [`Tree::lawless`] within the smooth model's reach (the
+/// cutoff, 30 widths) at the current state (`data.world` filled by
+/// [`world_frames`]), as model geom indices.
+pub fn lawless_within_reach<T: Real>(tree: &Tree<T>, data: &Data<T>) -> Option<[usize; 2]> {
+    let cutoff = CUTOFF_WIDTHS * tree.soft.width;
+    tree.lawless
+        .iter()
+        .map(|pair| pair.map(|g| &tree.geoms[g]))
+        .find(|[a, b]| !apart(a, b, &data.world, cutoff))
+        .map(|geoms| geoms.map(|g| g.geom))
 }
 
 /// softplus of width w and its derivative: (w ln(1 + e^(d/w)), sigmoid(d/w)),

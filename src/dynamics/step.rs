@@ -10,6 +10,7 @@ use super::actuation::{
 use super::collision::{ConstraintContact, Pre};
 use super::constraint::solver::{solve, Scratch, Solution, Start};
 use super::constraint::{rows, unreachable_pair, Rows};
+use super::contact::lawless_within_reach;
 use super::fluid::add_fluid_forces;
 use super::gravcomp::add_gravcomp_forces;
 use super::implicit::{implicit_matrix, lu_solve};
@@ -49,6 +50,16 @@ pub enum StepError {
         .0[0], .0[1]
     )]
     NoCollider([usize; 2]),
+    /// The same under the smooth model: two geoms within its reach whose
+    /// shapes its law has no force for.
+    #[error(
+        "geoms {} and {} (model geom indices) are within reach and the smooth contact model \
+         has no force law for their shapes (it has plane against sphere, capsule and box, and \
+         spheres and capsules against each other; see diffosi::dynamics::contact); switch \
+         their contacts off (contype/conaffinity) or use the constraint model",
+        .0[0], .0[1]
+    )]
+    NoSmoothLaw([usize; 2]),
     /// The residuals with unknown constraints (analytic, q and v indexed
     /// alike) of models with ball or free joints are not written yet.
     #[error(
@@ -230,8 +241,8 @@ pub fn step_applied<T: Real>(
 }
 
 /// The checks before a step: q, v, tau and the next state's lengths (nq_next,
-/// nv_next), and, under the constraint model, no pair within reach without
-/// a collider.
+/// nv_next), and no pair within reach whose contact the model would miss
+/// ([`check_colliders`]).
 fn prepare<T: Real>(
     tree: &Tree<T>,
     data: &mut Data<T>,
@@ -252,23 +263,30 @@ fn prepare<T: Real>(
     check_colliders(tree, data, (q, v))
 }
 
-/// Under the constraint model, refuses a state at which two geoms whose
-/// shapes have no collider are within reach (their contact would be missed).
+/// Refuses a state at which two geoms are within reach whose contact the
+/// model would miss: under the constraint model a pair without a collider,
+/// under the smooth model one without a force law.
 pub fn check_colliders<T: Real>(
     tree: &Tree<T>,
     data: &mut Data<T>,
     (q, v): (&[T], &[T]),
 ) -> Result<(), StepError> {
-    if tree.opt.contact_model == ContactModel::Constraint
-        && tree.constraint.pairs.iter().any(|p| !p.supported)
-    {
-        update_transforms(tree, data, q);
-        world_frames(tree, data, v);
-        if let Some(pair) = unreachable_pair(tree, data) {
-            return Err(StepError::NoCollider(pair));
-        }
+    let missing = match tree.opt.contact_model {
+        ContactModel::Constraint => tree.constraint.pairs.iter().any(|p| !p.supported),
+        ContactModel::Smooth => !tree.lawless.is_empty(),
+    };
+    if !missing {
+        return Ok(());
     }
-    Ok(())
+    update_transforms(tree, data, q);
+    world_frames(tree, data, v);
+    if let Some(pair) = unreachable_pair(tree, data) {
+        return Err(StepError::NoCollider(pair));
+    }
+    match lawless_within_reach(tree, data) {
+        Some(pair) => Err(StepError::NoSmoothLaw(pair)),
+        None => Ok(()),
+    }
 }
 
 /// Checks that q has length nq, v and tau nv, and all are finite.

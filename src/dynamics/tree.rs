@@ -158,6 +158,9 @@ pub struct Tree<T: Real> {
     /// [`super::contact`]); both empty when contacts are off.
     pub geoms: Vec<GeomFrame<T>>,
     pub pairs: Vec<Pair>,
+    /// The smooth model's candidate pairs its law has no force for
+    /// (indices into `geoms`; see [`crate::compile::lawless_pairs`]).
+    pub lawless: Vec<[usize; 2]>,
     /// Per node: the joint's range if it is limited and limits are on
     /// (smooth model).
     pub limits: Vec<Option<(f64, f64)>>,
@@ -198,6 +201,7 @@ impl<T: Real> Tree<T> {
             body: vec![],
             geoms: vec![],
             pairs: vec![],
+            lawless: vec![],
             limits: vec![],
             soft: Soft::new(&SoftOptions::default(), [T::zero(); 3]),
             constraint: ConstraintConsts::empty(),

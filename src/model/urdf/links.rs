@@ -9,7 +9,7 @@ use nalgebra::{Matrix3, Rotation3, Vector3};
 use super::attributes::{identity, Pose};
 use super::joints::free_root;
 use super::tree::{Edge, Link, Tree};
-use super::{child, Node, Reader, Result};
+use super::{child, pybullet_inertia, Inertials, Node, Reader, Result};
 use crate::model::params::inertia_from_six;
 use crate::model::{check_inertial, Body, Geom, InertiaRule, Joint};
 
@@ -123,18 +123,29 @@ impl Reader<'_> {
             }
             heavy[bodies[b].parent] |= heavy[b];
         }
-        let massless: Vec<Link> = (1..bodies.len())
+        let without: Vec<Link> = (1..bodies.len())
             .filter(|&b| parts.moving(b) && child(link_of_body[b].node, "inertial").is_none())
             .map(|b| link_of_body[b])
             .collect();
-        if let Some(first) = massless.first() {
-            let names: Vec<&str> = massless.iter().map(|l| l.name).collect();
-            let msg = format!(
-                "moving links without <inertial> are massless, as the URDF spec and Pinocchio \
-                 read them (PyBullet gives each 1 kg and unit inertia): {}",
-                names.join(", ")
+        if let Some(first) = without.first() {
+            let names: Vec<&str> = without.iter().map(|l| l.name).collect();
+            let reading = match self.options.inertials {
+                Inertials::Pinocchio => {
+                    "are massless, as the URDF spec and Pinocchio read them (PyBullet gives each \
+                     1 kg and unit inertia)"
+                }
+                Inertials::PyBullet => {
+                    "get PyBullet's 1 kg and unit inertia at the link origin (the URDF spec and \
+                     Pinocchio: massless)"
+                }
+            };
+            self.warn(
+                first.node,
+                format!(
+                    "moving links without <inertial> {reading}: {}",
+                    names.join(", ")
+                ),
             );
-            self.warn(first.node, msg);
         }
         Ok(())
     }
@@ -186,25 +197,42 @@ impl Reader<'_> {
         self.origin(edge.node)
     }
 
-    /// The link's inertial, checked: a tensor MuJoCo's compiler would refuse
-    /// is used as written where it is positive semi-definite to rounding,
-    /// with a warning; one that is not is refused on a link that `moves`,
-    /// and dropped, with a warning, on one welded to the world, where it
-    /// takes no part in the dynamics.
+    /// The link's inertial, read as [`LoadOptions::inertials`] says. As
+    /// written (Pinocchio's reading) it is checked: a tensor MuJoCo's
+    /// compiler would refuse is used as written where it is positive
+    /// semi-definite to rounding, with a warning; one that is not is refused
+    /// on a link that `moves`, and dropped, with a warning, on one welded to
+    /// the world, where it takes no part in the dynamics.
+    ///
+    /// [`LoadOptions::inertials`]: super::LoadOptions::inertials
     fn inertial(&self, link: Link, moves: bool) -> Result<Inertial> {
+        let pybullet = self.options.inertials == Inertials::PyBullet;
+        let Some(inertial) = child(link.node, "inertial") else {
+            let (mass, inertia) = if pybullet {
+                (1.0, pybullet_inertia::missing())
+            } else {
+                (0.0, Matrix3::zeros())
+            };
+            return Ok((mass, Vector3::zeros(), inertia, Rotation3::identity()));
+        };
+        let mass = self.mass(inertial)?;
+        let tensor = self.inertia(inertial)?;
+        let (com, rot) = self.origin(inertial)?;
+        let tensor = if pybullet {
+            self.pybullet_tensor(link, inertial, &tensor)
+        } else {
+            tensor
+        };
+        let inertia = rot.matrix() * tensor * rot.matrix().transpose();
+        if pybullet {
+            return Ok((mass, com, inertia, rot));
+        }
         let massless = (
             0.0,
             Vector3::zeros(),
             Matrix3::zeros(),
             Rotation3::identity(),
         );
-        let Some(inertial) = child(link.node, "inertial") else {
-            return Ok(massless);
-        };
-        let mass = self.mass(inertial)?;
-        let tensor = self.inertia(inertial)?;
-        let (com, rot) = self.origin(inertial)?;
-        let inertia = rot.matrix() * tensor * rot.matrix().transpose();
         let check = |rule| check_inertial(link.name, mass, &com, &inertia, rule);
         match check(InertiaRule::SemiDefinite) {
             Err(e) if moves => return Err(self.error(inertial, e.to_string())),
@@ -223,6 +251,21 @@ impl Reader<'_> {
             self.warn(inertial, msg);
         }
         Ok((mass, com, inertia, rot))
+    }
+
+    /// The tensor (in the `<inertial>` origin's axes) as PyBullet reads it,
+    /// with a warning where PyBullet zeroes it.
+    fn pybullet_tensor(&self, link: Link, inertial: Node, tensor: &Matrix3<f64>) -> Matrix3<f64> {
+        let (read, zeroed) = pybullet_inertia::reading(tensor);
+        if zeroed {
+            let msg = format!(
+                "link '{}': its principal moments are negative or violate the triangle \
+                 inequality, so its inertia is zeroed (the mass kept), as PyBullet does",
+                link.name
+            );
+            self.warn(inertial, msg);
+        }
+        read
     }
 
     fn mass(&self, inertial: Node) -> Result<f64> {
@@ -255,7 +298,7 @@ mod tests {
     use nalgebra::{Matrix3, Vector3};
 
     use super::super::test_util::*;
-    use super::super::LoadOptions;
+    use super::super::{Inertials, LoadOptions};
     use crate::model::JointKind;
 
     #[test]
@@ -404,6 +447,43 @@ mod tests {
             "<parent link=\"arm\"/><dynamics diffosi:armature=\"0.1\"/>",
         );
         assert!(load(&armature).is_ok());
+    }
+
+    #[test]
+    fn pybullets_reading_gives_missing_inertials_a_unit_mass_and_zeroes_unphysical_tensors() {
+        let go1_base =
+            "<link name=\"tip\">\n<inertial><origin xyz=\"0 0 0.1\"/><mass value=\"3\"/>\
+                        <inertia ixx=\"0\" iyy=\"0\" izz=\"3e-6\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/>\
+                        </inertial></link>";
+        let text = format!(
+            "<link name=\"world\"/><link name=\"virtual\"/>\n{go1_base}{}{}",
+            joint("a", "revolute", "world", "virtual", ""),
+            joint("b", "revolute", "virtual", "tip", "")
+        );
+        let options = LoadOptions {
+            inertials: Inertials::PyBullet,
+            ..Default::default()
+        };
+        let m = load_with(&text, &options).unwrap();
+        let (virt, tip) = (&m.bodies[1], &m.bodies[2]);
+        assert_eq!((virt.mass, virt.com), (1.0, Vector3::zeros()));
+        assert_eq!(virt.inertia, Matrix3::identity());
+        assert_eq!((tip.mass, tip.inertia), (3.0, Matrix3::zeros()));
+        let [zeroed, without] = m.warnings() else {
+            panic!("two warnings expected, got {:?}", m.warnings());
+        };
+        assert!(
+            zeroed.starts_with("test.urdf:4: <inertial>: link 'tip'"),
+            "{zeroed}"
+        );
+        assert!(zeroed.ends_with("as PyBullet does"), "{zeroed}");
+        assert!(without.starts_with("test.urdf:2: <link>:"), "{without}");
+        assert!(
+            without.ends_with("Pinocchio: massless): virtual"),
+            "{without}"
+        );
+        // As written (the default), the same file keeps the tensor.
+        assert_eq!(load(&text).unwrap().bodies[2].inertia[(2, 2)], 3e-6);
     }
 
     #[test]

@@ -12,12 +12,15 @@
 //!   its principal moments violate the triangle inequality (as PyBullet and
 //!   Pinocchio use it; MuJoCo's compiler refuses the latter), with a warning
 //!   naming the link. A link with no `<inertial>` is massless, as the URDF
-//!   spec and Pinocchio read it (PyBullet gives it 1 kg and unit inertia,
-//!   MuJoCo's importer the inertia of its collision geoms at density 1000),
-//!   with a warning naming it; a moving link with nothing massive at or below
-//!   it is refused, since its dof has no inertia (Pinocchio's ABA gives NaN,
-//!   MuJoCo refuses it: "mass and inertia of moving bodies must be larger
-//!   than mjMINVAL").
+//!   spec and Pinocchio read it (MuJoCo's importer gives it the inertia of
+//!   its collision geoms at density 1000), with a warning naming it; a
+//!   moving link with nothing massive at or below it is refused, since its
+//!   dof has no inertia (Pinocchio's ABA gives NaN, MuJoCo refuses it: "mass
+//!   and inertia of moving bodies must be larger than mjMINVAL").
+//!   [`LoadOptions::inertials`] = [`Inertials::PyBullet`] reads every
+//!   `<inertial>` as PyBullet's importer does instead (`pybullet_inertia.rs`:
+//!   mass 1 and unit inertia where there is none, principal axes by Bullet's
+//!   Jacobi iteration, unphysical moments zeroed with a warning).
 //! - Joint types: revolute and continuous are hinges, prismatic is a slide,
 //!   fixed welds the child to its parent (a body with no joint), floating is a
 //!   free joint (its child's parent must be the world; the `<origin>` is the
@@ -85,6 +88,7 @@ mod geoms;
 mod joints;
 mod links;
 mod package;
+mod pybullet_inertia;
 #[cfg(test)]
 mod test_util;
 mod tree;
@@ -110,6 +114,39 @@ pub struct LoadOptions {
     pub floating_base: bool,
     /// Where `package://NAME/...` paths are looked for first (see [`resolve`]).
     pub package_dirs: Vec<PathBuf>,
+    /// Whose reading of `<inertial>`: Pinocchio's, the default, or PyBullet's.
+    pub inertials: Inertials,
+}
+
+/// Whose reading of the links' `<inertial>` a URDF gets (see the module doc).
+///
+/// The default is the file as written, a link without `<inertial>`
+/// massless: what the URDF spec says and Pinocchio reads. PyBullet's
+/// importer departs from the file (1 kg where a link has no inertial, its
+/// principal axes to 1e-6, some tensors zeroed), so its reading is an option
+/// for comparing with PyBullet, not a default.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Inertials {
+    /// As written; a link without `<inertial>` has mass and inertia 0.
+    #[default]
+    Pinocchio,
+    /// As PyBullet's loadURDF with URDF_USE_INERTIA_FROM_FILE reads it.
+    PyBullet,
+}
+
+impl std::str::FromStr for Inertials {
+    type Err = String;
+
+    /// "pinocchio" or "pybullet".
+    fn from_str(name: &str) -> std::result::Result<Self, String> {
+        match name {
+            "pinocchio" => Ok(Inertials::Pinocchio),
+            "pybullet" => Ok(Inertials::PyBullet),
+            other => Err(format!(
+                "inertial: expected 'pinocchio' or 'pybullet', got '{other}'"
+            )),
+        }
+    }
 }
 
 /// A URDF read: the spec and what the reader warns about (each names its
