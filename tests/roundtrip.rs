@@ -147,11 +147,13 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         sites,
         sensors,
         meshes,
+        equalities,
     } = ours;
     assert_eq!(name, &theirs.name, "{model}: model name");
     assert_eq!(keyframes, &theirs.keyframes, "{model}: keyframes");
     assert_eq!(sensors, &theirs.sensors, "{model}: sensors");
     assert_eq!(meshes, &theirs.meshes, "{model}: meshes");
+    assert_eq!(equalities, &theirs.equalities, "{model}: equalities");
     assert_eq!(
         (pairs, excludes),
         (&theirs.pairs, &theirs.excludes),

@@ -9,6 +9,7 @@
 
 mod actuators;
 mod edit;
+mod equality;
 mod fluid;
 mod gravcomp;
 mod sensors;
@@ -75,6 +76,7 @@ impl Model {
             sites: vec![],
             sensors: vec![],
             meshes: vec![],
+            equalities: vec![],
         })
     }
 

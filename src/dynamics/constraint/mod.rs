@@ -9,7 +9,8 @@
 //!   is another matter. What reads rows by constraint (the derivatives, the
 //!   contacts' forces) reads the origin, never a row's position.
 //! - Row order: the kinds in [`ConstraintKind::ORDER`], MuJoCo's
-//!   (mj_instantiateEquality, Friction, Limit, Contact): dry friction (one
+//!   (mj_instantiateEquality, Friction, Limit, Contact): equalities
+//!   ([`equality`]), dry friction (one
 //!   row per dof with `frictionloss`, [`friction`]), joint limits (one row
 //!   per side within the margin, [`limit`]), contacts in collision order
 //!   ([`contact`]). Each kind's file states its rows' J, distance and A_ii.
@@ -79,6 +80,7 @@ use crate::model::SolParams;
 use crate::spatial::{lift, Real};
 
 pub mod contact;
+pub mod equality;
 pub mod friction;
 pub mod impedance;
 pub mod invweight;
@@ -86,6 +88,7 @@ pub mod limit;
 pub mod solver;
 
 pub use contact::{contact_forces, contacts, mixing, unreachable_pair, Mixing};
+pub use equality::{EqualityConsts, Held, Weld};
 pub use impedance::{impedance, impedance_slope};
 pub use invweight::invweight0;
 pub use limit::Limit;
@@ -102,6 +105,8 @@ pub struct ConstraintConsts<T: Real> {
     pub limits: Vec<Option<Limit<T>>>,
     /// Per node: dry friction and its solver parameters (0 when off).
     pub frictionloss: Vec<(T, SolParams<T>)>,
+    /// The active equalities (none when the `equality` flag is off).
+    pub equalities: Vec<EqualityConsts<T>>,
 }
 
 impl<T: Real> ConstraintConsts<T> {
@@ -112,6 +117,7 @@ impl<T: Real> ConstraintConsts<T> {
             dof_invweight: vec![],
             limits: vec![],
             frictionloss: vec![],
+            equalities: vec![],
         }
     }
 }
@@ -121,14 +127,16 @@ impl<T: Real> ConstraintConsts<T> {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Origin {
     pub kind: ConstraintKind,
-    /// The dof of dry friction or a limit; the contact's index in the
-    /// state's contact list.
+    /// The equality's index in the model; the dof of dry friction or a
+    /// limit; the contact's index in the state's contact list.
     pub id: usize,
 }
 
 /// The kinds of constraint, each built by its own file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ConstraintKind {
+    /// An equality's rows (mjCNSTR_EQUALITY, [`equality`]).
+    Equality,
     /// Dry friction of a dof (mjCNSTR_FRICTION_DOF, [`friction`]).
     DofFriction,
     /// A hinge's or slide's limit, either side (mjCNSTR_LIMIT_JOINT, [`limit`]).
@@ -139,7 +147,8 @@ pub enum ConstraintKind {
 
 impl ConstraintKind {
     /// The kinds in the order their rows are built: MuJoCo's.
-    pub const ORDER: [ConstraintKind; 3] = [
+    pub const ORDER: [ConstraintKind; 4] = [
+        ConstraintKind::Equality,
         ConstraintKind::DofFriction,
         ConstraintKind::JointLimit,
         ConstraintKind::Contact,
@@ -148,6 +157,7 @@ impl ConstraintKind {
     /// Appends this kind's rows at the state `at`.
     fn append<T: Real>(self, at: &At<T>, rows: &mut Rows<T>) {
         match self {
+            ConstraintKind::Equality => equality::append(at, rows),
             ConstraintKind::DofFriction => friction::append(at, rows),
             ConstraintKind::JointLimit => limit::append(at, rows),
             ConstraintKind::Contact => contact::append(at, rows),
@@ -158,6 +168,8 @@ impl ConstraintKind {
 /// What a row is, for the solver's cost.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RowKind {
+    /// Bilateral (equalities): f = -D jar on both sides.
+    Equality,
     /// Dry friction with this bound on the force.
     Friction,
     /// Limits, frictionless contacts and pyramid edges: force >= 0.

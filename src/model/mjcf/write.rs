@@ -33,7 +33,8 @@
 //! stiffness under Euler ([`PassiveMode::ImplicitDampingStiffness`], DART's
 //! scheme), bodies, geoms or sites in an order the loader would renumber
 //! (bodies depth-first with children in index order, geoms and sites grouped
-//! by body in body order), sensors that are read but not computed, and
+//! by body in body order), sensors that are read but not computed,
+//! equality constraints, and
 //! whatever the loader, like MuJoCo, rejects in the written document (for
 //! instance a body with joints but no mass, which URDF allows).
 
@@ -65,6 +66,9 @@ pub fn write(spec: &Spec) -> Result<String, ModelError> {
 fn document(spec: &Spec) -> Result<String, ModelError> {
     if !spec.meshes.is_empty() {
         return Err(unwritable("meshes (their files are not kept)"));
+    }
+    if !spec.equalities.is_empty() {
+        return Err(unwritable("equality constraints (not written yet)"));
     }
     let mut doc = Document::default();
     doc.open(0, Tag::new("mujoco").text("model", &spec.name));
@@ -167,6 +171,7 @@ fn write_options(doc: &mut Document, opt: &Options) -> Result<(), ModelError> {
         ),
         ("contact", !opt.contact),
         ("limit", !opt.limits),
+        ("equality", !opt.solver.equality),
         ("frictionloss", !opt.solver.frictionloss),
         ("refsafe", !opt.solver.refsafe),
         ("filterparent", !opt.solver.filterparent),

@@ -156,6 +156,7 @@ pub fn parse(text: &str, file: &str, options: &LoadOptions) -> Result<Loaded> {
         sites: vec![],
         sensors: vec![],
         meshes: reader.meshes.take().into_iter().map(|m| m.mesh).collect(),
+        equalities: vec![],
     };
     Ok(Loaded {
         spec,
