@@ -147,10 +147,14 @@ impl Elimination {
     fn touching(&mut self, data: &Data<f64>) {
         let tree = self.detect.tree();
         contacts(tree, data, (&mut self.contacts, &mut self.pre));
-        let held = tree.constraint.equalities.iter().filter_map(|e| match e.held {
-            Held::Points { bodies, .. } => Some(bodies),
-            Held::Joints { .. } => None,
-        });
+        let held = tree
+            .constraint
+            .equalities
+            .iter()
+            .filter_map(|e| match e.held {
+                Held::Points { bodies, .. } => Some(bodies),
+                Held::Joints { .. } => None,
+            });
         for bodies in self.contacts.iter().map(|c| c.bodies).chain(held) {
             for b in bodies {
                 if let Some(node) = tree.body[b].node {

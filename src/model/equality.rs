@@ -34,7 +34,10 @@ pub struct Equality {
 /// What an equality holds together; see the module documentation.
 #[derive(Clone, Debug, PartialEq)]
 pub enum EqualityKind {
-    Connect { objects: Objects, anchor: Vector3<f64> },
+    Connect {
+        objects: Objects,
+        anchor: Vector3<f64>,
+    },
     Weld {
         objects: Objects,
         anchor: Vector3<f64>,
@@ -89,7 +92,9 @@ impl Equality {
         self.sol.check(&owner)?;
         let finite = |x: &[f64]| x.iter().all(|v| v.is_finite());
         let (numbers, same) = match &self.kind {
-            EqualityKind::Connect { objects, anchor } => (anchor.as_slice().to_vec(), objects.same()),
+            EqualityKind::Connect { objects, anchor } => {
+                (anchor.as_slice().to_vec(), objects.same())
+            }
             EqualityKind::Weld {
                 objects,
                 anchor,
@@ -108,7 +113,10 @@ impl Equality {
                 polycoef,
             } => {
                 for j in ids.iter().flatten() {
-                    if !matches!(joints[*j].kind, super::JointKind::Hinge | super::JointKind::Slide) {
+                    if !matches!(
+                        joints[*j].kind,
+                        super::JointKind::Hinge | super::JointKind::Slide
+                    ) {
                         let name = &joints[*j].name;
                         return Err(format!(
                             "{owner}: joint '{name}' must be a hinge or a slide"

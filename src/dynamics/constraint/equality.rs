@@ -82,7 +82,12 @@ pub(super) fn append<T: Real>(at: &At<T>, rows: &mut Rows<T>) {
                 bodies,
                 anchors,
                 weld,
-            } => points(at, (origin, &eq.sol), (*bodies, anchors, weld.as_ref()), rows),
+            } => points(
+                at,
+                (origin, &eq.sol),
+                (*bodies, anchors, weld.as_ref()),
+                rows,
+            ),
             Held::Joints {
                 first,
                 second,
@@ -99,7 +104,11 @@ fn pose<T: Real>(at: &At<T>, body: usize) -> (Rotation3<T>, Vector3<T>, Option<u
         Some(n) => frame.offset.compose(&at.data.world[n]),
         None => frame.offset,
     };
-    (Rotation3::from_matrix_unchecked(x.axes()), x.trans, frame.node)
+    (
+        Rotation3::from_matrix_unchecked(x.axes()),
+        x.trans,
+        frame.node,
+    )
 }
 
 /// (0, a) q: a pure quaternion times a quaternion.

@@ -22,55 +22,27 @@
 //!
 //! A kind is a variant of [`ConstraintKind`] and one file that builds its
 //! rows; every `match` on the kind is exhaustive, so the compiler lists the
-//! places that must learn it. Worked example, MuJoCo's connect equality
-//! (efc_type mjCNSTR_EQUALITY, efc_id the equality's index): three rows
-//! holding an anchor of body b2 on an anchor of body b1.
-//! 1. The constants: `ConstraintConsts::equalities`, per equality its bodies,
-//!    anchors and solver parameters, filled where the tree is built (as
-//!    `limits` are).
+//! places that must learn it. Worked example, [`equality`] (MuJoCo's
+//! efc_type mjCNSTR_EQUALITY, efc_id the equality's index):
+//! 1. The constants: `ConstraintConsts::equalities`, compiled where the
+//!    tree is built (`src/compile/equality.rs`, as `limits` are).
 //! 2. `ConstraintKind::Equality`, first in [`ConstraintKind::ORDER`] (MuJoCo
-//!    builds equalities first), and its arm in `ConstraintKind::append`:
-//!    `ConstraintKind::Equality => equality::append(at, rows)`.
-//! 3. `equality.rs`, its header stating the rows (J = J_p(b2) - J_p(b1) at
-//!    the anchors, the distance their separation, A_ii from the bodies'
-//!    translational invweight0):
-//!    ```ignore
-//!    pub(super) fn append<T: Real>(at: &At<T>, rows: &mut Rows<T>) {
-//!        let consts = &at.tree.constraint;
-//!        for (id, eq) in consts.equalities.iter().enumerate() {
-//!            // J(b2) - J(b1) at the anchors into 3 rows of `rows.j`, as
-//!            // `contact::contact_rows` forms a contact's frame rows.
-//!            let (sep, dofs) = connect_rows(at, eq, rows);
-//!            rows.moving(3, dofs);
-//!            let w = consts.body_invweight[eq.bodies[0]][0]
-//!                + consts.body_invweight[eq.bodies[1]][0];
-//!            let block = Block {
-//!                origin: Origin { kind: ConstraintKind::Equality, id },
-//!                kind: &[RowKind::Equality; 3],
-//!                diag: &[w; 3],
-//!                dist: sep.norm(),
-//!                margin: 0.0,
-//!                sol: eq.sol,
-//!                floss: T::zero(),
-//!            };
-//!            rows.push(block, at.v, consts, None);
-//!        }
-//!    }
-//!    ```
-//!    (MuJoCo gives each of the three rows its own efc_pos, the separation's
-//!    component; where its impedance reads them per row, `Block` takes a
-//!    distance per row.)
+//!    builds equalities first), and its arm in `ConstraintKind::append`.
+//! 3. `equality.rs`, its header stating the rows (J, error, A_ii): it
+//!    appends J's rows to `rows.j`, declares their dofs (`Rows::moving`)
+//!    and pushes a [`impedance::Block`] (per-row distances in `pos` where
+//!    MuJoCo's efc_pos differs per row; its J-dot v taken off `aref`).
 //! 4. A [`RowKind`] only if the solver's cost is new: equality rows are
-//!    bilateral (1/2 D jar^2 on both sides), a new `RowKind::Equality` with
-//!    its zone in [`solver`].
+//!    bilateral (1/2 D jar^2 on both sides), `RowKind::Equality` with its
+//!    zone in [`solver`].
 //! 5. The derivatives (`crate::derivatives`, module `constraint`): the
 //!    kind's arm in `analytic` is false until its partials exist (the step's
 //!    Jacobians then come from dual numbers, exact), then its file there
-//!    (`equality.rs`: the rows' partials in q and in the invweight0
-//!    constants) and its arms in the dispatch. The eliminated constraints
-//!    (`crate::derivatives::eliminated`, `Elimination::pushes_dof`) learn
-//!    which directions it may push (a connect: a wrench on each of its
-//!    bodies, as a contact's).
+//!    (the rows' partials in q and in the invweight0 constants) and its
+//!    arms in the dispatch. The eliminated constraints
+//!    (`crate::derivatives::eliminated`, `Elimination::pushes_dof` and
+//!    `touching`) learn which directions it may push (a connect or weld: a
+//!    wrench on each of its bodies, as a contact's).
 
 use std::ops::Range;
 

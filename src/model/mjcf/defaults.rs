@@ -10,8 +10,8 @@
 use super::attributes::{value, Attrs};
 use super::schema::{
     actuator_attributes, check_attributes, check_default_attributes, ACTUATOR_KINDS,
-    DEFAULT_TENDON_ONLY_ATTRS, EQUALITY_ATTRS, FIXED_TENDON_ATTRS, GEOM_ATTRS, JOINT_ATTRS, MESH_DEFAULT_ATTRS,
-    PAIR_ATTRS, SITE_ATTRS,
+    DEFAULT_TENDON_ONLY_ATTRS, EQUALITY_ATTRS, FIXED_TENDON_ATTRS, GEOM_ATTRS, JOINT_ATTRS,
+    MESH_DEFAULT_ATTRS, PAIR_ATTRS, SITE_ATTRS,
 };
 use super::{children, elements, tag, unrecognized, Node, Reader, Result};
 

@@ -70,12 +70,19 @@ impl<'a> Reader<'a> {
                 let by_body = a.text("body1").is_some();
                 let relpose = a.exact::<7>("relpose")?.and_then(|r| {
                     let q = Quaternion::new(r[3], r[4], r[5], r[6]);
-                    (q.norm() > 0.0)
-                        .then(|| (Vector3::new(r[0], r[1], r[2]), UnitQuaternion::from_quaternion(q)))
+                    (q.norm() > 0.0).then(|| {
+                        (
+                            Vector3::new(r[0], r[1], r[2]),
+                            UnitQuaternion::from_quaternion(q),
+                        )
+                    })
                 });
                 EqualityKind::Weld {
                     objects: objects(&a, named, by_body)?,
-                    anchor: a.vector("anchor")?.filter(|_| by_body).unwrap_or_else(Vector3::zeros),
+                    anchor: a
+                        .vector("anchor")?
+                        .filter(|_| by_body)
+                        .unwrap_or_else(Vector3::zeros),
                     relpose: relpose.filter(|_| by_body),
                     torquescale: a.number("torquescale")?.unwrap_or(1.0),
                 }
@@ -115,10 +122,12 @@ fn objects(a: &Attrs, named: &Named, by_body: bool) -> Result<Objects> {
     let node = a.element;
     let find = |key: &str, names: Vec<&str>| {
         let name = a.text(key).unwrap_or_default();
-        names
-            .iter()
-            .position(|n| *n == name)
-            .ok_or_else(|| a.error(node, format!("{key} '{name}' is not a {}", &key[..key.len() - 1])))
+        names.iter().position(|n| *n == name).ok_or_else(|| {
+            a.error(
+                node,
+                format!("{key} '{name}' is not a {}", &key[..key.len() - 1]),
+            )
+        })
     };
     let bodies = || named.bodies.iter().map(|b| b.name.as_str()).collect();
     let sites = || named.sites.iter().map(|s| s.name.as_str()).collect();
@@ -139,7 +148,10 @@ fn objects(a: &Attrs, named: &Named, by_body: bool) -> Result<Objects> {
         };
         return Err(a.error(node, why));
     }
-    Ok(Objects::Sites([find("site1", sites())?, find("site2", sites())?]))
+    Ok(Objects::Sites([
+        find("site1", sites())?,
+        find("site2", sites())?,
+    ]))
 }
 
 #[cfg(test)]
@@ -162,30 +174,71 @@ mod tests {
             <weld body1="f" body2="a" relpose="0 0 0 2 0 0 0" torquescale="3"/>
             <joint joint1="s" joint2="h" polycoef="0.1"/>
           </equality>"#;
-        let head = r#"<default><default class="soft"><equality solref="0.05 0.5"/></default></default>"#;
+        let head =
+            r#"<default><default class="soft"><equality solref="0.05 0.5"/></default></default>"#;
         let m = load(&model(head, BODIES, tail));
         let e = &m.equalities;
         assert_eq!(e.len(), 5);
         assert_eq!(e[0].sol.solref, [0.05, 0.5]);
-        assert!(matches!(e[0].kind, EqualityKind::Connect { objects: Objects::Bodies([1, 0]), .. }));
+        assert!(matches!(
+            e[0].kind,
+            EqualityKind::Connect {
+                objects: Objects::Bodies([1, 0]),
+                ..
+            }
+        ));
         assert!(!e[1].active);
-        assert!(matches!(e[1].kind, EqualityKind::Connect { objects: Objects::Sites([0, 1]), .. }));
+        assert!(matches!(
+            e[1].kind,
+            EqualityKind::Connect {
+                objects: Objects::Sites([0, 1]),
+                ..
+            }
+        ));
         // A zero quaternion in relpose: the pose at qpos0 (relpose ignored).
-        let EqualityKind::Weld { relpose, torquescale, .. } = &e[2].kind else { panic!() };
+        let EqualityKind::Weld {
+            relpose,
+            torquescale,
+            ..
+        } = &e[2].kind
+        else {
+            panic!()
+        };
         assert_eq!((relpose.is_none(), *torquescale), (true, 1.0));
-        let EqualityKind::Weld { relpose, torquescale, .. } = &e[3].kind else { panic!() };
+        let EqualityKind::Weld {
+            relpose,
+            torquescale,
+            ..
+        } = &e[3].kind
+        else {
+            panic!()
+        };
         assert_eq!(relpose.unwrap().1.w, 1.0);
         assert_eq!(*torquescale, 3.0);
-        let EqualityKind::Joint { joints, polycoef } = &e[4].kind else { panic!() };
-        assert_eq!((*joints, *polycoef), ([Some(1), Some(0)], [0.1, 1.0, 0.0, 0.0, 0.0]));
+        let EqualityKind::Joint { joints, polycoef } = &e[4].kind else {
+            panic!()
+        };
+        assert_eq!(
+            (*joints, *polycoef),
+            ([Some(1), Some(0)], [0.1, 1.0, 0.0, 0.0, 0.0])
+        );
     }
 
     #[test]
     fn bad_equalities_are_refused_with_the_line() {
         let cases = [
-            (r#"<connect body1="a"/>"#, "a connect needs body1 and anchor, or site1 and site2"),
-            (r#"<connect body1="x" anchor="0 0 0"/>"#, "body1 'x' is not a body"),
-            (r#"<weld site1="s1" site2="nowhere"/>"#, "site2 'nowhere' is not a site"),
+            (
+                r#"<connect body1="a"/>"#,
+                "a connect needs body1 and anchor, or site1 and site2",
+            ),
+            (
+                r#"<connect body1="x" anchor="0 0 0"/>"#,
+                "body1 'x' is not a body",
+            ),
+            (
+                r#"<weld site1="s1" site2="nowhere"/>"#,
+                "site2 'nowhere' is not a site",
+            ),
             (r#"<weld body1="a" site1="s1"/>"#, "either bodies or sites"),
             (r#"<joint joint1="free"/>"#, "must be a hinge or a slide"),
             (r#"<joint joint2="h"/>"#, "needs joint1"),
