@@ -53,13 +53,16 @@ pub enum Held<T: Real> {
         anchors: [Vector3<T>; 2],
         weld: Option<Weld<T>>,
     },
-    /// A joint coupling: per joint its coordinate, dof (node) and qpos0.
+    /// A joint coupling of its first joint to its second (if any).
     Joints {
-        first: (usize, usize, T),
-        second: Option<(usize, usize, T)>,
+        first: Coupled<T>,
+        second: Option<Coupled<T>>,
         polycoef: [T; 5],
     },
 }
+
+/// A joint of a coupling: its coordinate in q, its dof (node), its qpos0.
+pub type Coupled<T> = (usize, usize, T);
 
 /// A weld's frames: R on body 1, L on body 2 (a body weld: R the relative
 /// pose, L the identity; a site weld: the sites' orientations).
@@ -208,7 +211,7 @@ fn points<T: Real>(
         floss: T::zero(),
     };
     rows.push(block, at.v, &tree.opt, None);
-    let rate = jdot_v(at, ([n1, n2], p, quats), weld);
+    let rate = jdot_v(at, ([n1, n2], p), (&quats, weld));
     for (k, r) in rate[..dim].iter().enumerate() {
         rows.aref[first + k] -= *r;
     }
@@ -217,8 +220,8 @@ fn points<T: Real>(
 /// J-dot v of a connect's or weld's rows (see the module documentation).
 fn jdot_v<T: Real>(
     at: &At<T>,
-    (nodes, p, quats): ([Option<usize>; 2], [Vector3<T>; 2], [Quaternion<T>; 2]),
-    weld: Option<&Weld<T>>,
+    (nodes, p): ([Option<usize>; 2], [Vector3<T>; 2]),
+    (quats, weld): (&[Quaternion<T>; 2], Option<&Weld<T>>),
 ) -> [T; 6] {
     let [(v1, a1), (v2, a2)] = nodes.map(|n| velocity_and_bias(at, n));
     let point = |v: &Motion<T>, a: &Motion<T>, p: &Vector3<T>| {
@@ -264,7 +267,7 @@ fn velocity_and_bias<T: Real>(at: &At<T>, node: Option<usize>) -> (Motion<T>, Mo
             Coordinates::Scalar { .. } => tree.parent[i],
         };
         if let Some(c) = carrier {
-            bias = bias + data.world_vel[c].cross_motion(&data.world_axis[i]) * at.v[i];
+            bias += data.world_vel[c].cross_motion(&data.world_axis[i]) * at.v[i];
         }
         k = tree.parent[i];
     }
@@ -275,7 +278,7 @@ fn velocity_and_bias<T: Real>(at: &At<T>, node: Option<usize>) -> (Motion<T>, Mo
 fn joints<T: Real>(
     at: &At<T>,
     (origin, sol): (Origin, &SolParams<T>),
-    (first, second, c): ((usize, usize, T), Option<(usize, usize, T)>, &[T; 5]),
+    (first, second, c): (Coupled<T>, Option<Coupled<T>>, &[T; 5]),
     rows: &mut Rows<T>,
 ) {
     let tree = at.tree;
