@@ -140,3 +140,33 @@ def test_bad_equalities_name_the_line(tmp_path):
                     '<equality>\n<connect body1="a" body2="nowhere" anchor="0 0 0"/></equality></mujoco>')
     with pytest.raises(ValueError, match=r"bad.xml:3: <connect>: body2 'nowhere' is not a body"):
         diffosi.Model.load(str(path))
+
+
+def test_contradictory_equalities_give_mujocos_finite_step(tmp_path):
+    """Over-constrained and contradictory equalities (a joint held at two
+    offsets; a weld and a connect on the same bodies; a connect between
+    two sites on one body) are soft constraints sharing the slack, as
+    MuJoCo's: a finite step, MuJoCo's."""
+    path = tmp_path / "contradictory.xml"
+    path.write_text(f"""<mujoco><option timestep="0.002" {SOLVER}/>
+<default><geom contype="0" conaffinity="0"/></default>
+<worldbody>
+  <body name="a" pos="0 0 1"><joint name="h" type="hinge" axis="0 1 0"/>
+    <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
+    <site name="s1" pos="0.3 0 0"/><site name="s2" pos="0.1 0 0"/>
+    <body name="b" pos="0.3 0 0"><joint type="ball"/>
+      <geom type="box" size="0.05 0.05 0.1"/></body></body>
+</worldbody>
+<equality>
+  <joint joint1="h" polycoef="0.1"/><joint joint1="h" polycoef="-0.1"/>
+  <weld body1="b"/><connect body1="b" anchor="0.1 0 0"/>
+  <connect site1="s1" site2="s2"/>
+</equality></mujoco>""")
+    m, ours = mujoco.MjModel.from_xml_path(str(path)), diffosi.Model.load(str(path))
+    d = mujoco.MjData(m)
+    q, v, tau = state(m, 0, "contradictory")
+    d.qpos[:], d.qvel[:], d.qfrc_applied[:] = q, v, tau
+    mujoco.mj_step(m, d)
+    q1, v1 = ours.step(q, v, tau)
+    assert np.isfinite(v1).all()
+    np.testing.assert_allclose(v1, d.qvel, rtol=0, atol=1e-9)
