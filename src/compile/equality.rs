@@ -70,7 +70,10 @@ pub fn equality_consts<T: Real>(tree: &Tree<T>, spec: &Spec) -> Vec<EqualityCons
                         let anchor = lift_vector(anchor);
                         let [(r1, x1), (r2, x2)] = bodies.map(|b| poses[b]);
                         let (first, frame) = match relpose {
-                            Some((pos, q)) => (lift_vector(pos), lift_quat(q)),
+                            Some((pos, q)) => (
+                                lift_vector(pos),
+                                lift_quat(&UnitQuaternion::from_quaternion(*q)),
+                            ),
                             None => (
                                 r1.transpose() * (x2 + r2 * anchor - x1),
                                 quat(&r1).conjugate() * quat(&r2),

@@ -17,7 +17,7 @@
 //!   q2 - q2_0 (`polycoef`, the _0 at qpos0); with one joint, q1 - q1_0 =
 //!   c0. Hinges and slides only.
 
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::{Quaternion, Vector3};
 
 use super::SolParams;
 
@@ -41,8 +41,9 @@ pub enum EqualityKind {
     Weld {
         objects: Objects,
         anchor: Vector3<f64>,
-        /// Body 2's pose in body 1 (position, orientation); None: its pose at qpos0.
-        relpose: Option<(Vector3<f64>, UnitQuaternion<f64>)>,
+        /// Body 2's pose in body 1 (position, quaternion as written, not
+        /// zero; normalised when compiled); None: its pose at qpos0.
+        relpose: Option<(Vector3<f64>, Quaternion<f64>)>,
         torquescale: f64,
     },
     Joint {

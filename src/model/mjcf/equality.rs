@@ -6,7 +6,7 @@
 //! the world; `polycoef` defaults to (0, 1, 0, 0, 0) and `torquescale` to 1.
 //! Tendon equalities and the flex ones are refused with the line.
 
-use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use nalgebra::{Quaternion, Vector3};
 
 use super::attributes::Attrs;
 use super::schema::{check_attributes, EQUALITY_ATTRS};
@@ -70,12 +70,7 @@ impl<'a> Reader<'a> {
                 let by_body = a.text("body1").is_some();
                 let relpose = a.exact::<7>("relpose")?.and_then(|r| {
                     let q = Quaternion::new(r[3], r[4], r[5], r[6]);
-                    (q.norm() > 0.0).then(|| {
-                        (
-                            Vector3::new(r[0], r[1], r[2]),
-                            UnitQuaternion::from_quaternion(q),
-                        )
-                    })
+                    (q.norm() > 0.0).then(|| (Vector3::new(r[0], r[1], r[2]), q))
                 });
                 EqualityKind::Weld {
                     objects: objects(&a, named, by_body)?,
@@ -213,7 +208,7 @@ mod tests {
         else {
             panic!()
         };
-        assert_eq!(relpose.unwrap().1.w, 1.0);
+        assert_eq!(relpose.unwrap().1.w, 2.0);
         assert_eq!(*torquescale, 3.0);
         let EqualityKind::Joint { joints, polycoef } = &e[4].kind else {
             panic!()
