@@ -148,12 +148,14 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         sensors,
         meshes,
         hfields,
+        equalities,
     } = ours;
     assert_eq!(name, &theirs.name, "{model}: model name");
     assert_eq!(keyframes, &theirs.keyframes, "{model}: keyframes");
     assert_eq!(sensors, &theirs.sensors, "{model}: sensors");
     assert_eq!(meshes, &theirs.meshes, "{model}: meshes");
     assert_eq!(hfields, &theirs.hfields, "{model}: height fields");
+    assert_eq!(equalities, &theirs.equalities, "{model}: equalities");
     assert_eq!(
         (pairs, excludes),
         (&theirs.pairs, &theirs.excludes),

@@ -5,7 +5,7 @@
 //! a wind, and gymnasium's ant as its file runs it (RK4, contacts and limits on, standing
 //! on its floor), parameters included; under MuJoCo's implicitfast and implicit
 //! integrators free_ball (with and without gravcomp), the lone free box (its
-//! gyroscopic block) and the ant standing.
+//! gyroscopic block) and the ant standing; the equality models of tests/data.
 
 mod common;
 
@@ -242,6 +242,35 @@ fn implicit_integrators_jacobians_match_manifold_differences() {
             check(&name, &model, (&q, &v, &tau), params);
         }
         standing_ant(integrator);
+    }
+}
+
+/// Equality rows (dual numbers through them, exact): a four-bar closed by a
+/// connect, welds and a site connect on free and ball joints, joint
+/// couplings; Euler and RK4, body and joint parameters included.
+#[test]
+fn equality_jacobians_match_manifold_differences() {
+    for (file, params) in [
+        ("equality_fourbar", ["body/coupler/mass", "joint/a/damping"]),
+        (
+            "equality_weld",
+            ["body/tool/mass", "joint/shoulder/damping"],
+        ),
+        ("equality_joint", ["body/l2/com", "joint/h1/damping"]),
+    ] {
+        for integrator in [Integrator::Euler, Integrator::Rk4] {
+            let model = Model::load(common::model_path(&format!("tests/data/{file}.xml")))
+                .unwrap()
+                .edited(|s| s.opt.integrator = integrator)
+                .unwrap();
+            let (q, v, tau) = state(&model);
+            check(
+                &format!("{file} {integrator:?}"),
+                &model,
+                (&q, &v, &tau),
+                &params,
+            );
+        }
     }
 }
 

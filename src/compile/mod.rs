@@ -9,6 +9,7 @@
 
 mod actuators;
 mod edit;
+mod equality;
 mod fluid;
 mod gravcomp;
 mod invweight;
@@ -81,6 +82,7 @@ impl Model {
             sensors: vec![],
             meshes: vec![],
             hfields: vec![],
+            equalities: vec![],
         })
     }
 

@@ -8,6 +8,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+use super::equality::equality_consts;
 use super::fluid::fluid_bodies;
 use super::gravcomp::gravcomp_bodies;
 use super::invweight::invweight0;
@@ -108,7 +109,7 @@ impl<T: Real> Tree<T> {
     }
 
     /// The constraint model's constants: collision pairs, limits, dry
-    /// friction, invweight0 (at the reference configuration, as MuJoCo's
+    /// friction, equalities, invweight0 (at the reference configuration, as MuJoCo's
     /// mj_setConst computes them).
     fn add_constraints(&mut self, model: &Spec, lift_param: &impl Fn(Param, usize, f64) -> T) {
         let limits = std::mem::take(&mut self.limits);
@@ -154,6 +155,7 @@ impl<T: Real> Tree<T> {
         let (bodies, dofs) = invweight0(self, model, lift_param);
         self.constraint.body_invweight = bodies;
         self.constraint.dof_invweight = dofs;
+        self.constraint.equalities = equality_consts(self, model);
     }
 
     /// The index in `geoms` of model geom `g`, placed in its node's frame

@@ -14,7 +14,9 @@
 //!   touching another at q or at q' (a contact anywhere on the body, with
 //!   any normal, friction, torsional or rolling law);
 //! - any force on a dof within `margin` (m or rad) of an end of its range
-//!   at q or q', and on a dof with dry friction.
+//!   at q or q', and on a dof with dry friction;
+//! - any wrench on a body a connect or weld holds, any force on a joint of
+//!   a joint equality.
 //!
 //! The residual is the part of R no such impulse explains, in the force
 //! scale s (nv values, N or N m):
@@ -45,7 +47,7 @@ use super::window::{
     WindowError, WindowFit,
 };
 use crate::dynamics::collision::{ConstraintContact, Pre};
-use crate::dynamics::constraint::{contacts, ConstraintKind};
+use crate::dynamics::constraint::{contacts, ConstraintKind, Held};
 use crate::dynamics::integrator::{euler, ImplicitPassive};
 use crate::dynamics::world_frames;
 use crate::dynamics::{
@@ -141,12 +143,20 @@ impl Elimination {
     }
 
     /// Adds the nodes carrying a body that may touch something at the state
-    /// whose world frames `data` holds.
+    /// whose world frames `data` holds, or that a connect or weld holds.
     fn touching(&mut self, data: &Data<f64>) {
         let tree = self.detect.tree();
         contacts(tree, data, (&mut self.contacts, &mut self.pre));
-        for c in &self.contacts {
-            for b in c.bodies {
+        let held = tree
+            .constraint
+            .equalities
+            .iter()
+            .filter_map(|e| match e.held {
+                Held::Points { bodies, .. } => Some(bodies),
+                Held::Joints { .. } => None,
+            });
+        for bodies in self.contacts.iter().map(|c| c.bodies).chain(held) {
+            for b in bodies {
                 if let Some(node) = tree.body[b].node {
                     if !self.nodes.contains(&node) {
                         self.nodes.push(node);
@@ -209,7 +219,7 @@ impl Elimination {
         }
         for (d, joint) in model.joints.iter().enumerate() {
             let at = (tr.start.q[d], tr.next.q[d]);
-            let pushes = |kind: &ConstraintKind| self.pushes_dof(*kind, joint, at);
+            let pushes = |kind: &ConstraintKind| self.pushes_dof(*kind, (d, joint), at);
             if ConstraintKind::ORDER.iter().any(pushes) {
                 let mut g = DVector::zeros(n);
                 g[d] = 1.0 / scale[d];
@@ -222,14 +232,29 @@ impl Elimination {
     /// Whether a constraint of `kind` may push on the dof of `joint` at a
     /// transition taking its coordinate from x to x_next: dry friction
     /// always, a limit within `margin` of an end of its range at x or
-    /// x_next; contacts push on bodies ([`Elimination::touching`]).
-    fn pushes_dof(&self, kind: ConstraintKind, joint: &Joint, (x, x_next): (f64, f64)) -> bool {
+    /// x_next, a joint equality on its joints; contacts, connects and welds
+    /// push on bodies ([`Elimination::touching`]).
+    fn pushes_dof(
+        &self,
+        kind: ConstraintKind,
+        (d, joint): (usize, &Joint),
+        (x, x_next): (f64, f64),
+    ) -> bool {
         let near = |x: f64| {
             joint
                 .range
                 .is_some_and(|(lo, hi)| x < lo + self.margin || x > hi - self.margin)
         };
         match kind {
+            ConstraintKind::Equality => {
+                let equalities = &self.detect.tree().constraint.equalities;
+                equalities.iter().any(|e| match e.held {
+                    Held::Joints { first, second, .. } => {
+                        first.1 == d || second.is_some_and(|s| s.1 == d)
+                    }
+                    Held::Points { .. } => false,
+                })
+            }
             ConstraintKind::DofFriction => joint.frictionloss > 0.0,
             ConstraintKind::JointLimit => near(x) || near(x_next),
             ConstraintKind::Contact => false,

@@ -228,6 +228,7 @@ impl<T: Real> Tree<T> {
         !c.pairs.is_empty()
             || c.limits.iter().any(Option::is_some)
             || c.frictionloss.iter().any(|(f, _)| *f > T::zero())
+            || !c.equalities.is_empty()
     }
 
     pub fn nv(&self) -> usize {

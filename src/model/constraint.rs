@@ -238,8 +238,10 @@ pub struct SolverOptions {
     /// Ratio of frictional to normal impedance (MuJoCo's `impratio`).
     pub impratio: f64,
     pub iterations: usize,
-    /// MuJoCo's flags: dry-friction rows at all; a solref time constant of
-    /// at least two timesteps; no contacts between a body and its parent.
+    /// MuJoCo's flags: equality rows at all; dry-friction rows at all; a
+    /// solref time constant of at least two timesteps; no contacts between
+    /// a body and its parent.
+    pub equality: bool,
     pub frictionloss: bool,
     pub refsafe: bool,
     pub filterparent: bool,
@@ -251,6 +253,7 @@ impl Default for SolverOptions {
             cone: Cone::Pyramidal,
             impratio: 1.0,
             iterations: 100,
+            equality: true,
             frictionloss: true,
             refsafe: true,
             filterparent: true,

@@ -30,6 +30,7 @@
 //!   tau[joint's dof] += gear * u (hinge and slide joints only).
 
 pub mod constraint;
+pub mod equality;
 pub mod geom_inertia;
 pub mod hfield;
 mod keyframe;
@@ -46,6 +47,7 @@ use nalgebra::{Matrix3, Rotation3, Vector3};
 pub use constraint::{
     Cone, ContactModel, ContactPair, GeomContact, PairParams, SolParams, SolverOptions,
 };
+pub use equality::{Equality, EqualityKind, Objects};
 pub use keyframe::Keyframe;
 pub use params::{MapEntry, Param, ParamError, ParamMap};
 pub use sensor::{FrameObject, FrameQuantity, JointQuantity, Sensor, SensorKind, SiteQuantity};
@@ -639,6 +641,8 @@ pub struct Spec {
     pub meshes: Vec<mesh::Mesh>,
     /// The height fields that [`Shape::HField`] geoms index.
     pub hfields: Vec<hfield::HField>,
+    /// Equality constraints (MJCF `<equality>`), rows of the constraint model.
+    pub equalities: Vec<Equality>,
 }
 
 /// Which inertia tensors a model accepts, beyond finite, symmetric and
@@ -855,6 +859,14 @@ impl Spec {
         }
         for s in &self.sensors {
             s.check(self).map_err(ModelError::NotPhysical)?;
+        }
+        for e in &self.equalities {
+            e.check(self).map_err(ModelError::NotPhysical)?;
+        }
+        if !self.equalities.is_empty() && o.contact_model == ContactModel::Smooth {
+            return Err(ModelError::Unsupported(
+                "equality constraints need the constraint contact model".into(),
+            ));
         }
 
         for a in &self.actuators {

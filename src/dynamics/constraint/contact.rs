@@ -152,6 +152,7 @@ fn contact_rows<T: Real>(
         kind: &kind[..count],
         diag: &diag[..count],
         dist: c.dist,
+        pos: None,
         margin: c.params.margin,
         sol: c.params.sol,
         floss: T::zero(),
@@ -183,7 +184,10 @@ fn contact_rows<T: Real>(
 }
 
 /// The dofs on the paths from two bodies to the world, descending, each once.
-fn path_dofs<T: Real>(tree: &Tree<T>, bodies: [usize; 2]) -> impl Iterator<Item = usize> + '_ {
+pub(super) fn path_dofs<T: Real>(
+    tree: &Tree<T>,
+    bodies: [usize; 2],
+) -> impl Iterator<Item = usize> + '_ {
     // Each path descends (a parent's dof comes before its children's): merge.
     let path = |b: usize| std::iter::successors(tree.body[b].node, |&i| tree.parent[i]);
     let (mut a, mut b) = (path(bodies[0]).peekable(), path(bodies[1]).peekable());

@@ -23,6 +23,7 @@ pub(super) fn append<T: Real>(at: &At<T>, rows: &mut Rows<T>) {
                 kind: &[RowKind::Friction],
                 diag: &[consts.dof_invweight[i]],
                 dist: T::zero(),
+                pos: None,
                 margin: 0.0,
                 sol,
                 floss,

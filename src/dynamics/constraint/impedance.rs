@@ -128,6 +128,9 @@ pub(super) struct Block<'a, T: Real> {
     /// A_ii per row.
     pub diag: &'a [T],
     pub dist: T,
+    /// Per row, the distance its aref reads (an equality's error
+    /// components, MuJoCo's efc_pos); None: `dist` for every row.
+    pub pos: Option<&'a [T]>,
     pub margin: f64,
     pub sol: SolParams<T>,
     pub floss: T,
@@ -167,7 +170,8 @@ impl<T: Real> Rows<T> {
             let r = (T::one() - imp) * block.diag[k] / imp;
             let clamped = r <= lift(MINVAL);
             self.r.push(if clamped { lift(MINVAL) } else { r });
-            self.aref.push(-vel * damp - x * imp * stiff);
+            let x_row = block.pos.map_or(x, |p| p[k] - lift::<T>(block.margin));
+            self.aref.push(-vel * damp - x_row * imp * stiff);
             self.damping.push(damp);
             self.daref_ddist.push(-stiff * (slope * x + imp));
             self.dlog_r_ddist.push(if clamped {

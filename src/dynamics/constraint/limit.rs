@@ -44,6 +44,7 @@ pub(super) fn append<T: Real>(at: &At<T>, rows: &mut Rows<T>) {
                     kind: &[RowKind::Unilateral],
                     diag: &[consts.dof_invweight[i]],
                     dist,
+                    pos: None,
                     margin,
                     sol,
                     floss: T::zero(),

@@ -9,7 +9,8 @@
 //!   is another matter. What reads rows by constraint (the derivatives, the
 //!   contacts' forces) reads the origin, never a row's position.
 //! - Row order: the kinds in [`ConstraintKind::ORDER`], MuJoCo's
-//!   (mj_instantiateEquality, Friction, Limit, Contact): dry friction (one
+//!   (mj_instantiateEquality, Friction, Limit, Contact): equalities
+//!   ([`equality`]), dry friction (one
 //!   row per dof with `frictionloss`, [`friction`]), joint limits (one row
 //!   per side within the margin, [`limit`]), contacts in collision order
 //!   ([`contact`]). Each kind's file states its rows' J, distance and A_ii.
@@ -21,55 +22,27 @@
 //!
 //! A kind is a variant of [`ConstraintKind`] and one file that builds its
 //! rows; every `match` on the kind is exhaustive, so the compiler lists the
-//! places that must learn it. Worked example, MuJoCo's connect equality
-//! (efc_type mjCNSTR_EQUALITY, efc_id the equality's index): three rows
-//! holding an anchor of body b2 on an anchor of body b1.
-//! 1. The constants: `ConstraintConsts::equalities`, per equality its bodies,
-//!    anchors and solver parameters, compiled where `limits` are (the
-//!    compile layer's `Tree::add_constraints`, src/compile/tree.rs).
+//! places that must learn it. Worked example, [`equality`] (MuJoCo's
+//! efc_type mjCNSTR_EQUALITY, efc_id the equality's index):
+//! 1. The constants: `ConstraintConsts::equalities`, compiled where the
+//!    tree is built (`src/compile/equality.rs`, as `limits` are).
 //! 2. `ConstraintKind::Equality`, first in [`ConstraintKind::ORDER`] (MuJoCo
-//!    builds equalities first), and its arm in `ConstraintKind::append`:
-//!    `ConstraintKind::Equality => equality::append(at, rows)`.
-//! 3. `equality.rs`, its header stating the rows (J = J_p(b2) - J_p(b1) at
-//!    the anchors, the distance their separation, A_ii from the bodies'
-//!    translational invweight0):
-//!    ```ignore
-//!    pub(super) fn append<T: Real>(at: &At<T>, rows: &mut Rows<T>) {
-//!        let consts = &at.tree.constraint;
-//!        for (id, eq) in consts.equalities.iter().enumerate() {
-//!            // J(b2) - J(b1) at the anchors into 3 rows of `rows.j`, as
-//!            // `contact::contact_rows` forms a contact's frame rows.
-//!            let (sep, dofs) = connect_rows(at, eq, rows);
-//!            rows.moving(3, dofs);
-//!            let w = consts.body_invweight[eq.bodies[0]][0]
-//!                + consts.body_invweight[eq.bodies[1]][0];
-//!            let block = Block {
-//!                origin: Origin { kind: ConstraintKind::Equality, id },
-//!                kind: &[RowKind::Equality; 3],
-//!                diag: &[w; 3],
-//!                dist: sep.norm(),
-//!                margin: 0.0,
-//!                sol: eq.sol,
-//!                floss: T::zero(),
-//!            };
-//!            rows.push(block, at.v, consts, None);
-//!        }
-//!    }
-//!    ```
-//!    (MuJoCo gives each of the three rows its own efc_pos, the separation's
-//!    component; where its impedance reads them per row, `Block` takes a
-//!    distance per row.)
+//!    builds equalities first), and its arm in `ConstraintKind::append`.
+//! 3. `equality.rs`, its header stating the rows (J, error, A_ii): it
+//!    appends J's rows to `rows.j`, declares their dofs (`Rows::moving`)
+//!    and pushes a [`impedance::Block`] (per-row distances in `pos` where
+//!    MuJoCo's efc_pos differs per row; its J-dot v taken off `aref`).
 //! 4. A [`RowKind`] only if the solver's cost is new: equality rows are
-//!    bilateral (1/2 D jar^2 on both sides), a new `RowKind::Equality` with
-//!    its zone in [`solver`].
+//!    bilateral (1/2 D jar^2 on both sides), `RowKind::Equality` with its
+//!    zone in [`solver`].
 //! 5. The derivatives (`crate::derivatives`, module `constraint`): the
 //!    kind's arm in `analytic` is false until its partials exist (the step's
 //!    Jacobians then come from dual numbers, exact), then its file there
-//!    (`equality.rs`: the rows' partials in q and in the invweight0
-//!    constants) and its arms in the dispatch. The eliminated constraints
-//!    (`crate::derivatives::eliminated`, `Elimination::pushes_dof`) learn
-//!    which directions it may push (a connect: a wrench on each of its
-//!    bodies, as a contact's).
+//!    (the rows' partials in q and in the invweight0 constants) and its
+//!    arms in the dispatch. The eliminated constraints
+//!    (`crate::derivatives::eliminated`, `Elimination::pushes_dof` and
+//!    `touching`) learn which directions it may push (a connect or weld: a
+//!    wrench on each of its bodies, as a contact's).
 
 use std::ops::Range;
 
@@ -79,12 +52,14 @@ use crate::model::SolParams;
 use crate::spatial::{lift, Real};
 
 pub mod contact;
+pub mod equality;
 pub mod friction;
 pub mod impedance;
 pub mod limit;
 pub mod solver;
 
 pub use contact::{contact_forces, contacts, mixing, unreachable_pair, Mixing};
+pub use equality::{EqualityConsts, Held, Weld};
 pub use impedance::{impedance, impedance_slope};
 pub use limit::Limit;
 
@@ -102,6 +77,8 @@ pub struct ConstraintConsts<T: Real> {
     pub limits: Vec<Option<Limit<T>>>,
     /// Per node: dry friction and its solver parameters (0 when off).
     pub frictionloss: Vec<(T, SolParams<T>)>,
+    /// The active equalities (none when the `equality` flag is off).
+    pub equalities: Vec<EqualityConsts<T>>,
 }
 
 impl<T: Real> ConstraintConsts<T> {
@@ -113,6 +90,7 @@ impl<T: Real> ConstraintConsts<T> {
             dof_invweight: vec![],
             limits: vec![],
             frictionloss: vec![],
+            equalities: vec![],
         }
     }
 }
@@ -122,14 +100,16 @@ impl<T: Real> ConstraintConsts<T> {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Origin {
     pub kind: ConstraintKind,
-    /// The dof of dry friction or a limit; the contact's index in the
-    /// state's contact list.
+    /// The equality's index in the model; the dof of dry friction or a
+    /// limit; the contact's index in the state's contact list.
     pub id: usize,
 }
 
 /// The kinds of constraint, each built by its own file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ConstraintKind {
+    /// An equality's rows (mjCNSTR_EQUALITY, [`equality`]).
+    Equality,
     /// Dry friction of a dof (mjCNSTR_FRICTION_DOF, [`friction`]).
     DofFriction,
     /// A hinge's or slide's limit, either side (mjCNSTR_LIMIT_JOINT, [`limit`]).
@@ -140,7 +120,8 @@ pub enum ConstraintKind {
 
 impl ConstraintKind {
     /// The kinds in the order their rows are built: MuJoCo's.
-    pub const ORDER: [ConstraintKind; 3] = [
+    pub const ORDER: [ConstraintKind; 4] = [
+        ConstraintKind::Equality,
         ConstraintKind::DofFriction,
         ConstraintKind::JointLimit,
         ConstraintKind::Contact,
@@ -149,6 +130,7 @@ impl ConstraintKind {
     /// Appends this kind's rows at the state `at`.
     fn append<T: Real>(self, at: &At<T>, rows: &mut Rows<T>) {
         match self {
+            ConstraintKind::Equality => equality::append(at, rows),
             ConstraintKind::DofFriction => friction::append(at, rows),
             ConstraintKind::JointLimit => limit::append(at, rows),
             ConstraintKind::Contact => contact::append(at, rows),
@@ -159,6 +141,8 @@ impl ConstraintKind {
 /// What a row is, for the solver's cost.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RowKind {
+    /// Bilateral (equalities): f = -D jar on both sides.
+    Equality,
     /// Dry friction with this bound on the force.
     Friction,
     /// Limits, frictionless contacts and pyramid edges: force >= 0.

@@ -6,6 +6,7 @@
 //! with a0 = M^-1 (forces without constraints) and, for jar = J a - aref:
 //! - dry friction (bound F, D = 1/R): 1/2 D jar^2 while |jar| < R F, else the
 //!   linear continuation F |jar| - 1/2 R F^2;
+//! - equality rows: 1/2 D jar^2 on both sides;
 //! - unilateral rows (limits, pyramid edges, frictionless contacts): 1/2 D
 //!   jar^2 while jar < 0, else 0;
 //! - elliptic cones: MuJoCo's three zones (inside the dual cone: nothing;
@@ -159,6 +160,9 @@ fn evaluate<T: Real>(
                 } else {
                     (-d * jar[i], Zone::Quadratic)
                 };
+            }
+            RowKind::Equality => {
+                (force[i], zone[i]) = (-d * jar[i], Zone::Quadratic);
             }
             RowKind::Unilateral => {
                 if jar[i] < T::zero() {

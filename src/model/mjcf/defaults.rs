@@ -1,6 +1,6 @@
 //! Default classes.
 //!
-//! A class holds the `<joint>`, `<geom>`, `<site>`, `<mesh>` and actuator elements of its
+//! A class holds the `<joint>`, `<geom>`, `<site>`, `<mesh>`, `<equality>` and actuator elements of its
 //! `<default>` and of every enclosing one; see [`Attrs`] for how an attribute
 //! is resolved through them. A short list of numbers (`size`, `friction`,
 //! `gear`, ...) overwrites only the leading entries of the inherited one. An
@@ -10,8 +10,8 @@
 use super::attributes::{value, Attrs};
 use super::schema::{
     actuator_attributes, check_attributes, check_default_attributes, ACTUATOR_KINDS,
-    DEFAULT_TENDON_ONLY_ATTRS, FIXED_TENDON_ATTRS, GEOM_ATTRS, JOINT_ATTRS, MESH_DEFAULT_ATTRS,
-    PAIR_ATTRS, SITE_ATTRS,
+    DEFAULT_TENDON_ONLY_ATTRS, EQUALITY_ATTRS, FIXED_TENDON_ATTRS, GEOM_ATTRS, JOINT_ATTRS,
+    MESH_DEFAULT_ATTRS, PAIR_ATTRS, SITE_ATTRS,
 };
 use super::{children, elements, tag, unrecognized, Node, Reader, Result};
 
@@ -26,12 +26,13 @@ pub struct Class<'a> {
     pub actuator: Vec<Node<'a>>,
     pub tendon: Vec<Node<'a>>,
     pub mesh: Vec<Node<'a>>,
+    pub equality: Vec<Node<'a>>,
 }
 
 /// Default elements that only set up elements we ignore or reject anyway.
 #[rustfmt::skip]
 const INERT_DEFAULTS: &[&str] = &[
-    "material", "camera", "light", "equality",
+    "material", "camera", "light",
 ];
 
 impl<'a> Reader<'a> {
@@ -89,6 +90,10 @@ impl<'a> Reader<'a> {
                 let attrs = [FIXED_TENDON_ATTRS, DEFAULT_TENDON_ONLY_ATTRS].concat();
                 check_default_attributes(file, child, &attrs)?;
                 class.tendon.push(child);
+            }
+            "equality" => {
+                check_default_attributes(file, child, EQUALITY_ATTRS)?;
+                class.equality.push(child);
             }
             "mesh" => {
                 check_attributes(file, child, MESH_DEFAULT_ATTRS)?;

@@ -16,7 +16,8 @@
 //! and `<exclude>`), `<actuator>` (MuJoCo's motor, position, velocity,
 //! intvelocity, damper and general on hinges and slides: `actuators.rs`),
 //! `<site>` and `<sensor>` (`sites.rs`, `sensors.rs`: every sensor type laid
-//! out, the common ones computed), `<keyframe>` (`keyframes.rs`), and
+//! out, the common ones computed), `<equality>` (connect, weld, joint:
+//! `equality.rs`), `<keyframe>` (`keyframes.rs`), and
 //! `<custom>`'s `diffosi:` settings (the contact model, the smooth model's
 //! constants). The medium's forces are MuJoCo's inertia-box model
 //! (`dynamics/fluid.rs`).
@@ -36,7 +37,7 @@
 //!   fluid: limits and dry friction on ball and free joints, a free joint
 //!   that is not the only joint of a child of the world, spatial tendons and
 //!   fixed tendons that act (limit, spring, damping, dry friction, armature),
-//!   equalities, flexes and skins, the ellipsoid fluid model (fluidshape),
+//!   tendon and flex equalities, flexes and skins, the ellipsoid fluid model (fluidshape),
 //!   gravcomp routed through actuators (`actuatorgravcomp`), mocap bodies,
 //!   the implicit integrators in a fluid, noslip iterations, the `override`
 //!   flag, disabling springs, dampers, actuation or control clamping,
@@ -71,6 +72,7 @@ mod bodies;
 mod compiler;
 mod contact;
 mod defaults;
+mod equality;
 mod frames;
 mod geoms;
 mod hfields;
@@ -143,6 +145,12 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
     let (bodies, joints, geoms, sites) = tree.finish();
     let body_names: Vec<&str> = bodies.iter().map(|b| b.name.as_str()).collect();
     let (pairs, excludes) = reader.read_contact(root, &geoms, &body_names)?;
+    let named = equality::Named {
+        bodies: &bodies,
+        joints: &joints,
+        sites: &sites,
+    };
+    let equalities = reader.read_equalities(root, &named)?;
     let mut meshes = std::mem::take(&mut reader.meshes);
     let paired: Vec<usize> = pairs.iter().flat_map(|p| p.geoms).collect();
     reader.add_hulls(&mut meshes, &geoms, &paired)?;
@@ -165,6 +173,7 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
         sensors,
         meshes: meshes.compiled,
         hfields: std::mem::take(&mut reader.hfields.compiled),
+        equalities,
     };
     spec.keyframes = reader.read_keyframes(root, &spec)?;
     Ok(spec)
@@ -235,7 +244,6 @@ fn check_document(file: &str, root: Node) -> Result<()> {
 fn check_unsupported_sections(file: &str, root: Node) -> Result<()> {
     for section in elements(root) {
         let why = match tag(section) {
-            "equality" => "equality constraints change the dynamics",
             "deformable" => "flexes change the dynamics",
             "extension" => "plugins change the dynamics",
             _ => continue,
@@ -342,7 +350,7 @@ mod tests {
              "limited fixed tendon"),
             ("", "", r#"<tendon><fixed><joint joint="nowhere"/></fixed></tendon>"#,
              "unknown joint 'nowhere'"),
-            ("", "", r#"<equality><weld body1="b"/></equality>"#, "equality"),
+            ("", "", r#"<equality><tendon tendon1="t"/></equality>"#, "tendon equalities"),
             (r#"<option density="-1"/>"#, "", "", "density must be finite and >= 0"),
             ("", r#"<geom size="1" fluidshape="ellipsoid"/>"#, "", "fluidshape"),
             (r#"<option integrator="Verlet"/>"#, "", "", "must be one of"),

@@ -20,7 +20,7 @@
 //! smooth one. The solver's `cone`, `impratio` and `iterations` are read;
 //! `solver`, `tolerance`, `jacobian` and the line-search settings only tune
 //! how MuJoCo approaches the same answer and are ignored (ours converges).
-//! The flags `constraint`, `frictionloss`, `refsafe` and `filterparent` are
+//! The flags `constraint`, `equality`, `frictionloss`, `refsafe` and `filterparent` are
 //! read into [`SolverOptions`]; `noslip_iterations` and the `override` flag
 //! change the answer and are rejected.
 //!
@@ -41,7 +41,7 @@ use crate::model::{
 /// Flags that only concern contacts, constraints, sensors or the solver.
 #[rustfmt::skip]
 const IGNORED_FLAGS: &[&str] = &[
-    "equality", "warmstart", "sensor", "midphase", "autoreset", "nativeccd", "island", "multiccd",
+    "warmstart", "sensor", "midphase", "autoreset", "nativeccd", "island", "multiccd",
     "energy", "fwdinv", "invdiscrete", "sleep", "diagexact",
 ];
 
@@ -63,6 +63,7 @@ struct Flags {
     /// All constraints; dry friction rows; the time-constant floor of
     /// solref; the parent-child contact filter ([`SolverOptions`]).
     constraint: bool,
+    equality: bool,
     frictionloss: bool,
     refsafe: bool,
     filterparent: bool,
@@ -79,6 +80,7 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
         contact: true,
         limit: true,
         constraint: true,
+        equality: true,
         frictionloss: true,
         refsafe: true,
         filterparent: true,
@@ -121,6 +123,7 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
         flags.limit && flags.constraint,
     );
     opt.solver.frictionloss = flags.frictionloss && flags.constraint;
+    opt.solver.equality = flags.equality && flags.constraint;
     (opt.solver.refsafe, opt.solver.filterparent) = (flags.refsafe, flags.filterparent);
     opt.contact_model = contact_model(file, root)?;
     opt.integrator = chosen;
@@ -249,6 +252,7 @@ fn read_flags(file: &str, flag: Node, flags: &mut Flags) -> Result<()> {
             "contact" => flags.contact = enabled,
             "limit" => flags.limit = enabled,
             "constraint" => flags.constraint = enabled,
+            "equality" => flags.equality = enabled,
             "frictionloss" => flags.frictionloss = enabled,
             "refsafe" => flags.refsafe = enabled,
             "filterparent" => flags.filterparent = enabled,

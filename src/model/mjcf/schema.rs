@@ -104,6 +104,9 @@ pub const HFIELD_ATTRS: &[&str] = &[
 ];
 /// What a `<default>`'s `<mesh>` may set.
 pub const MESH_DEFAULT_ATTRS: &[&str] = &["scale", "maxhullvert", "inertia"];
+/// Attributes of every `<equality>` element (and, but for name and class,
+/// of a `<default>`'s `<equality>`).
+pub const EQUALITY_ATTRS: &[&str] = &["name", "class", "active", "solref", "solimp"];
 pub const EXCLUDE_ATTRS: &[&str] = &["name", "body1", "body2"];
 #[rustfmt::skip]
 pub const MOTOR_ATTRS: &[&str] = &[

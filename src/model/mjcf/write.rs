@@ -41,9 +41,9 @@ use nalgebra::{Rotation3, UnitQuaternion};
 
 use crate::model::params::inertia_to_six;
 use crate::model::{
-    ActDynamics, Actuator, Bias, Body, Cone, ContactModel, FrameObject, FrameQuantity, Gain, Geom,
-    Integrator, Joint, JointKind, JointQuantity, ModelError, Options, PassiveMode, SensorKind,
-    Shape, SiteQuantity, SoftOptions, SolParams, Spec,
+    ActDynamics, Actuator, Bias, Body, Cone, ContactModel, EqualityKind, FrameObject,
+    FrameQuantity, Gain, Geom, Integrator, Joint, JointKind, JointQuantity, ModelError, Objects,
+    Options, PassiveMode, SensorKind, Shape, SiteQuantity, SoftOptions, SolParams, Spec,
 };
 
 /// Writes `spec` as an MJCF document, checked by reading and validating it.
@@ -78,6 +78,7 @@ fn document(spec: &Spec) -> Result<String, ModelError> {
     write_options(&mut doc, &spec.opt)?;
     write_bodies(&mut doc, spec)?;
     write_contact(&mut doc, spec);
+    write_equalities(&mut doc, spec);
     doc.open(1, Tag::new("actuator"));
     for a in &spec.actuators {
         doc.empty(2, actuator(a, &spec.joints[a.joint].name));
@@ -170,6 +171,7 @@ fn write_options(doc: &mut Document, opt: &Options) -> Result<(), ModelError> {
         ),
         ("contact", !opt.contact),
         ("limit", !opt.limits),
+        ("equality", !opt.solver.equality),
         ("frictionloss", !opt.solver.frictionloss),
         ("refsafe", !opt.solver.refsafe),
         ("filterparent", !opt.solver.filterparent),
@@ -462,6 +464,65 @@ fn write_contact(doc: &mut Document, spec: &Spec) {
         doc.empty(2, Tag::new("exclude").text("body1", b1).text("body2", b2));
     }
     doc.close(1, "contact");
+}
+
+fn write_equalities(doc: &mut Document, spec: &Spec) {
+    if spec.equalities.is_empty() {
+        return;
+    }
+    doc.open(1, Tag::new("equality"));
+    for e in &spec.equalities {
+        let objects = |tag: Tag, objects: &Objects| match objects {
+            Objects::Bodies([b1, b2]) => tag
+                .text("body1", &spec.bodies[*b1].name)
+                .text("body2", &spec.bodies[*b2].name),
+            Objects::Sites([s1, s2]) => tag
+                .text("site1", &spec.sites[*s1].name)
+                .text("site2", &spec.sites[*s2].name),
+        };
+        let by_body = |o: &Objects| matches!(o, Objects::Bodies(_));
+        let tag = match &e.kind {
+            EqualityKind::Connect { objects: o, anchor } => {
+                let tag = objects(Tag::new("connect"), o);
+                if by_body(o) {
+                    tag.numbers("anchor", anchor.as_slice())
+                } else {
+                    tag
+                }
+            }
+            EqualityKind::Weld {
+                objects: o,
+                anchor,
+                relpose,
+                torquescale,
+            } => {
+                let mut tag = objects(Tag::new("weld"), o).number("torquescale", *torquescale);
+                if by_body(o) {
+                    tag = tag.numbers("anchor", anchor.as_slice());
+                }
+                match relpose {
+                    Some((p, q)) => tag.numbers("relpose", &[p.x, p.y, p.z, q.w, q.i, q.j, q.k]),
+                    None => tag,
+                }
+            }
+            EqualityKind::Joint { joints, polycoef } => {
+                let tag = Tag::new("joint").numbers("polycoef", polycoef);
+                joints
+                    .iter()
+                    .zip(["joint1", "joint2"])
+                    .fold(tag, |t, (j, key)| match j {
+                        Some(j) => t.text(key, &spec.joints[*j].name),
+                        None => t,
+                    })
+            }
+        };
+        let tag = tag
+            .text("name", &e.name)
+            .text("active", if e.active { "true" } else { "false" })
+            .sol("solref", "solimp", &e.sol);
+        doc.empty(2, tag);
+    }
+    doc.close(1, "equality");
 }
 
 /// A motor as `<motor>`; any other actuator as the `<general>` with its

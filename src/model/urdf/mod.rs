@@ -194,6 +194,7 @@ pub fn parse(text: &str, file: &str, options: &LoadOptions) -> Result<Loaded> {
         sensors: vec![],
         meshes: reader.meshes.take().into_iter().map(|m| m.mesh).collect(),
         hfields: vec![],
+        equalities: vec![],
     };
     Ok(Loaded {
         spec,
