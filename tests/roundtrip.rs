@@ -203,6 +203,7 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
             inertia_frame,
             joints,
             gravcomp,
+            mocap,
         } = a;
         let at = |what: &str| format!("body '{name}' {what}");
         assert_eq!(
@@ -214,6 +215,7 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         rebuilt.rotation(|| at("rot"), rot, &b.rot);
         worst.number(|| at("mass"), *mass, b.mass);
         assert_eq!(*gravcomp, b.gravcomp, "{model}: body '{name}' gravcomp");
+        assert_eq!(*mocap, b.mocap, "{model}: body '{name}' mocap");
         worst.numbers(|| at("com"), com.as_slice(), b.com.as_slice());
         rebuilt.tensor(|| at("inertia"), inertia, &b.inertia);
         // The inertial frame survives where the inertia is diagonal in it (written

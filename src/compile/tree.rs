@@ -35,8 +35,11 @@ impl<T: Real> Tree<T> {
         tree.gravity = lift_vector(&model.opt.gravity);
         tree.body.push(BodyFrame {
             node: None,
+            mocap: None,
             offset: Transform::identity(),
         });
+        (tree.mocap_pos, tree.mocap_quat) = model.mocap_default();
+        let mut next_mocap = 0;
         let reference = model.reference_q();
         let mut at = 0;
         for (index, b) in model.bodies.iter().enumerate().skip(1) {
@@ -77,8 +80,18 @@ impl<T: Real> Tree<T> {
             }
             // Within the last node's frame, the body sits at `x_tree`: identity if
             // the body has joints, else its placement relative to its carrier.
+            if b.mocap {
+                tree.body.push(BodyFrame {
+                    node: None,
+                    mocap: Some(next_mocap),
+                    offset: Transform::identity(),
+                });
+                next_mocap += 1;
+                continue;
+            }
             tree.body.push(BodyFrame {
                 node,
+                mocap: parent.mocap,
                 offset: x_tree,
             });
             if let Some(n) = node {
@@ -161,7 +174,7 @@ impl<T: Real> Tree<T> {
         let frame = self.body[geom.body];
         let offset = Transform::from_pose_f64(&geom.rot, &geom.pos).compose(&frame.offset);
         self.geoms.push(GeomFrame::new(
-            (g, geom.body, frame.node),
+            (g, geom.body, &frame),
             offset,
             (geom.shape, model.rbound(&geom.shape)),
         ));

@@ -106,6 +106,11 @@ pub struct Body {
     /// MuJoCo's gravity compensation: the body feels -gravcomp m g at its
     /// COM ([`crate::dynamics::gravcomp`]); 0 (none) by default.
     pub gravcomp: f64,
+    /// A mocap body (MJCF `mocap="true"`): a jointless child of the world
+    /// whose pose is an input of the step (MuJoCo's mocap_pos, mocap_quat;
+    /// [`Spec::mocap_bodies`]), `pos` and `rot` its default. It carries its
+    /// geoms and sites, no dofs; child bodies under it are not supported.
+    pub mocap: bool,
 }
 
 impl Body {
@@ -122,6 +127,7 @@ impl Body {
             inertia_frame: Rotation3::identity(),
             joints: 0..0,
             gravcomp: 0.0,
+            mocap: false,
         }
     }
 }
@@ -644,6 +650,12 @@ pub enum InertiaRule {
     SemiDefinite,
 }
 
+/// The unit quaternion (w x y z) of a rotation.
+fn quaternion(rot: &Rotation3<f64>) -> [f64; 4] {
+    let u = nalgebra::UnitQuaternion::from_rotation_matrix(rot);
+    [u.w, u.i, u.j, u.k]
+}
+
 /// MuJoCo's mjMINVAL: the size below which it takes a mass or an inertia
 /// for zero.
 pub const MINVAL: f64 = 1e-15;
@@ -660,6 +672,24 @@ impl Spec {
 
     pub fn nv(&self) -> usize {
         self.joints.iter().map(|j| j.kind.nv()).sum()
+    }
+
+    /// The mocap bodies in body order (their index here is MuJoCo's
+    /// body_mocapid, nmocap their count).
+    pub fn mocap_bodies(&self) -> Vec<usize> {
+        (0..self.bodies.len())
+            .filter(|&b| self.bodies[b].mocap)
+            .collect()
+    }
+
+    /// The mocap bodies' compiled poses, the step's default mocap input:
+    /// positions (3 each) and quaternions (4 each, w x y z), MuJoCo's
+    /// body_pos and body_quat of each.
+    pub fn mocap_default(&self) -> (Vec<f64>, Vec<f64>) {
+        let bodies = self.mocap_bodies().into_iter().map(|b| &self.bodies[b]);
+        let pos = bodies.clone().flat_map(|b| b.pos.iter().copied()).collect();
+        let quat = bodies.flat_map(|b| quaternion(&b.rot)).collect();
+        (pos, quat)
     }
 
     /// The radius of a sphere about a geom's centre that holds `shape`
@@ -727,10 +757,6 @@ impl Spec {
         let mut q = Vec::with_capacity(self.nq());
         for j in &self.joints {
             let body = &self.bodies[j.body];
-            let quaternion = |rot: &Rotation3<f64>| {
-                let u = nalgebra::UnitQuaternion::from_rotation_matrix(rot);
-                [u.w, u.i, u.j, u.k]
-            };
             match j.kind {
                 JointKind::Hinge | JointKind::Slide => q.push(j.reference),
                 JointKind::Ball => q.extend([1.0, 0.0, 0.0, 0.0]),
@@ -783,6 +809,16 @@ impl Spec {
                 return bad(format!("joints of body '{}' are not in body order", b.name));
             }
             next_joint = b.joints.end;
+            if b.mocap && (b.parent != 0 || !b.joints.is_empty()) {
+                return bad(format!(
+                    "mocap body '{}' is not a fixed child of world",
+                    b.name
+                ));
+            }
+            if self.bodies[b.parent].mocap {
+                let msg = format!("body '{}': bodies inside a mocap body", b.name);
+                return Err(ModelError::Unsupported(msg));
+            }
             check_inertial(&b.name, b.mass, &b.com, &b.inertia, self.inertia_rule)?;
         }
         if next_joint != self.joints.len() {

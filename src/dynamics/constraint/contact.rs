@@ -36,12 +36,12 @@ pub fn contacts<T: Real>(
         if apart(
             geoms[0],
             geoms[1],
-            &data.world,
+            data,
             pair.params.margin + pair.params.gap,
         ) {
             continue;
         }
-        let poses = geoms.map(|g| g.pose(&data.world));
+        let poses = geoms.map(|g| g.pose(data));
         collide((pairs, index), geoms, poses, (&mut *out, &mut *pre));
     }
 }
@@ -271,12 +271,7 @@ pub fn unreachable_pair<T: Real>(tree: &Tree<T>, data: &Data<T>) -> Option<[usiz
         .filter(|p| !p.supported)
         .find(|p| {
             let geoms = p.geoms.map(|g| &tree.geoms[g]);
-            !apart(
-                geoms[0],
-                geoms[1],
-                &data.world,
-                p.params.margin + p.params.gap,
-            )
+            !apart(geoms[0], geoms[1], data, p.params.margin + p.params.gap)
         })
         .map(|p| p.geoms.map(|g| tree.geoms[g].geom))
 }

@@ -17,7 +17,7 @@
 //!   passive forces are always explicit, so the passive mode, which RK4 does
 //!   not use, reads back as [`PassiveMode::Explicit`]; `implicitfast` and
 //!   `implicit` do not use it either and read back with
-//!   [`PassiveMode::ImplicitDamping`]. A body's gravcomp is its attribute. Contacts or limits
+//!   [`PassiveMode::ImplicitDamping`]. A body's gravcomp and mocap are its attributes. Contacts or limits
 //!   switched off are `<flag contact="disable"/>`, `<flag limit="disable"/>`;
 //!   the soft-contact constants ([`crate::model::SoftOptions`]) are custom
 //!   numerics, `<custom><numeric name="diffosi:contact_stiffness" data=".."/>`
@@ -233,6 +233,9 @@ fn write_body(doc: &mut Document, depth: usize, spec: &Spec, b: usize) {
         .numbers("quat", &quat(&body.rot));
     if body.gravcomp != 0.0 {
         tag = tag.number("gravcomp", body.gravcomp);
+    }
+    if body.mocap {
+        tag = tag.text("mocap", "true");
     }
     doc.open(depth, tag);
     for joint in &spec.joints[body.joints.clone()] {
