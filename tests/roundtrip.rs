@@ -300,6 +300,8 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
             bias,
             dynamics,
             act_early,
+            damping,
+            armature,
         } = a;
         assert_eq!(
             (name, joint, ctrl_range, force_range, act_range),
@@ -318,6 +320,8 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
             "{model}"
         );
         worst.number(|| format!("actuator '{name}' gear"), *gear, b.gear);
+        worst.number(|| format!("actuator '{name}' damping"), *damping, b.damping);
+        worst.number(|| format!("actuator '{name}' armature"), *armature, b.armature);
     }
     assert_eq!(geoms.len(), theirs.geoms.len(), "{model}: geoms");
     for (a, b) in geoms.iter().zip(&theirs.geoms) {

@@ -53,16 +53,17 @@ impl<T: Real> Tree<T> {
             let mut x_tree = if free { Transform::identity() } else { place };
             for (k, j) in model.joints[b.joints.clone()].iter().enumerate() {
                 let k = b.joints.start + k;
+                let (damping, armature) = model.actuator_passive(k);
                 for node_joint in node_joints(j, at) {
                     tree.parent.push(node);
                     tree.x_tree.push(x_tree);
                     tree.joint.push(node_joint);
                     tree.damping
-                        .push(lift_param(Param::Damping(k), 0, j.damping));
+                        .push(lift_param(Param::Damping(k), 0, j.damping) + lift(damping));
                     tree.stiffness
                         .push(lift_param(Param::Stiffness(k), 0, j.stiffness));
                     tree.armature
-                        .push(lift_param(Param::Armature(k), 0, j.armature));
+                        .push(lift_param(Param::Armature(k), 0, j.armature) + lift(armature));
                     tree.node_joint.push(k);
                     tree.limits.push(j.range.filter(|_| model.opt.limits));
                     tree.inertia.push(Inertia::zero());

@@ -246,6 +246,11 @@ pub struct Actuator {
     /// Force from the next activation instead of the current one
     /// (MuJoCo's actearly).
     pub act_early: bool,
+    /// MuJoCo 4's actuator damping and armature: the joint's damping and
+    /// armature gain damping gear^2 and armature gear^2 (mj_actuatorDamping,
+    /// mj_actuatorArmature; [`Spec::actuator_passive`]).
+    pub damping: f64,
+    pub armature: f64,
 }
 
 /// MuJoCo's gain types: fixed `gainprm[0]`, or affine
@@ -292,6 +297,8 @@ impl Actuator {
             bias: Bias::None,
             dynamics: ActDynamics::None,
             act_early: false,
+            damping: 0.0,
+            armature: 0.0,
         }
     }
 
@@ -672,6 +679,18 @@ impl Spec {
 
     pub fn nv(&self) -> usize {
         self.joints.iter().map(|j| j.kind.nv()).sum()
+    }
+
+    /// What the actuators on joint `joint` add to its damping and armature:
+    /// the sums of their damping gear^2 and armature gear^2 in actuator
+    /// order (zero without any), as MuJoCo adds them to dof_damping and
+    /// dof_armature wherever those act.
+    pub fn actuator_passive(&self, joint: usize) -> (f64, f64) {
+        let on = self.actuators.iter().filter(|a| a.joint == joint);
+        on.fold((0.0, 0.0), |(d, r), a| {
+            let gear2 = a.gear * a.gear;
+            (d + a.damping * gear2, r + a.armature * gear2)
+        })
     }
 
     /// The mocap bodies in body order (their index here is MuJoCo's

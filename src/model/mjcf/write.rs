@@ -498,6 +498,8 @@ fn actuator(a: &Actuator, joint: &str) -> Tag {
         .text("dyntype", dyntype)
         .number("dynprm", dynprm)
         .text("actearly", if a.act_early { "true" } else { "false" })
+        .number("damping", a.damping)
+        .number("armature", a.armature)
 }
 
 /// The unit quaternion (w x y z) of a rotation.
