@@ -321,7 +321,11 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         );
         worst.number(|| format!("actuator '{name}' gear"), *gear, b.gear);
         worst.number(|| format!("actuator '{name}' damping"), *damping, b.damping);
-        worst.number(|| format!("actuator '{name}' armature"), *armature, b.armature);
+        worst.number(
+            || format!("actuator '{name}' armature"),
+            *armature,
+            b.armature,
+        );
     }
     assert_eq!(geoms.len(), theirs.geoms.len(), "{model}: geoms");
     for (a, b) in geoms.iter().zip(&theirs.geoms) {

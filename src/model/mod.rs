@@ -512,21 +512,6 @@ impl Fluid {
     pub fn acts(&self) -> bool {
         self.density != 0.0 || self.viscosity != 0.0
     }
-
-    /// Why `integrator` cannot run in this medium, if it cannot: MuJoCo's
-    /// implicit integrators take the fluid forces' velocity derivative into
-    /// qDeriv, which is not written yet.
-    pub fn implicit_refusal(&self, integrator: Integrator) -> Option<String> {
-        let name = Integrator::NAMES.iter().find(|(_, i)| *i == integrator)?.0;
-        (integrator.is_implicit() && self.acts()).then(|| {
-            format!(
-                "integrator \"{name}\" is not supported in a fluid (density {}, viscosity {}): \
-                 it takes the fluid forces' velocity derivative implicitly, which is not \
-                 implemented; use Euler or RK4",
-                self.density, self.viscosity
-            )
-        })
-    }
 }
 
 impl Default for Options {
@@ -812,9 +797,6 @@ impl Spec {
             return bad(format!(
                 "fluid density and viscosity must be finite and >= 0, wind finite, got {f:?}"
             ));
-        }
-        if let Some(msg) = f.implicit_refusal(o.integrator) {
-            return Err(ModelError::Unsupported(msg));
         }
         let mut next_joint = 0;
         for (i, b) in self.bodies.iter().enumerate().skip(1) {
