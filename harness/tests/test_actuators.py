@@ -120,11 +120,15 @@ def sample(m, rng):
 def test_jacobians_match_mujoco_transition_fd(tmp_path):
     """A and B against MuJoCo's mjd_transitionFD (centered, eps 1e-6), as the gradchecks do:
     error max |ours - MuJoCo| / max(1, max |MuJoCo|) below 1e-5."""
-    m, ours = models("Euler", tmp_path)
+    assert_jacobians_match_transition_fd(*models("Euler", tmp_path), seed=2, count=5)
+
+
+def assert_jacobians_match_transition_fd(m, ours, seed, count):
+    """Our A and B at `count` sampled points against mjd_transitionFD's."""
     d = mujoco.MjData(m)
-    rng = np.random.default_rng(2)
+    rng = np.random.default_rng(seed)
     n = 2 * m.nv + m.na
-    for _ in range(5):
+    for _ in range(count):
         q, v, act, ctrl, tau = sample(m, rng)
         d.qpos[:], d.qvel[:], d.act[:], d.ctrl[:], d.qfrc_applied[:] = q, v, act, ctrl, tau
         A, B = np.zeros((n, n)), np.zeros((n, m.nu))
@@ -223,15 +227,4 @@ def test_actuator_damping_and_armature_step_as_mujoco(integrator, tmp_path):
 
 
 def test_actuator_damping_and_armature_jacobians_match_mujoco_transition_fd(tmp_path):
-    m, ours = passive_models("Euler", tmp_path)
-    d = mujoco.MjData(m)
-    rng = np.random.default_rng(4)
-    n = 2 * m.nv + m.na
-    for _ in range(3):
-        q, v, act, ctrl, tau = sample(m, rng)
-        d.qpos[:], d.qvel[:], d.act[:], d.ctrl[:], d.qfrc_applied[:] = q, v, act, ctrl, tau
-        A, B = np.zeros((n, n)), np.zeros((n, m.nu))
-        mujoco.mjd_transitionFD(m, d, 1e-6, True, A, B, None, None)
-        a, b = transition(ours.step_jacobians(q, v, tau, ctrl=ctrl, act=act))
-        for mine, theirs in ((a, A), (b, B)):
-            assert np.abs(mine - theirs).max() / max(1.0, np.abs(theirs).max()) < 1e-5
+    assert_jacobians_match_transition_fd(*passive_models("Euler", tmp_path), seed=4, count=3)

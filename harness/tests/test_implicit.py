@@ -98,15 +98,20 @@ def test_implicit_differs_from_euler_where_mujoco_says(tmp_path):
 @pytest.mark.parametrize("name", list(MODELS))
 def test_jacobians_match_mjd_transition_fd(tmp_path, name, integrator):
     m, ours = models(tmp_path, name, integrator)
-    d = mujoco.MjData(m)
     q, v, tau = state(m, name, 1)
-    d.qpos[:], d.qvel[:], d.qfrc_applied[:] = q, v, tau
+    assert_state_jacobian_matches(m, ours, (q, v, tau), f"{name} {integrator}")
+
+
+def assert_state_jacobian_matches(m, ours, x, label):
+    """Our A at x = (q, v, tau) against mjd_transitionFD's centered differences."""
+    d = mujoco.MjData(m)
+    d.qpos[:], d.qvel[:], d.qfrc_applied[:] = x
     mujoco.mj_forward(m, d)
     A = np.zeros((2 * m.nv, 2 * m.nv))
     mujoco.mjd_transitionFD(m, d, 1e-6, True, A, None, None, None)
-    a, _ = ours.transition_jacobians(q, v, tau)
+    a, _ = ours.transition_jacobians(*x)
     err = np.abs(a - A).max() / max(1.0, np.abs(A).max())
-    assert err < 1e-6, f"{name} {integrator}: {err:.1e}"
+    assert err < 1e-6, f"{label}: {err:.1e}"
 
 
 FLUID = 'density="1.2" viscosity="0.02" wind="0.5 -0.3 0.2"'
@@ -133,13 +138,7 @@ def test_fluid_forces_velocity_derivative_in_qderiv(tmp_path, name, integrator):
         np.testing.assert_allclose(q1, d.qpos, rtol=0, atol=1e-12)
         np.testing.assert_allclose(v1, d.qvel, rtol=0, atol=1e-12)
         assert np.abs(euler.step(q, v, tau)[1] - v1).max() > 1e-6
-    d.qpos[:], d.qvel[:], d.qfrc_applied[:] = q, v, tau
-    mujoco.mj_forward(m, d)
-    A = np.zeros((2 * m.nv, 2 * m.nv))
-    mujoco.mjd_transitionFD(m, d, 1e-6, True, A, None, None, None)
-    a, _ = ours.transition_jacobians(q, v, tau)
-    err = np.abs(a - A).max() / max(1.0, np.abs(A).max())
-    assert err < 1e-6, f"{name} {integrator}: {err:.1e}"
+    assert_state_jacobian_matches(m, ours, (q, v, tau), f"{name} {integrator}")
 
 
 @pytest.mark.parametrize("integrator", ["Euler", "RK4"])
