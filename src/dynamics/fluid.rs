@@ -88,9 +88,9 @@ impl<T: Real> FluidBody<T> {
 /// Adds the fluid forces' velocity derivative to `qderiv` (MuJoCo's
 /// mjd_inertiaBoxFluid in mjd_passive_vel): per body J^T B J, J the
 /// Jacobian of (omega, u) (see [`add_fluid_forces`]) in the dofs and B the
-/// diagonal slope of each wrench entry in its own velocity: -pi d^3 beta
-/// - rho b_k (b_j^4 + b_l^4) |omega_k| / 32 for the torque, -3 pi d beta
-/// - rho b_j b_l |u_k| for the force. Exact: the wind is constant and each
+/// diagonal slope of each wrench entry in its own velocity, for the torque
+/// -(pi d^3 beta + rho b_k (b_j^4 + b_l^4) |omega_k| / 32), for the force
+/// -(3 pi d beta + rho b_j b_l |u_k|). Exact: the wind is constant and each
 /// entry depends on its own velocity alone. `data.world`, `data.world_vel`
 /// and `data.world_axis` are at (q, v).
 pub fn add_fluid_derivative<T: Real>(tree: &Tree<T>, data: &Data<T>, qderiv: &mut DMatrix<T>) {
