@@ -50,8 +50,8 @@ fn sweeping_finds_the_contacts_that_testing_every_pair_finds() {
     for (index, pair) in pairs.iter().enumerate() {
         let geoms = pair.geoms.map(|g| &tree.geoms[g]);
         let reach = pair.params.margin + pair.params.gap;
-        if pair.supported && !apart(geoms[0], geoms[1], &data.world, reach) {
-            let poses = geoms.map(|g| g.pose(&data.world));
+        if pair.supported && !apart(geoms[0], geoms[1], &data, reach) {
+            let poses = geoms.map(|g| g.pose(&data));
             collide((pairs, index), geoms, poses, (&mut every, &mut pre));
         }
     }

@@ -207,6 +207,7 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
             inertia_frame,
             joints,
             gravcomp,
+            mocap,
         } = a;
         let at = |what: &str| format!("body '{name}' {what}");
         assert_eq!(
@@ -218,6 +219,7 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         rebuilt.rotation(|| at("rot"), rot, &b.rot);
         worst.number(|| at("mass"), *mass, b.mass);
         assert_eq!(*gravcomp, b.gravcomp, "{model}: body '{name}' gravcomp");
+        assert_eq!(*mocap, b.mocap, "{model}: body '{name}' mocap");
         worst.numbers(|| at("com"), com.as_slice(), b.com.as_slice());
         rebuilt.tensor(|| at("inertia"), inertia, &b.inertia);
         // The inertial frame survives where the inertia is diagonal in it (written
@@ -302,6 +304,8 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
             bias,
             dynamics,
             act_early,
+            damping,
+            armature,
         } = a;
         assert_eq!(
             (name, joint, ctrl_range, force_range, act_range),
@@ -320,6 +324,12 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
             "{model}"
         );
         worst.number(|| format!("actuator '{name}' gear"), *gear, b.gear);
+        worst.number(|| format!("actuator '{name}' damping"), *damping, b.damping);
+        worst.number(
+            || format!("actuator '{name}' armature"),
+            *armature,
+            b.armature,
+        );
     }
     assert_eq!(geoms.len(), theirs.geoms.len(), "{model}: geoms");
     for (a, b) in geoms.iter().zip(&theirs.geoms) {

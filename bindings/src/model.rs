@@ -4,6 +4,7 @@
 use engine::derivatives::{
     input_jacobians, step_jacobians, transition_jacobians, TransitionJacobians, Workspace, Wrt,
 };
+use engine::dynamics::mocap::set_mocap;
 use engine::dynamics::{body_contact_forces, Contact, Data};
 use engine::model::urdf::LoadOptions;
 use engine::model::{ContactModel, Inputs, Integrator, JointKind, Param, PassiveMode, State};
@@ -130,6 +131,13 @@ impl PyModel {
     #[getter]
     fn nu(&self) -> usize {
         self.model.nu()
+    }
+
+    /// Number of mocap bodies (MJCF `mocap="true"`), whose poses are
+    /// inputs of `step` (mocap_pos, mocap_quat).
+    #[getter]
+    fn nmocap(&self) -> usize {
+        self.model.tree().nmocap()
     }
 
     /// Integration timestep in seconds.
@@ -261,9 +269,11 @@ impl PyModel {
     }
 
     /// The keyframe `name` as a dict: "q" (nq), "v" (nv), "ctrl" (nu) and
-    /// "act" (na) float64 arrays and "time" (s), MuJoCo's defaults where the
-    /// file leaves them out (q: `reference_q()`, the rest zeros). KeyError
-    /// for an unknown name.
+    /// "act" (na) float64 arrays, "mocap_pos" (nmocap, 3) and "mocap_quat"
+    /// (nmocap, 4; MuJoCo's key_mpos, key_mquat), and "time" (s), MuJoCo's
+    /// defaults where the file leaves them out (q: `reference_q()`, the
+    /// mocap bodies' compiled poses, the rest zeros). KeyError for an
+    /// unknown name.
     fn keyframe<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyDict>> {
         let key = self.model.keyframe(name).ok_or_else(|| {
             let names = self.keyframe_names().join(", ");
@@ -274,6 +284,11 @@ impl PyModel {
         dict.set_item("v", PyArray1::from_slice(py, &key.v))?;
         dict.set_item("ctrl", PyArray1::from_slice(py, &key.ctrl))?;
         dict.set_item("act", PyArray1::from_slice(py, &key.act))?;
+        for (name, x, width) in [("mocap_pos", &key.mpos, 3), ("mocap_quat", &key.mquat, 4)] {
+            let rows = Array2::from_shape_vec((x.len() / width, width), x.clone())
+                .expect("a keyframe holds whole poses");
+            dict.set_item(name, PyArray2::from_owned_array(py, rows))?;
+        }
         dict.set_item("time", key.time)?;
         Ok(dict)
     }
@@ -350,20 +365,27 @@ impl PyModel {
 
     /// Every sensor's readings at (q, v) under generalized forces tau, as
     /// MuJoCo's sensordata after mj_forward (ctrl = 0): a 1-D array laid out
-    /// by `sensor_adr` and `sensor_dim`. A sensor type that is read but not
+    /// by `sensor_adr` and `sensor_dim`, the mocap bodies at mocap_pos,
+    /// mocap_quat as `step` places them. A sensor type that is read but not
     /// computed raises ValueError naming it.
+    #[pyo3(signature = (q, v, tau, mocap_pos = None, mocap_quat = None))]
     fn sensors<'py>(
         &mut self,
         py: Python<'py>,
         q: &Bound<'py, PyAny>,
         v: &Bound<'py, PyAny>,
         tau: &Bound<'py, PyAny>,
+        mocap_pos: Option<&Bound<'py, PyAny>>,
+        mocap_quat: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let (q, v, tau) = self.state(q, v, tau)?;
+        let (pos, quat) = self.mocap(mocap_pos, mocap_quat)?;
+        let error = |e| PyValueError::new_err(format!("sensors: {e}"));
+        set_mocap(self.model.tree(), &mut self.data, (&pos, &quat)).map_err(error)?;
         let readings = self
             .model
             .sensor_readings(&mut self.data, &q, &v, &tau)
-            .map_err(|e| PyValueError::new_err(format!("sensors: {e}")))?;
+            .map_err(error)?;
         Ok(PyArray1::from_vec(py, readings))
     }
 
@@ -397,10 +419,13 @@ impl PyModel {
     }
 
     /// One step as MuJoCo's mj_step: from (q, v) and activations act
-    /// (length na; zeros if None) under generalized forces tau and actuator
-    /// controls ctrl (length nu; zeros if None). Returns (q1, v1), and
-    /// (q1, v1, act1) for a model with activations (na > 0).
-    #[pyo3(signature = (q, v, tau, ctrl = None, act = None))]
+    /// (length na; zeros if None) under generalized forces tau, actuator
+    /// controls ctrl (length nu; zeros if None) and the mocap bodies' poses
+    /// mocap_pos (nmocap, 3) and mocap_quat (nmocap, 4, w x y z; MuJoCo's
+    /// d.mocap_pos, d.mocap_quat; the compiled poses if None). Returns
+    /// (q1, v1), and (q1, v1, act1) for a model with activations (na > 0).
+    #[pyo3(signature = (q, v, tau, ctrl = None, act = None, mocap_pos = None, mocap_quat = None))]
+    #[allow(clippy::too_many_arguments)]
     fn step<'py>(
         &mut self,
         py: Python<'py>,
@@ -409,11 +434,19 @@ impl PyModel {
         tau: &Bound<'py, PyAny>,
         ctrl: Option<&Bound<'py, PyAny>>,
         act: Option<&Bound<'py, PyAny>>,
+        mocap_pos: Option<&Bound<'py, PyAny>>,
+        mocap_quat: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyTuple>> {
         let (q, v, tau) = self.state(q, v, tau)?;
         let (ctrl, act) = self.actuation(ctrl, act)?;
+        let (mocap_pos, mocap_quat) = self.mocap(mocap_pos, mocap_quat)?;
         let x = State { q, v, act };
-        let u = Inputs { ctrl, tau };
+        let u = Inputs {
+            ctrl,
+            tau,
+            mocap_pos,
+            mocap_quat,
+        };
         let next = self
             .model
             .step_inputs(&mut self.data, &x, &u)
@@ -510,6 +543,7 @@ impl PyModel {
                 let u = Inputs {
                     ctrl: row(&ctrls),
                     tau: row(&taus),
+                    ..Inputs::default()
                 };
                 x = model
                     .step_inputs(data, &x, &u)
@@ -536,8 +570,9 @@ impl PyModel {
     /// controls ctrl (nu) or activations act (na; the other zeros), at those,
     /// and also dq_dctrl, dv_dctrl (n x nu), dq_dact, dv_dact (n x na),
     /// dact_dq, dact_dv (na x n, zero), dact_dact (na x na) and dact_dctrl
-    /// (na x nu): mjd_transitionFD's A and B in blocks.
-    #[pyo3(signature = (q, v, tau, params = None, ctrl = None, act = None))]
+    /// (na x nu): mjd_transitionFD's A and B in blocks. The mocap bodies at
+    /// mocap_pos, mocap_quat as `step` places them (no columns in them).
+    #[pyo3(signature = (q, v, tau, params = None, ctrl = None, act = None, mocap_pos = None, mocap_quat = None))]
     #[allow(clippy::too_many_arguments)]
     fn step_jacobians<'py>(
         &mut self,
@@ -548,11 +583,17 @@ impl PyModel {
         params: Option<Vec<String>>,
         ctrl: Option<&Bound<'py, PyAny>>,
         act: Option<&Bound<'py, PyAny>>,
+        mocap_pos: Option<&Bound<'py, PyAny>>,
+        mocap_quat: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let params = self.params(params.as_deref().unwrap_or_default())?;
         let (q, v, tau) = self.state(q, v, tau)?;
         let with_inputs = ctrl.is_some() || act.is_some();
         let (ctrl, act) = self.actuation(ctrl, act)?;
+        let (pos, quat) = self.mocap(mocap_pos, mocap_quat)?;
+        self.ws
+            .set_mocap(&self.model, (&pos, &quat))
+            .map_err(|e| PyValueError::new_err(format!("step_jacobians: {e}")))?;
         let wrt = Wrt {
             state: true,
             control: true,
@@ -606,7 +647,8 @@ impl PyModel {
     /// here exact): A = d(q', v')/d(q, v), 2 nv x 2 nv, rows q' then v',
     /// columns q then v; B = d(q', v')/d tau, 2 nv x nv. Two float64 arrays.
     /// Positions in the tangent space, as mjd_transitionFD has them: a ball's
-    /// or free joint's rotation as its body-frame rotation vector.
+    /// or free joint's rotation as its body-frame rotation vector. The mocap
+    /// bodies at their compiled poses.
     fn transition_jacobians<'py>(
         &mut self,
         py: Python<'py>,
@@ -616,9 +658,12 @@ impl PyModel {
     ) -> PyResult<MatrixPair<'py>> {
         let (q, v, tau) = self.state(q, v, tau)?;
         let x = (&q[..], &v[..], &tau[..]);
+        let error = |e| PyValueError::new_err(format!("transition_jacobians: {e}"));
+        // The mocap bodies at their compiled poses.
+        self.ws.set_mocap(&self.model, (&[], &[])).map_err(error)?;
         let (model, ws, out) = (&self.model, &mut self.ws, &mut self.transition);
         py.detach(|| transition_jacobians(model, ws, x, out))
-            .map_err(|e| PyValueError::new_err(format!("transition_jacobians: {e}")))?;
+            .map_err(error)?;
         let (a, b) = (&self.transition.a, &self.transition.b);
         Ok((to_numpy(py, a.as_view()), to_numpy(py, b.as_view())))
     }
@@ -720,10 +765,13 @@ impl PyModel {
             Some(t) => vector(t, "tau", self.model.nv(), "nv")?,
             None => vec![0.0; self.model.nv()],
         };
+        let error = |e| PyValueError::new_err(format!("contacts: {e}"));
+        // The mocap bodies at their compiled poses.
+        set_mocap(self.model.tree(), &mut self.data, (&[], &[])).map_err(error)?;
         let contacts = self
             .model
             .contacts(&mut self.data, &q, &v, &tau)
-            .map_err(|e| PyValueError::new_err(format!("contacts: {e}")))?;
+            .map_err(error)?;
         let finite = |c: &Contact<f64>| {
             c.pos.iter().chain(&c.force()).all(|x| x.is_finite()) && c.dist.is_finite()
         };
@@ -749,6 +797,31 @@ impl PyModel {
             None => Ok(vec![]),
         };
         Ok((read(ctrl, "ctrl", nu, "nu")?, read(act, "act", na, "na")?))
+    }
+
+    /// The mocap poses, (nmocap, 3) and (nmocap, 4) arrays flattened (empty
+    /// if None: the compiled poses).
+    fn mocap(
+        &self,
+        pos: Option<&Bound<'_, PyAny>>,
+        quat: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<(Vec<f64>, Vec<f64>)> {
+        let n = self.model.tree().nmocap();
+        let read = |x: Option<&Bound<'_, PyAny>>, name: &str, width: usize| match x {
+            Some(x) => {
+                let rows = matrix(x, name, width, &width.to_string())?;
+                if rows.nrows() != n {
+                    let msg = format!(
+                        "{name} has {} rows, the model has nmocap = {n}",
+                        rows.nrows()
+                    );
+                    return Err(PyValueError::new_err(msg));
+                }
+                Ok(rows.into_iter().collect())
+            }
+            None => Ok(vec![]),
+        };
+        Ok((read(pos, "mocap_pos", 3)?, read(quat, "mocap_quat", 4)?))
     }
 
     fn state(

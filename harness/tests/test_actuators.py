@@ -120,11 +120,15 @@ def sample(m, rng):
 def test_jacobians_match_mujoco_transition_fd(tmp_path):
     """A and B against MuJoCo's mjd_transitionFD (centered, eps 1e-6), as the gradchecks do:
     error max |ours - MuJoCo| / max(1, max |MuJoCo|) below 1e-5."""
-    m, ours = models("Euler", tmp_path)
+    assert_jacobians_match_transition_fd(*models("Euler", tmp_path), seed=2, count=5)
+
+
+def assert_jacobians_match_transition_fd(m, ours, seed, count):
+    """Our A and B at `count` sampled points against mjd_transitionFD's."""
     d = mujoco.MjData(m)
-    rng = np.random.default_rng(2)
+    rng = np.random.default_rng(seed)
     n = 2 * m.nv + m.na
-    for _ in range(5):
+    for _ in range(count):
         q, v, act, ctrl, tau = sample(m, rng)
         d.qpos[:], d.qvel[:], d.act[:], d.ctrl[:], d.qfrc_applied[:] = q, v, act, ctrl, tau
         A, B = np.zeros((n, n)), np.zeros((n, m.nu))
@@ -183,3 +187,44 @@ def test_bad_inputs_are_value_errors(bad, match, tmp_path):
     _, ours = models("Euler", tmp_path)
     with pytest.raises(ValueError, match=match):
         ours.step(np.zeros(ours.nq), np.zeros(ours.nv), np.zeros(ours.nv), **bad)
+
+
+# MuJoCo 4's actuator damping and armature: gear^2 times each joins its joint's damping and
+# armature (mj_actuatorDamping, mj_actuatorArmature), two actuators on j0 summing, and the
+# dampratio servo's kv following the armature it sees.
+PASSIVE = {'name="motor"': 'name="motor" damping="0.3" armature="0.02"',
+           'name="exact"': 'name="exact" damping="0.2" armature="0.01"',
+           'name="ratio"': 'name="ratio" armature="0.05"',
+           'name="velocity"': 'name="velocity" damping="0.7"'}
+
+
+def passive_models(integrator, tmp_path):
+    xml = MODEL.format(integrator=integrator)
+    for old, new in PASSIVE.items():
+        xml = xml.replace(old, new)
+    path = tmp_path / f"actuator_passive_{integrator}.xml"
+    path.write_text(xml)
+    return mujoco.MjModel.from_xml_path(str(path)), diffosi.Model.load(str(path))
+
+
+@pytest.mark.parametrize("integrator", ["Euler", "RK4", "implicitfast", "implicit"])
+def test_actuator_damping_and_armature_step_as_mujoco(integrator, tmp_path):
+    m, ours = passive_models(integrator, tmp_path)
+    assert m.actuator_damping[0] == 0.3 and m.actuator_armature[2] == 0.05
+    plain = models(integrator, tmp_path)[1]
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(3)
+    for _ in range(10):
+        q, v, act, ctrl, tau = (rng.uniform(-0.5, 0.5, m.nq), rng.uniform(-2, 2, m.nv),
+                                rng.uniform(-0.2, 0.2, m.na), rng.uniform(-1, 1, m.nu),
+                                rng.uniform(-1, 1, m.nv))
+        theirs = mujoco_step(m, d, q, v, act, ctrl, tau)
+        mine = ours.step(q, v, tau, ctrl=ctrl, act=act)
+        for a, b in zip(mine, theirs):
+            np.testing.assert_allclose(a, b, rtol=0, atol=1e-12)
+        # They act: the model without them steps elsewhere.
+        assert np.abs(plain.step(q, v, tau, ctrl=ctrl, act=act)[1] - theirs[1]).max() > 1e-3
+
+
+def test_actuator_damping_and_armature_jacobians_match_mujoco_transition_fd(tmp_path):
+    assert_jacobians_match_transition_fd(*passive_models("Euler", tmp_path), seed=4, count=3)

@@ -5,7 +5,8 @@ agrees with mj_step to 1e-12 (a damped hinge-and-slide chain, a lone free
 body whose gyroscopic block implicitfast treats implicitly, a free body with
 a child, a free box and a pendulum on a floor, gravcomp on a ball chain), and
 the exact step Jacobians (tangent space, mjd_transitionFD's layout) agree with
-mjd_transitionFD's centered differences, contacts included.
+mjd_transitionFD's centered differences, contacts included; in a fluid with
+wind too (the fluid forces' velocity derivative in qDeriv).
 """
 
 import mujoco
@@ -97,23 +98,47 @@ def test_implicit_differs_from_euler_where_mujoco_says(tmp_path):
 @pytest.mark.parametrize("name", list(MODELS))
 def test_jacobians_match_mjd_transition_fd(tmp_path, name, integrator):
     m, ours = models(tmp_path, name, integrator)
-    d = mujoco.MjData(m)
     q, v, tau = state(m, name, 1)
-    d.qpos[:], d.qvel[:], d.qfrc_applied[:] = q, v, tau
+    assert_state_jacobian_matches(m, ours, (q, v, tau), f"{name} {integrator}")
+
+
+def assert_state_jacobian_matches(m, ours, x, label):
+    """Our A at x = (q, v, tau) against mjd_transitionFD's centered differences."""
+    d = mujoco.MjData(m)
+    d.qpos[:], d.qvel[:], d.qfrc_applied[:] = x
     mujoco.mj_forward(m, d)
     A = np.zeros((2 * m.nv, 2 * m.nv))
     mujoco.mjd_transitionFD(m, d, 1e-6, True, A, None, None, None)
-    a, _ = ours.transition_jacobians(q, v, tau)
+    a, _ = ours.transition_jacobians(*x)
     err = np.abs(a - A).max() / max(1.0, np.abs(A).max())
-    assert err < 1e-6, f"{name} {integrator}: {err:.1e}"
+    assert err < 1e-6, f"{label}: {err:.1e}"
 
 
-def test_implicit_in_a_fluid_is_refused(tmp_path):
-    _, ours = models(tmp_path, "chain", "Euler")
-    with pytest.raises(ValueError, match="not supported in a fluid"):
-        ours.with_options(density=1.2, integrator="implicitfast")
-    with pytest.raises(ValueError, match="not supported in a fluid"):
-        ours.with_options(viscosity=1e-5).with_options(integrator="implicit")
+FLUID = 'density="1.2" viscosity="0.02" wind="0.5 -0.3 0.2"'
+
+
+@pytest.mark.parametrize("integrator", ["implicitfast", "implicit"])
+@pytest.mark.parametrize("name", ["chain", "free", "free_child"])
+def test_fluid_forces_velocity_derivative_in_qderiv(tmp_path, name, integrator):
+    """In a fluid (MuJoCo's inertia-box model, with wind) the step and its Jacobians
+    match mj_step and mjd_transitionFD: the fluid forces' J^T B J joins qDeriv."""
+    xml = (f'<mujoco><option integrator="{integrator}" timestep="0.01" {FLUID} {SOLVER}/>'
+           f"<worldbody>{MODELS[name]}</worldbody></mujoco>")
+    path = tmp_path / f"fluid_{name}_{integrator}.xml"
+    path.write_text(xml)
+    m, ours = mujoco.MjModel.from_xml_path(str(path)), diffosi.Model.load(str(path))
+    euler = ours.with_options(integrator="Euler")
+    d = mujoco.MjData(m)
+    for seed in range(3):
+        q, v, tau = state(m, name, seed)
+        v = 3 * v  # fast enough for the quadratic drag to matter
+        d.qpos[:], d.qvel[:], d.qfrc_applied[:] = q, v, tau
+        mujoco.mj_step(m, d)
+        q1, v1 = ours.step(q, v, tau)
+        np.testing.assert_allclose(q1, d.qpos, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(v1, d.qvel, rtol=0, atol=1e-12)
+        assert np.abs(euler.step(q, v, tau)[1] - v1).max() > 1e-6
+    assert_state_jacobian_matches(m, ours, (q, v, tau), f"{name} {integrator}")
 
 
 @pytest.mark.parametrize("integrator", ["Euler", "RK4"])

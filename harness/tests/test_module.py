@@ -78,7 +78,7 @@ def test_keyframes_are_mujocos(tmp_path):
     assert m.keyframe_names == ["home", "key1"]
     for i, name in enumerate(m.keyframe_names):
         key = m.keyframe(name)
-        assert set(key) == {"q", "v", "ctrl", "act", "time"}
+        assert set(key) == {"q", "v", "ctrl", "act", "mocap_pos", "mocap_quat", "time"}
         np.testing.assert_allclose(key["q"], theirs.key_qpos[i], rtol=0, atol=1e-15)
         np.testing.assert_array_equal(key["v"], theirs.key_qvel[i])
         np.testing.assert_array_equal(key["ctrl"], theirs.key_ctrl[i])

@@ -248,7 +248,7 @@ impl Model {
     /// edited body sums its bodies' inertias again, in body order from zero
     /// as [`Tree::build`] does, so the result equals a rebuilt tree bit for
     /// bit; an edited joint's nodes (one per dof) take its damping,
-    /// stiffness and armature.
+    /// stiffness and armature (with its actuators', [`Spec::actuator_passive`]).
     fn patch_tree(
         &mut self,
         bodies: impl Iterator<Item = usize>,
@@ -272,10 +272,11 @@ impl Model {
         }
         for k in joints {
             let j = &self.spec.joints[k];
+            let (damping, armature) = self.spec.actuator_passive(k);
             for node in (0..tree.nv()).filter(|i| tree.node_joint[*i] == k) {
-                tree.damping[node] = j.damping;
+                tree.damping[node] = j.damping + damping;
                 tree.stiffness[node] = j.stiffness;
-                tree.armature[node] = j.armature;
+                tree.armature[node] = j.armature + armature;
             }
         }
         // The fluid's equivalent boxes follow the masses and inertias.

@@ -7,7 +7,8 @@
 //!
 //! Candidates: geoms of different bodies, in model order (i < j), whose
 //! bitmasks match (contype of one & conaffinity of the other), unless the
-//! bodies are welded together or both static; parent and child when
+//! bodies are welded together or both without dofs (the world and mocap
+//! bodies, each its own weld); parent and child when
 //! neither is the world (MuJoCo's filterparent; the world is nobody's
 //! parent), when the filter says so; bodies excluded (`<exclude>`) and
 //! geoms joined by an explicit pair (`<pair>`), when the filter says so.
@@ -56,15 +57,18 @@ pub fn candidates(spec: &Spec, filter: Filter) -> Vec<[usize; 2]> {
         return vec![];
     }
     let bodies = &spec.bodies;
-    // The rigid body each body moves with: itself, or its parent's if welded.
+    // The rigid body each body moves with: itself (with joints, or a mocap
+    // body), or its parent's if welded.
     let mut weld = vec![0; bodies.len()];
     for (b, body) in bodies.iter().enumerate().skip(1) {
-        weld[b] = if body.joints.is_empty() {
+        weld[b] = if body.joints.is_empty() && !body.mocap {
             weld[body.parent]
         } else {
             b
         };
     }
+    // No force moves either: the world's and mocap bodies' welds.
+    let dofless = |w: usize| w == 0 || bodies[w].mocap;
     let weld_parent = |b: usize| weld[bodies[weld[b]].parent];
     let explicit_pair = |i: usize, j: usize| {
         spec.pairs
@@ -87,7 +91,8 @@ pub fn candidates(spec: &Spec, filter: Filter) -> Vec<[usize; 2]> {
                     .iter()
                     .any(|e| *e == [bi, bj] || *e == [bj, bi]);
             let explicit = filter.explicit && explicit_pair(i, j);
-            if !masks || wi == wj || parent || excluded || explicit {
+            let fixed = dofless(wi) && dofless(wj);
+            if !masks || wi == wj || fixed || parent || excluded || explicit {
                 continue;
             }
             pairs.push([i, j]);

@@ -43,8 +43,9 @@ impl Model {
 
     /// The readings of every sensor (MuJoCo's sensordata, laid out by
     /// [`Model::sensor_layout`]) at (q, v) under generalized forces tau
-    /// (MuJoCo's qfrc_applied) with ctrl = 0. Fails on a sensor that is read
-    /// but not computed, naming it.
+    /// (MuJoCo's qfrc_applied) with ctrl = 0, the mocap bodies where `data`
+    /// holds them ([`crate::dynamics::mocap::set_mocap`]). Fails on a sensor
+    /// that is read but not computed, naming it.
     pub fn sensor_readings(
         &self,
         data: &mut Data<f64>,
@@ -291,7 +292,7 @@ impl Bodies {
         let falling = Motion::new(Vector3::zeros(), -model.opt.gravity);
         let mut b = Bodies {
             pose: Vec::with_capacity(n),
-            quat: quaternions(model, q),
+            quat: quaternions(model, q, &data.mocap),
             vel: Vec::with_capacity(n),
             acc: Vec::with_capacity(n),
             interaction: Vec::with_capacity(n),
@@ -307,7 +308,13 @@ impl Bodies {
                         world.inverse_apply_motion(&data.acc[k]),
                     )
                 }
-                None => (frame.offset, Motion::zero(), falling),
+                None => {
+                    let pose = match frame.mocap {
+                        Some(k) => frame.offset.compose(&data.mocap[k]),
+                        None => frame.offset,
+                    };
+                    (pose, Motion::zero(), falling)
+                }
             };
             b.pose.push(pose);
             b.vel.push(vel);
@@ -375,10 +382,15 @@ impl Bodies {
 }
 
 /// Every body's orientation as MuJoCo's mj_kinematics composes it (see
-/// [`Bodies::quat`]).
-fn quaternions(model: &Model, q: &[f64]) -> Vec<UnitQuaternion<f64>> {
+/// [`Bodies::quat`]), the mocap bodies' from their poses `mocap`.
+fn quaternions(model: &Model, q: &[f64], mocap: &[Transform<f64>]) -> Vec<UnitQuaternion<f64>> {
     let mut quat = vec![UnitQuaternion::identity(); model.bodies.len()];
+    let mut mocap = mocap.iter();
     for (i, body) in model.bodies.iter().enumerate().skip(1) {
+        if body.mocap {
+            quat[i] = local_quaternion(&mocap.next().expect("one per mocap body").axes());
+            continue;
+        }
         let mut x = quat[body.parent] * local_quaternion(body.rot.matrix());
         for j in body.joints.clone() {
             let joint = &model.joints[j];

@@ -32,8 +32,8 @@ impl Model {
         Data::new(&self.tree)
     }
 
-    /// One step from (q, v) under generalized forces tau (length nv). A
-    /// step that diverges names its likely cause
+    /// One step from (q, v) under generalized forces tau (length nv), the
+    /// mocap bodies at their compiled poses. A step that diverges names its likely cause
     /// ([`StepError::DivergedAt`]).
     pub fn step(
         &self,
@@ -43,6 +43,7 @@ impl Model {
         tau: &[f64],
     ) -> Result<(Vec<f64>, Vec<f64>), StepError> {
         let (mut q1, mut v1) = (vec![0.0; self.nq()], vec![0.0; self.nv()]);
+        dynamics::mocap::set_mocap(&self.tree, data, (&[], &[]))?;
         match dynamics::step(&self.tree, data, (q, v, tau), (&mut q1, &mut v1)) {
             Err(StepError::Diverged) => Err(StepError::DivergedAt {
                 cause: self.divergence_cause(data, (q, v, tau)),
@@ -102,8 +103,9 @@ impl Model {
     }
 
     /// One step as MuJoCo's mj_step takes it: from the state x = (q, v,
-    /// act) under the inputs u = (ctrl, tau) ([`dynamics::step_actuated`];
-    /// an empty ctrl or act is zero). The next state has na activations.
+    /// act) under the inputs u = (ctrl, tau, mocap poses)
+    /// ([`dynamics::step_actuated`]; an empty ctrl or act is zero, empty
+    /// mocap poses the compiled ones). The next state has na activations.
     pub fn step_inputs(
         &self,
         data: &mut Data<f64>,
@@ -117,12 +119,14 @@ impl Model {
         };
         let out = (&mut next.q[..], &mut next.v[..], &mut next.act[..]);
         let state = (&x.q[..], &x.v[..], &x.act[..]);
+        dynamics::mocap::set_mocap(&self.tree, data, (&u.mocap_pos, &u.mocap_quat))?;
         dynamics::step_actuated(&self.tree, data, state, (&u.ctrl, &u.tau), out)?;
         Ok(next)
     }
 
-    /// The contacts at (q, v) with their forces: those a semi-implicit Euler
-    /// step from (q, v) under generalized forces tau applies (net force per
+    /// The contacts at (q, v) with their forces (the mocap bodies where
+    /// `data` holds them, [`dynamics::mocap::set_mocap`]): those a
+    /// semi-implicit Euler step from (q, v) under generalized forces tau applies (net force per
     /// body: [`dynamics::body_contact_forces`]). Under the smooth model the
     /// forces depend on (q, v) only ([`dynamics::contact`]); under the
     /// constraint model they are the solver's and depend on tau too

@@ -38,8 +38,11 @@ impl<T: Real> Tree<T> {
         tree.gravity = lift_vector(&model.opt.gravity);
         tree.body.push(BodyFrame {
             node: None,
+            mocap: None,
             offset: Transform::identity(),
         });
+        (tree.mocap_pos, tree.mocap_quat) = model.mocap_default();
+        let mut next_mocap = 0;
         let reference = model.reference_q();
         let mut at = 0;
         for (index, b) in model.bodies.iter().enumerate().skip(1) {
@@ -53,16 +56,17 @@ impl<T: Real> Tree<T> {
             let mut x_tree = if free { Transform::identity() } else { place };
             for (k, j) in model.joints[b.joints.clone()].iter().enumerate() {
                 let k = b.joints.start + k;
+                let (damping, armature) = model.actuator_passive(k);
                 for node_joint in node_joints(j, at) {
                     tree.parent.push(node);
                     tree.x_tree.push(x_tree);
                     tree.joint.push(node_joint);
                     tree.damping
-                        .push(lift_param(Param::Damping(k), 0, j.damping));
+                        .push(lift_param(Param::Damping(k), 0, j.damping) + lift(damping));
                     tree.stiffness
                         .push(lift_param(Param::Stiffness(k), 0, j.stiffness));
                     tree.armature
-                        .push(lift_param(Param::Armature(k), 0, j.armature));
+                        .push(lift_param(Param::Armature(k), 0, j.armature) + lift(armature));
                     tree.node_joint.push(k);
                     tree.limits.push(j.range.filter(|_| model.opt.limits));
                     tree.inertia.push(Inertia::zero());
@@ -80,8 +84,18 @@ impl<T: Real> Tree<T> {
             }
             // Within the last node's frame, the body sits at `x_tree`: identity if
             // the body has joints, else its placement relative to its carrier.
+            if b.mocap {
+                tree.body.push(BodyFrame {
+                    node: None,
+                    mocap: Some(next_mocap),
+                    offset: Transform::identity(),
+                });
+                next_mocap += 1;
+                continue;
+            }
             tree.body.push(BodyFrame {
                 node,
+                mocap: parent.mocap,
                 offset: x_tree,
             });
             if let Some(n) = node {
@@ -168,7 +182,7 @@ impl<T: Real> Tree<T> {
         let frame = self.body[geom.body];
         let offset = Transform::from_pose_f64(&geom.rot, &geom.pos).compose(&frame.offset);
         self.geoms.push(GeomFrame::new(
-            (g, geom.body, frame.node),
+            (g, geom.body, &frame),
             offset,
             (geom.shape, model.rbound(&geom.shape)),
         ));

@@ -27,6 +27,7 @@ use num_dual::Dual64;
 
 use super::step::Wrt;
 use crate::dynamics::configuration::{integrate, multiply, Coordinates};
+use crate::dynamics::mocap::set_mocap;
 use crate::dynamics::{step_applied, Data, StepError, Tree};
 use crate::model::Param;
 use crate::Model;
@@ -43,6 +44,9 @@ pub(super) struct DualTrees {
     trees: Vec<(Seed, Tree<Dual64>)>,
     data: Option<Data<Dual64>>,
     invweights: Vec<(Seed, InvweightSlopes)>,
+    /// The mocap poses the data holds for the model of a stamp (checked by
+    /// [`super::Workspace::set_mocap`]); for another model the compiled ones.
+    pub(super) mocap: (u64, Vec<f64>, Vec<f64>),
 }
 
 /// How MuJoCo's invweight0 constants move with one scalar of a parameter:
@@ -59,6 +63,7 @@ impl DualTrees {
         if self.stamp != model.stamp() {
             *self = DualTrees {
                 stamp: model.stamp(),
+                mocap: std::mem::take(&mut self.mocap),
                 ..DualTrees::default()
             };
         }
@@ -73,7 +78,11 @@ impl DualTrees {
             }
         };
         let tree = &self.trees[index].1;
-        (tree, self.data.get_or_insert_with(|| Data::new(tree)))
+        let data = self.data.get_or_insert_with(|| Data::new(tree));
+        let (stamp, pos, quat) = &self.mocap;
+        let given = (*stamp == model.stamp()).then_some((&pos[..], &quat[..]));
+        set_mocap(tree, data, given.unwrap_or_default()).expect("checked when set");
+        (tree, data)
     }
 
     /// The slopes of invweight0 along one scalar of a parameter (the dual

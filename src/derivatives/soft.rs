@@ -117,7 +117,7 @@ fn pair_derivatives(
     add: &mut impl FnMut(usize, &[Contact<Dual64>]),
 ) {
     let geoms = pair.geoms.map(|g| &tree.geoms[g]);
-    let poses = geoms.map(|g| g.pose(&data.world));
+    let poses = geoms.map(|g| g.pose(data));
     let vels = geoms.map(|g| g.node.map_or(Motion::zero(), |k| data.world_vel[k]));
     let constant = |x: f64| Dual64::from(x);
     let plain_poses = poses.map(|x| moved(&x, None));

@@ -17,6 +17,7 @@ use crate::dynamics::actuation::idle_without_inputs;
 use crate::dynamics::cholesky;
 use crate::dynamics::constraint::solver::add_quadratic_rows;
 use crate::dynamics::integrator::{euler, tableau, weighted_sum, ImplicitPassive, Tableau};
+use crate::dynamics::mocap::set_mocap;
 use crate::dynamics::world_frames;
 use crate::dynamics::{
     acceleration, check_colliders, check_inputs, crba, implicit_terms, integrate_euler,
@@ -208,6 +209,21 @@ impl Workspace {
             window: WindowScratch::new(n),
             duals: DualTrees::default(),
         }
+    }
+
+    /// Places the mocap bodies for the next Jacobians (3 and 4 entries per
+    /// mocap body; empty: the compiled poses, which a new workspace holds),
+    /// in this workspace's f64 and dual-number data alike. The poses are
+    /// constants of the Jacobians (no columns in them).
+    pub fn set_mocap(
+        &mut self,
+        model: &Model,
+        (pos, quat): (&[f64], &[f64]),
+    ) -> Result<(), StepError> {
+        self.size_for(model);
+        set_mocap(model.tree(), &mut self.data, (pos, quat))?;
+        self.duals.mocap = (model.stamp(), pos.to_vec(), quat.to_vec());
+        Ok(())
     }
 
     /// Rebuilt for `model` if it was sized for another nv.

@@ -110,7 +110,7 @@ pub fn lawless_within_reach<T: Real>(tree: &Tree<T>, data: &Data<T>) -> Option<[
     tree.lawless
         .iter()
         .map(|pair| pair.map(|g| &tree.geoms[g]))
-        .find(|[a, b]| !apart(a, b, &data.world, cutoff))
+        .find(|[a, b]| !apart(a, b, data, cutoff))
         .map(|geoms| geoms.map(|g| g.geom))
 }
 
@@ -164,11 +164,11 @@ pub fn add_soft_forces_with_transforms<T: Real>(
     let cutoff = CUTOFF_WIDTHS * tree.soft.width;
     for pair in &tree.pairs {
         let geoms = pair.geoms.map(|g| &tree.geoms[g]);
-        if apart(geoms[0], geoms[1], &data.world, cutoff) {
+        if apart(geoms[0], geoms[1], data, cutoff) {
             continue;
         }
         let start = data.contacts.len();
-        let poses = geoms.map(|g| g.pose(&data.world));
+        let poses = geoms.map(|g| g.pose(data));
         let vels = geoms.map(|g| g.node.map_or(Motion::zero(), |n| data.world_vel[n]));
         pair_contacts(&tree.soft, pair, geoms, (poses, vels), &mut data.contacts);
         for c in &data.contacts[start..] {

@@ -6,6 +6,8 @@
 //! D is MuJoCo's qDeriv, the velocity derivative of the smooth forces,
 //! summed from named terms ([`velocity_derivative`]):
 //! - joint damping: -diag(damping) (passive, MuJoCo's mjd_passive_vel);
+//! - the fluid forces' J^T B J ([`super::fluid::add_fluid_derivative`],
+//!   mjd_inertiaBoxFluid);
 //! - the actuators' velocity terms (mjd_actuator_vel) have their slot there;
 //! - under `implicit` only, the bias forces': -dc/dv (mjd_rne_vel), exact,
 //!   from the linearised Newton-Euler recursion ([`add_bias_derivative`]).
@@ -18,12 +20,11 @@
 //! MuJoCo (mjd_freeMhat) solves M - h D with the body's own gyroscopic
 //! derivative -dc/dv added, unsymmetric, by itself. That block is decoupled
 //! from the rest (M and D are block diagonal there), so one LU solve of the
-//! whole matrix gives the same acceleration. The fluid forces' derivative
-//! (MuJoCo's qDeriv holds it) is not written yet: both integrators are
-//! refused in a fluid (see [`crate::model::Spec::validate`]).
+//! whole matrix gives the same acceleration.
 
 use nalgebra::DMatrix;
 
+use super::fluid::add_fluid_derivative;
 use super::{Data, Tree};
 use crate::model::Integrator;
 use crate::spatial::{lift, Force, Motion, Real};
@@ -108,7 +109,7 @@ pub fn implicit_matrix<T: Real>(
     data.implicit = b;
 }
 
-/// qDeriv = d(tau_passive + tau_actuator)/dv, less dc/dv where `bias`
+/// qDeriv = d(tau_passive + tau_fluid + tau_actuator)/dv, less dc/dv where `bias`
 /// (MuJoCo's mjd_smooth_vel with flg_bias), into `b.qderiv`.
 fn velocity_derivative<T: Real>(
     tree: &Tree<T>,
@@ -119,6 +120,7 @@ fn velocity_derivative<T: Real>(
 ) {
     b.qderiv.fill(T::zero());
     add_damping_derivative(tree, &mut b.qderiv);
+    add_fluid_derivative(tree, data, &mut b.qderiv);
     for (i, slope) in b.actuators.iter().enumerate() {
         b.qderiv[(i, i)] += *slope;
     }

@@ -14,7 +14,8 @@ pub fn update_transforms<T: Real>(tree: &Tree<T>, data: &mut Data<T>, q: &[T]) {
     }
 }
 
-/// World pose of every body at q: (axes as columns in world coordinates, origin).
+/// World pose of every body at q: (axes as columns in world coordinates,
+/// origin), the mocap bodies at their compiled poses.
 pub fn body_poses<T: Real>(tree: &Tree<T>, q: &[T]) -> Vec<(Matrix3<T>, Vector3<T>)> {
     // to_node[i]: from world coordinates to node i's frame.
     let mut to_node: Vec<Transform<T>> = Vec::with_capacity(tree.nv());
@@ -26,12 +27,14 @@ pub fn body_poses<T: Real>(tree: &Tree<T>, q: &[T]) -> Vec<(Matrix3<T>, Vector3<
         };
         to_node.push(x);
     }
+    let mocap: Vec<Transform<T>> = super::mocap::poses(&tree.mocap_pos, &tree.mocap_quat);
     tree.body
         .iter()
         .map(|b| {
-            let x = match b.node {
-                Some(n) => b.offset.compose(&to_node[n]),
-                None => b.offset,
+            let x = match (b.node, b.mocap) {
+                (Some(n), _) => b.offset.compose(&to_node[n]),
+                (None, Some(k)) => b.offset.compose(&mocap[k]),
+                (None, None) => b.offset,
             };
             (x.axes(), x.trans)
         })

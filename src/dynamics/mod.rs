@@ -27,6 +27,7 @@ pub mod implicit;
 pub mod integrator;
 mod kinematics;
 mod ltdl;
+pub mod mocap;
 mod passive;
 mod rnea;
 mod step;
@@ -82,6 +83,9 @@ pub struct Data<T: Real> {
     pub contacts: Vec<Contact<T>>,
     /// The constraint model's last evaluation: its contacts, rows and solution.
     pub constrained: Option<Constrained<T>>,
+    /// From the world to each mocap body's frame: the step's mocap input
+    /// ([`mocap::set_mocap`]; the compiled poses until set).
+    pub mocap: Vec<Transform<T>>,
     /// Scratch vectors: the acceleration's (nv each), and the integrator's.
     scratch: [Vec<T>; 3],
     /// The step's applied forces with the actuators' (nv) and the
@@ -126,6 +130,7 @@ impl<T: Real> Data<T> {
             world_force: vec![Force::zero(); n],
             contacts: vec![],
             constrained: None,
+            mocap: mocap::poses(&tree.mocap_pos, &tree.mocap_quat),
             scratch: std::array::from_fn(|_| vec![T::zero(); n]),
             actuated: vec![T::zero(); n],
             act_rate: vec![T::zero(); tree.na],

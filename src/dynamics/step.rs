@@ -311,7 +311,7 @@ pub fn check_actuation<T: Real>(
     check("act", act, if act.is_empty() { 0 } else { tree.na })
 }
 
-fn check<T: Real>(name: &'static str, x: &[T], n: usize) -> Result<(), StepError> {
+pub(super) fn check<T: Real>(name: &'static str, x: &[T], n: usize) -> Result<(), StepError> {
     if x.len() != n {
         return Err(StepError::Length {
             name,

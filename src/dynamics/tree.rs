@@ -125,11 +125,13 @@ impl<T: Real> NodeJoint<T> {
     }
 }
 
-/// Where a body's frame sits: a fixed offset from a node's frame (or the world's).
+/// Where a body's frame sits: a fixed offset from a node's frame, a mocap
+/// body's (`mocap`, then `node` is None) or the world's.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BodyFrame<T: Real> {
     pub node: Option<usize>,
-    /// From the node's frame to the body's frame.
+    pub mocap: Option<usize>,
+    /// From the node's (mocap body's, world's) frame to the body's frame.
     pub offset: Transform<T>,
 }
 
@@ -178,6 +180,10 @@ pub struct Tree<T: Real> {
     /// has no descendants with joints or mass (MuJoCo's mj_isFreeBody; see
     /// [`super::implicit`]).
     pub free_bodies: Vec<usize>,
+    /// The mocap bodies' compiled poses, the default mocap input
+    /// ([`super::mocap`]): 3 and 4 (w x y z) entries per mocap body.
+    pub mocap_pos: Vec<f64>,
+    pub mocap_quat: Vec<f64>,
     /// The model's options, as the spec gives them (timestep, integrator,
     /// which law contacts follow, solver, medium): the step reads them here.
     /// Those with a T-valued form are lifted beside them (`gravity`, `soft`).
@@ -210,6 +216,8 @@ impl<T: Real> Tree<T> {
             na: 0,
             gravcomp: vec![],
             free_bodies: vec![],
+            mocap_pos: vec![],
+            mocap_quat: vec![],
             opt: Options::default(),
         }
     }
@@ -241,6 +249,10 @@ impl<T: Real> Tree<T> {
 
     pub fn nu(&self) -> usize {
         self.actuators.len()
+    }
+
+    pub fn nmocap(&self) -> usize {
+        self.mocap_quat.len() / 4
     }
 
     /// The velocity node i's dof moves within, for its velocity-product

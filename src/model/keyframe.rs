@@ -5,7 +5,8 @@
 /// (nv), actuator activations `act` (na), controls `ctrl` (nu), and the
 /// positions (3 each) and quaternions (4 each, w x y z) of the mocap bodies.
 /// A vector the file leaves out is MuJoCo's default: `q` the reference
-/// configuration (qpos0), the others zero (the mocap bodies' own poses).
+/// configuration (qpos0), mpos and mquat the mocap bodies' compiled poses
+/// ([`super::Spec::mocap_default`]), the others zero.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Keyframe {
     pub name: String,

@@ -109,6 +109,11 @@ pub struct Body {
     /// MuJoCo's gravity compensation: the body feels -gravcomp m g at its
     /// COM ([`crate::dynamics::gravcomp`]); 0 (none) by default.
     pub gravcomp: f64,
+    /// A mocap body (MJCF `mocap="true"`): a jointless child of the world
+    /// whose pose is an input of the step (MuJoCo's mocap_pos, mocap_quat;
+    /// [`Spec::mocap_bodies`]), `pos` and `rot` its default. It carries its
+    /// geoms and sites, no dofs; child bodies under it are not supported.
+    pub mocap: bool,
 }
 
 impl Body {
@@ -125,6 +130,7 @@ impl Body {
             inertia_frame: Rotation3::identity(),
             joints: 0..0,
             gravcomp: 0.0,
+            mocap: false,
         }
     }
 }
@@ -243,6 +249,11 @@ pub struct Actuator {
     /// Force from the next activation instead of the current one
     /// (MuJoCo's actearly).
     pub act_early: bool,
+    /// MuJoCo 4's actuator damping and armature: the joint's damping and
+    /// armature gain damping gear^2 and armature gear^2 (mj_actuatorDamping,
+    /// mj_actuatorArmature; [`Spec::actuator_passive`]).
+    pub damping: f64,
+    pub armature: f64,
 }
 
 /// MuJoCo's gain types: fixed `gainprm[0]`, or affine
@@ -289,6 +300,8 @@ impl Actuator {
             bias: Bias::None,
             dynamics: ActDynamics::None,
             act_early: false,
+            damping: 0.0,
+            armature: 0.0,
         }
     }
 
@@ -510,21 +523,6 @@ impl Fluid {
     pub fn acts(&self) -> bool {
         self.density != 0.0 || self.viscosity != 0.0
     }
-
-    /// Why `integrator` cannot run in this medium, if it cannot: MuJoCo's
-    /// implicit integrators take the fluid forces' velocity derivative into
-    /// qDeriv, which is not written yet.
-    pub fn implicit_refusal(&self, integrator: Integrator) -> Option<String> {
-        let name = Integrator::NAMES.iter().find(|(_, i)| *i == integrator)?.0;
-        (integrator.is_implicit() && self.acts()).then(|| {
-            format!(
-                "integrator \"{name}\" is not supported in a fluid (density {}, viscosity {}): \
-                 it takes the fluid forces' velocity derivative implicitly, which is not \
-                 implemented; use Euler or RK4",
-                self.density, self.viscosity
-            )
-        })
-    }
 }
 
 impl Default for Options {
@@ -659,6 +657,12 @@ pub enum InertiaRule {
     SemiDefinite,
 }
 
+/// The unit quaternion (w x y z) of a rotation.
+fn quaternion(rot: &Rotation3<f64>) -> [f64; 4] {
+    let u = nalgebra::UnitQuaternion::from_rotation_matrix(rot);
+    [u.w, u.i, u.j, u.k]
+}
+
 /// MuJoCo's mjMINVAL: the size below which it takes a mass or an inertia
 /// for zero.
 pub const MINVAL: f64 = 1e-15;
@@ -675,6 +679,36 @@ impl Spec {
 
     pub fn nv(&self) -> usize {
         self.joints.iter().map(|j| j.kind.nv()).sum()
+    }
+
+    /// What the actuators on joint `joint` add to its damping and armature:
+    /// the sums of their damping gear^2 and armature gear^2 in actuator
+    /// order (zero without any), as MuJoCo adds them to dof_damping and
+    /// dof_armature wherever those act.
+    pub fn actuator_passive(&self, joint: usize) -> (f64, f64) {
+        let on = self.actuators.iter().filter(|a| a.joint == joint);
+        on.fold((0.0, 0.0), |(d, r), a| {
+            let gear2 = a.gear * a.gear;
+            (d + a.damping * gear2, r + a.armature * gear2)
+        })
+    }
+
+    /// The mocap bodies in body order (their index here is MuJoCo's
+    /// body_mocapid, nmocap their count).
+    pub fn mocap_bodies(&self) -> Vec<usize> {
+        (0..self.bodies.len())
+            .filter(|&b| self.bodies[b].mocap)
+            .collect()
+    }
+
+    /// The mocap bodies' compiled poses, the step's default mocap input:
+    /// positions (3 each) and quaternions (4 each, w x y z), MuJoCo's
+    /// body_pos and body_quat of each.
+    pub fn mocap_default(&self) -> (Vec<f64>, Vec<f64>) {
+        let bodies = self.mocap_bodies().into_iter().map(|b| &self.bodies[b]);
+        let pos = bodies.clone().flat_map(|b| b.pos.iter().copied()).collect();
+        let quat = bodies.flat_map(|b| quaternion(&b.rot)).collect();
+        (pos, quat)
     }
 
     /// The radius of a sphere about a geom's centre that holds `shape`
@@ -742,10 +776,6 @@ impl Spec {
         let mut q = Vec::with_capacity(self.nq());
         for j in &self.joints {
             let body = &self.bodies[j.body];
-            let quaternion = |rot: &Rotation3<f64>| {
-                let u = nalgebra::UnitQuaternion::from_rotation_matrix(rot);
-                [u.w, u.i, u.j, u.k]
-            };
             match j.kind {
                 JointKind::Hinge | JointKind::Slide => q.push(j.reference),
                 JointKind::Ball => q.extend([1.0, 0.0, 0.0, 0.0]),
@@ -783,9 +813,6 @@ impl Spec {
                 "fluid density and viscosity must be finite and >= 0, wind finite, got {f:?}"
             ));
         }
-        if let Some(msg) = f.implicit_refusal(o.integrator) {
-            return Err(ModelError::Unsupported(msg));
-        }
         let mut next_joint = 0;
         for (i, b) in self.bodies.iter().enumerate().skip(1) {
             if !b.gravcomp.is_finite() {
@@ -798,6 +825,16 @@ impl Spec {
                 return bad(format!("joints of body '{}' are not in body order", b.name));
             }
             next_joint = b.joints.end;
+            if b.mocap && (b.parent != 0 || !b.joints.is_empty()) {
+                return bad(format!(
+                    "mocap body '{}' is not a fixed child of world",
+                    b.name
+                ));
+            }
+            if self.bodies[b.parent].mocap {
+                let msg = format!("body '{}': bodies inside a mocap body", b.name);
+                return Err(ModelError::Unsupported(msg));
+            }
             check_inertial(&b.name, b.mass, &b.com, &b.inertia, self.inertia_rule)?;
         }
         if next_joint != self.joints.len() {

@@ -19,12 +19,16 @@ impl State {
 }
 
 /// What drives a step: controls ctrl (nu, through the actuators, MuJoCo's
-/// ctrl) and generalized forces tau (nv, applied at the dofs directly, its
-/// qfrc_applied).
+/// ctrl), generalized forces tau (nv, applied at the dofs directly, its
+/// qfrc_applied), and the mocap bodies' poses (MuJoCo's mocap_pos, 3 per
+/// mocap body, and mocap_quat, 4 per mocap body, w x y z; either empty: the
+/// compiled poses; see [`crate::dynamics::mocap`]).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Inputs {
     pub ctrl: Vec<f64>,
     pub tau: Vec<f64>,
+    pub mocap_pos: Vec<f64>,
+    pub mocap_quat: Vec<f64>,
 }
 
 /// Written as the pair [q, v], with act third only when it has entries (the

@@ -89,6 +89,7 @@ pub fn random_model(seed: u64, n: usize, passive: PassiveMode, integrator: Integ
             inertia_frame: Rotation3::identity(),
             joints: start..joints.len(),
             gravcomp: 0.0,
+            mocap: false,
         });
     }
     let opt = Options {

@@ -74,7 +74,7 @@ pub(super) fn find_slopes(
                 .count();
         let pair = &tree.constraint.pairs[index];
         let geoms = pair.geoms.map(|g| &tree.geoms[g]);
-        let poses = geoms.map(|g| g.pose(&data.world));
+        let poses = geoms.map(|g| g.pose(data));
         let shapes = geoms.map(|g| &g.shape);
         let reach = pair.params.margin + pair.params.gap;
         let static_plane = geoms[0].node.is_none() && *shapes[0] == Shape::Plane;

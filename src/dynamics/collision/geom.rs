@@ -3,6 +3,7 @@
 
 use nalgebra::Vector3;
 
+use crate::dynamics::{BodyFrame, Data};
 use crate::model::Shape;
 use crate::spatial::{lift, Real, Transform};
 
@@ -13,7 +14,10 @@ pub struct GeomFrame<T: Real> {
     pub geom: usize,
     pub body: usize,
     pub node: Option<usize>,
-    /// From the node's frame (or the world's) to the geom's frame.
+    /// The mocap body it is fixed to (then `node` is None; see
+    /// [`crate::dynamics::mocap`]).
+    pub mocap: Option<usize>,
+    /// From the node's frame (the mocap body's, or the world's) to the geom's frame.
     pub offset: Transform<T>,
     pub shape: Shape,
     /// The shape's bounding radius ([`Spec::rbound`](crate::model::Spec::rbound)), computed once.
@@ -21,35 +25,47 @@ pub struct GeomFrame<T: Real> {
 }
 
 impl<T: Real> GeomFrame<T> {
-    /// Model geom `geom` of body `body`, fixed to `node` by `offset`, its
-    /// shape bounded by a sphere of radius `rbound`.
+    /// Model geom `geom` of body `body`, fixed to `frame`'s node or mocap
+    /// body by `offset`, its shape bounded by a sphere of radius `rbound`.
     pub fn new(
-        (geom, body, node): (usize, usize, Option<usize>),
+        (geom, body, frame): (usize, usize, &BodyFrame<T>),
         offset: Transform<T>,
         (shape, rbound): (Shape, f64),
     ) -> Self {
         GeomFrame {
             geom,
             body,
-            node,
+            node: frame.node,
+            mocap: frame.mocap,
             offset,
             shape,
             rbound,
         }
     }
 
-    /// From the world to the geom's frame, given each node's `world` transform.
-    pub fn pose(&self, world: &[Transform<T>]) -> Transform<T> {
-        match self.node {
-            Some(n) => self.offset.compose(&world[n]),
+    /// From the world to the geom's frame, given each node's world
+    /// transform and each mocap body's (`data.world`, `data.mocap`).
+    pub fn pose(&self, data: &Data<T>) -> Transform<T> {
+        match self.carrier(data) {
+            Some(x) => self.offset.compose(x),
             None => self.offset,
         }
     }
 
+    /// The world-to-frame transform of what carries it: its node or mocap
+    /// body (None: the world).
+    fn carrier<'a>(&self, data: &'a Data<T>) -> Option<&'a Transform<T>> {
+        match (self.node, self.mocap) {
+            (Some(n), _) => Some(&data.world[n]),
+            (None, Some(k)) => Some(&data.mocap[k]),
+            (None, None) => None,
+        }
+    }
+
     /// The geom's centre in world coordinates.
-    pub(super) fn centre(&self, world: &[Transform<T>]) -> Vector3<T> {
-        match self.node {
-            Some(n) => world[n].trans + world[n].rot.tr_mul(&self.offset.trans),
+    pub(super) fn centre(&self, data: &Data<T>) -> Vector3<T> {
+        match self.carrier(data) {
+            Some(x) => x.trans + x.rot.tr_mul(&self.offset.trans),
             None => self.offset.trans,
         }
     }
@@ -60,22 +76,17 @@ impl<T: Real> GeomFrame<T> {
 /// half-space (the gap along its normal). A plane may be either geom; when
 /// neither is one, the bounding radii are summed as rbound(a) + reach +
 /// rbound(b).
-pub fn apart<T: Real>(
-    a: &GeomFrame<T>,
-    b: &GeomFrame<T>,
-    world: &[Transform<T>],
-    reach: f64,
-) -> bool {
+pub fn apart<T: Real>(a: &GeomFrame<T>, b: &GeomFrame<T>, data: &Data<T>, reach: f64) -> bool {
     let (a, b) = if a.shape == Shape::Plane && b.shape != Shape::Plane {
         (b, a)
     } else {
         (a, b)
     };
-    let gap = a.centre(world) - b.centre(world);
+    let gap = a.centre(data) - b.centre(data);
     let limit: T = lift(a.rbound + reach);
     match b.shape {
         Shape::Plane => {
-            let x = b.pose(world);
+            let x = b.pose(data);
             x.rot.row(2).transpose().dot(&gap) > limit
         }
         _ => gap.norm() > limit + lift::<T>(b.rbound),

@@ -16,7 +16,8 @@
 //! so they find exactly the pairs, in exactly the order, that testing every
 //! pair would.
 
-use crate::spatial::{lift, Real, Transform};
+use crate::dynamics::Data;
+use crate::spatial::{lift, Real};
 
 use super::GeomFrame;
 
@@ -81,20 +82,12 @@ impl Sweep {
     }
 
     /// The indices of the pairs that may be within reach at the nodes'
-    /// `world` transforms, ascending, into `out` (cleared first).
-    pub fn near<T: Real>(
-        &self,
-        geoms: &[GeomFrame<T>],
-        world: &[Transform<T>],
-        out: &mut Vec<usize>,
-    ) {
+    /// transforms of `data` (its nodes' and mocap bodies'), ascending, into
+    /// `out` (cleared first).
+    pub fn near<T: Real>(&self, geoms: &[GeomFrame<T>], data: &Data<T>, out: &mut Vec<usize>) {
         out.clear();
         out.extend_from_slice(&self.always);
-        let centres: Vec<_> = self
-            .finite
-            .iter()
-            .map(|&g| geoms[g].centre(world))
-            .collect();
+        let centres: Vec<_> = self.finite.iter().map(|&g| geoms[g].centre(data)).collect();
         if centres.iter().any(|c| !c.iter().all(|x| x.is_finite())) {
             // No order to sweep in: every pair is a candidate.
             for p in &self.partners {
@@ -161,7 +154,25 @@ mod tests {
 
     use super::*;
     use crate::dynamics::collision::apart;
+    use crate::dynamics::{BodyFrame, Tree};
     use crate::model::Shape;
+    use crate::spatial::Transform;
+
+    /// Geoms on nodes (or the world) with identity offsets.
+    fn on(node: Option<usize>) -> BodyFrame<f64> {
+        BodyFrame {
+            node,
+            mocap: None,
+            offset: Transform::identity(),
+        }
+    }
+
+    /// A workspace whose nodes sit at `world`.
+    fn placed(world: Vec<Transform<f64>>) -> Data<f64> {
+        let mut data = Data::new(&Tree::empty());
+        data.world = world;
+        data
+    }
 
     /// A deterministic sequence in [0, 1).
     fn uniform(seed: &mut u64) -> f64 {
@@ -186,7 +197,7 @@ mod tests {
         ];
         // A plane (static) and 150 geoms on their own nodes, some sharing a spot.
         let mut geoms = vec![GeomFrame::<f64>::new(
-            (0, 0, None),
+            (0, 0, &on(None)),
             Transform::identity(),
             (Shape::Plane, f64::INFINITY),
         )];
@@ -194,7 +205,7 @@ mod tests {
             let shape = shapes[g % 3];
             let node = Some(g - 1);
             geoms.push(GeomFrame::new(
-                (g, g, node),
+                (g, g, &on(node)),
                 Transform::identity(),
                 (shape, shape.rbound()),
             ));
@@ -222,12 +233,13 @@ mod tests {
                     Transform::from_pose_f64(&turn, &at)
                 })
                 .collect();
+            let data = placed(world);
             let within = |&i: &usize| {
                 let ([a, b], reach) = pairs[i];
-                !apart(&geoms[a], &geoms[b], &world, reach)
+                !apart(&geoms[a], &geoms[b], &data, reach)
             };
             let every: Vec<usize> = (0..pairs.len()).filter(within).collect();
-            sweep.near(&geoms, &world, &mut near);
+            sweep.near(&geoms, &data, &mut near);
             assert!(near.windows(2).all(|w| w[0] < w[1]));
             let swept: Vec<usize> = near.iter().copied().filter(within).collect();
             assert_eq!(swept, every, "scale {scale}");
@@ -248,18 +260,18 @@ mod tests {
     fn a_non_finite_centre_keeps_every_pair() {
         let ball = Shape::Sphere { radius: 0.1 };
         let geoms: Vec<GeomFrame<f64>> = (0..3)
-            .map(|g| GeomFrame::new((g, g, Some(g)), Transform::identity(), (ball, 0.1)))
+            .map(|g| GeomFrame::new((g, g, &on(Some(g))), Transform::identity(), (ball, 0.1)))
             .collect();
         let pairs = [([0, 1], 0.0), ([0, 2], 0.0), ([1, 2], 0.0)];
         let sweep = Sweep::new(&geoms, pairs.into_iter());
-        let mut world = vec![Transform::identity(); 3];
-        world[1].trans.x = f64::NAN;
-        world[2].trans.x = 5.0;
+        let mut data = placed(vec![Transform::identity(); 3]);
+        data.world[1].trans.x = f64::NAN;
+        data.world[2].trans.x = 5.0;
         let mut near = vec![];
-        sweep.near(&geoms, &world, &mut near);
+        sweep.near(&geoms, &data, &mut near);
         assert_eq!(near, [0, 1, 2]);
-        world[1].trans.x = 2.0;
-        sweep.near(&geoms, &world, &mut near);
+        data.world[1].trans.x = 2.0;
+        sweep.near(&geoms, &data, &mut near);
         assert!(near.is_empty());
     }
 }

@@ -33,7 +33,7 @@ pub fn contacts<T: Real>(
     let pairs = &tree.constraint.pairs;
     for index in within_reach(tree, data, |p| p.supported) {
         let geoms = pairs[index].geoms.map(|g| &tree.geoms[g]);
-        let poses = geoms.map(|g| g.pose(&data.world));
+        let poses = geoms.map(|g| g.pose(data));
         collide((pairs, index), geoms, poses, (&mut *out, &mut *pre));
     }
 }
@@ -53,14 +53,14 @@ fn within_reach<'a, T: Real>(
     let every = pairs.len() < MIN_PAIRS;
     let mut near = vec![];
     if !every {
-        consts.sweep.near(&tree.geoms, &data.world, &mut near);
+        consts.sweep.near(&tree.geoms, data, &mut near);
     }
     (0..if every { pairs.len() } else { 0 })
         .chain(near)
         .filter(move |&i| {
             let p = &pairs[i];
             let [a, b] = p.geoms.map(|g| &tree.geoms[g]);
-            keep(p) && !apart(a, b, &data.world, p.params.margin + p.params.gap)
+            keep(p) && !apart(a, b, data, p.params.margin + p.params.gap)
         })
 }
 

@@ -98,6 +98,11 @@ impl<'a> Reader<'a> {
             let (mid, half) = ((lo + hi) / 2.0, (hi - lo) / 2.0 * law.inherit_range);
             *target = Some((mid - half, mid + half));
         }
+        let damping = a.leading::<3>("damping", [0.0; 3])?[0];
+        let armature = a.number("armature")?.unwrap_or(0.0);
+        if damping < 0.0 || armature < 0.0 {
+            return Err(self.error(node, "actuator damping and armature must be >= 0"));
+        }
         Ok(Actuator {
             name: value(node, "name").unwrap_or("").to_string(),
             joint,
@@ -109,6 +114,8 @@ impl<'a> Reader<'a> {
             bias: law.bias,
             dynamics: law.dynamics,
             act_early: law.act_early,
+            damping,
+            armature,
         })
     }
 
@@ -316,14 +323,13 @@ impl<'a> Reader<'a> {
     }
 }
 
-/// Actuator damping, armature, delay, more than one activation, and other
-/// inputs than one control.
+/// Actuator damping's polynomial terms (MuJoCo's dampingpoly), delay, more
+/// than one activation, and other inputs than one control.
 fn check_unsupported(a: &Attrs) -> Result<()> {
     let damping = a.leading::<3>("damping", [0.0; 3])?;
-    let armature = a.number("armature")?.unwrap_or(0.0);
     let delay = a.number("delay")?.unwrap_or(0.0);
-    if damping != [0.0; 3] || armature != 0.0 || delay != 0.0 {
-        let msg = "actuator damping, armature and delay are not supported";
+    if damping[1..] != [0.0; 2] || delay != 0.0 {
+        let msg = "actuator damping's polynomial terms and delay are not supported";
         return Err(a.error(a.element, msg));
     }
     if a.int("actdim")?.is_some_and(|n| n > 1) {

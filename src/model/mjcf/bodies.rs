@@ -86,6 +86,7 @@ impl<'a> Reader<'a> {
         let class = self.class_name(node, "childclass")?.unwrap_or(member.class);
         let a = Attrs::of(self.file, node);
         check_body_attributes(&a)?;
+        let mocap = a.flag("mocap")? == Some(true);
         let members = self.members(node, class, &member.suffix)?;
         for child in &members {
             self.check_body_child(child)?;
@@ -108,6 +109,17 @@ impl<'a> Reader<'a> {
             tree.joints.push(joint);
         }
         let joints = first_joint..tree.joints.len();
+        if mocap && (parent != 0 || !joints.is_empty()) {
+            let msg = format!("mocap body '{name}' is not a fixed child of world");
+            return Err(self.error(node, msg));
+        }
+        if let Some(child) = members.iter().find(|m| mocap && tag(m.node) == "body") {
+            return Err(unsupported(
+                self.file,
+                child.node,
+                "bodies inside a mocap body",
+            ));
+        }
         let is_static = parent_static && joints.is_empty();
         let inertial = self.explicit_inertial(node)?;
         let geoms_count = self.compiler.inertia_from_geom == FromGeom::True || inertial.is_none();
@@ -126,6 +138,7 @@ impl<'a> Reader<'a> {
             inertia_frame: Rotation3::identity(),
             joints,
             gravcomp: a.number("gravcomp")?.unwrap_or(0.0),
+            mocap,
         });
         tree.inertials.push(principal);
         tree.nodes.push(Some(node));
@@ -142,11 +155,8 @@ impl<'a> Reader<'a> {
     }
 }
 
-/// Mocap bodies (not supported yet) and gravity compensation (finite).
+/// Gravity compensation (finite).
 fn check_body_attributes(a: &Attrs) -> Result<()> {
-    if a.flag("mocap")? == Some(true) {
-        return Err(a.error(a.element, "mocap bodies are not supported"));
-    }
     if let Some(g) = a.number("gravcomp")?.filter(|g| !g.is_finite()) {
         return Err(a.error(a.element, format!("gravcomp must be finite, got {g}")));
     }

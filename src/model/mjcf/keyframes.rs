@@ -40,6 +40,7 @@ impl Reader<'_> {
         check_attributes(self.file, node, KEY_ATTRS)?;
         let a = Attrs::of(self.file, node);
         let (nq, nv, nu, na) = (spec.nq(), spec.nv(), spec.actuators.len(), spec.na());
+        let (mpos, mquat) = spec.mocap_default();
         let vector = |name: &str, size: usize, mut default: Vec<f64>| -> Result<Vec<f64>> {
             match a.list(name)? {
                 Some(v) if v.len() > size => Err(self.error(
@@ -60,9 +61,8 @@ impl Reader<'_> {
             v: vector("qvel", nv, vec![0.0; nv])?,
             act: vector("act", na, vec![0.0; na])?,
             ctrl: vector("ctrl", nu, vec![0.0; nu])?,
-            // No mocap bodies (they are refused), so these are empty.
-            mpos: vector("mpos", 0, vec![])?,
-            mquat: vector("mquat", 0, vec![])?,
+            mpos: vector("mpos", mpos.len(), mpos)?,
+            mquat: vector("mquat", mquat.len(), mquat)?,
         })
     }
 }

@@ -38,13 +38,13 @@
 //!   that is not the only joint of a child of the world, spatial tendons and
 //!   fixed tendons that act (limit, spring, damping, dry friction, armature),
 //!   tendon and flex equalities, flexes and skins, the ellipsoid fluid model (fluidshape),
-//!   gravcomp routed through actuators (`actuatorgravcomp`), mocap bodies,
-//!   the implicit integrators in a fluid, noslip iterations, the `override`
+//!   gravcomp routed through actuators (`actuatorgravcomp`), bodies inside
+//!   a mocap body, noslip iterations, the `override`
 //!   flag, disabling springs, dampers, actuation or control clamping,
 //!   polynomial or springdamper joint parameters, joint actuator-force
 //!   limits, and the actuators `actuators.rs` lists (muscles, cylinders,
 //!   adhesion, PID and DC motors; tendon, site, body, ball and free-joint
-//!   transmissions; actuator damping, armature and delay);
+//!   transmissions; actuator damping's polynomial terms and delay);
 //! - what builds the model from elsewhere: composite, flexcomp, attach,
 //!   plugins, builtin meshes, primitives fitted to meshes, PNG height
 //!   fields, SDFs, shell inertia of geoms, fusestatic, global coordinates;
@@ -394,7 +394,11 @@ mod tests {
             ("", r#"<joint name="j"/>"#, r#"<actuator><intvelocity joint="j"/></actuator>"#,
              "invalid actrange"),
             ("", r#"<joint name="j"/>"#,
-             r#"<actuator><motor joint="j" armature="1"/></actuator>"#, "armature"),
+             r#"<actuator><motor joint="j" damping="1 2"/></actuator>"#, "polynomial terms"),
+            ("", r#"<joint name="j"/>"#,
+             r#"<actuator><motor joint="j" delay="0.1"/></actuator>"#, "delay"),
+            ("", r#"<joint name="j"/>"#,
+             r#"<actuator><motor joint="j" armature="-1"/></actuator>"#, "must be >= 0"),
             ("", r#"<joint damping="1 2"/>"#, "", "polynomial"),
             (r#"<compiler coordinate="global"/>"#, "", "", "global"),
         ];

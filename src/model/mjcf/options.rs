@@ -5,9 +5,7 @@
 //! of the same name ([`Integrator::NAMES`]). The implicit ones treat
 //! velocity-dependent forces implicitly (their velocity derivative,
 //! MuJoCo's qDeriv, joins the mass matrix; `implicit` with the Coriolis
-//! forces'); in a fluid (density or viscosity nonzero) MuJoCo's qDeriv holds
-//! the fluid forces' derivative too, which is not written, so both are
-//! rejected there. Passive forces are explicit under RK4 or when
+//! forces'; in a fluid the fluid forces' too). Passive forces are explicit under RK4 or when
 //! `<flag eulerdamp="disable">` (Euler only), else damping is implicit (the
 //! implicit integrators ignore eulerdamp, as MuJoCo does, and load with
 //! [`PassiveMode::ImplicitDamping`], which they do not read).
@@ -72,8 +70,6 @@ struct Flags {
 pub fn read(file: &str, root: Node) -> Result<Options> {
     let mut opt = Options::default();
     let mut integrator = "Euler";
-    // The element that names the integrator.
-    let mut named = root;
     let mut flags = Flags {
         eulerdamp: true,
         gravity: true,
@@ -96,7 +92,7 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
         }
         opt.gravity = a.vector("gravity")?.unwrap_or(opt.gravity);
         if let Some(name) = read_integrator(&a)? {
-            (integrator, named) = (name, node);
+            integrator = name;
         }
         read_solver(&a, &mut opt.solver)?;
         read_fluid(&a, &mut opt.fluid)?;
@@ -112,9 +108,6 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
         .iter()
         .find(|(name, _)| *name == integrator)
         .expect("read from the names");
-    if let Some(msg) = opt.fluid.implicit_refusal(chosen) {
-        return Err(xml::invalid(file, named, msg));
-    }
     if !flags.gravity {
         opt.gravity = Vector3::zeros();
     }
@@ -318,48 +311,25 @@ mod tests {
         assert_eq!(m.opt.gravity, Vector3::zeros());
     }
 
-    /// implicitfast (and implicit) in a fluid is refused at the element
-    /// naming it (its fluid derivative is not computed), and by an edit that
-    /// switches it on; without a fluid it loads.
+    /// implicitfast and implicit load in a fluid (their qDeriv holds the
+    /// fluid forces' derivative), and an edit may switch the fluid on.
     #[test]
-    fn implicitfast_in_a_fluid_is_refused() {
-        let fluid = r#"<option density="1.2"/>"#;
-        let implicitfast = "\n<option integrator=\"implicitfast\" viscosity=\"0\"/>";
-        let xml = model(&format!("{fluid}{implicitfast}"), &body(""), "");
-        let (line, element, message) = error(&xml);
-        let named = xml
-            .lines()
-            .position(|l| l.contains("implicitfast"))
-            .unwrap()
-            + 1;
-        assert_eq!((line as usize, element.as_str()), (named, "option"));
-        assert!(
-            message.contains("implicitfast") && message.contains("fluid"),
-            "{message}"
-        );
-        let viscous = model(
-            r#"<option integrator="implicitfast" viscosity="1e-5"/>"#,
+    fn implicit_integrators_load_in_a_fluid() {
+        let xml = model(
+            r#"<option integrator="implicitfast" density="1.2"/>"#,
             &body(""),
             "",
         );
-        assert!(error(&viscous).2.contains("viscosity 0.00001"));
-        let implicit = r#"<option integrator="implicit" density="1"/>"#;
-        assert!(error(&model(implicit, &body(""), ""))
-            .2
-            .contains("\"implicit\""));
-        let m = load(&model(implicitfast, &body(""), ""));
-        assert_eq!(m.opt.passive, PassiveMode::ImplicitDamping);
-        let in_fluid = m.edited(|s| s.opt.fluid.density = 1.2).unwrap_err();
-        assert!(
-            in_fluid.to_string().contains("not supported in a fluid"),
-            "{in_fluid}"
+        assert_eq!(load(&xml).opt.integrator, Integrator::ImplicitFast);
+        let m = load(&model(r#"<option integrator="implicit"/>"#, &body(""), ""));
+        assert_eq!(
+            m.edited(|s| s.opt.fluid.viscosity = 1e-5)
+                .unwrap()
+                .opt
+                .fluid
+                .viscosity,
+            1e-5
         );
-        let m = load(&model(
-            &format!("{fluid}<option integrator=\"RK4\"/>"),
-            &body(""),
-            "",
-        ));
-        assert_eq!(m.opt.fluid.density, 1.2);
     }
 
     #[test]

@@ -17,7 +17,7 @@
 //!   passive forces are always explicit, so the passive mode, which RK4 does
 //!   not use, reads back as [`PassiveMode::Explicit`]; `implicitfast` and
 //!   `implicit` do not use it either and read back with
-//!   [`PassiveMode::ImplicitDamping`]. A body's gravcomp is its attribute. Contacts or limits
+//!   [`PassiveMode::ImplicitDamping`]. A body's gravcomp and mocap are its attributes. Contacts or limits
 //!   switched off are `<flag contact="disable"/>`, `<flag limit="disable"/>`;
 //!   the soft-contact constants ([`crate::model::SoftOptions`]) are custom
 //!   numerics, `<custom><numeric name="diffosi:contact_stiffness" data=".."/>`
@@ -238,6 +238,9 @@ fn write_body(doc: &mut Document, depth: usize, spec: &Spec, b: usize) {
         .numbers("quat", &quat(&body.rot));
     if body.gravcomp != 0.0 {
         tag = tag.number("gravcomp", body.gravcomp);
+    }
+    if body.mocap {
+        tag = tag.text("mocap", "true");
     }
     doc.open(depth, tag);
     for joint in &spec.joints[body.joints.clone()] {
@@ -560,6 +563,8 @@ fn actuator(a: &Actuator, joint: &str) -> Tag {
         .text("dyntype", dyntype)
         .number("dynprm", dynprm)
         .text("actearly", if a.act_early { "true" } else { "false" })
+        .number("damping", a.damping)
+        .number("armature", a.armature)
 }
 
 /// The unit quaternion (w x y z) of a rotation.

@@ -182,6 +182,7 @@ impl Reader<'_> {
             inertia_frame,
             joints: first_joint..parts.joints.len(),
             gravcomp: 0.0,
+            mocap: false,
         });
         parts.geoms.extend(self.geoms(link.node, body)?);
         Ok(())
