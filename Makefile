@@ -52,8 +52,9 @@ test: setup
 
 # The wheel installed as a user installs it (harness/tests/test_install.py: a fresh venv,
 # offline, `python -m harness check` and gymnasium.make from outside the checkout). Over a
-# minute, so not in `make test`. The wheels of diffosi[harness]'s dependencies are
-# downloaded once into $(WHEELHOUSE), the test's only package source.
+# minute under load (15 s to 2 min measured), so not in `make test`. The wheels of
+# diffosi[harness]'s dependencies are downloaded once into $(WHEELHOUSE), the test's only
+# package source.
 install-test: setup $(WHEELHOUSE)/.filled
 	$(VENV)/bin/python -m pytest -q harness/tests/test_install.py
 
