@@ -48,6 +48,7 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import re
+import sys
 import sysconfig
 import zlib
 from dataclasses import dataclass, field
@@ -88,7 +89,11 @@ class Case:
 
 
 def dm_control_suite() -> Path:
-    return Path(importlib.util.find_spec("dm_control").submodule_search_locations[0]) / "suite"
+    spec = importlib.util.find_spec("dm_control")
+    if spec is None:  # outside the checkout's venv: the data packages are not diffosi[harness]'s
+        sys.exit("python -m harness corpus: the corpus is the files of requirements-data.txt's packages, "
+                 "and dm_control is not installed (pip install --no-deps -r requirements-data.txt)")
+    return Path(spec.submodule_search_locations[0]) / "suite"
 
 
 def example_robot_data() -> Path:

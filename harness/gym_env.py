@@ -1,11 +1,13 @@
 """Gymnasium environments of the paper's tasks on our engine: the cartpole (Section 4.2), the
 half cheetah (4.3) and the wiping arm (4.4).
 
-`import harness.gym_env` registers "diffosi/CartPole-v0", "diffosi/HalfCheetah-v0" and
-"diffosi/Wiping-v0"; each is also vectorised by gymnasium (`gymnasium.make_vec(id, num_envs=8,
-vectorization_mode="sync" | "async")`; "async" steps the copies in processes of their own):
+Registered as "diffosi/CartPole-v0", "diffosi/HalfCheetah-v0" and "diffosi/Wiping-v0" by
+harness/gym_hook.py wherever the wheel is installed (in the checkout, `import harness.gym_env`
+registers them); each is also vectorised by gymnasium (`gymnasium.make_vec(id, num_envs=8,
+vectorization_mode="sync" | "async")`; "async" steps the copies in processes of their own), and
+renders render_mode="rgb_array" frames through MuJoCo (harness/gym_render.py):
 
-    import gymnasium, harness.gym_env
+    import gymnasium
     env = gymnasium.make("diffosi/CartPole-v0", mu=0.3)
     envs = gymnasium.make_vec("diffosi/HalfCheetah-v0", num_envs=8)   # mu drawn per reset
 
@@ -28,16 +30,17 @@ Conventions (SI units, angles in radians):
   paper samples mu in [-0.6, 0.6].
 """
 
-from pathlib import Path
-
 import gymnasium
 import numpy as np
 from gymnasium import spaces
 
 import diffosi
+from harness import gym_hook
+from harness.engines.base import MODELS
+from harness.gym_render import RENDER_MODES, MjcfRendering, checked_mode
 
 ENV_ID = "diffosi/CartPole-v0"
-MODEL = Path(__file__).resolve().parent.parent / "reference_models" / "cartpole.xml"
+MODEL = MODELS / "cartpole.xml"
 
 
 def pole_com(mu: float) -> list:
@@ -50,12 +53,14 @@ MAX_STEPS = 500
 RESET_RANGE = 0.05
 
 
-class CartPoleEnv(gymnasium.Env):
+class CartPoleEnv(MjcfRendering, gymnasium.Env):
     """The cartpole on diffosi; see the module docstring for spaces, reward and mu."""
 
-    metadata = {"render_modes": []}
+    metadata = {"render_modes": RENDER_MODES, "render_fps": 50}
+    mjcf = MODEL
 
-    def __init__(self, mu=0.0, max_force=500.0):
+    def __init__(self, mu=0.0, max_force=500.0, render_mode=None):
+        self.render_mode = checked_mode(render_mode)
         self.model = diffosi.Model.load(str(MODEL))
         self.model.set_param("body/pole/com", pole_com(mu))
         self.mu = float(mu)
@@ -70,6 +75,9 @@ class CartPoleEnv(gymnasium.Env):
 
     def _observation(self):
         return np.concatenate([self._q, self._v])
+
+    def render_q(self):
+        return self._q
 
     def reset(self, *, seed=None, options=None):
         super().reset(seed=seed)
@@ -91,7 +99,7 @@ class CartPoleEnv(gymnasium.Env):
 
 
 
-class HalfCheetahEnv(gymnasium.Env):
+class HalfCheetahEnv(MjcfRendering, gymnasium.Env):
     """The paper's half cheetah, diffosi.Task("half_cheetah") (src/tasks/half_cheetah.rs has its
     conventions, gymnasium HalfCheetah-v5's): observation (17) the torso's height and pitch, the
     six leg joints, then every velocity; action six motor controls in [-1, 1] (clipped), held for
@@ -101,9 +109,11 @@ class HalfCheetahEnv(gymnasium.Env):
     from [1, 50] at every reset (domain randomisation); info["mu"] says which. reset(seed=...)
     seeds the mu draw and the task's reset noise."""
 
-    metadata = {"render_modes": []}
+    metadata = {"render_modes": RENDER_MODES, "render_fps": 20}
+    mjcf = MODELS / "half_cheetah.xml"
 
-    def __init__(self, mu=None):
+    def __init__(self, mu=None, render_mode=None):
+        self.render_mode = checked_mode(render_mode)
         self.task = diffosi.Task("half_cheetah")
         self.mu_range = tuple(float(b[0]) for b in self.task.mu_range)
         if mu is not None and not self.mu_range[0] <= mu <= self.mu_range[1]:
@@ -135,8 +145,11 @@ class HalfCheetahEnv(gymnasium.Env):
         truncated = self._steps >= self.task.horizon
         return self.task.observe(q, v), float(reward), terminated, truncated, {"mu": self.mu}
 
+    def render_q(self):
+        return self._q
 
-class WipingEnv(gymnasium.Env):
+
+class WipingEnv(MjcfRendering, gymnasium.Env):
     """The wiping task, diffosi.Wiping (src/tasks/wiping/: a KUKA iiwa pressing a compliant tool
     on a table while it strokes back and forth), with the admittance controller's gains as the
     action, chosen anew at every 1 ms control step: a in [-1, 1]^2 (clipped) maps log-uniformly
@@ -149,9 +162,11 @@ class WipingEnv(gymnasium.Env):
     tool's (k_p in N/cm, k_d in N s/m), each in [1, 100]: fixed if given, else drawn uniformly
     at every reset; info["mu"] says which."""
 
-    metadata = {"render_modes": []}
+    metadata = {"render_modes": RENDER_MODES, "render_fps": 1000}
+    mjcf = MODELS / "wiping_arm.xml"
 
-    def __init__(self, mu=None):
+    def __init__(self, mu=None, render_mode=None):
+        self.render_mode = checked_mode(render_mode)
         self.task = diffosi.Wiping(2)
         self.mu_range = tuple(np.asarray(b, float) for b in self.task.mu_range)
         if mu is not None:
@@ -170,6 +185,9 @@ class WipingEnv(gymnasium.Env):
         """(k_tau, k_xi) of an action."""
         a = np.clip(np.asarray(action, dtype=np.float64).reshape(2), -1.0, 1.0)
         return np.exp(self._log_lo + (a + 1.0) / 2.0 * (self._log_hi - self._log_lo))
+
+    def render_q(self):
+        return None if self.run is None else self.run.q
 
     def _observation(self):
         run = self.run
@@ -195,6 +213,4 @@ class WipingEnv(gymnasium.Env):
 
 
 HALF_CHEETAH_ID, WIPING_ID = "diffosi/HalfCheetah-v0", "diffosi/Wiping-v0"
-gymnasium.register(id=ENV_ID, entry_point=CartPoleEnv)
-gymnasium.register(id=HALF_CHEETAH_ID, entry_point=HalfCheetahEnv)
-gymnasium.register(id=WIPING_ID, entry_point=WipingEnv)
+gym_hook.register()

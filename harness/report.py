@@ -13,7 +13,9 @@ import numpy as np
 
 from harness.engines.base import REPO
 
-REPORTS = REPO / "reports"
+# In the checkout its reports/; installed from the wheel (REPO is then site-packages), the
+# working directory's reports/.
+REPORTS = REPO / "reports" if (REPO / "Cargo.toml").is_file() else Path("reports")
 
 
 def jsonable(x):

@@ -1,0 +1,7 @@
+"""pytest's setup for harness/tests: MuJoCo renders off-screen (EGL) unless MUJOCO_GL says
+otherwise. gymnasium's env checker renders every mode an environment declares, and MuJoCo
+reads MUJOCO_GL once, at its first import, so it is set before any test module imports it."""
+
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")
