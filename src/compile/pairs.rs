@@ -124,7 +124,7 @@ pub fn collision_pairs<T: Real>(
             if a > b {
                 geoms.swap(0, 1);
             }
-            (geoms, params, supported(a, b))
+            (geoms, params, supported(a, b, &spec.opt.solver.ccd))
         })
         .collect()
 }

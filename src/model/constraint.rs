@@ -15,7 +15,7 @@
 //! - condim 1: frictionless; 3: sliding friction; 4: and torsional; 6: and
 //!   rolling. Friction is (sliding, torsional, rolling).
 
-use super::MINVAL;
+use super::{CCD_ITERATIONS, CCD_TOLERANCE, MINVAL};
 
 /// MuJoCo's default `solref` and `solimp`.
 pub const SOLREF: [f64; 2] = [0.02, 1.0];
@@ -245,6 +245,37 @@ pub struct SolverOptions {
     pub frictionloss: bool,
     pub refsafe: bool,
     pub filterparent: bool,
+    /// MuJoCo's convex-collision settings (`ccd_iterations`,
+    /// `ccd_tolerance`, the `nativeccd` flag). The convex collider runs
+    /// MuJoCo's defaults only; under any other setting its pairs have no
+    /// collider ([`Ccd::is_default`]).
+    pub ccd: Ccd,
+}
+
+/// See [`SolverOptions::ccd`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ccd {
+    pub iterations: usize,
+    pub tolerance: f64,
+    /// MuJoCo's own GJK and EPA (else libccd's).
+    pub native: bool,
+}
+
+impl Default for Ccd {
+    fn default() -> Self {
+        Ccd {
+            iterations: CCD_ITERATIONS,
+            tolerance: CCD_TOLERANCE,
+            native: true,
+        }
+    }
+}
+
+impl Ccd {
+    /// Whether these are the settings the convex collider runs.
+    pub fn is_default(&self) -> bool {
+        *self == Ccd::default()
+    }
 }
 
 impl Default for SolverOptions {
@@ -257,6 +288,7 @@ impl Default for SolverOptions {
             frictionloss: true,
             refsafe: true,
             filterparent: true,
+            ccd: Ccd::default(),
         }
     }
 }

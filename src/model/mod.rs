@@ -45,7 +45,7 @@ mod xml;
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
 pub use constraint::{
-    Cone, ContactModel, ContactPair, GeomContact, PairParams, SolParams, SolverOptions,
+    Ccd, Cone, ContactModel, ContactPair, GeomContact, PairParams, SolParams, SolverOptions,
 };
 pub use equality::{Equality, EqualityKind, Objects};
 pub use keyframe::Keyframe;
@@ -666,6 +666,12 @@ fn quaternion(rot: &Rotation3<f64>) -> [f64; 4] {
 /// MuJoCo's mjMINVAL: the size below which it takes a mass or an inertia
 /// for zero.
 pub const MINVAL: f64 = 1e-15;
+
+/// MuJoCo's default ccd_iterations and ccd_tolerance: the iteration budget
+/// and distance tolerance of its convex collider (GJK and EPA), the only
+/// ones ours runs ([`constraint::Ccd`]).
+pub const CCD_ITERATIONS: usize = 35;
+pub const CCD_TOLERANCE: f64 = 1e-6;
 
 impl Spec {
     pub fn nq(&self) -> usize {

@@ -30,12 +30,8 @@ use nalgebra::{Matrix3, Vector3};
 use super::epa::penetration;
 use super::gjk::gjk;
 use super::{normalize, Placed, Pre};
-use crate::model::Shape;
+use crate::model::{Shape, CCD_ITERATIONS, CCD_TOLERANCE};
 use crate::spatial::{lift, Real};
-
-/// MuJoCo's default ccd_iterations and ccd_tolerance.
-pub const CCD_ITERATIONS: usize = 35;
-pub const CCD_TOLERANCE: f64 = 1e-6;
 
 /// How GJK sees a geom: whole, or a sphere as its centre and a capsule as
 /// its segment (their radii added back to the distance).

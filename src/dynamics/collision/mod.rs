@@ -40,6 +40,9 @@
 //! convex.rs). A model may hold other pairs (a plane and an ellipsoid,
 //! cylinders with capsules, cylinders or boxes, meshes): a step refuses to
 //! run while one of them is within reach ([`super::StepError::NoCollider`]).
+//! The general convex collider runs MuJoCo's default settings only: under
+//! other `ccd_iterations`, `ccd_tolerance` or with `nativeccd` disabled its
+//! pairs count as having no collider ([`supported`]).
 //!
 //! # Adding a collider
 //!
@@ -73,7 +76,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::model::{PairParams, Shape};
+use crate::model::{Ccd, PairParams, Shape};
 use crate::spatial::{lift, Real, Transform};
 
 mod box_box;
@@ -167,9 +170,17 @@ pub fn collider<T: Real>(a: GeomType, b: GeomType) -> Option<Collider<T>> {
     Colliders::<T>::TABLE[a as usize][b as usize]
 }
 
-/// Whether a collider exists for geoms of types a and b (either order).
-pub fn supported(a: GeomType, b: GeomType) -> bool {
-    collider::<f64>(a.min(b), a.max(b)).is_some()
+/// Whether a collider exists for geoms of types a and b (either order)
+/// under the convex-collision settings `ccd`: a pair of the general convex collider only under the
+/// settings it runs (MuJoCo's defaults); other settings would give other
+/// contacts, so its pairs then have no collider.
+pub fn supported(a: GeomType, b: GeomType, ccd: &Ccd) -> bool {
+    match collider::<f64>(a.min(b), a.max(b)) {
+        Some(f) => {
+            ccd.is_default() || !std::ptr::fn_addr_eq(f, convex::convex::<f64> as Collider<f64>)
+        }
+        None => false,
+    }
 }
 
 /// A geom at its world pose: centre and axes (columns), MuJoCo's geom_xpos
@@ -313,19 +324,34 @@ mod tests {
             assert_eq!(a as usize, i);
             for &b in &types[..i] {
                 assert!(collider::<f64>(a, b).is_none(), "{a:?} {b:?}");
-                assert_eq!(supported(a, b), supported(b, a));
+                assert_eq!(
+                    supported(a, b, &Ccd::default()),
+                    supported(b, a, &Ccd::default())
+                );
             }
         }
         let count = types
             .iter()
             .flat_map(|&a| types.iter().map(move |&b| (a, b)))
-            .filter(|&(a, b)| a <= b && supported(a, b))
+            .filter(|&(a, b)| a <= b && supported(a, b, &Ccd::default()))
             .count();
         assert_eq!(count, 16);
-        assert!(supported(GeomType::Box, GeomType::Capsule));
-        assert!(supported(GeomType::Ellipsoid, GeomType::Capsule));
-        assert!(!supported(GeomType::Cylinder, GeomType::Capsule));
-        assert!(!supported(GeomType::Plane, GeomType::Ellipsoid));
+        assert!(supported(GeomType::Box, GeomType::Capsule, &Ccd::default()));
+        assert!(supported(
+            GeomType::Ellipsoid,
+            GeomType::Capsule,
+            &Ccd::default()
+        ));
+        assert!(!supported(
+            GeomType::Cylinder,
+            GeomType::Capsule,
+            &Ccd::default()
+        ));
+        assert!(!supported(
+            GeomType::Plane,
+            GeomType::Ellipsoid,
+            &Ccd::default()
+        ));
     }
 
     #[test]
@@ -347,5 +373,27 @@ mod tests {
         assert!((f.row(1).transpose() - Vector3::x()).norm() < 1e-15);
         assert!((f * f.transpose() - Matrix3::identity()).norm() < 1e-15);
         assert!((f.determinant() - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn convex_pairs_collide_only_under_the_default_ccd_settings() {
+        let (e, c, b) = (GeomType::Ellipsoid, GeomType::Capsule, GeomType::Box);
+        for other in [
+            Ccd {
+                native: false,
+                ..Ccd::default()
+            },
+            Ccd {
+                iterations: 50,
+                ..Ccd::default()
+            },
+            Ccd {
+                tolerance: 1e-8,
+                ..Ccd::default()
+            },
+        ] {
+            assert!(!supported(e, c, &other), "{other:?}");
+            assert!(supported(b, c, &other), "{other:?}");
+        }
     }
 }

@@ -39,7 +39,7 @@ use crate::model::{
 /// Flags that only concern contacts, constraints, sensors or the solver.
 #[rustfmt::skip]
 const IGNORED_FLAGS: &[&str] = &[
-    "warmstart", "sensor", "midphase", "autoreset", "nativeccd", "island", "multiccd",
+    "warmstart", "sensor", "midphase", "autoreset", "island", "multiccd",
     "energy", "fwdinv", "invdiscrete", "sleep", "diagexact",
 ];
 
@@ -65,6 +65,7 @@ struct Flags {
     frictionloss: bool,
     refsafe: bool,
     filterparent: bool,
+    nativeccd: bool,
 }
 
 pub fn read(file: &str, root: Node) -> Result<Options> {
@@ -80,6 +81,7 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
         frictionloss: true,
         refsafe: true,
         filterparent: true,
+        nativeccd: true,
     };
     for node in children(root, "option") {
         check_attributes(file, node, OPTION_ATTRS)?;
@@ -118,6 +120,7 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
     opt.solver.frictionloss = flags.frictionloss && flags.constraint;
     opt.solver.equality = flags.equality && flags.constraint;
     (opt.solver.refsafe, opt.solver.filterparent) = (flags.refsafe, flags.filterparent);
+    opt.solver.ccd.native = flags.nativeccd;
     opt.contact_model = contact_model(file, root)?;
     opt.integrator = chosen;
     opt.passive = match integrator {
@@ -160,6 +163,10 @@ fn read_solver(a: &Attrs, solver: &mut SolverOptions) -> Result<()> {
             .1;
     }
     solver.impratio = a.number("impratio")?.unwrap_or(solver.impratio);
+    if let Some(n) = a.int("ccd_iterations")? {
+        solver.ccd.iterations = usize::try_from(n).unwrap_or(0);
+    }
+    solver.ccd.tolerance = a.number("ccd_tolerance")?.unwrap_or(solver.ccd.tolerance);
     if let Some(n) = a.int("iterations")? {
         solver.iterations = usize::try_from(n).unwrap_or(0);
     }
@@ -249,6 +256,7 @@ fn read_flags(file: &str, flag: Node, flags: &mut Flags) -> Result<()> {
             "frictionloss" => flags.frictionloss = enabled,
             "refsafe" => flags.refsafe = enabled,
             "filterparent" => flags.filterparent = enabled,
+            "nativeccd" => flags.nativeccd = enabled,
             name if REJECTED_ENABLED.contains(&name) => {
                 if enabled {
                     let msg = format!("flag {name}=\"enable\" is not supported");
@@ -338,6 +346,20 @@ mod tests {
         let m = load(&model("", &body(""), ""));
         assert_eq!(m.opt.contact_model, ContactModel::Constraint);
         assert_eq!(m.opt.solver, SolverOptions::default());
+        let xml = model(
+            r#"<option ccd_iterations="50" ccd_tolerance="1e-8"><flag nativeccd="disable"/></option>"#,
+            &body(""),
+            "",
+        );
+        let expected = crate::model::Ccd {
+            iterations: 50,
+            tolerance: 1e-8,
+            native: false,
+        };
+        assert_eq!(load(&xml).opt.solver.ccd, expected);
+        // The writer keeps them.
+        let written = super::super::write(&super::super::parse(&xml, "t.xml").unwrap()).unwrap();
+        assert_eq!(load(&written).opt.solver.ccd, expected);
         let option = r#"<option cone="elliptic" impratio="10" iterations="7" tolerance="1e-3">
             <flag frictionloss="disable" refsafe="disable" filterparent="disable"/></option>"#;
         let smooth = r#"<custom><text name="diffosi:contact" data="smooth"/></custom>"#;

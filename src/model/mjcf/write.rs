@@ -44,6 +44,7 @@ use crate::model::{
     ActDynamics, Actuator, Bias, Body, Cone, ContactModel, EqualityKind, FrameObject,
     FrameQuantity, Gain, Geom, Integrator, Joint, JointKind, JointQuantity, ModelError, Objects,
     Options, PassiveMode, SensorKind, Shape, SiteQuantity, SoftOptions, SolParams, Spec,
+    CCD_ITERATIONS, CCD_TOLERANCE,
 };
 
 /// Writes `spec` as an MJCF document, checked by reading and validating it.
@@ -156,6 +157,14 @@ fn write_options(doc: &mut Document, opt: &Options) -> Result<(), ModelError> {
         .number("density", opt.fluid.density)
         .number("viscosity", opt.fluid.viscosity)
         .numbers("wind", opt.fluid.wind.as_slice());
+    let ccd = opt.solver.ccd;
+    let option = if (ccd.iterations, ccd.tolerance) == (CCD_ITERATIONS, CCD_TOLERANCE) {
+        option
+    } else {
+        option
+            .text("ccd_iterations", &ccd.iterations.to_string())
+            .number("ccd_tolerance", ccd.tolerance)
+    };
     if (opt.integrator, opt.passive) == (Integrator::Euler, PassiveMode::ImplicitDampingStiffness) {
         return Err(unwritable(
             "MuJoCo has no implicit joint stiffness (passive mode ImplicitDampingStiffness, \
@@ -175,6 +184,7 @@ fn write_options(doc: &mut Document, opt: &Options) -> Result<(), ModelError> {
         ("frictionloss", !opt.solver.frictionloss),
         ("refsafe", !opt.solver.refsafe),
         ("filterparent", !opt.solver.filterparent),
+        ("nativeccd", !opt.solver.ccd.native),
     ];
     for (name, _) in disabled.into_iter().filter(|(_, off)| *off) {
         flag = flag.text(name, "disable");
