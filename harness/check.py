@@ -106,8 +106,11 @@ def load_engine(name: str, path: Path, args) -> tuple:
         return None, f"the harness reads {' and '.join(READS[name])} files in {name} (its MJCF loader is not wired)"
     printed: list = []
     try:
+        # DART's URDF loader takes package directories; PyBullet and MuJoCo's importer resolve
+        # mesh paths relative to the file
+        dirs = {"package_dirs": tuple(args.package_dir)} if name == "dart" else {}
         with quiet_stdio(printed):
-            e = engines.load(name, path)
+            e = engines.load(name, path, **dirs)
         e.package_dirs = tuple(args.package_dir)
         if args.timestep:
             e.set_timestep(args.timestep)

@@ -11,6 +11,9 @@ native=True changes nothing here (DART's implicit passive forces are its own eit
 it is recorded in the settings). friction={joint: f} is DART's joint Coulomb friction,
 DegreeOfFreedom.setCoulombFriction(f), a constraint of its LCP solver.
 
+package_dirs: where package://NAME/ paths resolve, for DART's loader
+(DartLoader.addPackageDirectory) and ours(), as our loader resolves them.
+
 A URDF floating joint from `world` (our free root) is DART's FreeJoint; q, v and tau keep
 our convention (harness/engines/floating.py). M and c are not offered for it.
 floating_base=True floats any other URDF's root link by DART's loader (root joint type
@@ -28,11 +31,15 @@ import numpy as np
 
 from harness.engines.base import Engine, label_of, nonzero_by_joint, quiet_stdio
 from harness.engines.floating import DartBase
-from harness.engines.urdf import ignored_extras, read_urdf, timestep_gravity, twin_only
+from harness.engines.urdf import ignored_extras, package_directories, read_urdf, timestep_gravity, twin_only
 
 
-def load_world(urdf: Path, h: float, gravity: list, floating_base: bool = False):
+def load_world(urdf: Path, h: float, gravity: list, floating_base: bool = False, package_dirs=()):
+    """DART's URDF loader on `urdf`, each package://NAME/ it names found in package_dirs as our
+    loader finds it (harness.engines.urdf.package_directories), in a world of its own."""
     loader = dart.utils.DartLoader()
+    for name, directory in package_directories(urdf, package_dirs).items():
+        loader.addPackageDirectory(name, str(directory))
     opts = dart.utils.DartLoader.Options()
     # the root link's joint (unless it is named "world"): DART's default is FLOATING
     kind = dart.utils.DartLoader.RootJointType
@@ -84,13 +91,15 @@ class DartEngine(Engine):
     name = "dart"
     version = dart.__version__
 
-    def __init__(self, path: Path, native: bool = False, friction: dict | None = None, floating_base: bool = False):
+    def __init__(self, path: Path, native: bool = False, friction: dict | None = None, floating_base: bool = False,
+                 package_dirs=()):
         super().__init__()
+        self.package_dirs = tuple(package_dirs)
         self.model_path, self.label = Path(path), label_of(Path(path))
         facts = read_urdf(self.model_path, floating_base)
         self.floating_base = floating_base
         self.timestep, self.gravity, settings = timestep_gravity(self.model_path, facts)
-        self.world, skel = load_world(self.model_path, self.timestep, self.gravity, floating_base)
+        self.world, skel = load_world(self.model_path, self.timestep, self.gravity, floating_base, package_dirs)
         self.skel = skel
         settings.update(root_joint="FLOATING" if floating_base else "FIXED", deactivation="off",
                         self_collision="off",

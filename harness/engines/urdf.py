@@ -7,6 +7,8 @@ diffosi:springref, diffosi:armature. Neither PyBullet nor DART reads them.
 
 from __future__ import annotations
 
+import os
+import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
@@ -152,3 +154,20 @@ def twin_only(urdf: Path, facts: dict, keys=("stiffness", "armature")) -> dict:
             if twin and twin[key].get(j.name) and not j.extensions.get(key):
                 out.setdefault(key, {})[j.name] = twin[key][j.name]
     return out
+
+
+def package_directories(urdf: Path, package_dirs=()) -> dict:
+    """{NAME: directory} for each package://NAME/ the URDF names, found as our loader finds it
+    (src/model/urdf/package.rs): in each of package_dirs, then in the URDF's directory and its
+    ancestors, then in ROS_PACKAGE_PATH; in a directory D the package is D when D is named
+    NAME, else D/NAME. A package found nowhere is left out (the engine's loader then says so)."""
+    names = dict.fromkeys(re.findall(r"package://([^/\"'\s]+)", Path(urdf).read_text()))
+    here = Path(urdf).resolve().parent
+    ros = [Path(d) for d in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if d]
+    places = [*map(Path, package_dirs), here, *here.parents, *ros]
+    found = {}
+    for name in names:
+        dirs = [d for d in (p if p.name == name else p / name for p in places) if d.is_dir()]
+        if dirs:
+            found[name] = dirs[0]
+    return found
