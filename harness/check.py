@@ -7,8 +7,10 @@
 1. Our engine loads MODEL (package:// paths resolved in each --package-dir). If it cannot,
    one line names the file and line, and the exit status is 2.
 2. Each reference engine loads it through its harness adapter (harness/engines): MuJoCo
-   reads MJCF and, through its importer, URDF; PyBullet and DART read URDF (their MJCF
-   loaders are not wired: the row says so). Each runs the file as replay runs a twin (its
+   reads MJCF and, through its importer, URDF; PyBullet and DART read and step URDF. An
+   MJCF file goes to PyBullet's loadMJCF and DART's MjcfParser, their own readings compared
+   compiled (3) but not stepped, so not gated (PyBullet's inertia from the geoms, DART's
+   identity inertia: the rows name them). Each runs the file as replay runs a twin (its
    own timestep, integrator and passive-force mode; a URDF that sets none runs at the
    defaults h = 0.002 s, gravity -9.81 z, stated in the settings); --timestep overrides
    the timestep everywhere. An engine that cannot load the file gets a row with its own
@@ -46,6 +48,7 @@ without a collider: the row gives the refusal).
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from pathlib import Path
 
@@ -58,6 +61,8 @@ from harness.golden import case_seed
 from harness.report import REPORTS, markdown_table, plot_lines, write_json, write_markdown
 
 READS = {"mujoco": (".xml", ".urdf"), "pybullet": (".urdf",), "dart": (".urdf",)}
+# An MJCF file in PyBullet and DART: their own loaders, compiled comparison only (not stepped)
+MJCF_READERS = {"pybullet": ("loadMJCF", compiled.pybullet_mjcf), "dart": ("MjcfParser", compiled.dart_mjcf)}
 GRAD_STATES = 3
 MAX_ERROR = 1e-9
 
@@ -87,6 +92,13 @@ def one_line(error: BaseException) -> str:
     return " ".join(f"{type(error).__name__}: {error}".split())
 
 
+def printed_tail(printed: list) -> str:
+    """The last three lines an engine printed (terminal colours removed), for its error row."""
+    said = [re.sub(r"\x1b\[[0-9;]*m", "", line).strip() for line in printed]
+    said = [line for line in said if line][-3:]
+    return f" (printed: {' | '.join(said)})" if said else ""
+
+
 def load_ours(path: Path, package_dirs: list):
     import diffosi
 
@@ -103,7 +115,7 @@ def load_ours(path: Path, package_dirs: list):
 def load_engine(name: str, path: Path, args) -> tuple:
     """(engine, None) or (None, why not): the engine's own error and what it printed."""
     if path.suffix not in READS[name]:
-        return None, f"the harness reads {' and '.join(READS[name])} files in {name} (its MJCF loader is not wired)"
+        return None, f"the harness steps {' and '.join(READS[name])} files in {name}"
     printed: list = []
     try:
         # DART's URDF loader takes package directories; PyBullet and MuJoCo's importer resolve
@@ -116,8 +128,7 @@ def load_engine(name: str, path: Path, args) -> tuple:
             e.set_timestep(args.timestep)
         return e, None
     except Exception as error:  # noqa: BLE001 - a foreign engine's failure is that engine's row
-        said = [line.strip() for line in printed if line.strip()][-3:]
-        return None, one_line(error) + (f" (printed: {' | '.join(said)})" if said else "")
+        return None, one_line(error) + printed_tail(printed)
 
 
 def engine_compiled(e) -> dict:
@@ -165,6 +176,26 @@ def gradients_of(path: Path, args) -> dict:
     worst = {k: max((r[k] for r in doc["rows"] if r[k] is not None), default=0.0) for k in THRESHOLDS}
     failed = [r["block"] for r in doc["rows"] if not r["pass"]]
     return {"states": GRAD_STATES, "thresholds": THRESHOLDS, "worst": worst, "failed": failed, "pass": doc["pass"]}
+
+
+def own_mjcf_row(name: str, path: Path, ours_compiled: dict, progress) -> dict:
+    """PyBullet's or DART's own MJCF loader on the file: its compiled model against ours
+    (massless joint links folded), or its error. Not stepped, so not gated (agrees None):
+    their MJCF readings are their own (PyBullet's inertia from the geoms, DART's identity
+    inertia), which the compiled rows name."""
+    loader, read = MJCF_READERS[name]
+    printed: list = []
+    try:
+        with quiet_stdio(printed):
+            theirs = read(path)
+    except Exception as error:  # noqa: BLE001 - a foreign engine's failure is that engine's row
+        progress.tick(failed=True)
+        return {"loaded": False, "loader": loader, "error": one_line(error) + printed_tail(printed)}
+    rows = compiled.compare(compiled.fold_massless(ours_compiled), compiled.fold_massless(theirs))
+    progress.tick()
+    return {"loaded": True, "loader": loader, "compiled": rows, "compiled_mismatches": compiled.mismatches(rows),
+            "one_step_error": None, "agrees": None,
+            "note": f"{name}'s {loader}: compiled model compared, not stepped (the harness steps URDF files in {name})"}
 
 
 def engine_row(e, error, path: Path, ours_compiled: dict, args, progress) -> dict:
@@ -274,7 +305,9 @@ def check(args, progress=None) -> dict:
                  "engines": {}}
     try:
         for name, (e, error) in loaded.items():
-            doc["engines"][name] = engine_row(e, error, path, ours_compiled, args, progress)
+            own = path.suffix == ".xml" and name in MJCF_READERS
+            doc["engines"][name] = (own_mjcf_row(name, path, ours_compiled, progress) if own
+                                    else engine_row(e, error, path, ours_compiled, args, progress))
         if loaded.get("mujoco", (None,))[0] is not None:
             doc.update(mujoco_extras(path, args, progress))
         else:
@@ -299,7 +332,7 @@ def check(args, progress=None) -> dict:
 
 
 def verdict(doc: dict) -> bool:
-    rows = [r for r in doc["engines"].values() if r["loaded"]]
+    rows = [r for r in doc["engines"].values() if r["loaded"] and r["agrees"] is not None]  # stepped
     ok = all(r["agrees"] for r in rows)
     if "contact" in doc:
         ok = ok and doc["contact"].get("agrees", True) and doc["gradients"].get("pass", True)
@@ -321,10 +354,14 @@ def engine_lines(doc: dict) -> list[str]:
     rows = []
     for name, r in doc["engines"].items():
         if not r["loaded"]:
-            rows.append([name, "no", r["error"].replace("|", "/"), "-", "-", "-", "-"])
+            loader = f"its own {r['loader']}: " if "loader" in r else ""
+            rows.append([name, "no", loader + r["error"].replace("|", "/"), "-", "-", "-", "-"])
             continue
         mism = r["compiled_mismatches"]
         n = f"{len(mism)} fields" if isinstance(mism, list) else mism["error"]
+        if r["agrees"] is None:
+            rows.append([name, "yes", f"its own {r['loader']}: compiled only", n, "-", "-", "not stepped"])
+            continue
         s = r.get("settings", {})
         rows.append([name, "yes", f"h = {s.get('timestep', '-')} s, {s.get('integrator', '-')}, passive "
                      f"{s.get('passive', '-')}", n, fmt(r["one_step_error"]),

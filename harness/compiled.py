@@ -96,6 +96,24 @@ def pybullet(path: Path) -> dict:
             p.disconnect()
 
 
+def pybullet_mjcf(path: Path) -> dict:
+    """PyBullet's own reading of an MJCF file (loadMJCF, its defaults): every multibody it
+    creates, read as `pybullet_read` reads a URDF's. PyBullet gives each MJCF joint a massless
+    link of its own, welded to the body (`fold_massless` folds it); it raises pybullet.error
+    on a file it cannot read."""
+    import pybullet as pb
+
+    from harness.corpus import pybullet_client
+    from harness.engines.floating import quat_matrix
+
+    with quiet_stdio():
+        p = pybullet_client()
+        try:
+            return merged(pybullet_read(p, index, pb, quat_matrix) for index in p.loadMJCF(str(path)))
+        finally:
+            p.disconnect()
+
+
 def pybullet_read(p, index: int, pb, quat_matrix) -> dict:
     kinds = {pb.JOINT_REVOLUTE: "hinge", pb.JOINT_PRISMATIC: "slide"}
     base = p.getBodyInfo(index)[0].decode()
@@ -134,11 +152,34 @@ def dart(skel) -> dict:
         if j.getType() not in kinds:
             continue
         lo, hi = j.getPositionLowerLimit(0), j.getPositionUpperLimit(0)
-        axis = j.getAxis() if j.getType() in ("RevoluteJoint", "PrismaticJoint") else None
+        # the axis is in the joint frame: the child body's frame takes it (the identity from a URDF)
+        axis = (j.getTransformFromChildBodyNode().rotation() @ j.getAxis()
+                if j.getType() in ("RevoluteJoint", "PrismaticJoint") else None)
         joints[j.getName()] = joint(kinds[j.getType()], node.getName(), axis,
                                     (lo, hi) if np.isfinite(lo) and np.isfinite(hi) and lo < hi else None,
                                     j.getDampingCoefficient(0), 0.0)
     return {"bodies": bodies, "joints": joints}
+
+
+def dart_mjcf(path: Path) -> dict:
+    """DART's own reading of an MJCF file (dartpy.utils.MjcfParser.readWorld, its defaults):
+    every skeleton of the world it builds. Its parser ignores <inertial> (mass 1, identity
+    inertia), which the comparison then names; it raises RuntimeError on a file it cannot read."""
+    import dartpy
+
+    world = dartpy.utils.MjcfParser.readWorld(Path(path).resolve().as_uri())  # its warnings: the caller's
+    if world is None:
+        raise ValueError(f"DART's MJCF parser returned no world for {path}")
+    return merged(dart(world.getSkeleton(k)) for k in range(world.getNumSkeletons()))
+
+
+def merged(parts) -> dict:
+    """One compiled form from several (an engine's separate multibodies or skeletons)."""
+    out: dict = {"bodies": {}, "joints": {}}
+    for part in parts:
+        out["bodies"].update(part["bodies"])
+        out["joints"].update(part["joints"])
+    return out
 
 
 def fold_massless(c: dict) -> dict:

@@ -83,8 +83,12 @@ def test_mjcf_with_meshes_and_a_pair_without_collider(tmp_path):
     # its frictionloss is a constraint MuJoCo's adapter switches off, and ours() zeroes
     assert mj["one_step_error"] <= 1e-9 and mj["settings"]["ignored"]["frictionloss"]
     assert not dynamic_mismatches(mj)
-    for name in ("pybullet", "dart"):
-        assert not doc["engines"][name]["loaded"] and "MJCF loader is not wired" in doc["engines"][name]["error"]
+    for name, loader in (("pybullet", "loadMJCF"), ("dart", "MjcfParser")):  # their own MJCF loaders
+        row = doc["engines"][name]
+        assert row["loader"] == loader and row.get("agrees") is None, row  # compiled only: never gated
+    assert doc["engines"]["pybullet"]["loaded"]
+    dart = doc["engines"]["dart"]  # its own error, and what it printed
+    assert not dart["loaded"] and "MJCF parser returned no world" in dart["error"] and "printed:" in dart["error"]
     assert "no collider" in doc["contact"]["error"] and doc["gradients"]["pass"]
     assert "not checked: ValueError: step: geoms" in md
 
@@ -197,3 +201,21 @@ def test_every_shipped_twin_is_the_same_robot(tmp_path, name):
     assert run_check(tmp_path, model, "--twin", str(MODELS / f"{name}.urdf"), "--engines", "mujoco") == 0
     t = report(tmp_path, model)[0]["twin_check"]
     assert not t["differs"] and t["ours"] == [] and t["steps"]["max_error"] <= 1e-12, t
+
+
+def test_mjcf_in_pybullets_and_darts_own_loaders(tmp_path):
+    """Our half cheetah MJCF: PyBullet's loadMJCF and DART's MjcfParser load it; their compiled
+    models against ours, reported and not gated: the joints match but for the armature neither
+    has (and the damping, which loadMJCF does not read), and the bodies' inertia is each
+    loader's own (PyBullet's from the geoms, DART's the identity)."""
+    model = MODELS / "half_cheetah.xml"
+    assert run_check(tmp_path, model) == 0
+    doc, md = report(tmp_path, model)
+    for name in ("pybullet", "dart"):
+        row = doc["engines"][name]
+        assert row["loaded"] and row["one_step_error"] is None and row["agrees"] is None
+        joints = {(m["name"], m["field"]) for m in dynamic_mismatches(row) if m["kind"] == "joint"}
+        fields = ("armature", "damping") if name == "pybullet" else ("armature",)  # loadMJCF reads no damping
+        assert joints == {(j, f) for j in ("bthigh", "bshin", "bfoot", "fthigh", "fshin", "ffoot") for f in fields}
+        assert ("torso", "principal moments") in {(m["name"], m["field"]) for m in dynamic_mismatches(row)}
+    assert "its own loadMJCF: compiled only" in md and "not stepped" in md
