@@ -48,7 +48,9 @@ without a collider: the row gives the refusal).
 from __future__ import annotations
 
 import argparse
+import multiprocessing
 import re
+import signal
 import sys
 from pathlib import Path
 
@@ -178,6 +180,33 @@ def gradients_of(path: Path, args) -> dict:
     return {"states": GRAD_STATES, "thresholds": THRESHOLDS, "worst": worst, "failed": failed, "pass": doc["pass"]}
 
 
+def read_in_child(read, path: str, conn) -> None:
+    try:
+        conn.send((read(path), None))
+    except Exception as error:  # noqa: BLE001 - sent to the parent as the engine's row
+        conn.send((None, one_line(error)))
+
+
+def isolated(read, path: Path) -> tuple:
+    """(read(path), None) or (None, why not), read in a process of its own: DART's MJCF
+    parser crashes (segmentation fault, abort) on some files (dm_control's acrobot, dog)."""
+    ctx = multiprocessing.get_context("spawn")
+    receive, send = ctx.Pipe(duplex=False)
+    child = ctx.Process(target=read_in_child, args=(read, str(path), send))
+    child.start()
+    send.close()
+    try:
+        result = receive.recv()
+    except EOFError:  # it died without an answer
+        result = None
+    child.join()
+    if result is None:
+        code = child.exitcode
+        how = f"signal {signal.Signals(-code).name}" if code is not None and code < 0 else f"exit code {code}"
+        return None, f"the loader crashed ({how})"
+    return result
+
+
 def own_mjcf_row(name: str, path: Path, ours_compiled: dict, progress) -> dict:
     """PyBullet's or DART's own MJCF loader on the file: its compiled model against ours
     (massless joint links folded), or its error. Not stepped, so not gated (agrees None):
@@ -185,12 +214,11 @@ def own_mjcf_row(name: str, path: Path, ours_compiled: dict, progress) -> dict:
     inertia), which the compiled rows name."""
     loader, read = MJCF_READERS[name]
     printed: list = []
-    try:
-        with quiet_stdio(printed):
-            theirs = read(path)
-    except Exception as error:  # noqa: BLE001 - a foreign engine's failure is that engine's row
+    with quiet_stdio(printed):
+        theirs, error = isolated(read, path)
+    if error is not None:
         progress.tick(failed=True)
-        return {"loaded": False, "loader": loader, "error": one_line(error) + printed_tail(printed)}
+        return {"loaded": False, "loader": loader, "error": error + printed_tail(printed)}
     rows = compiled.compare(compiled.fold_massless(ours_compiled), compiled.fold_massless(theirs))
     progress.tick()
     return {"loaded": True, "loader": loader, "compiled": rows, "compiled_mismatches": compiled.mismatches(rows),

@@ -271,26 +271,18 @@ class PybulletContact:
         self.p.disconnect()
 
 
-ARMATURE_WORDS = ("emulated in DART's implicit step (its damping raised by a / h, the torque a / h v added), "
-                  "as ours steps it without contact; DART's contact and limit impulses act without it")
-
-
 class DartContact:
     """A URDF twin in DART (dartpy, its own LCP contact and FCL collision) on a ground box of
     its own whose top face is z = 0 (DART drops the world link and its floor). The URDF's
     joint limits are enforced (DART's limit constraints; lower = upper means none), damping
     and springs are DART's own (implicit), friction is each link's <contact>
-    lateral_friction against a ground of 1 (DART takes the smaller). DART has no armature:
-    listed as missing, or with armature=True emulated (ARMATURE_WORDS): each joint's damping
-    raised by a / h and the torque a / h v added to tau, so that DART's implicit step solves
-    (M + a + h D + h^2 K) dv = h (tau - c - D v - K (q + h v - q0)), ours with the file's
-    armature (contact-free: equal to 5e-16). DART's contact and limit impulses act through
-    its mass matrix alone, without the armature."""
+    lateral_friction against a ground of 1 (DART takes the smaller); DART has no armature,
+    listed as missing."""
 
     name = "dart"
     passive, integrator = "implicit_damping_stiffness", "Euler"
 
-    def __init__(self, urdf: Path, timestep: float, armature: bool = False):
+    def __init__(self, urdf: Path, timestep: float):
         import xml.etree.ElementTree as ET
 
         import dartpy as dart
@@ -336,32 +328,19 @@ class DartContact:
                          "ground": "a 100 x 100 x 1 m box, top face z = 0, friction 1 (DART takes the smaller)",
                          "contact": "DART's LCP (boxed, Dantzig), FCL collision",
                          "joint_limits": "the URDF's, DART's limit constraints", "passive": "DART's implicit"}
-        files = {j.name: j.extensions["armature"] for j in facts["joints"] if j.extensions.get("armature")}
-        self.armature_rate = np.zeros(len(self.joint_names))  # a / h per dof (0: none emulated)
-        if armature and files:
-            self.armature_rate = np.array([files.get(n, 0.0) for n in self.joint_names]) / timestep
-            for k, rate in enumerate(self.armature_rate):
-                dof = skel.getDof(k)
-                dof.setDampingCoefficient(dof.getDampingCoefficient() + rate)
-            self.settings["armature"] = f"{files}: {ARMATURE_WORDS}"
-        elif files:
-            self.settings["missing_armature"] = files
+        if armature := {j.name: j.extensions["armature"] for j in facts["joints"] if j.extensions.get("armature")}:
+            self.settings["missing_armature"] = armature
 
     def set_param(self, name: str, value) -> None:
         """`body/<link>/mass` (BodyNode.setMass: COM and inertia about it kept, as ours) and
-        `joint/<name>/stiffness|damping` (DART's own springs and dampers; an emulated
-        armature's a / h stays added to the damping)."""
+        `joint/<name>/stiffness|damping` (DART's own springs and dampers)."""
         kind, owner, field = name.split("/")
         x = float(np.ravel(value)[0])
         if (kind, field) == ("body", "mass") and self.skel.getBodyNode(owner) is not None:
             self.skel.getBodyNode(owner).setMass(x)
         elif kind == "joint" and field in ("stiffness", "damping") and owner in self.joint_names:
-            k = self.joint_names.index(owner)
-            dof = self.skel.getDof(k)
-            if field == "stiffness":
-                dof.setSpringStiffness(x)
-            else:
-                dof.setDampingCoefficient(x + self.armature_rate[k])
+            dof = self.skel.getDof(self.joint_names.index(owner))
+            (dof.setSpringStiffness if field == "stiffness" else dof.setDampingCoefficient)(x)
         else:
             raise ValueError(f"{self.label}: cannot set {name} (body/<link>/mass, joint/<name>/stiffness|damping)")
 
@@ -386,8 +365,7 @@ class DartContact:
     def step(self, tau):
         from harness.engines.dart import contact_normal_forces
 
-        v = self.skel.getVelocities()  # the emulated armature's torque a / h v cancels its damping
-        self.skel.setForces(np.asarray(tau, float) + self.armature_rate * v)  # cleared by the step
+        self.skel.setForces(np.asarray(tau, float))  # cleared by the step
         self.world.step()
         self.normal_force = float(contact_normal_forces(self.world).sum())
 

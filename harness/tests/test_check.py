@@ -219,3 +219,14 @@ def test_mjcf_in_pybullets_and_darts_own_loaders(tmp_path):
         assert joints == {(j, f) for j in ("bthigh", "bshin", "bfoot", "fthigh", "fshin", "ffoot") for f in fields}
         assert ("torso", "principal moments") in {(m["name"], m["field"]) for m in dynamic_mismatches(row)}
     assert "its own loadMJCF: compiled only" in md and "not stepped" in md
+
+
+def test_a_loader_that_crashes_is_its_row(tmp_path):
+    """DART's MjcfParser dies of a segmentation fault on dm_control's acrobot: read in a process
+    of its own, the crash is DART's row and the check goes on."""
+    acrobot = Path(dm_control.__file__).parent / "suite" / "acrobot.xml"
+    assert run_check(tmp_path, acrobot) == 0
+    doc, md = report(tmp_path, acrobot)
+    assert doc["engines"]["dart"] == {"loaded": False, "loader": "MjcfParser",
+                                      "error": "the loader crashed (signal SIGSEGV)"}
+    assert doc["engines"]["pybullet"]["loaded"] and doc["engines"]["mujoco"]["one_step_error"] <= 1e-9
