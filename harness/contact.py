@@ -736,3 +736,43 @@ def run(args) -> int:
               f"pybullet {run_['pybullet']['max_error']:.2e}")
     print(f"wrote {md}, {md.with_suffix('.json')}, {png}")
     return 0 if doc["pass"] else 1
+
+
+def dart_cheetah_contact(urdf: Path = CHEETAH_URDF, h: float = 0.001) -> dict:
+    """What DartContact gives DART for the half cheetah: each body's collision shapes (type and
+    size, m), their friction and restitution coefficients, the collision detector, and the
+    friction DART applies, measured: the cheetah settled on its floor (1000 steps, no torque),
+    then pushed to 2 m/s along x; over the next 100 steps the horizontal force on it (total mass
+    times its COM's acceleration) over the total normal force, the median."""
+    d = DartContact(urdf, h)
+    shapes, coefficients = {}, {}
+    sizes = {"SphereShape": lambda s: [s.getRadius()], "CylinderShape": lambda s: [s.getRadius(), s.getHeight()],
+             "BoxShape": lambda s: list(s.getSize())}
+    for w in range(d.world.getNumSkeletons()):
+        skel = d.world.getSkeleton(w)
+        for i in range(skel.getNumBodyNodes()):
+            node = skel.getBodyNode(i)
+            name = node.getName() if skel is d.skel else skel.getName()
+            for shape_node in node.getShapeNodes():
+                shape, dyn = shape_node.getShape(), shape_node.getDynamicsAspect()
+                size = np.round(sizes[shape.getType()](shape), 4).tolist()
+                shapes.setdefault(name, []).append(f"{shape.getType()} {size}")
+                coefficients.setdefault(skel.getName(), set()).add((dyn.getFrictionCoeff(), dyn.getRestitutionCoeff()))
+    zero = np.zeros(len(d.joint_names))
+    d.set_state(zero, zero)
+    for _ in range(1000):
+        d.step(zero)
+    q, v = d.get_state()
+    v[0] += 2.0
+    d.set_state(q, v)
+    mass, ratios = d.skel.getMass(), []
+    for _ in range(100):
+        before = d.skel.getCOMLinearVelocity()[0]
+        d.step(zero)
+        ratios.append(-mass * (d.skel.getCOMLinearVelocity()[0] - before) / h / d.normal_force)
+    detector = d.world.getConstraintSolver().getCollisionDetector()
+    return {"shapes": {name: ", ".join(s) for name, s in shapes.items()},
+            "friction_restitution": {skel: sorted(pairs) for skel, pairs in coefficients.items()},
+            "detector": f"{detector.getType()} ({detector.getPrimitiveShapeType().name} shapes)",
+            "sliding_friction": float(np.median(ratios)),
+            "sliding_speed_after": float(d.skel.getCOMLinearVelocity()[0])}

@@ -293,3 +293,17 @@ def test_contact_variant_gives_each_engine_its_own_settings(tmp_path):
     assert average["mae"] == pytest.approx(abs(25.5 - mu[0]))
     report = (tmp_path / "transfer-half_cheetah_contact-pybullet.md").read_text()
     assert "half_cheetah_contact" in report and "No UC-DiffOSI (the paper's residual" in report
+
+
+def test_darts_cheetah_contact_is_the_one_we_think():
+    """DartContact's cheetah: the URDF twin's shapes (a capsule as a cylinder and two end
+    spheres, radius 0.046 m), restitution 0, and while sliding DART applies friction 0.4, the
+    smaller of the cheetah's 0.4 and its floor's 1."""
+    from harness.contact import dart_cheetah_contact
+
+    c = dart_cheetah_contact()
+    assert c["shapes"]["torso"].count("SphereShape [0.046]") == 4
+    assert c["shapes"]["ground"] == "BoxShape [100.0, 100.0, 1.0]"
+    assert all(c["shapes"][b].count("SphereShape [0.046]") == 2 for b in ("bthigh", "bshin", "bfoot", "fthigh"))
+    assert c["friction_restitution"] == {"half_cheetah": [(0.4, 0.0)], "ground": [(1.0, 0.0)]}
+    assert c["sliding_friction"] == pytest.approx(0.4, abs=1e-3) and c["sliding_speed_after"] > 1.0
