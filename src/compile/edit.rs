@@ -690,6 +690,39 @@ mod tests {
         assert!(smooth.param_names().iter().all(|n| !n.starts_with("geom/")));
     }
 
+    /// Actuator and equality edits reach the tree as a fresh compile of
+    /// the edited description would (bit for bit), and a refused one
+    /// changes nothing.
+    #[test]
+    fn actuator_and_equality_edits_equal_a_fresh_compile() {
+        let dir = env!("CARGO_MANIFEST_DIR");
+        let mut model = Model::load(format!("{dir}/tests/data/servo_arm.xml")).unwrap();
+        model
+            .set_param("actuator/servo/bias", &[0.2, -30.0, -2.0])
+            .unwrap();
+        model
+            .set_param("actuator/push/gain", &[1.0, 0.5, 0.0])
+            .unwrap();
+        assert_eq!(model.actuators[0].bias, Bias::Affine([0.2, -30.0, -2.0]));
+        let fresh = Model::from_spec((*model).clone()).unwrap();
+        assert_eq!(fresh.tree(), model.tree());
+        let before = model.clone();
+        assert!(model
+            .set_param("actuator/servo/gain", &[30.0, 0.0, 1.0])
+            .is_err());
+        assert_eq!(*model, *before);
+        let mut model = Model::load(format!("{dir}/tests/data/equality_fourbar.xml")).unwrap();
+        model
+            .set_param("equality/close/solimp", &[0.8, 0.9, 0.01, 0.4, 3.0])
+            .unwrap();
+        model
+            .set_param("equality/close/solref", &[0.01, 0.5])
+            .unwrap();
+        assert_eq!(model.equalities[0].sol.solref, [0.01, 0.5]);
+        let fresh = Model::from_spec((*model).clone()).unwrap();
+        assert_eq!(fresh.tree(), model.tree());
+    }
+
     #[test]
     fn a_soft_contact_edit_reaches_the_tree_options() {
         let path = concat!(

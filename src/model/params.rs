@@ -141,6 +141,11 @@ impl Param {
         let Some((kind, object, field)) = parts else {
             return Err(unknown(expected.into()));
         };
+        // The index of the element of `kind` named `object` (unnamed ones never match).
+        let named = |mut names: &mut dyn Iterator<Item = &String>| {
+            Iterator::position(&mut names, |n| !n.is_empty() && n == object)
+                .ok_or_else(|| unknown(format!(": no {kind} named '{object}'")))
+        };
         match kind {
             "body" => {
                 let Some(b) = spec.bodies.iter().skip(1).position(|b| b.name == object) else {
@@ -173,13 +178,7 @@ impl Param {
                 }
             }
             "geom" => {
-                let Some(g) = spec
-                    .geoms
-                    .iter()
-                    .position(|g| !g.name.is_empty() && g.name == object)
-                else {
-                    return Err(unknown(format!(": no geom named '{object}'")));
-                };
+                let g = named(&mut spec.geoms.iter().map(|x| &x.name))?;
                 match field {
                     "friction" => Ok(Param::GeomFriction(g)),
                     "solref" => Ok(Param::GeomSolref(g)),
@@ -188,13 +187,7 @@ impl Param {
                 }
             }
             "equality" => {
-                let Some(e) = spec
-                    .equalities
-                    .iter()
-                    .position(|e| !e.name.is_empty() && e.name == object)
-                else {
-                    return Err(unknown(format!(": no equality named '{object}'")));
-                };
+                let e = named(&mut spec.equalities.iter().map(|x| &x.name))?;
                 match field {
                     "solref" => Ok(Param::EqualitySolref(e)),
                     "solimp" => Ok(Param::EqualitySolimp(e)),
@@ -202,13 +195,7 @@ impl Param {
                 }
             }
             "actuator" => {
-                let Some(a) = spec
-                    .actuators
-                    .iter()
-                    .position(|a| !a.name.is_empty() && a.name == object)
-                else {
-                    return Err(unknown(format!(": no actuator named '{object}'")));
-                };
+                let a = named(&mut spec.actuators.iter().map(|x| &x.name))?;
                 match field {
                     "gain" => Ok(Param::ActuatorGain(a)),
                     "bias" if spec.actuators[a].bias == Bias::None => Err(unknown(format!(
