@@ -17,8 +17,8 @@ use crate::dynamics::Tree;
 use crate::model::constraint::check_friction;
 use crate::model::params::inertia_from_six;
 use crate::model::{
-    check_inertial, check_passive, check_soft, ContactModel, Geom, Joint, ModelError, Param,
-    ParamError, ParamMap, SoftOptions, SolParams, Spec,
+    check_inertial, check_passive, check_soft, Bias, ContactModel, Gain, Geom, Joint, ModelError,
+    Param, ParamError, ParamMap, SoftOptions, SolParams, Spec,
 };
 use crate::spatial::Inertia;
 
@@ -90,6 +90,10 @@ impl Param {
             Param::GeomFriction(g) => edit.geom(g).friction.copy_from_slice(value),
             Param::GeomSolref(g) => edit.geom(g).sol.solref.copy_from_slice(value),
             Param::GeomSolimp(g) => edit.geom(g).sol.solimp.copy_from_slice(value),
+            Param::EqualitySolref(e) => edit.equality(e).1.solref.copy_from_slice(value),
+            Param::EqualitySolimp(e) => edit.equality(e).1.solimp.copy_from_slice(value),
+            Param::ActuatorGain(a) => edit.actuator(a).gain.copy_from_slice(value),
+            Param::ActuatorBias(a) => edit.actuator(a).bias.copy_from_slice(value),
         }
     }
 }
@@ -120,6 +124,8 @@ impl Model {
             bodies: vec![],
             joints: vec![],
             geoms: vec![],
+            actuators: vec![],
+            equalities: vec![],
             contact: None,
         };
         for (p, v) in values {
@@ -129,6 +135,8 @@ impl Model {
             bodies,
             joints,
             geoms,
+            actuators,
+            equalities,
             contact,
             ..
         } = edit;
@@ -136,6 +144,7 @@ impl Model {
             Some(soft) => check_soft(soft),
             None => Ok(()),
         };
+        let checked = checked.and_then(|_| self.check_laws(&actuators, &equalities));
         if let Err(source) = checked.and_then(|_| self.check_edit(&bodies, &joints, &geoms)) {
             return Err(not_physical(self, values, source));
         }
@@ -150,6 +159,7 @@ impl Model {
             let s = &mut self.tree.soft;
             (s.stiffness, s.damping, s.friction) = (soft.stiffness, soft.damping, soft.friction);
         }
+        self.write_laws(&actuators, &equalities);
         self.restamp();
         Ok(())
     }
@@ -201,6 +211,66 @@ impl Model {
             );
         }
         old
+    }
+
+    /// Checks edited actuator and equality values (already finite): a fixed
+    /// gain reads gainprm[0] alone, so its other two must stay 0; a bias
+    /// with biasprm[1] = -gainprm[0] and biasprm[2] > 0 would read as a
+    /// damping ratio on the next compile ([`crate::model::Bias`]); an
+    /// equality's solref and solimp as MuJoCo's compiler checks them.
+    fn check_laws(
+        &self,
+        actuators: &[ActuatorEdit],
+        equalities: &[(usize, SolParams)],
+    ) -> Result<(), ModelError> {
+        for a in actuators {
+            let name = &self.spec.actuators[a.index].name;
+            let fixed = matches!(self.spec.actuators[a.index].gain, Gain::Fixed(_));
+            if fixed && (a.gain[1] != 0.0 || a.gain[2] != 0.0) {
+                return Err(ModelError::NotPhysical(format!(
+                    "actuator '{name}': a fixed gain (gaintype fixed) reads gainprm[0] only; \
+                     gain {:?} must end in two zeros",
+                    a.gain
+                )));
+            }
+            let has_bias = self.spec.actuators[a.index].bias != Bias::None;
+            if has_bias && a.bias[1] == -a.gain[0] && a.bias[2] > 0.0 {
+                return Err(ModelError::NotPhysical(format!(
+                    "actuator '{name}': bias {:?} with bias[1] = -gain[0] and bias[2] > 0 \
+                     reads as a damping ratio (dampratio); give the damping as bias[2] <= 0",
+                    a.bias
+                )));
+            }
+        }
+        for (e, sol) in equalities {
+            let owner = format!("equality '{}'", self.spec.equalities[*e].name);
+            sol.check(&owner).map_err(ModelError::NotPhysical)?;
+        }
+        Ok(())
+    }
+
+    /// Writes edited actuator laws and equality settings into the
+    /// description and the tree: the actuators' terms compiled again, the
+    /// tree rebuilt whole for an equality (its rows' constants).
+    fn write_laws(&mut self, actuators: &[ActuatorEdit], equalities: &[(usize, SolParams)]) {
+        for a in actuators {
+            let law = &mut self.spec.actuators[a.index];
+            law.gain = match law.gain {
+                Gain::Fixed(_) => Gain::Fixed(a.gain[0]),
+                Gain::Affine(_) => Gain::Affine(a.gain),
+            };
+            if law.bias != Bias::None {
+                law.bias = Bias::Affine(a.bias);
+            }
+        }
+        for (e, sol) in equalities {
+            self.spec.equalities[*e].sol = *sol;
+        }
+        if !equalities.is_empty() {
+            self.tree = Tree::build(&self.spec);
+        } else if !actuators.is_empty() {
+            self.tree.actuators = super::tree::actuator_terms(&self.spec);
+        }
     }
 
     /// The checks of a valid model on the edited values (already finite).
@@ -360,13 +430,24 @@ impl GeomEdit {
     }
 }
 
-/// The bodies, joints and geoms an edit touches, each taken from the model
-/// on first touch, and the soft-contact constants if it touches them.
+/// The new gainprm[0..3] and biasprm[0..3] of an actuator an edit touches
+/// (as [`Param::get`] reads them).
+struct ActuatorEdit {
+    index: usize,
+    gain: [f64; 3],
+    bias: [f64; 3],
+}
+
+/// The bodies, joints, geoms, actuators and equalities (index, solver
+/// settings) an edit touches, each taken from the model on first touch, and
+/// the soft-contact constants if it touches them.
 struct Edit<'a> {
     spec: &'a Spec,
     bodies: Vec<BodyEdit>,
     joints: Vec<JointEdit>,
     geoms: Vec<GeomEdit>,
+    actuators: Vec<ActuatorEdit>,
+    equalities: Vec<(usize, SolParams)>,
     contact: Option<SoftOptions>,
 }
 
@@ -402,6 +483,25 @@ impl Edit<'_> {
     fn geom(&mut self, g: usize) -> &mut GeomEdit {
         let geom = &self.spec.geoms[g];
         touched(&mut self.geoms, |e| e.index == g, || GeomEdit::of(g, geom))
+    }
+
+    fn actuator(&mut self, a: usize) -> &mut ActuatorEdit {
+        let spec = self.spec;
+        let read = |p: Param| -> [f64; 3] { p.get(spec).try_into().expect("3 values") };
+        touched(
+            &mut self.actuators,
+            |e| e.index == a,
+            || ActuatorEdit {
+                index: a,
+                gain: read(Param::ActuatorGain(a)),
+                bias: read(Param::ActuatorBias(a)),
+            },
+        )
+    }
+
+    fn equality(&mut self, e: usize) -> &mut (usize, SolParams) {
+        let sol = self.spec.equalities[e].sol;
+        touched(&mut self.equalities, |x| x.0 == e, || (e, sol))
     }
 }
 
@@ -588,6 +688,39 @@ mod tests {
         let e = err(&mut smooth, "geom/floor/friction", &[1.0, 0.0, 0.0]);
         assert!(e.contains("runs the smooth contact model"), "{e}");
         assert!(smooth.param_names().iter().all(|n| !n.starts_with("geom/")));
+    }
+
+    /// Actuator and equality edits reach the tree as a fresh compile of
+    /// the edited description would (bit for bit), and a refused one
+    /// changes nothing.
+    #[test]
+    fn actuator_and_equality_edits_equal_a_fresh_compile() {
+        let dir = env!("CARGO_MANIFEST_DIR");
+        let mut model = Model::load(format!("{dir}/tests/data/servo_arm.xml")).unwrap();
+        model
+            .set_param("actuator/servo/bias", &[0.2, -30.0, -2.0])
+            .unwrap();
+        model
+            .set_param("actuator/push/gain", &[1.0, 0.5, 0.0])
+            .unwrap();
+        assert_eq!(model.actuators[0].bias, Bias::Affine([0.2, -30.0, -2.0]));
+        let fresh = Model::from_spec((*model).clone()).unwrap();
+        assert_eq!(fresh.tree(), model.tree());
+        let before = model.clone();
+        assert!(model
+            .set_param("actuator/servo/gain", &[30.0, 0.0, 1.0])
+            .is_err());
+        assert_eq!(*model, *before);
+        let mut model = Model::load(format!("{dir}/tests/data/equality_fourbar.xml")).unwrap();
+        model
+            .set_param("equality/close/solimp", &[0.8, 0.9, 0.01, 0.4, 3.0])
+            .unwrap();
+        model
+            .set_param("equality/close/solref", &[0.01, 0.5])
+            .unwrap();
+        assert_eq!(model.equalities[0].sol.solref, [0.01, 0.5]);
+        let fresh = Model::from_spec((*model).clone()).unwrap();
+        assert_eq!(fresh.tree(), model.tree());
     }
 
     #[test]

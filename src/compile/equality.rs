@@ -9,11 +9,15 @@ use nalgebra::{Quaternion, UnitQuaternion};
 
 use crate::dynamics::constraint::{EqualityConsts, Held, Weld};
 use crate::dynamics::{body_poses, Tree};
-use crate::model::{EqualityKind, Objects, Spec};
+use crate::model::{EqualityKind, Objects, Param, Spec};
 use crate::spatial::{lift, lift_vector, Real};
 
 /// The active equalities of `spec` on `tree` (its bodies and nodes built).
-pub fn equality_consts<T: Real>(tree: &Tree<T>, spec: &Spec) -> Vec<EqualityConsts<T>> {
+pub fn equality_consts<T: Real>(
+    tree: &Tree<T>,
+    spec: &Spec,
+    lift_param: &impl Fn(Param, usize, f64) -> T,
+) -> Vec<EqualityConsts<T>> {
     if !spec.opt.solver.equality {
         return vec![];
     }
@@ -101,7 +105,10 @@ pub fn equality_consts<T: Real>(tree: &Tree<T>, spec: &Spec) -> Vec<EqualityCons
                 }
             }
         };
-        let sol = eq.sol.lift(|_, x| lift(x), |_, x| lift(x));
+        let sol = eq.sol.lift(
+            |k, x| lift_param(Param::EqualitySolref(id), k, x),
+            |k, x| lift_param(Param::EqualitySolimp(id), k, x),
+        );
         out.push(EqualityConsts { id, held, sol });
     }
     out

@@ -169,7 +169,7 @@ impl<T: Real> Tree<T> {
         let (bodies, dofs) = invweight0(self, model, lift_param);
         self.constraint.body_invweight = bodies;
         self.constraint.dof_invweight = dofs;
-        self.constraint.equalities = equality_consts(self, model);
+        self.constraint.equalities = equality_consts(self, model, lift_param);
     }
 
     /// The index in `geoms` of model geom `g`, placed in its node's frame

@@ -66,6 +66,9 @@ pub fn input_jacobians(
     // its velocity slope joins the matrix solved: no chain rule through tau.
     let staged = tableau(model.opt.integrator).is_some() || model.opt.integrator.is_implicit();
     if staged && !tree.actuators.iter().all(|a| a.state_independent()) {
+        if wrt.params.iter().any(|p| p.is_actuator()) {
+            return Err(StepError::NoActuatorParamDerivatives(model.opt.integrator));
+        }
         let zeros_if_empty = |x: &[f64], len: usize| {
             if x.is_empty() {
                 vec![0.0; len]
@@ -91,6 +94,7 @@ pub fn input_jacobians(
     let mut total = tau.to_vec();
     let mut act_next = vec![0.0; na];
     let mut partials: Vec<Partials> = Vec::with_capacity(nu);
+    let mut law_slopes = Vec::with_capacity(nu);
     for (i, a) in tree.actuators.iter().enumerate() {
         let c = ctrl.get(i).copied().unwrap_or(0.0);
         let current = a.act.and_then(|k| act.get(k).copied()).unwrap_or(0.0);
@@ -106,6 +110,7 @@ pub fn input_jacobians(
             act_next[k] = next.re;
         }
         partials.push((outputs.map(|(f, _)| f.eps), outputs.map(|(_, x)| x.eps)));
+        law_slopes.push(a.law_slopes(h, (point[0], point[1]), (c, current)));
     }
     let inner = Wrt {
         control: true,
@@ -130,6 +135,19 @@ pub fn input_jacobians(
             dact_dact[(k, k)] = dnext[3];
             dact_dctrl[(k, i)] = dnext[2];
         }
+    }
+    // An actuator's gain and bias move its force: Phi_tau dF/dp.
+    let mut k = 0;
+    for p in wrt.params {
+        if let Param::ActuatorGain(i) | Param::ActuatorBias(i) = *p {
+            let slopes = law_slopes[i][usize::from(matches!(p, Param::ActuatorBias(_)))];
+            let b = b_tau.column(tree.actuators[i].dof);
+            for (c, slope) in slopes.into_iter().enumerate() {
+                let col = step.param_column(k + c);
+                step.jacobian.column_mut(col).axpy(slope, &b, 1.0);
+            }
+        }
+        k += p.size();
     }
     let step = if wrt.control {
         step

@@ -45,6 +45,9 @@ pub fn residual_derivative(
         // (derivatives/constrained.rs), never through this residual.
         Param::ContactStiffness | Param::ContactDamping | Param::ContactFriction => {}
         p if p.is_constraint() => {}
+        // An actuator's gain and bias act through its force, which joins
+        // tau: the chain rule adds them (derivatives/actuation.rs).
+        p if p.is_actuator() => {}
         _ => {
             let (i, value) = joint_derivative((mode, h), (stretch, v, a), param);
             out[i] = value;

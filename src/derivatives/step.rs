@@ -123,6 +123,11 @@ impl StepJacobians {
         (k < 2 * len).then_some(start + k)
     }
 
+    /// The column of the flattened parameters' scalar k.
+    pub(super) fn param_column(&self, k: usize) -> usize {
+        self.columns[Block::Params as usize].0 + k
+    }
+
     /// Without its tau columns (those a caller did not ask for).
     pub(super) fn without_tau(mut self) -> StepJacobians {
         let (start, len) = self.columns[Block::Tau as usize];

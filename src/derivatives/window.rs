@@ -316,7 +316,8 @@ pub(super) fn residual_column(
     for term in column {
         match term {
             Term::Inertia { node, di } => add_body_force(tree, data, *node, di, dr),
-            Term::Joint { param, .. } if param.is_contact() || param.is_constraint() => {}
+            Term::Joint { param, .. }
+                if param.is_contact() || param.is_constraint() || param.is_actuator() => {}
             Term::Joint { param, gain } => {
                 let (i, value) = joint_derivative((mode, h), at, *param);
                 dr[i] += gain * value;

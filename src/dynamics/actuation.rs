@@ -64,6 +64,16 @@ impl ActuatorTerm {
         )
     }
 
+    /// What the gain multiplies: the control without activation, else the
+    /// activation (the next one under actearly).
+    fn input<T: Real>(&self, (c, a, rate): (T, T, T), h: f64) -> T {
+        match (self.act, self.law.act_early) {
+            (None, _) => c,
+            (Some(_), false) => a,
+            (Some(_), true) => self.next_act(a, rate, h),
+        }
+    }
+
     /// The scalar force before clamping, and its derivative in the joint
     /// velocity xd (the velocity terms of gain and bias, times gear).
     fn raw_force<T: Real>(&self, (x, xd): (T, T), (c, a, rate): (T, T, T), h: f64) -> (T, T) {
@@ -75,11 +85,7 @@ impl ActuatorTerm {
             Gain::Fixed(g) => lift(g),
             Gain::Affine(p) => affine(p),
         };
-        let input = match (self.act, self.law.act_early) {
-            (None, _) => c,
-            (Some(_), false) => a,
-            (Some(_), true) => self.next_act(a, rate, h),
-        };
+        let input = self.input((c, a, rate), h);
         let (bias, bias_v) = match self.law.bias {
             Bias::None => (T::zero(), 0.0),
             Bias::Affine(p) => (affine(p), p[2]),
@@ -122,6 +128,34 @@ impl ActuatorTerm {
             a
         };
         (force, next)
+    }
+
+    /// The derivatives of its generalized force on its dof in gainprm[0..3]
+    /// and in biasprm[0..3] (the parameters `actuator/<name>/gain` and
+    /// `bias`) at joint coordinate x, velocity xd, control c (before
+    /// clamping) and activation a: gear w (1, l, l') and gear (1, l, l'),
+    /// w what the gain multiplies, l = gear x, l' = gear xd. A fixed gain
+    /// reads gainprm[0] alone, no bias reads nothing, and while the force
+    /// range clamps the force both are zero.
+    pub fn law_slopes(&self, h: f64, (x, xd): (f64, f64), (c, a): (f64, f64)) -> [[f64; 3]; 2] {
+        let c = clamp(c, self.law.ctrl_range);
+        let rate = self.rate(c, a);
+        let force = self.raw_force((x, xd), (c, a, rate), h).0;
+        if clamp(force, self.law.force_range) != force {
+            return [[0.0; 3]; 2];
+        }
+        let gear = self.law.gear;
+        let basis = [gear, gear * gear * x, gear * gear * xd];
+        let w = self.input((c, a, rate), h);
+        let gain = match self.law.gain {
+            Gain::Fixed(_) => [gear * w, 0.0, 0.0],
+            Gain::Affine(_) => basis.map(|b| b * w),
+        };
+        let bias = match self.law.bias {
+            Bias::None => [0.0; 3],
+            Bias::Affine(_) => basis,
+        };
+        [gain, bias]
     }
 
     /// Whether its force is the same at every (q, v, act): no activation,

@@ -88,6 +88,15 @@ pub enum StepError {
          (position or velocity servos, activations) is not supported yet"
     )]
     NoActuatorDerivatives,
+    /// Derivatives in an actuator's gain or bias where every block comes
+    /// from dual numbers (RK4 or the implicit integrators with actuators
+    /// whose force reads the state or an activation).
+    #[error(
+        "derivatives in an actuator's gain or bias are not supported yet under the {0:?} \
+         integrator with actuators whose force reads the joint or an activation (servos, \
+         filters); use Euler"
+    )]
+    NoActuatorParamDerivatives(crate::model::Integrator),
     /// The same for models with gravity compensation.
     #[error(
         "identification with unknown constraints of models with gravity compensation \

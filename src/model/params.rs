@@ -20,10 +20,25 @@
 //!   (N or N m), `joint/<name>/solreflimit` and `joint/<name>/solimplimit`.
 //!   Setters check them as MuJoCo's compiler would ([`super::SolParams::check`]).
 //!   The other contact model's parameters are an error naming the model.
+//! - `equality/<name>/solref` (2 values) and `equality/<name>/solimp` (5
+//!   values): the equality's MuJoCo eq_solref and eq_solimp, checked as
+//!   MuJoCo's compiler checks them.
+//! - `actuator/<name>/gain` (3 values): MuJoCo's gainprm[0..3], the
+//!   constant, length and velocity coefficients of the gain (a fixed gain
+//!   reads gainprm[0] only; its other two stay 0); `actuator/<name>/bias`
+//!   (3 values): biasprm[0..3], an affine bias's (an actuator without bias
+//!   has no such parameter). A position servo's kp is gain[0] = -bias[1]
+//!   and its kv is -bias[2]; a velocity servo's kv is gain[0] = -bias[2]:
+//!   move kp or kv through a [`ParamMap`] that writes both entries.
+//!   MuJoCo's forces are linear in them, read at the actuator's length
+//!   and velocity (gear times the joint's).
+//!
+//! Equality and actuator parameters resolve by name but are not listed by
+//! [`Param::all`] (its list feeds the gradient checks of every shipped model).
 
 use nalgebra::{DMatrix, DVector, Matrix3};
 
-use super::{ContactModel, ModelError, Spec};
+use super::{Bias, ContactModel, Gain, ModelError, Spec};
 
 /// One named parameter, resolved to the body or joint it belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -43,6 +58,10 @@ pub enum Param {
     FrictionLoss(usize),
     LimitSolref(usize),
     LimitSolimp(usize),
+    EqualitySolref(usize),
+    EqualitySolimp(usize),
+    ActuatorGain(usize),
+    ActuatorBias(usize),
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -101,7 +120,8 @@ impl Param {
             hint,
         };
         let expected = " (expected body/<name>/<field>, joint/<name>/<field>, \
-                        geom/<name>/<field> or contact/<field>)";
+                        geom/<name>/<field>, equality/<name>/<field>, \
+                        actuator/<name>/<field> or contact/<field>)";
         if let Some(field) = name.strip_prefix("contact/") {
             return match field {
                 "stiffness" => Ok(Param::ContactStiffness),
@@ -120,6 +140,11 @@ impl Param {
             .and_then(|(kind, rest)| rest.rsplit_once('/').map(|(o, f)| (kind, o, f)));
         let Some((kind, object, field)) = parts else {
             return Err(unknown(expected.into()));
+        };
+        // The index of the element of `kind` named `object` (unnamed ones never match).
+        let named = |mut names: &mut dyn Iterator<Item = &String>| {
+            Iterator::position(&mut names, |n| !n.is_empty() && n == object)
+                .ok_or_else(|| unknown(format!(": no {kind} named '{object}'")))
         };
         match kind {
             "body" => {
@@ -153,18 +178,31 @@ impl Param {
                 }
             }
             "geom" => {
-                let Some(g) = spec
-                    .geoms
-                    .iter()
-                    .position(|g| !g.name.is_empty() && g.name == object)
-                else {
-                    return Err(unknown(format!(": no geom named '{object}'")));
-                };
+                let g = named(&mut spec.geoms.iter().map(|x| &x.name))?;
                 match field {
                     "friction" => Ok(Param::GeomFriction(g)),
                     "solref" => Ok(Param::GeomSolref(g)),
                     "solimp" => Ok(Param::GeomSolimp(g)),
                     _ => Err(unknown(": geom fields are friction, solref, solimp".into())),
+                }
+            }
+            "equality" => {
+                let e = named(&mut spec.equalities.iter().map(|x| &x.name))?;
+                match field {
+                    "solref" => Ok(Param::EqualitySolref(e)),
+                    "solimp" => Ok(Param::EqualitySolimp(e)),
+                    _ => Err(unknown(": equality fields are solref, solimp".into())),
+                }
+            }
+            "actuator" => {
+                let a = named(&mut spec.actuators.iter().map(|x| &x.name))?;
+                match field {
+                    "gain" => Ok(Param::ActuatorGain(a)),
+                    "bias" if spec.actuators[a].bias == Bias::None => Err(unknown(format!(
+                        ": actuator '{object}' has no bias (biastype none)"
+                    ))),
+                    "bias" => Ok(Param::ActuatorBias(a)),
+                    _ => Err(unknown(": actuator fields are gain, bias".into())),
                 }
             }
             _ => Err(unknown(expected.into())),
@@ -193,13 +231,22 @@ impl Param {
                 | Param::FrictionLoss(_)
                 | Param::LimitSolref(_)
                 | Param::LimitSolimp(_)
+                | Param::EqualitySolref(_)
+                | Param::EqualitySolimp(_)
         )
+    }
+
+    /// Whether it is an actuator's gain or bias.
+    pub fn is_actuator(&self) -> bool {
+        matches!(self, Param::ActuatorGain(_) | Param::ActuatorBias(_))
     }
 
     pub fn name(&self, spec: &Spec) -> String {
         let body = |b: usize| &spec.bodies[b].name;
         let joint = |j: usize| &spec.joints[j].name;
         let geom = |g: usize| &spec.geoms[g].name;
+        let equality = |e: usize| &spec.equalities[e].name;
+        let actuator = |a: usize| &spec.actuators[a].name;
         match *self {
             Param::Mass(b) => format!("body/{}/mass", body(b)),
             Param::Com(b) => format!("body/{}/com", body(b)),
@@ -216,6 +263,10 @@ impl Param {
             Param::FrictionLoss(j) => format!("joint/{}/frictionloss", joint(j)),
             Param::LimitSolref(j) => format!("joint/{}/solreflimit", joint(j)),
             Param::LimitSolimp(j) => format!("joint/{}/solimplimit", joint(j)),
+            Param::EqualitySolref(e) => format!("equality/{}/solref", equality(e)),
+            Param::EqualitySolimp(e) => format!("equality/{}/solimp", equality(e)),
+            Param::ActuatorGain(a) => format!("actuator/{}/gain", actuator(a)),
+            Param::ActuatorBias(a) => format!("actuator/{}/bias", actuator(a)),
         }
     }
 
@@ -223,9 +274,10 @@ impl Param {
     pub fn size(&self) -> usize {
         match self {
             Param::Com(_) | Param::GeomFriction(_) => 3,
+            Param::ActuatorGain(_) | Param::ActuatorBias(_) => 3,
             Param::Inertia(_) => 6,
-            Param::GeomSolref(_) | Param::LimitSolref(_) => 2,
-            Param::GeomSolimp(_) | Param::LimitSolimp(_) => 5,
+            Param::GeomSolref(_) | Param::LimitSolref(_) | Param::EqualitySolref(_) => 2,
+            Param::GeomSolimp(_) | Param::LimitSolimp(_) | Param::EqualitySolimp(_) => 5,
             _ => 1,
         }
     }
@@ -247,6 +299,16 @@ impl Param {
             Param::FrictionLoss(j) => vec![spec.joints[j].frictionloss],
             Param::LimitSolref(j) => spec.joints[j].limit_sol.solref.to_vec(),
             Param::LimitSolimp(j) => spec.joints[j].limit_sol.solimp.to_vec(),
+            Param::EqualitySolref(e) => spec.equalities[e].sol.solref.to_vec(),
+            Param::EqualitySolimp(e) => spec.equalities[e].sol.solimp.to_vec(),
+            Param::ActuatorGain(a) => match spec.actuators[a].gain {
+                Gain::Fixed(g) => vec![g, 0.0, 0.0],
+                Gain::Affine(p) => p.to_vec(),
+            },
+            Param::ActuatorBias(a) => match spec.actuators[a].bias {
+                Bias::None => vec![0.0; 3],
+                Bias::Affine(p) => p.to_vec(),
+            },
         }
     }
 

@@ -100,12 +100,14 @@ pub(super) fn append<T: Real>(at: &At<T>, rows: &mut Rows<T>) {
     }
 }
 
-/// A body's world pose (rotation, origin) and its node.
+/// A body's world pose (rotation, origin) and its node; a mocap body's
+/// from the step's mocap pose ([`crate::dynamics::mocap`]).
 fn pose<T: Real>(at: &At<T>, body: usize) -> (Rotation3<T>, Vector3<T>, Option<usize>) {
     let frame = at.tree.body[body];
-    let x = match frame.node {
-        Some(n) => frame.offset.compose(&at.data.world[n]),
-        None => frame.offset,
+    let x = match (frame.node, frame.mocap) {
+        (Some(n), _) => frame.offset.compose(&at.data.world[n]),
+        (None, Some(k)) => frame.offset.compose(&at.data.mocap[k]),
+        (None, None) => frame.offset,
     };
     (
         Rotation3::from_matrix_unchecked(x.axes()),
