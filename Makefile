@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 # The Python module `diffosi` (bindings/), built into the venv by maturin.
 MODULE := $(VENV)/.module
 
-.PHONY: setup run study test install-test bench golden fuzz
+.PHONY: setup run study test install-test bench golden fuzz docs
 
 setup: $(STAMP) $(MODULE)
 	cargo build --release --locked
@@ -72,3 +72,16 @@ golden: setup
 # executions per target. Its stable smoke run is part of `cargo test`.
 fuzz:
 	scripts/fuzz.sh
+
+# The user guide (docs/, mdBook, into docs/book/) and the Rust API docs (target/doc/), both
+# without warnings. mdBook is installed on first use into .tools/ (pinned; a source build,
+# a few minutes). The CLI reference is regenerated from the binary's --help first.
+MDBOOK_VERSION := 0.5.4
+MDBOOK := .tools/mdbook-$(MDBOOK_VERSION)/bin/mdbook
+$(MDBOOK):
+	cargo install mdbook --version $(MDBOOK_VERSION) --locked --root .tools/mdbook-$(MDBOOK_VERSION)
+
+docs: setup $(MDBOOK)
+	$(VENV)/bin/python scripts/cli_reference.py
+	$(MDBOOK) build docs
+	RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --locked

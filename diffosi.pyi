@@ -10,12 +10,13 @@ changed in the bindings fails it until this file follows.
 
 from collections.abc import Sequence
 from os import PathLike
-from typing import Any, Literal, TypedDict
+from typing import Any, Literal, TypedDict, final
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 __version__: str
+__all__ = ["Model", "DiffOsi", "CmaEs", "Task", "Policy", "Wiping", "WipingRun", "OnlineOsi", "__version__"]
 
 _F64 = NDArray[np.float64]
 _Path = str | PathLike[str]
@@ -92,6 +93,7 @@ class _TrainingRow(TypedDict):
     mean_return: float
     mean_metric: float
 
+@final
 class Model:
     """A rigid-body model with its simulation buffers (MJCF `.xml` or URDF `.urdf`)."""
 
@@ -209,11 +211,12 @@ class Model:
     def body_contact_forces(self, q: ArrayLike, v: ArrayLike, tau: ArrayLike | None = None) -> _F64:
         """(len(body_names), 3) net contact force on each body, N, world frame."""
 
+@final
 class DiffOsi:
     """Online system identification of named parameters from a window of transitions."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         model: Model,
         params: Sequence[str],
         lower: ArrayLike,
@@ -226,7 +229,7 @@ class DiffOsi:
         margin: float = 0.02,
         force_scale: ArrayLike | None = None,
         impulses: Literal["model", "mass"] = "model",
-    ) -> None: ...
+    ) -> DiffOsi: ...
     def identify(
         self,
         q: ArrayLike,
@@ -252,11 +255,12 @@ class DiffOsi:
     @property
     def huber(self) -> float | None: ...
 
+@final
 class CmaEs:
     """The derivative-free CMA-ES baseline behind DiffOsi's interface."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         model: Model,
         params: Sequence[str],
         lower: ArrayLike,
@@ -264,7 +268,7 @@ class CmaEs:
         scale: ArrayLike | None = None,
         seed: int = 0,
         max_evaluations: int = 20000,
-    ) -> None: ...
+    ) -> CmaEs: ...
     def identify(
         self,
         q: ArrayLike,
@@ -287,10 +291,11 @@ class CmaEs:
     @property
     def max_evaluations(self) -> int: ...
 
+@final
 class Task:
     """A control task by name: "cartpole", "half_cheetah", "half_cheetah_contact"."""
 
-    def __init__(self, name: str) -> None: ...
+    def __new__(cls, name: str) -> Task: ...
     @property
     def name(self) -> str: ...
     @property
@@ -315,11 +320,12 @@ class Task:
     def terminated(self, q: ArrayLike, v: ArrayLike) -> bool: ...
     def metric(self, q: ArrayLike, v: ArrayLike, action: ArrayLike, q_next: ArrayLike, v_next: ArrayLike) -> float: ...
 
+@final
 class OnlineOsi:
     """Online DiffOSI of a task's mu, one transition at a time."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         task: Task,
         window: int = 1,
         method: Literal["lm", "adam"] = "lm",
@@ -333,7 +339,7 @@ class OnlineOsi:
         force_scale: ArrayLike | None = None,
         impulses: Literal["model", "mass"] = "model",
         restarts: int = 8,
-    ) -> None: ...
+    ) -> OnlineOsi: ...
     def push(self, q: ArrayLike, v: ArrayLike, tau: ArrayLike, q_next: ArrayLike, v_next: ArrayLike) -> _OnlineEstimate: ...
     @property
     def mu(self) -> _F64: ...
@@ -346,6 +352,7 @@ class OnlineOsi:
     @property
     def change_detection(self) -> bool: ...
 
+@final
 class Policy:
     """A trained policy ("uc": fed mu, or "dr": domain-randomised)."""
 
@@ -361,10 +368,11 @@ class Policy:
     def task(self) -> str: ...
     def act(self, task: Task, q: ArrayLike, v: ArrayLike, mu: ArrayLike | None = None) -> _F64: ...
 
+@final
 class Wiping:
     """The table-wiping task (the paper's Section 4.4)."""
 
-    def __init__(self, unknowns: int = 2) -> None: ...
+    def __new__(cls, unknowns: int = 2) -> Wiping: ...
     @property
     def nmu(self) -> int: ...
     @property
@@ -399,6 +407,7 @@ class Wiping:
     def uc_gains(self, path: _Path, mu: ArrayLike) -> tuple[float, float]: ...
     def run(self, mu: ArrayLike) -> WipingRun: ...
 
+@final
 class WipingRun:
     """One wiping episode driven a control step at a time (`Wiping.run(mu)`)."""
 
