@@ -24,7 +24,8 @@ $(STAMP): requirements.txt requirements-data.txt
 
 # `maturin develop` builds the abi3 extension (release) and installs it with the
 # venv's pip; its one dependency, numpy, is already in the venv, so no index is used.
-$(MODULE): $(STAMP) $(shell find src bindings/src -name '*.rs') Cargo.toml Cargo.lock bindings/Cargo.toml pyproject.toml
+# The type stub diffosi.pyi goes in as diffosi/__init__.pyi, beside py.typed.
+$(MODULE): $(STAMP) $(shell find src bindings/src -name '*.rs') Cargo.toml Cargo.lock bindings/Cargo.toml pyproject.toml diffosi.pyi
 	VIRTUAL_ENV=$(abspath $(VENV)) $(VENV)/bin/maturin develop --release --locked --quiet -m bindings/Cargo.toml
 	touch $(MODULE)
 
