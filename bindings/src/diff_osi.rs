@@ -68,7 +68,9 @@ impl PyDiffOsi {
     #[new]
     #[pyo3(signature = (model, params, lower, upper, method = "lm", scale = None, loss = "squared", huber = HUBER_THRESHOLD, constraints = "modelled", margin = DEFAULT_MARGIN, force_scale = None, impulses = "model"))]
     // The constants' values spelled out for help() (pyo3 shows a named default as "...").
-    #[pyo3(text_signature = "(model, params, lower, upper, method='lm', scale=None, loss='squared', huber=1.345, constraints='modelled', margin=0.02, force_scale=None, impulses='model')")]
+    #[pyo3(
+        text_signature = "(model, params, lower, upper, method='lm', scale=None, loss='squared', huber=1.345, constraints='modelled', margin=0.02, force_scale=None, impulses='model')"
+    )]
     #[allow(clippy::too_many_arguments)]
     fn new(
         model: &Bound<'_, PyModel>,
