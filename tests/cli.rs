@@ -57,7 +57,7 @@ fn simulate_refuses_a_wrong_initial_state_before_writing() {
     let args = ["simulate", "reference_models/cartpole.xml", "--steps", "2"];
     let (ok, _, err) = run_cli(&[&args[..], &["--q0", "0", "-o", out.to_str().unwrap()]].concat());
     assert!(
-        !ok && err.contains("--q0 has 1 values, the model has nq = 2"),
+        !ok && err.contains("--q0: q has length 1, expected 2"),
         "{err}"
     );
     assert!(!out.exists(), "a CSV was left behind");

@@ -28,15 +28,9 @@ pub fn simulate(
     let q0 = q0.unwrap_or_else(|| model.reference_q());
     let v0 = v0.unwrap_or_else(|| vec![0.0; model.nv()]);
     // Checked before the output file is created, so a bad flag leaves no CSV behind.
-    for (flag, x, n, what) in [
-        ("--q0", &q0, model.nq(), "nq"),
-        ("--v0", &v0, model.nv(), "nv"),
-    ] {
+    for (flag, x, n) in [("--q0: q", &q0, model.nq()), ("--v0: v", &v0, model.nv())] {
         if x.len() != n {
-            return Err(format!(
-                "{flag} has {} values, the model has {what} = {n}",
-                x.len()
-            ));
+            return Err(format!("{flag} has length {}, expected {n}", x.len()));
         }
     }
     let taus = match torques {
