@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 # The Python module `diffosi` (bindings/), built into the venv by maturin.
 MODULE := $(VENV)/.module
 
-.PHONY: setup run study test install-test bench golden fuzz
+.PHONY: setup run study test install-test bench golden fuzz docs
 
 setup: $(STAMP) $(MODULE)
 	cargo build --release --locked
@@ -24,7 +24,8 @@ $(STAMP): requirements.txt requirements-data.txt
 
 # `maturin develop` builds the abi3 extension (release) and installs it with the
 # venv's pip; its one dependency, numpy, is already in the venv, so no index is used.
-$(MODULE): $(STAMP) $(shell find src bindings/src -name '*.rs') Cargo.toml Cargo.lock bindings/Cargo.toml pyproject.toml
+# The type stub diffosi.pyi goes in as diffosi/__init__.pyi, beside py.typed.
+$(MODULE): $(STAMP) $(shell find src bindings/src -name '*.rs') Cargo.toml Cargo.lock bindings/Cargo.toml pyproject.toml diffosi.pyi
 	VIRTUAL_ENV=$(abspath $(VENV)) $(VENV)/bin/maturin develop --release --locked --quiet -m bindings/Cargo.toml
 	touch $(MODULE)
 
@@ -72,3 +73,16 @@ golden: setup
 # executions per target. Its stable smoke run is part of `cargo test`.
 fuzz:
 	scripts/fuzz.sh
+
+# The user guide (docs/, mdBook, into docs/book/) and the Rust API docs (target/doc/), both
+# without warnings. mdBook is installed on first use into .tools/ (pinned; a source build,
+# a few minutes). The CLI reference is regenerated from the binary's --help first.
+MDBOOK_VERSION := 0.5.4
+MDBOOK := .tools/mdbook-$(MDBOOK_VERSION)/bin/mdbook
+$(MDBOOK):
+	cargo install mdbook --version $(MDBOOK_VERSION) --locked --root .tools/mdbook-$(MDBOOK_VERSION)
+
+docs: setup $(MDBOOK)
+	$(VENV)/bin/python scripts/cli_reference.py
+	$(MDBOOK) build docs
+	RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --locked

@@ -64,7 +64,8 @@ import numpy as np
 import pinocchio
 
 import diffosi
-from harness.engines.base import gym_assets_dir, quiet_stdio
+from harness.engines.base import gym_assets_dir
+from harness.engines.mujoco import load_mjcf
 
 ROOT = Path(__file__).resolve().parent.parent
 MODELS = {"cartpole": "body/pole/mass", "half_cheetah": "body/torso/mass"}  # name -> the one parameter
@@ -144,7 +145,7 @@ def ours_jobs(name):
 
 
 def mujoco_jobs(name):
-    model = mujoco.MjModel.from_xml_path(str(ROOT / "reference_models" / f"{name}.xml"))
+    model = load_mjcf(ROOT / "reference_models" / f"{name}.xml")
     model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT  # contact-free, like ours
     data = mujoco.MjData(model)
     data.qpos[:], data.qvel[:], data.qfrc_applied[:] = fixed_state(model.qpos0)
@@ -180,8 +181,7 @@ def contact_jobs():
     q, v = Q[-1], V[-1]
     Q, V = smooth.rollout(np.zeros(m.nq), np.zeros(m.nv), rest)
     qs, vs = Q[-1], V[-1]
-    with quiet_stdio():  # MuJoCo warns that gym's settotalmass is deprecated
-        model = mujoco.MjModel.from_xml_path(str(gym_assets_dir() / "half_cheetah.xml"))
+    model = load_mjcf(gym_assets_dir() / "half_cheetah.xml")  # its settotalmass warning kept quiet
     data = mujoco.MjData(model)
     mujoco.mj_step(model, data, SETTLE_STEPS)
     n = 2 * model.nv + model.na
@@ -208,9 +208,7 @@ def humanoid_jobs():
     q, v, tau = fixed_state(m.reference_q(), m.nv)
     q[3:7] /= np.linalg.norm(q[3:7])
     rest = np.zeros((NATIVE_STEPS, m.nv))
-    with quiet_stdio():
-        model = mujoco.MjModel.from_xml_path(str(path))
-        filed = mujoco.MjModel.from_xml_path(str(path))
+    model, filed = load_mjcf(path), load_mjcf(path)
     model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_LIMIT
     data, lying = mujoco.MjData(model), mujoco.MjData(filed)
     data.qpos[:], data.qvel[:], data.qfrc_applied[:] = q, v, tau

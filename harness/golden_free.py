@@ -77,7 +77,7 @@ def mujoco_model(model: str, integrator: str | None = None, fluid: tuple | None 
     """MuJoCo's model of a file, contacts and limits off, with the integrator and fluid given."""
     import mujoco
 
-    m = mujoco.MjModel.from_xml_path(str(model_path(model)))
+    m = load_mjcf(model_path(model))
     m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_LIMIT
     if integrator:
         m.opt.integrator = {"Euler": mujoco.mjtIntegrator.mjINT_EULER,

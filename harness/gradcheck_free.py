@@ -22,7 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from harness.engines.base import MODELS, gym_assets_dir, quiet_stdio
+from harness.engines.base import MODELS, gym_assets_dir
+from harness.engines.mujoco import load_mjcf
 from harness.report import REPORTS, markdown_table, write_json, write_markdown
 
 EPS = 1e-6
@@ -46,8 +47,7 @@ def load(case: str):
 
     name = CASES[case]
     path = gym_assets_dir() / name.split(":")[1] if name.startswith("gymnasium:") else MODELS.parent / name
-    with quiet_stdio():
-        m = mujoco.MjModel.from_xml_path(str(path))
+    m = load_mjcf(path)
     m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_LIMIT
     m.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
     ours = diffosi.Model.load(str(path)).with_options(contact=False, limits=False, integrator="Euler",

@@ -37,7 +37,9 @@ class MujocoFrames:
             raise RuntimeError("render_mode='rgb_array' draws through MuJoCo, which is not installed "
                                "(pip install \"diffosi[harness]\")") from e
         self.mujoco = mujoco
-        self.model = mujoco.MjModel.from_xml_path(str(mjcf))
+        from harness.engines.mujoco import load_mjcf
+
+        self.model = load_mjcf(mjcf)
         self.data = mujoco.MjData(self.model)
         try:
             self.renderer = mujoco.Renderer(self.model, HEIGHT, WIDTH)

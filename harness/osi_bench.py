@@ -54,7 +54,7 @@ import numpy as np
 
 from harness import bench, engines
 from harness.engines.base import MODELS
-from harness.engines.mujoco import converge
+from harness.engines.mujoco import converge, load_mjcf
 from harness.gym_env import pole_com
 from harness.engines.numpy_step import step_error
 from harness.engines.sampling import sample_rollout, tau_scale
@@ -87,11 +87,9 @@ class Problem:
 
 
 def _gym_mass(name: str, body: str) -> float:
-    import mujoco
-
     from harness.engines.base import gym_assets_dir
 
-    m = mujoco.MjModel.from_xml_path(str(gym_assets_dir() / f"{name}.xml"))
+    m = load_mjcf(gym_assets_dir() / f"{name}.xml")
     return float(m.body_mass[m.body(body).id])
 
 

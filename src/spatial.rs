@@ -264,9 +264,9 @@ impl<T: Real> Inertia<T> {
 
     /// The rate of change of this inertia while its body moves with the twist
     /// v = (w, u): v x* I - I v x, itself an inertia of zero mass, with
-    /// h' = m u + w x h and I_O' = [w] I_O - I_O [w] - [u] [h] - [h] [u],
-    /// formed as A + A^T - (u h^T + h u^T) + 2 (u . h) 1 with A = [w] I_O
-    /// (I_O symmetric, [a] [b] = b a^T - (a . b) 1).
+    /// h' = m u + w x h and I_O' = \[w] I_O - I_O \[w] - \[u] \[h] - \[h] \[u],
+    /// formed as A + A^T - (u h^T + h u^T) + 2 (u . h) 1 with A = \[w] I_O
+    /// (I_O symmetric, \[a] \[b] = b a^T - (a . b) 1).
     pub fn rate(&self, v: &Motion<T>) -> Inertia<T> {
         let a = skew(&v.ang) * self.rot;
         let uh = v.lin * self.h.transpose();
@@ -280,7 +280,7 @@ impl<T: Real> Inertia<T> {
 
     /// X^T I X: this inertia, given in the target frame of `x`, expressed in
     /// its source frame. With E^T h = h', E^T I_O E = R' and r the target's
-    /// origin: h = h' + m r and I = R' - [r][h'] - [h'][r] - m [r][r],
+    /// origin: h = h' + m r and I = R' - \[r]\[h'] - \[h']\[r] - m \[r]\[r],
     /// formed as R' - (h' r^T + r h'^T) + 2 (r . h') 1 - m (r r^T - (r . r) 1).
     pub fn to_source(&self, x: &Transform<T>) -> Inertia<T> {
         let e = &x.rot;

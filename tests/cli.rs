@@ -48,6 +48,26 @@ fn simulate_writes_the_rollout_with_given_torques() {
     }
 }
 
+/// A state of the wrong length names its flag and leaves no half-written
+/// CSV; numbers are written as numpy and pandas write them ("0.0", "0.1").
+#[test]
+fn simulate_refuses_a_wrong_initial_state_before_writing() {
+    let out = temp_path("cli", "wrong-q0.csv");
+    let _ = std::fs::remove_file(&out);
+    let args = ["simulate", "reference_models/cartpole.xml", "--steps", "2"];
+    let (ok, _, err) = run_cli(&[&args[..], &["--q0", "0", "-o", out.to_str().unwrap()]].concat());
+    assert!(
+        !ok && err.contains("--q0: q has length 1, expected 2"),
+        "{err}"
+    );
+    assert!(!out.exists(), "a CSV was left behind");
+    let (ok, _, err) =
+        run_cli(&[&args[..], &["--q0", "0.1,0", "-o", out.to_str().unwrap()]].concat());
+    assert!(ok, "{err}");
+    let csv = std::fs::read_to_string(&out).unwrap();
+    assert_eq!(csv.lines().nth(1), Some("0.0,0.1,0.0,0.0,0.0"));
+}
+
 /// Force sensing: a 2 kg box dropped from 5 cm with a tilt settles on the
 /// floor and its `fn_box_floor` column reads m g (the exact balance, once at
 /// rest, to far below the 1e-9 N asked); while it falls the column is ~0.

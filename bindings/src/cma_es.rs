@@ -26,6 +26,10 @@ pub(crate) struct PyCmaEs {
 impl PyCmaEs {
     #[new]
     #[pyo3(signature = (model, params, lower, upper, scale = None, seed = None, max_evaluations = None))]
+    // The defaults CmaEsOptions gives (None reads them), spelled out for help().
+    #[pyo3(
+        text_signature = "(model, params, lower, upper, scale=None, seed=0, max_evaluations=20000)"
+    )]
     #[allow(clippy::too_many_arguments)]
     fn new(
         model: &Bound<'_, PyModel>,

@@ -67,6 +67,10 @@ pub(crate) struct PyDiffOsi {
 impl PyDiffOsi {
     #[new]
     #[pyo3(signature = (model, params, lower, upper, method = "lm", scale = None, loss = "squared", huber = HUBER_THRESHOLD, constraints = "modelled", margin = DEFAULT_MARGIN, force_scale = None, impulses = "model"))]
+    // The constants' values spelled out for help() (pyo3 shows a named default as "...").
+    #[pyo3(
+        text_signature = "(model, params, lower, upper, method='lm', scale=None, loss='squared', huber=1.345, constraints='modelled', margin=0.02, force_scale=None, impulses='model')"
+    )]
     #[allow(clippy::too_many_arguments)]
     fn new(
         model: &Bound<'_, PyModel>,
@@ -141,6 +145,7 @@ impl PyDiffOsi {
         self.osi.names.clone()
     }
 
+    /// The solver: "lm" or "adam".
     #[getter]
     fn method(&self) -> &'static str {
         match self.method {
@@ -164,11 +169,13 @@ impl PyDiffOsi {
         }
     }
 
+    /// The lower bound of each mu component (float64, length nmu).
     #[getter]
     fn lower<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
         PyArray1::from_slice(py, self.osi.problem.lower())
     }
 
+    /// The upper bound of each mu component (float64, length nmu).
     #[getter]
     fn upper<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
         PyArray1::from_slice(py, self.osi.problem.upper())

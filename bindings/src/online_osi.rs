@@ -54,6 +54,10 @@ pub(crate) struct PyOnlineOsi {
 impl PyOnlineOsi {
     #[new]
     #[pyo3(signature = (task, window = 1, method = "lm", change_detection = false, seed = 0, scale = None, loss = "squared", huber = HUBER_THRESHOLD, constraints = "modelled", margin = DEFAULT_MARGIN, force_scale = None, impulses = "model", restarts = LmOptions::default().restarts))]
+    // The constants' values spelled out for help() (pyo3 shows a named default as "...").
+    #[pyo3(
+        text_signature = "(task, window=1, method='lm', change_detection=False, seed=0, scale=None, loss='squared', huber=1.345, constraints='modelled', margin=0.02, force_scale=None, impulses='model', restarts=8)"
+    )]
     #[allow(clippy::too_many_arguments)]
     fn new(
         task: &PyTask,

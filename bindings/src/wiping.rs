@@ -121,6 +121,13 @@ impl PyWiping {
         CONTACT_FORCE
     }
 
+    /// One episode of `steps` control steps (1 ms each) at mu (length nmu)
+    /// under `gains` (k_tau in 1/s^2, k_xi in m/(N s); default the canonical
+    /// gains): a dict of float64 arrays "q" (T+1, nq), "v" (T+1, nv), "tau"
+    /// (T+1, nv: the torques the step from each row applies, N m), "force"
+    /// (T+1: the normal force sensed over the step into each row, N), "xi"
+    /// (T+1: the admittance offset, m), and the float "metric" (the MSE of
+    /// the force against `force_goal` over the steps in contact, N^2).
     #[pyo3(signature = (mu, gains = None, steps = 3000))]
     fn episode<'py>(
         &self,
@@ -146,6 +153,14 @@ impl PyWiping {
         Ok(out)
     }
 
+    /// Identifies mu from `segments` closed-loop segments of `length` steps
+    /// drawn (seeded by `seed`) from a record of T rows: q (T, nq), v (T,
+    /// nv), xi (T,) and force (T,) as `episode` returns them, made with
+    /// `gains` (default the canonical gains). `method` "lm" (DiffOSI: exact
+    /// Jacobians through the closed loop) or "cmaes" (at most
+    /// `max_evaluations` episodes' worth of evaluations). Returns a dict:
+    /// "mu", "std" (float64, length nmu), "loss", "iterations",
+    /// "evaluations", "flags" (as `DiffOsi.identify`'s).
     #[allow(clippy::too_many_arguments)]
     #[pyo3(signature = (q, v, xi, force, gains = None, segments = 50, length = 5, seed = 0, method = "lm", max_evaluations = 300))]
     fn identify<'py>(

@@ -5,3 +5,7 @@ reads MUJOCO_GL once, at its first import, so it is set before any test module i
 import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")
+
+# MuJoCo's warnings (gymnasium's half cheetah: settotalmass is deprecated) go to
+# harness.engines.mujoco.MJ_WARNINGS, not to the terminal and ./MUJOCO_LOG.TXT.
+import harness.engines.mujoco  # noqa: E402,F401

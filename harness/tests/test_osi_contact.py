@@ -10,13 +10,13 @@ import pytest
 
 import diffosi
 from harness.engines.base import gym_assets_dir
-from harness.engines.mujoco import converge
+from harness.engines.mujoco import converge, load_mjcf
 
 
 def transitions(path, edit, steps=5, settle=300, seed=0):
     """MuJoCo's model of `path` edited by `edit(model)`, and W = `steps` transitions
     (q, v, tau, q', v') after `settle` steps at rest, and the contacts at each."""
-    m = mujoco.MjModel.from_xml_path(str(path))
+    m = load_mjcf(path)
     converge(m.opt)
     edit(m)
     mujoco.mj_setConst(m, mujoco.MjData(m))  # invweight0 for the new mass, as ours recomputes it

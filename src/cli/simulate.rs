@@ -27,6 +27,12 @@ pub fn simulate(
     let model = file.load()?;
     let q0 = q0.unwrap_or_else(|| model.reference_q());
     let v0 = v0.unwrap_or_else(|| vec![0.0; model.nv()]);
+    // Checked before the output file is created, so a bad flag leaves no CSV behind.
+    for (flag, x, n) in [("--q0: q", &q0, model.nq()), ("--v0: v", &v0, model.nv())] {
+        if x.len() != n {
+            return Err(format!("{flag} has length {}, expected {n}", x.len()));
+        }
+    }
     let taus = match torques {
         Some(file) => read_torques(file, model.nv(), steps)?,
         None => vec![vec![0.0; model.nv()]; steps],
@@ -71,7 +77,7 @@ pub fn simulate(
             .chain(q.iter().copied())
             .chain(v.iter().copied())
             .chain(sensed)
-            .map(|x| format!("{x:e}"))
+            .map(|x| format!("{x:?}"))
             .collect();
         writeln!(out, "{}", row.join(",")).map_err(io)?;
     }

@@ -78,7 +78,7 @@ pub fn wipe(
             .chain(v)
             .chain(tau)
             .chain([&episode.forces[k], &episode.xi[k]])
-            .map(|x| format!("{x:e}"))
+            .map(|x| format!("{x:?}"))
             .collect();
         writeln!(out, "{},{}", k as f64 * h, row.join(",")).map_err(io)?;
     }

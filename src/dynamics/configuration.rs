@@ -15,7 +15,7 @@ use crate::spatial::{lift, Real};
 /// How node i's coordinates sit in q (see [`super::tree::NodeJoint`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Coordinates {
-    /// One coordinate, q[at] (hinge, slide, a free joint's translations).
+    /// One coordinate, `q[at]` (hinge, slide, a free joint's translations).
     Scalar { at: usize },
     /// Axis `axis` of a ball's rotation, whose quaternion is q[at..at + 4].
     Rotation { at: usize, axis: usize },

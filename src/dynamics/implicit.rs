@@ -4,13 +4,13 @@
 //! qdd = (M - h D)^-1 f, then v' = v + h qdd, q' = q (+) h v'.
 //!
 //! D is MuJoCo's qDeriv, the velocity derivative of the smooth forces,
-//! summed from named terms ([`velocity_derivative`]):
+//! summed from named terms (`velocity_derivative`):
 //! - joint damping: -diag(damping) (passive, MuJoCo's mjd_passive_vel);
 //! - the fluid forces' J^T B J ([`super::fluid::add_fluid_derivative`],
 //!   mjd_inertiaBoxFluid);
 //! - the actuators' velocity terms (mjd_actuator_vel) have their slot there;
 //! - under `implicit` only, the bias forces': -dc/dv (mjd_rne_vel), exact,
-//!   from the linearised Newton-Euler recursion ([`add_bias_derivative`]).
+//!   from the linearised Newton-Euler recursion (`add_bias_derivative`).
 //!
 //! `implicit` solves M - h D as it is, by LU. `implicitfast` drops the bias
 //! term and uses D's lower triangle mirrored (MuJoCo gathers qDeriv's lower

@@ -60,7 +60,7 @@ fn log_box() -> (Vec<f64>, Vec<f64>) {
 const GRID: usize = 8;
 
 /// The gains minimising the mean metric over `mus`, with that mean and the
-/// evaluations (episodes x mus) spent: a coarse log grid ([`GRID`]^2
+/// evaluations (episodes x mus) spent: a coarse log grid (`GRID`^2
 /// points) picks the start, then CMA-ES (step 0.1 of the box) refines it
 /// with the rest of `budget`. The grid keeps the search out of the poor
 /// basins a single local search from the canonical gains can end in (the

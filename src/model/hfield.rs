@@ -2,11 +2,11 @@
 //! elevation grid read from MuJoCo's binary format or given inline, scaled
 //! to [0, 1].
 //!
-//! Frame and units: the field spans x in [-size[0], size[0]] and y in
-//! [-size[1], size[1]] of its geom frame; column c lies at x = -size[0] +
-//! 2 size[0] c / (ncol - 1), row r at y = -size[1] + 2 size[1] r /
+//! Frame and units: the field spans x in [-size\[0], size\[0]] and y in
+//! [-size\[1], size\[1]] of its geom frame; column c lies at x = -size\[0] +
+//! 2 size\[0] c / (ncol - 1), row r at y = -size\[1] + 2 size\[1] r /
 //! (nrow - 1). The surface at grid point (r, c) is at z = data[r ncol + c]
-//! size[2]; the field's solid reaches down to z = -size[3] (its base).
+//! size\[2]; the field's solid reaches down to z = -size\[3] (its base).
 //! Elevations are kept at single precision, as MuJoCo keeps them.
 
 use std::path::Path;
@@ -23,14 +23,14 @@ pub struct HField {
     pub size: [f64; 4],
     pub nrow: usize,
     pub ncol: usize,
-    /// Elevations in [0, 1], row-major from y = -size[1].
+    /// Elevations in [0, 1], row-major from y = -size\[1].
     pub data: Vec<f32>,
 }
 
 impl HField {
     /// MuJoCo's compiler: checks the size and the grid, then shifts and
     /// scales the elevations to [0, 1] (only shifted when they span less
-    /// than mjEPS). `data` is row-major from y = -size[1].
+    /// than mjEPS). `data` is row-major from y = -size\[1].
     pub fn compile(
         name: &str,
         size: [f64; 4],
@@ -81,7 +81,7 @@ impl HField {
 
 /// Reads a height-field file: MuJoCo's binary format (`nrow`, `ncol` as
 /// 32-bit integers, then nrow ncol 32-bit floats, little-endian, the first
-/// row at y = -size[1]). PNG images are refused (not read yet).
+/// row at y = -size\[1]). PNG images are refused (not read yet).
 pub fn read_file(path: &Path) -> Result<((usize, usize), Vec<f32>), String> {
     let ext = path
         .extension()

@@ -728,7 +728,7 @@ impl Spec {
     }
 
     /// Whether every joint is a hinge or a slide (then nq = nv and joint i
-    /// owns q[i] and v[i]).
+    /// owns `q[i]` and `v[i]`).
     pub fn one_dof_joints(&self) -> bool {
         self.joints.iter().all(|j| j.kind.nv() == 1)
     }

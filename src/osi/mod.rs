@@ -6,7 +6,7 @@
 //!   physical parameters. Every mu component has finite bounds
 //!   `lower < upper` and a prior (the cold-start value) inside them.
 //! - The loss is L(mu) = sum over the window of ||(g_mu(x_t, tau_t) - x_{t+1}) / scale||^2
-//!   ([`window_residuals`]); `scale` holds 2 nv positive values, q then v,
+//!   ([`window_residuals`](crate::derivatives::window_residuals)); `scale` holds 2 nv positive values, q then v,
 //!   best set to each component's measurement noise (then J^T J is the
 //!   Fisher information). [`Lm`] can minimise a Huber loss of the same
 //!   scaled residuals instead ([`Loss`]). When the target's contact law is
@@ -18,7 +18,7 @@
 //!   keeps its start value and reports that prior standard deviation, so an
 //!   [`Estimate`] never holds NaN.
 //! - Iterations count solver steps; evaluations count calls of
-//!   [`window_residuals`] (residuals and Jacobian together).
+//!   [`window_residuals`](crate::derivatives::window_residuals) (residuals and Jacobian together).
 
 mod adam;
 mod change;
@@ -389,7 +389,7 @@ pub struct Flags {
     /// The iteration limit stopped the solver before a tolerance did.
     pub not_converged: bool,
     /// The best fit leaves the loss per degree of freedom, loss / max(1, m -
-    /// nmu), above [`LmOptions::misfit`](super::LmOptions::misfit): the
+    /// nmu), above [`LmOptions::misfit`]: the
     /// residuals are larger than `scale` says the noise is. Either the scale
     /// is too small for the data, or the model does not explain them (an
     /// unmodelled effect, a delay, mu changing inside the window), and mu

@@ -208,7 +208,7 @@ fn clamped_friction<T: Real>(friction: &[T; 5]) -> [T; 5] {
 }
 
 /// The rows of a contact of `dim` frame rows (normal, tangents, then
-/// angular) as combinations of them: row i = sum_k mix[i][k] frame_k. One
+/// angular) as combinations of them: row i = sum_k `mix[i][k]` frame_k. One
 /// row (condim 1); an elliptic cone's frame rows; else the pyramid's edges,
 /// normal + mu_k tangent_k and normal - mu_k tangent_k for k = 1..dim.
 pub fn mixing<T: Real>(dim: usize, elliptic: bool, friction: &[T; 5]) -> Mixing<T> {

@@ -16,7 +16,7 @@
 //! Impedance from the norm of the equality's error (all its rows share
 //! it), aref per row from its own error component; MuJoCo 4 then
 //! subtracts from the aref of connect and weld rows the rate J-dot v of
-//! their Jacobians along the motion (mj_Jdotv), which [`jdot_v`] computes:
+//! their Jacobians along the motion (mj_Jdotv), which `jdot_v` computes:
 //! for a point p fixed to a body of world velocity (w, v_O) and bias
 //! acceleration A (the acceleration at qacc = 0, world coordinates about
 //! the origin), J-dot v = A_lin + A_ang x p + w x p-dot, and the rotational

@@ -30,7 +30,7 @@
 //!    builds equalities first), and its arm in `ConstraintKind::append`.
 //! 3. `equality.rs`, its header stating the rows (J, error, A_ii): it
 //!    appends J's rows to `rows.j`, declares their dofs (`Rows::moving`)
-//!    and pushes a [`impedance::Block`] (per-row distances in `pos` where
+//!    and pushes a `impedance::Block` (per-row distances in `pos` where
 //!    MuJoCo's efc_pos differs per row; its J-dot v taken off `aref`).
 //! 4. A [`RowKind`] only if the solver's cost is new: equality rows are
 //!    bilateral (1/2 D jar^2 on both sides), `RowKind::Equality` with its

@@ -64,7 +64,7 @@
 //! `inertial.rs`, joints in `joints.rs`, options in `options.rs`, contact
 //! pairs in `contact.rs`, tendons in `tendons.rs`, actuators in `actuators.rs`.
 //!
-//! [`write`] goes the other way, from a [`super::Spec`] to an MJCF document.
+//! [`write()`] goes the other way, from a [`super::Spec`] to an MJCF document.
 
 mod actuators;
 mod attributes;
