@@ -6,9 +6,12 @@
 //!
 //! Each geom is a [`Body`]: its shape at its world pose, grown by half the
 //! pair margin (so the bodies overlap exactly when the geoms are within the
-//! margin). A sphere or capsule is first shrunk to its centre or segment and
-//! GJK measures the distance of the cores: a shallow contact is that
-//! distance less the radii. Otherwise GJK finds a simplex holding the
+//! margin). As MuJoCo 4.0.0 does (measured against its binary: 38 of 40
+//! sphere-ellipsoid states to 1e-9 this way, 24 with the margin inside the
+//! support), a body is first shrunk to its core (a sphere to its centre, a
+//! capsule to its segment, every body by its half margin) and GJK measures
+//! the distance of the cores when a core radius is left: a shallow contact
+//! is that distance less the radii. Otherwise GJK finds a simplex holding the
 //! origin and EPA the penetration ([`super::epa`]). The contact lies midway
 //! between the witness points x1 (on geom 1) and x2 (on geom 2); its normal
 //! is x1 - x2 normalised (from geom 1 into geom 2 when they overlap), its
@@ -89,18 +92,19 @@ impl<T: Real> Body<'_, T> {
         }
     }
 
-    /// The radius GJK's core leaves out (with half the margin), zero for a
-    /// whole body.
+    /// The radius GJK's core leaves out: a sphere's or capsule's radius,
+    /// and half the margin of every body.
     fn core_radius(&self) -> T {
         let [radius, _, _] = self.shape.size();
+        let half_margin = lift::<T>(0.5) * self.margin;
         match self.shape {
-            Shape::Sphere { .. } | Shape::Capsule { .. } => {
-                lift::<T>(radius) + lift::<T>(0.5) * self.margin
-            }
-            _ => T::zero(),
+            Shape::Sphere { .. } | Shape::Capsule { .. } => lift::<T>(radius) + half_margin,
+            _ => half_margin,
         }
     }
 
+    /// The body without its core radius: a sphere's centre, a capsule's
+    /// segment, any other shape bare (no margin).
     fn shrunk(&self) -> Body<'_, T> {
         let core = match self.shape {
             Shape::Sphere { .. } => Core::Point,
@@ -109,11 +113,7 @@ impl<T: Real> Body<'_, T> {
         };
         Body {
             core,
-            margin: if core == Core::Whole {
-                self.margin
-            } else {
-                T::zero()
-            },
+            margin: T::zero(),
             ..*self
         }
     }
