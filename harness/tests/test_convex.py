@@ -4,10 +4,10 @@ ellipsoid, a cylinder and a box, at random poses up to 0.03 deep (fixed seed), a
 them with a margin.
 
 What is asserted is what holds: the same single contact in every state; its point, frame
-and distance equal to MuJoCo's to 1e-9 in at least a quarter of the states (the same
-iterations), and within the iterations' accuracy in all (bounds per pair below): MuJoCo
-4.0.0's binary takes another iteration path than its published source (3.12) in the rest.
-Run with `make test`."""
+and distance equal to MuJoCo's to 1e-9 in at least the number of states measured (seed 7;
+the others take another iteration path: rounding differences decide GJK's stopping test and
+EPA's budget ends the penetration), and within the iterations' accuracy in all (bounds per
+pair below). Run with `make test`."""
 
 import mujoco
 import numpy as np
@@ -15,15 +15,16 @@ import pytest
 
 import diffosi
 
-# The pairs and the worst difference from MuJoCo allowed: twice the one measured (seed 7).
-# A sphere or capsule against an ellipsoid is GJK's distance of its centre or segment
-# (GJK's 1e-6 tolerance); the others are EPA's, ended by its 35-expansion budget.
+# The pairs, the worst difference from MuJoCo allowed (twice the one measured) and the
+# number of states that match to 1e-9 (measured, seed 7). A sphere or capsule against an
+# ellipsoid is GJK's distance of its centre or segment (GJK's 1e-6 tolerance); the others
+# are EPA's, ended by its 35-expansion budget.
 PAIRS = [
-    (("sphere", "0.2", "ellipsoid", "0.1 0.2 0.3"), 5e-5),
-    (("capsule", "0.1 0.3", "ellipsoid", "0.1 0.2 0.3"), 5e-5),
-    (("ellipsoid", "0.2 0.1 0.3", "ellipsoid", "0.1 0.2 0.3"), 1e-2),
-    (("ellipsoid", "0.2 0.1 0.3", "cylinder", "0.1 0.2"), 2e-2),
-    (("ellipsoid", "0.2 0.1 0.3", "box", "0.1 0.2 0.15"), 1e-2),
+    (("sphere", "0.2", "ellipsoid", "0.1 0.2 0.3"), 5e-5, 38),
+    (("capsule", "0.1 0.3", "ellipsoid", "0.1 0.2 0.3"), 5e-5, 23),
+    (("ellipsoid", "0.2 0.1 0.3", "ellipsoid", "0.1 0.2 0.3"), 1.2e-2, 27),
+    (("ellipsoid", "0.2 0.1 0.3", "cylinder", "0.1 0.2"), 2.5e-2, 30),
+    (("ellipsoid", "0.2 0.1 0.3", "box", "0.1 0.2 0.15"), 1e-2, 34),
 ]
 STATES = 40
 DEEPEST = 0.03  # the deepest penetration sampled
@@ -66,8 +67,8 @@ def near_touch(pair, rng):
     return xml, q, margin
 
 
-@pytest.mark.parametrize("pair, bound", PAIRS, ids=[f"{p[0]}-{p[2]}" for p, _ in PAIRS])
-def test_contacts_are_mujocos(pair, bound, tmp_path):
+@pytest.mark.parametrize("pair, bound, matched", PAIRS, ids=[f"{p[0]}-{p[2]}" for p, _, _ in PAIRS])
+def test_contacts_are_mujocos(pair, bound, matched, tmp_path):
     rng = np.random.default_rng(7)
     exact, worst = 0, 0.0
     for _ in range(STATES):
@@ -84,8 +85,7 @@ def test_contacts_are_mujocos(pair, bound, tmp_path):
                   abs(-c["depth"] - theirs.dist))
         exact += err < 1e-9
         worst = max(worst, err)
-    # Measured (seed 7): 12 to 25 of the 40 states to 1e-9, depending on the pair.
-    assert exact >= STATES // 4, (pair, exact)
+    assert exact >= matched, (pair, exact)
     assert worst < bound, (pair, worst)
 
 

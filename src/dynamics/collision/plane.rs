@@ -132,9 +132,8 @@ pub(super) fn ellipsoid<T: Real>(
     let radii = s.size().map(lift::<T>);
     let m = &egg.mat;
     let d = -normal;
-    let local = Vector3::from_fn(|i, _| {
-        (m[(0, i)] * d.x + m[(1, i)] * d.y + m[(2, i)] * d.z) * radii[i]
-    });
+    let local =
+        Vector3::from_fn(|i, _| (m[(0, i)] * d.x + m[(1, i)] * d.y + m[(2, i)] * d.z) * radii[i]);
     let (unit, _) = normalize(local);
     let tip = Vector3::from_fn(|i, _| unit[i] * radii[i]);
     let point = Vector3::from_fn(|i, _| {
@@ -298,7 +297,10 @@ mod tests {
             pair((&Shape::Plane, &floor()), (&shape, &placed), 0.0, &mut out);
             assert!(!out.is_empty());
             let Some((r, hint)) = fixed_sphere(&shape, &pose) else {
-                assert!(matches!(shape.kind(), GeomType::Cylinder | GeomType::Ellipsoid));
+                assert!(matches!(
+                    shape.kind(),
+                    GeomType::Cylinder | GeomType::Ellipsoid
+                ));
                 continue;
             };
             for c in &out {
