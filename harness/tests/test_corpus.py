@@ -20,8 +20,6 @@ SEED = 0
 # mass 1 where a link has no <inertial>, Bullet's principal axes, unphysical tensors zeroed);
 # the Pinocchio check the default reading, the file as written.
 KNOWN_FAILURES = {
-    "dm_control:humanoid_CMU.xml":
-        "rest: rollout step 497: geoms 0 and 34 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:a1_description/urdf/a1.urdf":
         "rest: rollout step 0: geoms 2 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:alex_description/urdf/alex_nub_hands.urdf":

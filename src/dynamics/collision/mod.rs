@@ -34,11 +34,11 @@
 //! ([`crate::compile::candidates`]).
 //!
 //! Supported pairs are those with an entry in [`Colliders::TABLE`]: plane
-//! against sphere, capsule, cylinder and box; sphere against sphere,
+//! against sphere, capsule, ellipsoid, cylinder and box; sphere against sphere,
 //! capsule, cylinder and box; capsule against capsule and box; box against
-//! box; an ellipsoid against any primitive but the plane (GJK and EPA,
-//! convex.rs). A model may hold other pairs (a plane and an ellipsoid,
-//! cylinders with capsules, cylinders or boxes, meshes): a step refuses to
+//! box; an ellipsoid against the other primitives (GJK and EPA, convex.rs;
+//! the plane by its support point, plane.rs). A model may hold other pairs
+//! (cylinders with capsules, cylinders or boxes, meshes): a step refuses to
 //! run while one of them is within reach ([`super::StepError::NoCollider`]).
 //! The general convex collider runs MuJoCo's default settings only: under
 //! other `ccd_iterations`, `ccd_tolerance` or with `nativeccd` disabled its
@@ -154,7 +154,7 @@ impl<T: Real> Colliders<T> {
     #[rustfmt::skip]
     pub const TABLE: [[Option<Collider<T>>; NTYPES]; NTYPES] = [
         // plane, hfield, sphere, capsule, ellipsoid, cylinder, box, mesh
-        [None, None, Some(plane::sphere), Some(plane::capsule), None, Some(plane::cylinder), Some(plane::cuboid), None],
+        [None, None, Some(plane::sphere), Some(plane::capsule), Some(plane::ellipsoid), Some(plane::cylinder), Some(plane::cuboid), None],
         [None; NTYPES], // hfield
         [None, None, Some(sphere::sphere), Some(sphere::capsule), Some(convex::convex), Some(sphere::cylinder), Some(sphere::cuboid), None],
         [None, None, None, Some(capsule::capsule), Some(convex::convex), None, Some(capsule::cuboid), None],
@@ -335,7 +335,7 @@ mod tests {
             .flat_map(|&a| types.iter().map(move |&b| (a, b)))
             .filter(|&(a, b)| a <= b && supported(a, b, &Ccd::default()))
             .count();
-        assert_eq!(count, 16);
+        assert_eq!(count, 17);
         assert!(supported(GeomType::Box, GeomType::Capsule, &Ccd::default()));
         assert!(supported(
             GeomType::Ellipsoid,
@@ -347,11 +347,12 @@ mod tests {
             GeomType::Capsule,
             &Ccd::default()
         ));
-        assert!(!supported(
+        assert!(supported(
             GeomType::Plane,
             GeomType::Ellipsoid,
             &Ccd::default()
         ));
+        assert!(!supported(GeomType::Plane, GeomType::Mesh, &Ccd::default()));
     }
 
     #[test]

@@ -1,5 +1,5 @@
 //! A plane (its z axis the normal, through its centre) against a sphere, a
-//! capsule, a cylinder and a box, as MuJoCo computes them. The normal of
+//! capsule, a cylinder, a box and an ellipsoid, as MuJoCo computes them. The normal of
 //! every contact is the plane's.
 
 use nalgebra::Vector3;
@@ -116,6 +116,41 @@ pub(super) fn cylinder<T: Real>(
             add(third, cylinder.pos + s + axis - vec * half_t);
         }
     }
+}
+
+/// MuJoCo's plane-convex collider for an ellipsoid (`mjc_PlaneConvex`):
+/// one contact at the ellipsoid's support point along the plane's inward
+/// normal, in its libccd support arithmetic (the direction scaled by the
+/// radii, normalised, scaled again).
+pub(super) fn ellipsoid<T: Real>(
+    (_, plane): (&Shape, &Placed<T>),
+    (s, egg): (&Shape, &Placed<T>),
+    margin: T,
+    out: &mut Vec<Pre<T>>,
+) {
+    let normal = plane.axis(2);
+    let radii = s.size().map(lift::<T>);
+    let m = &egg.mat;
+    let d = -normal;
+    let local =
+        Vector3::from_fn(|i, _| (m[(0, i)] * d.x + m[(1, i)] * d.y + m[(2, i)] * d.z) * radii[i]);
+    let (unit, _) = normalize(local);
+    let tip = Vector3::from_fn(|i, _| unit[i] * radii[i]);
+    let point = Vector3::from_fn(|i, _| {
+        m[(i, 0)] * tip.x + m[(i, 1)] * tip.y + m[(i, 2)] * tip.z + egg.pos[i]
+    });
+    let gap = point - plane.pos;
+    let dist = normal.x * gap.x + normal.y * gap.y + normal.z * gap.z;
+    if dist > margin {
+        return;
+    }
+    let half: T = lift(-0.5);
+    out.push(Pre {
+        dist,
+        pos: point + normal * (half * dist),
+        normal,
+        tangent: Vector3::zeros(),
+    });
 }
 
 /// The box corners below the plane's margin that point towards it, at most four.
@@ -239,7 +274,7 @@ mod tests {
                 half: Vector3::new(0.05, 0.1, 0.02),
             },
             Shape::Ellipsoid {
-                radii: Vector3::new(0.05, 0.1, 0.02),
+                radii: Vector3::new(0.05, 0.1, 0.06),
             },
         ];
         let plane_row = Colliders::<f64>::TABLE[GeomType::Plane as usize];
@@ -262,7 +297,10 @@ mod tests {
             pair((&Shape::Plane, &floor()), (&shape, &placed), 0.0, &mut out);
             assert!(!out.is_empty());
             let Some((r, hint)) = fixed_sphere(&shape, &pose) else {
-                assert_eq!(shape.kind(), GeomType::Cylinder);
+                assert!(matches!(
+                    shape.kind(),
+                    GeomType::Cylinder | GeomType::Ellipsoid
+                ));
                 continue;
             };
             for c in &out {
