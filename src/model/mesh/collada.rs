@@ -116,7 +116,12 @@ impl<'a> Collada<'a> {
     }
 
     /// Adds one instance of `<geometry>` `geometry` placed by `frame`.
-    fn instance(&self, geometry: Node, frame: &Matrix4<f64>, mesh: &mut RawMesh) -> Result<(), String> {
+    fn instance(
+        &self,
+        geometry: Node,
+        frame: &Matrix4<f64>,
+        mesh: &mut RawMesh,
+    ) -> Result<(), String> {
         let id = geometry.attribute("id").unwrap_or_default();
         let Some(m) = child(geometry, "mesh") else {
             return Err(format!("<geometry> '{id}': only <mesh> geometry is read"));
@@ -180,7 +185,9 @@ impl<'a> Collada<'a> {
             accessor.attribute(a).unwrap_or(default).parse::<usize>()
         });
         let (Ok(count), Ok(stride), Ok(offset)) = (count, stride, offset) else {
-            return Err(format!("<geometry> '{id}': a bad <accessor> count, stride or offset"));
+            return Err(format!(
+                "<geometry> '{id}': a bad <accessor> count, stride or offset"
+            ));
         };
         let fits = count
             .checked_mul(stride)
@@ -305,6 +312,125 @@ where
 }
 
 fn required<'a>(node: Node<'a, 'a>, name: &str) -> Result<Node<'a, 'a>, String> {
-    child(node, name)
-        .ok_or_else(|| format!("<{}> without <{name}>", node.tag_name().name()))
+    child(node, name).ok_or_else(|| format!("<{}> without <{name}>", node.tag_name().name()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A document with `scene` as its visual scene's content, `unit` in its
+    /// asset and one geometry `g` of six positions, the fifth unused.
+    fn dae(unit: &str, primitives: &str, scene: &str) -> String {
+        format!(
+            "<?xml version=\"1.0\"?><COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\">\
+             <asset>{unit}<up_axis>Z_UP</up_axis></asset><library_geometries><geometry id=\"g\"><mesh>\
+             <source id=\"p\"><float_array id=\"pa\">0 0 0 1 0 0 0 2 0 0 0 3 9 9 9 1 1 1</float_array>\
+             <technique_common><accessor source=\"#pa\" count=\"6\" stride=\"3\"/></technique_common></source>\
+             <source id=\"n\"><float_array id=\"na\">0 0 1</float_array>\
+             <technique_common><accessor source=\"#na\" count=\"1\" stride=\"3\"/></technique_common></source>\
+             <vertices id=\"v\"><input semantic=\"POSITION\" source=\"#p\"/></vertices>{primitives}\
+             </mesh></geometry></library_geometries><library_visual_scenes><visual_scene id=\"s\">{scene}\
+             </visual_scene></library_visual_scenes><scene><instance_visual_scene url=\"#s\"/></scene></COLLADA>"
+        )
+    }
+
+    const PRIMITIVES: &str = "<triangles count=\"2\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/>\
+        <input semantic=\"NORMAL\" source=\"#n\" offset=\"1\"/><p>0 0 2 0 1 0 0 0 1 0 3 0</p></triangles>\
+        <polylist count=\"2\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><vcount>3 4</vcount>\
+        <p>0 3 2 1 2 3 5</p></polylist>";
+
+    const NODES: &str = "<node id=\"a\"><translate>1 2 3</translate><rotate>0 0 1 90</rotate>\
+        <scale>2 2 2</scale><node id=\"b\"><matrix>1 0 0 0 0 0 -1 0 0 1 0 1 0 0 0 1</matrix>\
+        <instance_geometry url=\"#g\"/></node></node>";
+
+    #[test]
+    fn transforms_units_and_polygons_are_read_as_the_engines_read_them() {
+        let m = read(dae("<unit meter=\"0.5\"/>", PRIMITIVES, NODES).as_bytes()).unwrap();
+        // coal 3.0.3's MeshLoader().load(file).vertices() for this file (the
+        // used positions through the node transforms; its duplicates per
+        // primitive merged), times the unit 0.5 as PyBullet 3.2's
+        // getMeshData scales it (PyBullet reads the polylist's quad as
+        // triangles and loses its last corner, the fifth vertex below).
+        let coal = [
+            [1., 2., 5.],
+            [1., 4., 5.],
+            [1., 2., 9.],
+            [7., 2., 5.],
+            [3., 4., 7.],
+        ];
+        let expected: Vec<[f32; 3]> = coal.iter().map(|v| v.map(|x| 0.5 * x)).collect();
+        assert_eq!(m.vertices, expected);
+        // The quad 1 2 3 5 is a fan from its first corner.
+        assert_eq!(
+            m.faces,
+            [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3], [1, 3, 4]]
+        );
+        let plain = read(dae("", PRIMITIVES, NODES).as_bytes()).unwrap();
+        assert_eq!(plain.vertices[4], [3.0, 4.0, 7.0]);
+    }
+
+    #[test]
+    fn fans_strips_and_polygons_triangulate() {
+        let tri = |c: &[usize], strip| {
+            let mut f = vec![];
+            triangulate(c, strip, |t| f.push(t));
+            f
+        };
+        assert_eq!(tri(&[0, 1, 2, 3], false), [[0, 1, 2], [0, 2, 3]]);
+        assert_eq!(tri(&[0, 1, 2, 3], true), [[0, 1, 2], [2, 1, 3]]);
+        let polygons =
+            "<polygons count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/>\
+                        <p>0 1 2 3</p></polygons>";
+        let m = read(dae("", polygons, NODES).as_bytes()).unwrap();
+        assert_eq!(m.faces, [[0, 1, 2], [0, 2, 3]]);
+    }
+
+    #[test]
+    fn malformed_files_are_refused_with_a_message() {
+        let refused = |unit: &str, primitives: &str, scene: &str, says: &str| {
+            let err = read(dae(unit, primitives, scene).as_bytes()).unwrap_err();
+            assert!(err.contains(says), "{err}");
+        };
+        let triangles = |p: &str| {
+            format!(
+                "<triangles><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>{p}</p></triangles>"
+            )
+        };
+        let geometry = "<node><instance_geometry url=\"#g\"/></node>";
+        refused("", &triangles("0 1 6"), geometry, "vertex index 6 of 6");
+        refused("", &triangles("0 1 x"), geometry, "bad number 'x'");
+        refused("", &triangles("0 1 -2"), geometry, "bad number '-2'");
+        refused("<unit meter=\"0\"/>", PRIMITIVES, geometry, "meter='0'");
+        refused(
+            "",
+            PRIMITIVES,
+            "<node><instance_geometry url=\"#h\"/></node>",
+            "'#h' names no element",
+        );
+        refused(
+            "",
+            PRIMITIVES,
+            "<node><rotate>0 0 0 1</rotate></node>",
+            "zero axis",
+        );
+        refused(
+            "",
+            PRIMITIVES,
+            "<node><matrix>1 0 0</matrix></node>",
+            "16 finite numbers",
+        );
+        refused(
+            "",
+            PRIMITIVES,
+            "<node><instance_node url=\"#a\"/></node>",
+            "<instance_node> is not read",
+        );
+        let vcount = "<polylist><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/>\
+                      <vcount>3 3</vcount><p>0 1 2</p></polylist>";
+        refused("", vcount, geometry, "<vcount> does not add up");
+        assert!(read(b"<COLLADA>").unwrap_err().contains("COLLADA XML"));
+        assert!(read(b"<COLLADA/>").unwrap_err().contains("<visual_scene>"));
+        assert!(read(&[0xff, 0xfe]).unwrap_err().contains("UTF-8"));
+    }
 }

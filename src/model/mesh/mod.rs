@@ -233,4 +233,13 @@ mod tests {
         let far = m.vertices.iter().map(|v| v.norm()).fold(0.0, f64::max);
         assert!(m.rbound() >= far - 1e-7 && m.rbound() <= 3f64.sqrt() * far);
     }
+
+    #[test]
+    fn collada_is_a_urdf_format_only() {
+        let path = Path::new("/nonexistent/arm.DAE");
+        let err = read_file(path, MUJOCO_FORMATS).unwrap_err();
+        assert_eq!(err, "unknown mesh file type: expected .stl, .obj or .msh");
+        let err = read_file(path, URDF_FORMATS).unwrap_err();
+        assert!(!err.contains("unknown mesh file type"), "{err}");
+    }
 }
