@@ -2,7 +2,8 @@
 //! compiler checks it (known objects of the right kind, non-negative cutoff
 //! and noise) and laid out with MuJoCo's size. Those [`crate::model::sensor`]
 //! computes become their [`SensorKind`]; the others (touch, rangefinder,
-//! tendon, actuator, tendon limit, contact, distance, energy, clock, user sensors,
+//! tendon, tendon actuator force, tendon limit, contact, distance, energy,
+//! clock (the state has no time), user sensors,
 //! frame sensors on cameras, and any sensor whose readings are delayed or
 //! sampled at an interval) are kept as [`SensorKind::Unsupported`], so that
 //! a model using them loads and only evaluating its sensors fails, naming
@@ -472,6 +473,9 @@ mod tests {
             (r#"<jointpos name="a" joint="j"/><jointvel name="a" joint="j"/>"#, "repeated name 'a'"),
             (r#"<jointpos joint="j" site="s"/>"#, "unrecognized attribute 'site'"),
             (r#"<touch site="nope"/>"#, "unknown site 'nope'"),
+            (r#"<actuatorfrc actuator="nope"/>"#, "unknown actuator 'nope'"),
+            ("<actuatorpos/>", "the sensor needs 'actuator'"),
+            (r#"<jointactuatorfrc joint="ball"/>"#, "joint must be slide or hinge in sensor"),
             (r#"<contact data="force found"/>"#, "data attributes must be in order"),
             (r#"<tactile mesh="m" geom="g"/>"#, "<tactile> is not supported"),
             ("<thermometer/>", "unrecognized element <thermometer>"),
