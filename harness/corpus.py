@@ -278,13 +278,18 @@ def pybullet_inertia_notes(path: Path, p, body: int) -> dict:
 
 
 def pybullet_one_step(case: Case, ours, seed: int) -> tuple[float, dict]:
+    import pybullet
+
     warnings: list = []
     with quiet_stdio(warnings):
         p = pybullet_client()
         body = pybullet_body(p, case.path)
     try:
         with quiet_stdio(warnings):
-            error, notes = pybullet_steps(case, ours, seed, p, body)
+            try:
+                error, notes = pybullet_steps(case, ours, seed, p, body)
+            except pybullet.error as e:  # a call PyBullet refuses on this model: the check's error
+                raise ValueError(f"PyBullet: {e}") from e
         zeroed = sorted({w.split(":")[-1].strip() for w in warnings if "setting inertia to zero" in w})
         if zeroed:
             notes["pybullet_zeroed_inertia"] = zeroed

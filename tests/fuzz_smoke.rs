@@ -130,7 +130,7 @@ fn urdf_loader_survives_its_corpus_and_mutations() {
 #[test]
 fn mesh_readers_survive_their_corpus_and_mutations() {
     let dirs = [root().join("fuzz/seeds/mesh")];
-    let corpus: Vec<PathBuf> = [".stl", ".obj", ".msh"]
+    let corpus: Vec<PathBuf> = [".stl", ".obj", ".msh", ".dae"]
         .iter()
         .flat_map(|ext| files(&dirs, ext))
         .collect();

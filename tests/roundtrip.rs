@@ -180,11 +180,19 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         soft,
         solver,
         fluid,
+        magnetic,
     } = opt;
     let o = &theirs.opt;
     assert_eq!(
-        (timestep, gravity, integrator, passive, fluid),
-        (&o.timestep, &o.gravity, &o.integrator, &o.passive, &o.fluid),
+        (timestep, gravity, integrator, passive, fluid, magnetic),
+        (
+            &o.timestep,
+            &o.gravity,
+            &o.integrator,
+            &o.passive,
+            &o.fluid,
+            &o.magnetic
+        ),
         "{model}: options"
     );
     assert_eq!(

@@ -76,12 +76,12 @@ pub fn check_urdf(data: &[u8]) {
     check_loader("fuzz.urdf", data);
 }
 
-/// Mesh readers: the bytes read as STL, OBJ and MSH each either give a
+/// Mesh readers: the bytes read as STL, OBJ, MSH and COLLADA each either give a
 /// mesh or a message; a mesh read compiles (with its hull) or is refused
 /// with a message, and a compiled mesh has finite numbers and a hull whose
 /// faces index its vertices.
 pub fn check_mesh(data: &[u8]) {
-    for ext in ["stl", "obj", "msh"] {
+    for ext in ["stl", "obj", "msh", "dae"] {
         let raw = match mesh::read_bytes(ext, data) {
             Ok(raw) => raw,
             Err(e) => {

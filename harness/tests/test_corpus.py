@@ -29,7 +29,7 @@ KNOWN_FAILURES = {
     "example-robot-data:alex_description/urdf/alex_sake_hands.urdf":
         "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:anymal_b_simple_description/robots/anymal-kinova.urdf":
-        "load: <mesh>: mesh file '<example-robot-data>/kinova_description/meshes/base.dae': unknown mesh file type: expected .stl, .obj or .msh",
+        "rest: rollout step 0: geoms 8 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:anymal_b_simple_description/robots/anymal.urdf":
         "rest: rollout step 0: geoms 8 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:anymal_c_simple_description/urdf/anymal.urdf":
@@ -39,11 +39,11 @@ KNOWN_FAILURES = {
     "example-robot-data:b1_description/urdf/b1.urdf":
         "rest: rollout step 0: geoms 2 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:baxter_description/urdf/baxter.urdf":
-        "load: <mesh>: mesh file '<example-robot-data>/baxter_description/meshes/torso/base_link_collision.DAE': unknown mesh file type: expected .stl, .obj or .msh",
+        "rest: rollout step 0: geoms 3 and 2 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:bolt_description/robots/bolt.urdf":
         "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:borinot_description/urdf/borinot_flying_arm_2.urdf":
-        "load: <mesh>: mesh file '<example-robot-data>/borinot_description/meshes/borinot__base_link.dae': unknown mesh file type: expected .stl, .obj or .msh",
+        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:centauro_description/urdf/centauro.urdf":
         "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:double_pendulum_description/urdf/double_pendulum.urdf":
@@ -61,19 +61,19 @@ KNOWN_FAILURES = {
     "example-robot-data:go2_description/urdf/go2.urdf":
         "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:hextilt_description/urdf/hextilt_flying_arm_5.urdf":
-        "load: <mesh>: mesh file '<example-robot-data>/hextilt_description/meshes/hextilt.dae': unknown mesh file type: expected .stl, .obj or .msh",
+        "rest: rollout step 0: geoms 0 and 2 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:human_description/robots/human.urdf":
         "rest: rollout step 707: the step diverged: the next state is not finite",
     "example-robot-data:hyq_description/robots/hyq_no_sensors.urdf":
-        "load: <mesh>: mesh file '<example-robot-data>/hyq_description/meshes/trunk/trunk.dae': unknown mesh file type: expected .stl, .obj or .msh",
+        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:icub_description/robots/icub.urdf":
-        "load: <mesh>: mesh file '<example-robot-data>/icub_description/meshes/upmc/collision/icub_simple_collision_root_link.dae': unknown mesh file type: expected .stl, .obj or .msh",
+        "pinocchio: error 1.7e-12 > 1e-12 | rest: rollout step 0: geoms 0 and 2 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:icub_description/robots/icub_reduced.urdf":
-        "load: <mesh>: mesh file '<example-robot-data>/icub_description/meshes/upmc/collision/icub_simple_collision_root_link.dae': unknown mesh file type: expected .stl, .obj or .msh",
+        "rest: rollout step 0: geoms 0 and 2 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:iris_description/robots/iris.urdf":
         "rest: rollout step 0: geoms 1 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:kinova_description/robots/kinova.urdf":
-        "load: <mesh>: mesh file '<example-robot-data>/kinova_description/meshes/base.dae': unknown mesh file type: expected .stl, .obj or .msh",
+        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:laikago_description/urdf/laikago.urdf":
         "rest: rollout step 0: geoms 1 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:panda_description/urdf/panda.urdf":
@@ -85,9 +85,9 @@ KNOWN_FAILURES = {
     "example-robot-data:quadruped_description/urdf/quadruped.urdf":
         "rest: rollout step 0: geoms 1 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:romeo_description/urdf/romeo.urdf":
-        "load: <mesh>: mesh file '<example-robot-data>/romeo_description/meshes/V1/collision/TrunkYaw.dae': unknown mesh file type: expected .stl, .obj or .msh",
+        "load: <link>: link 'RThumb3Link' moves (joint 'RThumb3') but neither it nor any link below it has mass or inertia, so that joint has no inertia (Pinocchio's ABA gives NaN, MuJoCo refuses it); give the link an <inertial>",
     "example-robot-data:romeo_description/urdf/romeo_small.urdf":
-        "load: <mesh>: mesh file '<example-robot-data>/romeo_description/meshes/V1/collision/TrunkYaw.dae': unknown mesh file type: expected .stl, .obj or .msh",
+        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:so_arm_description/urdf/so100.urdf":
         "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:so_arm_description/urdf/so101.urdf":
@@ -109,11 +109,11 @@ KNOWN_FAILURES = {
     "example-robot-data:talos_data/robots/talos_reduced_corrected.urdf":
         "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:tiago_description/robots/tiago.urdf":
-        "load: <mesh>: mesh file '<example-robot-data>/tiago_description/meshes/torso/torso_lift_collision_core.dae': unknown mesh file type: expected .stl, .obj or .msh",
+        "rest: rollout step 0: geoms 3 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:tiago_description/robots/tiago_dual.urdf":
-        "load: <mesh>: mesh file '<example-robot-data>/tiago_description/meshes/torso/torso_lift_collision_core.dae': unknown mesh file type: expected .stl, .obj or .msh",
+        "one_step: PyBullet: getJointState failed. | rest: rollout step 0: geoms 3 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:tiago_description/robots/tiago_no_hand.urdf":
-        "load: <mesh>: mesh file '<example-robot-data>/tiago_description/meshes/torso/torso_lift_collision_core.dae': unknown mesh file type: expected .stl, .obj or .msh",
+        "rest: rollout step 0: geoms 3 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:tiago_pro_description/robots/tiago_pro.urdf":
         "rest: rollout step 0: geoms 9 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:ur_description/urdf/ur10_joint_limited_robot.urdf":

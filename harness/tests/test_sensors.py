@@ -55,3 +55,41 @@ def test_sensors_not_computed_raise_value_error(tmp_path):
         m.sensors(np.zeros(1), np.zeros(1), np.zeros(1))
     with pytest.raises(ValueError, match="tau"):
         m.sensors(np.zeros(1), np.zeros(1), np.zeros(2))
+
+
+ACTUATED = """<mujoco><option magnetic="0.2 -0.4 0.3"/><compiler autolimits="true"/><worldbody>
+  <body name="a" pos="0 0 1" euler="10 20 30"><joint name="hinge" axis="0 1 0" damping="0.1"/>
+    <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.04"/>
+    <site name="tip" pos="0.3 0 0" euler="30 -40 50"/>
+    <body pos="0.3 0 0"><joint name="slide" type="slide" axis="1 0.5 0"/>
+      <geom type="box" size="0.05 0.04 0.03"/></body></body></worldbody>
+  <actuator>
+    <position name="servo" joint="hinge" kp="20" kv="2" gear="1.5"/>
+    <motor name="motor" joint="hinge" gear="-0.7"/>
+    <general name="filter" joint="slide" gaintype="affine" gainprm="1 0.5 -0.7" biastype="affine"
+             biasprm="0.3 -1 -0.3" dyntype="filter" dynprm="0.2" gear="2"/>
+    <velocity name="damped" joint="slide" kv="4" forcerange="-0.1 0.1"/>
+  </actuator>
+  <sensor>
+    <magnetometer site="tip"/>
+    <actuatorpos actuator="servo"/><actuatorvel actuator="servo"/><actuatorfrc actuator="servo"/>
+    <actuatorpos actuator="filter"/><actuatorvel actuator="filter"/><actuatorfrc actuator="filter"/>
+    <actuatorfrc actuator="motor"/><actuatorfrc actuator="damped"/>
+    <jointactuatorfrc joint="hinge"/><jointactuatorfrc joint="slide"/>
+    <accelerometer site="tip"/>
+  </sensor></mujoco>"""
+
+
+def test_magnetometer_and_actuator_sensors_match_mujoco_forward(tmp_path):
+    """At ctrl = 0 and act = 0 (the readings' inputs are q, v, tau): the actuators' bias forces, a
+    clamped force range, two actuators on one joint, and their forces entering the accelerations."""
+    path = tmp_path / "actuated.xml"
+    path.write_text(ACTUATED)
+    m, mm = diffosi.Model.load(str(path)), mujoco.MjModel.from_xml_path(str(path))
+    assert list(m.sensor_dim) == mm.sensor_dim.tolist()
+    rng = np.random.default_rng(11)
+    for _ in range(5):
+        q, v, tau = rng.standard_normal(2), rng.standard_normal(2), rng.standard_normal(2)
+        ours, theirs = m.sensors(q, v, tau), mujoco_sensordata(mm, q, v, tau)
+        assert theirs[5] != 0 and theirs[9] == 0 and np.abs(theirs[10]) <= 0.1  # bias acts; clamped
+        np.testing.assert_array_less(np.abs(ours - theirs) / np.maximum(1, np.abs(theirs)), 1e-12)

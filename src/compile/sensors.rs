@@ -15,6 +15,7 @@
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 
 use super::Model;
+use crate::dynamics::actuation::ActuatorTerm;
 use crate::dynamics::constraint::{contact_forces, ConstraintKind, Origin};
 use crate::dynamics::{
     acceleration, check_colliders, check_inputs, rnea_with_transforms, world_frames, Constrained,
@@ -22,8 +23,8 @@ use crate::dynamics::{
 };
 use crate::model::MINVAL;
 use crate::model::{
-    ContactModel, FrameObject, FrameQuantity, JointKind, JointQuantity, PassiveMode, Sensor,
-    SensorKind, SiteQuantity,
+    ActuatorQuantity, ContactModel, FrameObject, FrameQuantity, JointKind, JointQuantity,
+    PassiveMode, Sensor, SensorKind, SiteQuantity,
 };
 use crate::spatial::{Force, Inertia, Motion, Transform};
 
@@ -84,9 +85,14 @@ impl Model {
         let tree = self.tree();
         check_inputs(tree, (q, v, tau))?;
         check_colliders(tree, data, (q, v))?;
+        let actuator_force = self.idle_actuator_forces(q, v);
+        let mut applied = tau.to_vec();
+        for (a, f) in tree.actuators.iter().zip(&actuator_force) {
+            applied[a.dof] += a.law.gear * f;
+        }
         let mut qdd = vec![0.0; self.nv()];
         let mode = (PassiveMode::Explicit, self.opt.timestep);
-        acceleration(tree, data, mode, (q, v, tau), &mut qdd);
+        acceleration(tree, data, mode, (q, v, &applied), &mut qdd);
         let contacts = match self.opt.contact_model {
             ContactModel::Smooth => data.contacts.clone(),
             ContactModel::Constraint => data.constrained.as_ref().map_or(vec![], |c| {
@@ -100,13 +106,12 @@ impl Model {
         let mut out = Vec::with_capacity(self.sensors.iter().map(|s| s.dim).sum());
         for s in &self.sensors {
             let start = out.len();
-            self.read(
-                &bodies,
-                (q, v),
-                &s.kind,
-                data.constrained.as_ref(),
-                &mut out,
-            );
+            let inputs = Readings {
+                bodies: &bodies,
+                constrained: data.constrained.as_ref(),
+                actuator_force: &actuator_force,
+            };
+            self.read(&inputs, (q, v), &s.kind, &mut out);
             if s.cutoff > 0.0 && s.kind.clipped() {
                 for x in &mut out[start..] {
                     *x = x.clamp(-s.cutoff, s.cutoff);
@@ -116,16 +121,27 @@ impl Model {
         Ok(out)
     }
 
-    /// Appends one sensor's readings; `constrained` holds the constraint
-    /// model's rows and forces (none without rows).
+    /// Each actuator's scalar force (MuJoCo's actuator_force) at (q, v)
+    /// with ctrl = 0 and act = 0.
+    fn idle_actuator_forces(&self, q: &[f64], v: &[f64]) -> Vec<f64> {
+        let h = self.opt.timestep;
+        let at = |a: &ActuatorTerm| (q[a.q_at], v[a.dof]);
+        let actuators = &self.tree().actuators;
+        actuators
+            .iter()
+            .map(|a| a.scalar_force(h, at(a), (0.0, 0.0)))
+            .collect()
+    }
+
+    /// Appends one sensor's readings.
     fn read(
         &self,
-        b: &Bodies,
+        inputs: &Readings,
         (q, v): (&[f64], &[f64]),
         kind: &SensorKind,
-        constrained: Option<&Constrained<f64>>,
         out: &mut Vec<f64>,
     ) {
+        let (b, constrained) = (inputs.bodies, inputs.constrained);
         match kind {
             SensorKind::Joint(quantity, j) => {
                 let (qa, va) = self.joint_address(*j);
@@ -169,6 +185,7 @@ impl Model {
                     SiteQuantity::Accelerometer => b.acceleration(body, &frame.pos).lin,
                     SiteQuantity::Velocimeter => b.velocity(body, &frame.pos).lin,
                     SiteQuantity::Gyro => b.velocity(body, &frame.pos).ang,
+                    SiteQuantity::Magnetometer => self.opt.magnetic,
                     SiteQuantity::Force => b.interaction[body].lin,
                     SiteQuantity::Torque => {
                         let f = &b.interaction[body];
@@ -176,6 +193,20 @@ impl Model {
                     }
                 };
                 out.extend(frame.rot.tr_mul(&world).iter());
+            }
+            SensorKind::Actuator(quantity, i) => {
+                let a = &self.tree().actuators[*i];
+                out.push(match quantity {
+                    ActuatorQuantity::Pos => a.law.gear * q[a.q_at],
+                    ActuatorQuantity::Vel => a.law.gear * v[a.dof],
+                    ActuatorQuantity::Force => inputs.actuator_force[*i],
+                });
+            }
+            SensorKind::JointActuatorForce(j) => {
+                let dof = self.joint_address(*j).1;
+                let actuators = self.tree().actuators.iter().zip(inputs.actuator_force);
+                let on_dof = actuators.filter(|(a, _)| a.dof == dof);
+                out.push(on_dof.map(|(a, f)| a.law.gear * f).sum());
             }
             SensorKind::SubtreeCom(body) => out.extend(b.subtree(self, *body).0.iter()),
             SensorKind::SubtreeLinVel(body) => out.extend(b.subtree(self, *body).1.iter()),
@@ -255,6 +286,15 @@ impl Model {
             quat: b.quat[body] * local_quaternion(&rot),
         }
     }
+}
+
+/// What the readings are taken from besides the state: the bodies' motion,
+/// the constraint model's rows and forces (none without rows), and the
+/// actuators' scalar forces.
+struct Readings<'a> {
+    bodies: &'a Bodies,
+    constrained: Option<&'a Constrained<f64>>,
+    actuator_force: &'a [f64],
 }
 
 /// An object's frame in world coordinates: its body, origin, axes (columns)

@@ -114,14 +114,21 @@ pub fn idle_without_inputs(actuators: &[ActuatorTerm]) -> bool {
 }
 
 impl ActuatorTerm {
+    /// Its scalar force (MuJoCo's actuator_force) at joint coordinate x,
+    /// velocity xd, control c (before clamping) and activation a.
+    pub fn scalar_force<T: Real>(&self, h: f64, (x, xd): (T, T), (c, a): (T, T)) -> T {
+        let c = clamp(c, self.law.ctrl_range);
+        self.force((x, xd), (c, a, self.rate(c, a)), h)
+    }
+
     /// Its generalized force on its dof and its next activation after a step
     /// h (a itself without dynamics) at joint coordinate x, velocity xd,
     /// control c (before clamping) and activation a: one actuator of
     /// [`add_actuator_forces`] and [`next_acts`] under Euler.
     pub fn output<T: Real>(&self, h: f64, (x, xd): (T, T), (c, a): (T, T)) -> (T, T) {
+        let force = lift::<T>(self.law.gear) * self.scalar_force(h, (x, xd), (c, a));
         let c = clamp(c, self.law.ctrl_range);
         let rate = self.rate(c, a);
-        let force = lift::<T>(self.law.gear) * self.force((x, xd), (c, a, rate), h);
         let next = if self.act.is_some() {
             self.next_act(a, rate, h)
         } else {

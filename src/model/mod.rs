@@ -50,7 +50,9 @@ pub use constraint::{
 pub use equality::{Equality, EqualityKind, Objects};
 pub use keyframe::Keyframe;
 pub use params::{MapEntry, Param, ParamError, ParamMap};
-pub use sensor::{FrameObject, FrameQuantity, JointQuantity, Sensor, SensorKind, SiteQuantity};
+pub use sensor::{
+    ActuatorQuantity, FrameObject, FrameQuantity, JointQuantity, Sensor, SensorKind, SiteQuantity,
+};
 pub use state::{Inputs, State};
 
 /// Errors from building, loading or editing a model.
@@ -507,6 +509,9 @@ pub struct Options {
     pub solver: SolverOptions,
     /// The medium the bodies move in ([`crate::dynamics::fluid`]).
     pub fluid: Fluid,
+    /// The magnetic field (world coordinates), which only magnetometers
+    /// read (MuJoCo's `magnetic`, default (0, -0.5, 0)).
+    pub magnetic: Vector3<f64>,
 }
 
 /// MuJoCo's fluid: density (kg/m^3), viscosity (Pa s) and wind (m/s, world
@@ -540,6 +545,7 @@ impl Default for Options {
             soft: SoftOptions::default(),
             solver: SolverOptions::default(),
             fluid: Fluid::default(),
+            magnetic: Vector3::new(0.0, -0.5, 0.0),
         }
     }
 }

@@ -16,6 +16,14 @@
 //!   accelerometer includes gravity as an upward acceleration (at rest it
 //!   reads -g, also on a site welded to the world, where velocimeter and
 //!   gyro read zero);
+//! - magnetometer reads the model's magnetic field ([`crate::model::Options::magnetic`],
+//!   world coordinates) in the site's axes;
+//! - actuatorpos and actuatorvel read an actuator's length and velocity
+//!   (for a joint transmission: gear times the joint's coordinate and
+//!   velocity), actuatorfrc its scalar force (MuJoCo's actuator_force), and
+//!   jointactuatorfrc the generalized force all actuators exert on a hinge
+//!   or slide (MuJoCo's qfrc_actuator); all at ctrl = 0 and act = 0, as the
+//!   readings' inputs are (q, v, tau);
 //! - force and torque read the force and moment (about the site) that the
 //!   site's body receives from its parent, in the site's axes: everything
 //!   that moves the body's subtree (inertia and gravity) less the contact
@@ -79,8 +87,17 @@ pub enum SiteQuantity {
     Accelerometer,
     Velocimeter,
     Gyro,
+    Magnetometer,
     Force,
     Torque,
+}
+
+/// What an actuator sensor reads (1 each).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ActuatorQuantity {
+    Pos,
+    Vel,
+    Force,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -92,6 +109,9 @@ pub enum SensorKind {
         reference: Option<FrameObject>,
     },
     Site(SiteQuantity, usize),
+    Actuator(ActuatorQuantity, usize),
+    /// The actuators' generalized force on a hinge or slide (1).
+    JointActuatorForce(usize),
     /// The centre of mass of a body's subtree (3), and its linear velocity
     /// (total momentum over total mass, 3).
     SubtreeCom(usize),
@@ -126,7 +146,9 @@ impl SensorKind {
                 | JointQuantity::LimitVel
                 | JointQuantity::LimitForce,
                 _,
-            ) => 1,
+            )
+            | SensorKind::Actuator(..)
+            | SensorKind::JointActuatorForce(_) => 1,
             SensorKind::Joint(JointQuantity::BallQuat, _) => 4,
             SensorKind::Frame {
                 quantity: FrameQuantity::Quat,
@@ -181,6 +203,10 @@ impl Sensor {
                 object, reference, ..
             } => frame_ok(object) && reference.as_ref().is_none_or(frame_ok),
             SensorKind::Site(_, s) => *s < spec.sites.len(),
+            SensorKind::Actuator(_, a) => *a < spec.actuators.len(),
+            SensorKind::JointActuatorForce(j) => {
+                spec.joints.get(*j).is_some_and(|j| j.kind.nv() == 1)
+            }
             SensorKind::SubtreeCom(b) | SensorKind::SubtreeLinVel(b) => *b < spec.bodies.len(),
             SensorKind::Unsupported { .. } => true,
         };

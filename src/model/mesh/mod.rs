@@ -15,6 +15,7 @@
 //! read, before refpos/refquat/scale (as MuJoCo does), and kept in
 //! [`Mesh::hull`] for the colliders.
 
+mod collada;
 mod compile;
 mod eig3;
 pub mod hull;
@@ -161,14 +162,24 @@ pub fn rotation(q: &[f64; 4]) -> Rotation3<f64> {
     Rotation3::from_matrix_unchecked(Matrix3::from_row_slice(&m))
 }
 
-/// Reads a mesh file by its extension (`.stl`, `.obj`, `.msh`, any case).
-pub fn read_file(path: &Path) -> Result<RawMesh, String> {
+/// The mesh file types MuJoCo reads (MJCF).
+pub const MUJOCO_FORMATS: &[&str] = &["stl", "obj", "msh"];
+/// The mesh file types a URDF may name: MuJoCo's, and COLLADA as PyBullet
+/// and Pinocchio read it.
+pub const URDF_FORMATS: &[&str] = &["stl", "obj", "msh", "dae"];
+
+/// Reads a mesh file by its extension (any case), one of `formats`.
+pub fn read_file(path: &Path, formats: &[&str]) -> Result<RawMesh, String> {
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    if !["stl", "obj", "msh"].contains(&ext.as_str()) {
-        return Err("unknown mesh file type: expected .stl, .obj or .msh".into());
+    if !formats.contains(&ext.as_str()) {
+        let (last, rest) = formats.split_last().unwrap_or((&"", &[]));
+        return Err(format!(
+            "unknown mesh file type: expected .{} or .{last}",
+            rest.join(", .")
+        ));
     }
     let size = std::fs::metadata(path).map_err(|e| e.to_string())?.len();
     if size > MAX_FILE_BYTES {
@@ -180,9 +191,10 @@ pub fn read_file(path: &Path) -> Result<RawMesh, String> {
     read_bytes(&ext, &bytes)
 }
 
-/// Reads mesh file contents of type `ext` (`stl`, `obj` or `msh`).
+/// Reads mesh file contents of type `ext` (`stl`, `obj`, `msh` or `dae`).
 pub fn read_bytes(ext: &str, bytes: &[u8]) -> Result<RawMesh, String> {
     match ext {
+        "dae" => collada::read(bytes),
         "stl" => stl::read(bytes),
         "obj" => obj::read(bytes),
         "msh" => msh::read(bytes),
@@ -220,5 +232,14 @@ mod tests {
         }
         let far = m.vertices.iter().map(|v| v.norm()).fold(0.0, f64::max);
         assert!(m.rbound() >= far - 1e-7 && m.rbound() <= 3f64.sqrt() * far);
+    }
+
+    #[test]
+    fn collada_is_a_urdf_format_only() {
+        let path = Path::new("/nonexistent/arm.DAE");
+        let err = read_file(path, MUJOCO_FORMATS).unwrap_err();
+        assert_eq!(err, "unknown mesh file type: expected .stl, .obj or .msh");
+        let err = read_file(path, URDF_FORMATS).unwrap_err();
+        assert!(!err.contains("unknown mesh file type"), "{err}");
     }
 }

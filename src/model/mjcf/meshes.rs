@@ -79,7 +79,7 @@ impl<'a> Reader<'a> {
         let mut raw = match file {
             Some(f) => {
                 let path = self.mesh_path(f);
-                mesh::read_file(&path)
+                mesh::read_file(&path, mesh::MUJOCO_FORMATS)
                     .map_err(|e| self.error(node, format!("mesh file '{}': {e}", path.display())))?
             }
             None => RawMesh::default(),

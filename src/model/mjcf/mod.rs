@@ -139,8 +139,9 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
     reader.check_moving_bodies(&tree)?;
     reader.scale_total_mass(&mut tree);
     let mut actuators = reader.read_actuators(&tree, root)?;
+    let written: Vec<String> = actuators.iter().map(|a| a.name.clone()).collect();
     tree::fill_names(&mut actuators, "actuator", |a| &mut a.name);
-    let mut sensors = reader.read_sensors(&tree, root)?;
+    let mut sensors = reader.read_sensors(&tree, &written, root)?;
     tree::fill_names(&mut sensors, "sensor", |s| &mut s.name);
     let (bodies, joints, geoms, sites) = tree.finish();
     let body_names: Vec<&str> = bodies.iter().map(|b| b.name.as_str()).collect();

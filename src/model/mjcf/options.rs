@@ -93,6 +93,7 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
             opt.timestep = h;
         }
         opt.gravity = a.vector("gravity")?.unwrap_or(opt.gravity);
+        opt.magnetic = a.vector("magnetic")?.unwrap_or(opt.magnetic);
         if let Some(name) = read_integrator(&a)? {
             integrator = name;
         }

@@ -2,7 +2,8 @@
 //! compiler checks it (known objects of the right kind, non-negative cutoff
 //! and noise) and laid out with MuJoCo's size. Those [`crate::model::sensor`]
 //! computes become their [`SensorKind`]; the others (touch, rangefinder,
-//! tendon, actuator, tendon limit, contact, distance, energy, clock, user sensors,
+//! tendon, tendon actuator force, tendon limit, contact, distance, energy,
+//! clock (the state has no time), user sensors,
 //! frame sensors on cameras, and any sensor whose readings are delayed or
 //! sampled at an interval) are kept as [`SensorKind::Unsupported`], so that
 //! a model using them loads and only evaluating its sensors fails, naming
@@ -20,19 +21,18 @@ use super::schema::{check_attributes, SENSOR_ATTRS};
 use super::tree::Tree;
 use super::{children, elements, tag, unrecognized, unsupported, Node, Reader, Result};
 use crate::model::{
-    FrameObject, FrameQuantity, JointKind, JointQuantity, Sensor, SensorKind, SiteQuantity,
+    ActuatorQuantity, FrameObject, FrameQuantity, JointKind, JointQuantity, Sensor, SensorKind,
+    SiteQuantity,
 };
 
 /// The sensors MuJoCo computes that are not computed here, with their own
 /// attributes and sizes (0: the size depends on attributes).
 #[rustfmt::skip]
 const OTHERS: &[(&str, &[&str], usize)] = &[
-    ("touch", &["site"], 1), ("magnetometer", &["site"], 3),
+    ("touch", &["site"], 1),
     ("camprojection", &["site", "camera"], 2),
     ("rangefinder", &["site", "camera", "data"], 0),
     ("tendonpos", &["tendon"], 1), ("tendonvel", &["tendon"], 1),
-    ("actuatorpos", &["actuator"], 1), ("actuatorvel", &["actuator"], 1),
-    ("actuatorfrc", &["actuator"], 1), ("jointactuatorfrc", &["joint"], 1),
     ("tendonactuatorfrc", &["tendon"], 1),
     ("tendonlimitpos", &["tendon"], 1),
     ("tendonlimitvel", &["tendon"], 1), ("tendonlimitfrc", &["tendon"], 1),
@@ -59,12 +59,19 @@ const FRAMES: [(&str, FrameQuantity); 9] = [
     ("frameangacc", FrameQuantity::AngAcc),
 ];
 
-const SITES: [(&str, SiteQuantity); 5] = [
+const SITES: [(&str, SiteQuantity); 6] = [
     ("accelerometer", SiteQuantity::Accelerometer),
     ("velocimeter", SiteQuantity::Velocimeter),
     ("gyro", SiteQuantity::Gyro),
+    ("magnetometer", SiteQuantity::Magnetometer),
     ("force", SiteQuantity::Force),
     ("torque", SiteQuantity::Torque),
+];
+
+const ACTUATORS: [(&str, ActuatorQuantity); 3] = [
+    ("actuatorpos", ActuatorQuantity::Pos),
+    ("actuatorvel", ActuatorQuantity::Vel),
+    ("actuatorfrc", ActuatorQuantity::Force),
 ];
 
 const JOINTS: [(&str, JointQuantity); 7] = [
@@ -99,7 +106,13 @@ const RAY_DATA: [(&str, usize); 6] = [
 
 impl<'a> Reader<'a> {
     /// Every sensor in document order; explicit names must differ.
-    pub(super) fn read_sensors(&self, tree: &Tree<'a>, root: Node<'a>) -> Result<Vec<Sensor>> {
+    /// `actuators` are the actuators' names as the file gives them.
+    pub(super) fn read_sensors(
+        &self,
+        tree: &Tree<'a>,
+        actuators: &[String],
+        root: Node<'a>,
+    ) -> Result<Vec<Sensor>> {
         let mut names = HashSet::new();
         let mut sensors = vec![];
         let disabled = children(root, "option")
@@ -109,7 +122,7 @@ impl<'a> Reader<'a> {
         for section in children(root, "sensor") {
             check_attributes(self.file, section, &[])?;
             for node in elements(section) {
-                let mut sensor = self.read_sensor(tree, node)?;
+                let mut sensor = self.read_sensor(tree, actuators, node)?;
                 if disabled {
                     let why = "sensors are disabled (<flag sensor=\"disable\"/>)";
                     sensor.kind = other(tag(node), why);
@@ -123,10 +136,10 @@ impl<'a> Reader<'a> {
         Ok(sensors)
     }
 
-    fn read_sensor(&self, tree: &Tree<'a>, node: Node<'a>) -> Result<Sensor> {
+    fn read_sensor(&self, tree: &Tree<'a>, actuators: &[String], node: Node<'a>) -> Result<Sensor> {
         let a = Attrs::of(self.file, node);
         let element = tag(node);
-        let kind = match self.computed_kind(tree, node)? {
+        let kind = match self.computed_kind(tree, actuators, node)? {
             Some(kind) => kind,
             None => self.other_kind(tree, node)?,
         };
@@ -158,9 +171,33 @@ impl<'a> Reader<'a> {
     }
 
     /// The kind of a sensor that is computed (None for the others).
-    fn computed_kind(&self, tree: &Tree<'a>, node: Node<'a>) -> Result<Option<SensorKind>> {
+    fn computed_kind(
+        &self,
+        tree: &Tree<'a>,
+        actuators: &[String],
+        node: Node<'a>,
+    ) -> Result<Option<SensorKind>> {
         let element = tag(node);
         let attrs = |own: &[&'static str]| [SENSOR_ATTRS, own].concat();
+        if let Some((_, quantity)) = ACTUATORS.iter().find(|(t, _)| *t == element) {
+            check_attributes(self.file, node, &attrs(&["actuator"]))?;
+            let name = value(node, "actuator").filter(|n| !n.is_empty());
+            let Some(name) = name else {
+                return Err(self.error(node, "the sensor needs 'actuator'"));
+            };
+            let Some(i) = actuators.iter().position(|a| a == name) else {
+                return Err(self.error(node, format!("unknown actuator '{name}'")));
+            };
+            return Ok(Some(SensorKind::Actuator(*quantity, i)));
+        }
+        if element == "jointactuatorfrc" {
+            check_attributes(self.file, node, &attrs(&["joint"]))?;
+            let j = self.named(tree, node, "joint", "joint")?;
+            if tree.joints[j].kind.nv() != 1 {
+                return Err(self.error(node, "joint must be slide or hinge in sensor"));
+            }
+            return Ok(Some(SensorKind::JointActuatorForce(j)));
+        }
         if let Some((_, quantity)) = JOINTS.iter().find(|(t, _)| *t == element) {
             check_attributes(self.file, node, &attrs(&["joint"]))?;
             let j = self.named(tree, node, "joint", "joint")?;
@@ -436,6 +473,9 @@ mod tests {
             (r#"<jointpos name="a" joint="j"/><jointvel name="a" joint="j"/>"#, "repeated name 'a'"),
             (r#"<jointpos joint="j" site="s"/>"#, "unrecognized attribute 'site'"),
             (r#"<touch site="nope"/>"#, "unknown site 'nope'"),
+            (r#"<actuatorfrc actuator="nope"/>"#, "unknown actuator 'nope'"),
+            ("<actuatorpos/>", "the sensor needs 'actuator'"),
+            (r#"<jointactuatorfrc joint="ball"/>"#, "joint must be slide or hinge in sensor"),
             (r#"<contact data="force found"/>"#, "data attributes must be in order"),
             (r#"<tactile mesh="m" geom="g"/>"#, "<tactile> is not supported"),
             ("<thermometer/>", "unrecognized element <thermometer>"),

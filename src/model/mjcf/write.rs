@@ -41,10 +41,10 @@ use nalgebra::{Rotation3, UnitQuaternion};
 
 use crate::model::params::inertia_to_six;
 use crate::model::{
-    ActDynamics, Actuator, Bias, Body, Cone, ContactModel, EqualityKind, FrameObject,
-    FrameQuantity, Gain, Geom, Integrator, Joint, JointKind, JointQuantity, ModelError, Objects,
-    Options, PassiveMode, SensorKind, Shape, SiteQuantity, SoftOptions, SolParams, Spec,
-    CCD_ITERATIONS, CCD_TOLERANCE,
+    ActDynamics, Actuator, ActuatorQuantity, Bias, Body, Cone, ContactModel, EqualityKind,
+    FrameObject, FrameQuantity, Gain, Geom, Integrator, Joint, JointKind, JointQuantity,
+    ModelError, Objects, Options, PassiveMode, SensorKind, Shape, SiteQuantity, SoftOptions,
+    SolParams, Spec, CCD_ITERATIONS, CCD_TOLERANCE,
 };
 
 /// Writes `spec` as an MJCF document, checked by reading and validating it.
@@ -157,6 +157,11 @@ fn write_options(doc: &mut Document, opt: &Options) -> Result<(), ModelError> {
         .number("density", opt.fluid.density)
         .number("viscosity", opt.fluid.viscosity)
         .numbers("wind", opt.fluid.wind.as_slice());
+    let option = if opt.magnetic == Options::default().magnetic {
+        option
+    } else {
+        option.numbers("magnetic", opt.magnetic.as_slice())
+    };
     let ccd = opt.solver.ccd;
     let option = if (ccd.iterations, ccd.tolerance) == (CCD_ITERATIONS, CCD_TOLERANCE) {
         option
@@ -377,10 +382,22 @@ fn write_sensors(doc: &mut Document, spec: &Spec) -> Result<(), ModelError> {
                     SiteQuantity::Accelerometer => "accelerometer",
                     SiteQuantity::Velocimeter => "velocimeter",
                     SiteQuantity::Gyro => "gyro",
+                    SiteQuantity::Magnetometer => "magnetometer",
                     SiteQuantity::Force => "force",
                     SiteQuantity::Torque => "torque",
                 };
                 Tag::new(element).text("site", &spec.sites[*s].name)
+            }
+            SensorKind::Actuator(quantity, a) => {
+                let element = match quantity {
+                    ActuatorQuantity::Pos => "actuatorpos",
+                    ActuatorQuantity::Vel => "actuatorvel",
+                    ActuatorQuantity::Force => "actuatorfrc",
+                };
+                Tag::new(element).text("actuator", &spec.actuators[*a].name)
+            }
+            SensorKind::JointActuatorForce(j) => {
+                Tag::new("jointactuatorfrc").text("joint", &spec.joints[*j].name)
             }
             SensorKind::SubtreeCom(b) => Tag::new("subtreecom").text("body", &spec.bodies[*b].name),
             SensorKind::SubtreeLinVel(b) => {

@@ -106,7 +106,7 @@ impl Reader<'_> {
         let name = path
             .file_stem()
             .map_or(String::new(), |s| s.to_string_lossy().into_owned());
-        let compiled = mesh::read_file(&path)
+        let compiled = mesh::read_file(&path, mesh::URDF_FORMATS)
             .and_then(|raw| mesh::compile(&name, &raw, &settings))
             .map_err(|e| self.error(node, format!("mesh file '{}': {e}", path.display())))?;
         meshes.push(UrdfMesh {
