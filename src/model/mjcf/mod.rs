@@ -135,7 +135,8 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
     let mut tree = Tree::new();
     reader.read_world(&mut tree, &children(root, "worldbody"))?;
     check_unsupported_sections(file, root)?;
-    reader.check_tendons(&tree, root)?;
+    let mut tendons = reader.read_tendons(&tree, root)?;
+    tree::fill_names(&mut tendons, "tendon", |t| &mut t.name);
     reader.check_moving_bodies(&tree)?;
     reader.scale_total_mass(&mut tree);
     let mut actuators = reader.read_actuators(&tree, root)?;
@@ -149,6 +150,7 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
         bodies: &bodies,
         joints: &joints,
         sites: &sites,
+        tendons: &tendons,
     };
     let equalities = reader.read_equalities(root, &named)?;
     let mut meshes = std::mem::take(&mut reader.meshes);
@@ -174,6 +176,7 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
         meshes: meshes.compiled,
         hfields: std::mem::take(&mut reader.hfields.compiled),
         equalities,
+        tendons,
     };
     spec.keyframes = reader.read_keyframes(root, &spec)?;
     Ok(spec)
