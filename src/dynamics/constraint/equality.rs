@@ -297,6 +297,28 @@ fn poly<T: Real>(c: &[T; 5], d: T) -> (T, T) {
     (value, slope)
 }
 
+/// Pushes a coupling's row: J (nv), its dofs (descending), A_ii, error.
+fn push_coupling<T: Real>(
+    at: &At<T>,
+    (origin, sol): (Origin, &SolParams<T>),
+    (row, dofs, diag, error): (Vec<T>, Vec<usize>, T, T),
+    rows: &mut Rows<T>,
+) {
+    rows.j.extend(row);
+    rows.moving(1, dofs);
+    let block = Block {
+        origin,
+        kind: &[RowKind::Equality],
+        diag: &[diag],
+        dist: error,
+        pos: None,
+        margin: 0.0,
+        sol: *sol,
+        floss: T::zero(),
+    };
+    rows.push(block, at.v, &at.tree.opt, None);
+}
+
 /// A tendon coupling's row.
 fn tendons<T: Real>(
     at: &At<T>,
@@ -320,19 +342,7 @@ fn tendons<T: Real>(
         dofs.sort_unstable_by(|a, b| b.cmp(a));
         dofs.dedup();
     }
-    rows.j.extend(row);
-    rows.moving(1, dofs);
-    let block = Block {
-        origin,
-        kind: &[RowKind::Equality],
-        diag: &[diag],
-        dist: error,
-        pos: None,
-        margin: 0.0,
-        sol: *sol,
-        floss: T::zero(),
-    };
-    rows.push(block, at.v, &tree.opt, None);
+    push_coupling(at, (origin, sol), (row, dofs, diag, error), rows);
 }
 
 /// A joint coupling's row.
@@ -360,17 +370,5 @@ fn joints<T: Real>(
         }
     }
     dofs.sort_unstable_by(|a, b| b.cmp(a));
-    rows.j.extend(row);
-    rows.moving(1, dofs);
-    let block = Block {
-        origin,
-        kind: &[RowKind::Equality],
-        diag: &[diag],
-        dist: error,
-        pos: None,
-        margin: 0.0,
-        sol: *sol,
-        floss: T::zero(),
-    };
-    rows.push(block, at.v, &tree.opt, None);
+    push_coupling(at, (origin, sol), (row, dofs, diag, error), rows);
 }

@@ -9,9 +9,8 @@
 //!
 //! The origin's id is the tendon's index in the model.
 
-use super::impedance::Block;
-use super::limit::Limit;
-use super::{At, ConstraintKind, Origin, RowKind, Rows};
+use super::limit::{self, Limit};
+use super::{friction, At, ConstraintKind, Origin, Rows};
 use crate::dynamics::TendonConsts;
 use crate::spatial::{lift, Real};
 
@@ -29,20 +28,11 @@ pub(super) fn append_friction<T: Real>(at: &At<T>, rows: &mut Rows<T>) {
         let (floss, sol) = t.frictionloss;
         if floss > T::zero() {
             push_moment(rows, t, T::one());
-            let block = Block {
-                origin: Origin {
-                    kind: ConstraintKind::TendonFriction,
-                    id,
-                },
-                kind: &[RowKind::Friction],
-                diag: &[t.invweight],
-                dist: T::zero(),
-                pos: None,
-                margin: 0.0,
-                sol,
-                floss,
+            let origin = Origin {
+                kind: ConstraintKind::TendonFriction,
+                id,
             };
-            rows.push(block, at.v, &at.tree.opt, None);
+            friction::push(at, (origin, t.invweight), (floss, sol), rows);
         }
     }
 }
@@ -62,20 +52,11 @@ pub(super) fn append_limits<T: Real>(at: &At<T>, rows: &mut Rows<T>) {
         for (dist, sign) in [(l - lift(lo), T::one()), (lift::<T>(hi) - l, -T::one())] {
             if dist < lift(margin) {
                 push_moment(rows, t, sign);
-                let block = Block {
-                    origin: Origin {
-                        kind: ConstraintKind::TendonLimit,
-                        id,
-                    },
-                    kind: &[RowKind::Unilateral],
-                    diag: &[t.invweight],
-                    dist,
-                    pos: None,
-                    margin,
-                    sol,
-                    floss: T::zero(),
+                let origin = Origin {
+                    kind: ConstraintKind::TendonLimit,
+                    id,
                 };
-                rows.push(block, at.v, &at.tree.opt, None);
+                limit::push_side(at, (origin, t.invweight), (dist, margin, sol), rows);
             }
         }
     }
