@@ -149,6 +149,7 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
         meshes,
         hfields,
         equalities,
+        tendons,
     } = ours;
     assert_eq!(name, &theirs.name, "{model}: model name");
     assert_eq!(keyframes, &theirs.keyframes, "{model}: keyframes");
@@ -156,6 +157,7 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
     assert_eq!(meshes, &theirs.meshes, "{model}: meshes");
     assert_eq!(hfields, &theirs.hfields, "{model}: height fields");
     assert_eq!(equalities, &theirs.equalities, "{model}: equalities");
+    assert_eq!(tendons, &theirs.tendons, "{model}: tendons");
     assert_eq!(
         (pairs, excludes),
         (&theirs.pairs, &theirs.excludes),

@@ -45,6 +45,11 @@ pub fn equality_consts<T: Real>(
                 second: joints[1].map(node_of),
                 polycoef: polycoef.map(lift),
             },
+            EqualityKind::Tendon { tendons, polycoef } => Held::Tendons {
+                first: tendons[0].expect("checked"),
+                second: tendons[1],
+                polycoef: polycoef.map(lift),
+            },
             EqualityKind::Connect { objects, anchor } => match objects {
                 Objects::Bodies(bodies) => {
                     let anchor = lift_vector(anchor);

@@ -17,6 +17,7 @@ mod mixing;
 mod pairs;
 mod sensors;
 mod simulate;
+mod tendon;
 mod tree;
 
 pub use invweight::invweight0;
@@ -83,6 +84,7 @@ impl Model {
             meshes: vec![],
             hfields: vec![],
             equalities: vec![],
+            tendons: vec![],
         })
     }
 

@@ -13,6 +13,7 @@ use super::fluid::fluid_bodies;
 use super::gravcomp::gravcomp_bodies;
 use super::invweight::invweight0;
 use super::pairs::{collision_pairs, contact_pairs, lawless_pairs};
+use super::tendon::tendon_consts;
 use crate::dynamics::actuation::ActuatorTerm;
 use crate::dynamics::collision::{CollisionPair, GeomFrame, Sweep};
 use crate::dynamics::configuration::Coordinates;
@@ -115,6 +116,7 @@ impl<T: Real> Tree<T> {
             (Param::ContactFriction, soft.friction),
         ];
         tree.soft = Soft::new(soft, constants.map(|(p, x)| lift_param(p, 0, x)));
+        tree.tendons = tendon_consts(&tree, model);
         match model.opt.contact_model {
             ContactModel::Smooth => tree.add_pairs(model),
             ContactModel::Constraint => tree.add_constraints(model, &lift_param),

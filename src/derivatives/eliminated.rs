@@ -153,7 +153,7 @@ impl Elimination {
             .iter()
             .filter_map(|e| match e.held {
                 Held::Points { bodies, .. } => Some(bodies),
-                Held::Joints { .. } => None,
+                Held::Joints { .. } | Held::Tendons { .. } => None,
             });
         for bodies in self.contacts.iter().map(|c| c.bodies).chain(held) {
             for b in bodies {
@@ -245,15 +245,25 @@ impl Elimination {
                 .range
                 .is_some_and(|(lo, hi)| x < lo + self.margin || x > hi - self.margin)
         };
+        let tree = self.detect.tree();
+        let tendon_moves = |t: usize| tree.tendons[t].dofs().contains(&d);
         match kind {
             ConstraintKind::Equality => {
-                let equalities = &self.detect.tree().constraint.equalities;
+                let equalities = &tree.constraint.equalities;
                 equalities.iter().any(|e| match e.held {
                     Held::Joints { first, second, .. } => {
                         first.1 == d || second.is_some_and(|s| s.1 == d)
                     }
+                    Held::Tendons { first, second, .. } => {
+                        tendon_moves(first) || second.is_some_and(tendon_moves)
+                    }
                     Held::Points { .. } => false,
                 })
+            }
+            ConstraintKind::TendonFriction => (0..tree.tendons.len())
+                .any(|t| tree.tendons[t].frictionloss.0 > 0.0 && tendon_moves(t)),
+            ConstraintKind::TendonLimit => {
+                (0..tree.tendons.len()).any(|t| tree.tendons[t].limit.is_some() && tendon_moves(t))
             }
             ConstraintKind::DofFriction => joint.frictionloss > 0.0,
             ConstraintKind::JointLimit => near(x) || near(x_next),

@@ -61,6 +61,7 @@ fn dual_only(model: &Model) -> bool {
     !model.one_dof_joints()
         || model.opt.fluid.acts()
         || model.has_gravcomp()
+        || model.has_tendon_springs()
         || model.opt.integrator.is_implicit()
 }
 
@@ -85,12 +86,13 @@ fn dual_step(model: &Model) -> bool {
     rotations
         || model.opt.fluid.acts()
         || model.has_gravcomp()
+        || model.has_tendon_springs()
         || model.opt.integrator.is_implicit()
 }
 
 /// Refuses, for the residuals with unknown constraints (which index q and v
 /// alike and differentiate analytically), a model with ball or free joints,
-/// fluid forces or gravity compensation.
+/// fluid forces, gravity compensation or acting tendons.
 pub(crate) fn one_dof_joints(model: &Model) -> Result<(), StepError> {
     if !model.one_dof_joints() {
         Err(StepError::NoTangentDerivatives)
@@ -98,6 +100,8 @@ pub(crate) fn one_dof_joints(model: &Model) -> Result<(), StepError> {
         Err(StepError::NoFluidDerivatives)
     } else if model.has_gravcomp() {
         Err(StepError::NoGravcompDerivatives)
+    } else if model.tendons.iter().any(|t| t.acts()) {
+        Err(StepError::NoTendonDerivatives)
     } else {
         Ok(())
     }

@@ -120,6 +120,7 @@ fn velocity_derivative<T: Real>(
 ) {
     b.qderiv.fill(T::zero());
     add_damping_derivative(tree, &mut b.qderiv);
+    add_tendon_damping_derivative(tree, &mut b.qderiv);
     add_fluid_derivative(tree, data, &mut b.qderiv);
     for (i, slope) in b.actuators.iter().enumerate() {
         b.qderiv[(i, i)] += *slope;
@@ -133,6 +134,17 @@ fn velocity_derivative<T: Real>(
 fn add_damping_derivative<T: Real>(tree: &Tree<T>, qderiv: &mut DMatrix<T>) {
     for i in 0..tree.nv() {
         qderiv[(i, i)] -= tree.damping[i];
+    }
+}
+
+/// The tendons' damping derivative -sum damping J^T J (mjd_passive_vel).
+fn add_tendon_damping_derivative<T: Real>(tree: &Tree<T>, qderiv: &mut DMatrix<T>) {
+    for t in tree.tendons.iter().filter(|t| t.damping != T::zero()) {
+        for (_, r, cr) in &t.path {
+            for (_, c, cc) in &t.path {
+                qderiv[(*r, *c)] -= t.damping * *cr * *cc;
+            }
+        }
     }
 }
 

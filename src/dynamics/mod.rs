@@ -31,6 +31,7 @@ pub mod mocap;
 mod passive;
 mod rnea;
 mod step;
+pub mod tendon;
 mod tree;
 
 pub use aba::{aba, aba_with_transforms};
@@ -48,6 +49,7 @@ pub use step::{
     acceleration, check_actuation, check_colliders, check_inputs, implicit_acceleration, step,
     step_actuated, step_applied, Constrained, StepError,
 };
+pub use tendon::{add_tendon_forces, TendonConsts};
 pub use tree::{BodyFrame, NodeJoint, Tree};
 
 use crate::spatial::{ArticulatedInertia, Force, Inertia, Motion, Real, Transform};

@@ -18,9 +18,9 @@ use super::integrator::{
     euler_step, implicit_step, implicit_terms, runge_kutta, tableau, ImplicitPassive,
 };
 use super::{
-    aba_with_transforms, add_soft_forces_with_transforms, bias_forces_with_transforms,
-    crba_with_transforms, ltdl_factor, ltdl_solve, passive_forces, update_transforms, world_frames,
-    Data, Tree,
+    aba_with_transforms, add_soft_forces_with_transforms, add_tendon_forces,
+    bias_forces_with_transforms, crba_with_transforms, ltdl_factor, ltdl_solve, passive_forces,
+    update_transforms, world_frames, Data, Tree,
 };
 use crate::model::{ContactModel, Integrator, PassiveMode};
 use crate::spatial::{lift, Real};
@@ -103,6 +103,13 @@ pub enum StepError {
          (gravcomp) is not supported yet (their identification with modelled constraints is)"
     )]
     NoGravcompDerivatives,
+    /// The same for models whose tendons act.
+    #[error(
+        "identification with unknown constraints of models whose tendons act (springs, \
+         dampers, limits, frictionloss) is not supported yet (their identification with \
+         modelled constraints is)"
+    )]
+    NoTendonDerivatives,
     /// The next state is finite but a Jacobian block overflowed.
     #[error("the step Jacobian {block} is not finite (state, forces or parameters too large)")]
     JacobianNotFinite { block: &'static str },
@@ -385,6 +392,7 @@ fn accelerate<T: Real>(
     let [force, extra, stretched, ..] = &mut scratch;
     implicit_terms(tree, (mode, h), (q, v), stretched, extra);
     passive_forces(tree, stretched, v, force);
+    add_tendon_forces(tree, (q, v), force);
     for i in 0..tree.nv() {
         force[i] += tau[i];
     }

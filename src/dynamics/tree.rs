@@ -20,6 +20,7 @@ use super::constraint::ConstraintConsts;
 use super::contact::{Pair, Soft};
 use super::fluid::FluidBody;
 use super::gravcomp::GravcompBody;
+use super::tendon::TendonConsts;
 use crate::model::{JointKind, Options, SoftOptions};
 use crate::spatial::{Inertia, Motion, Real, Transform};
 
@@ -184,6 +185,8 @@ pub struct Tree<T: Real> {
     /// ([`super::mocap`]): 3 and 4 (w x y z) entries per mocap body.
     pub mocap_pos: Vec<f64>,
     pub mocap_quat: Vec<f64>,
+    /// The model's tendons, in model order ([`super::tendon`]).
+    pub tendons: Vec<TendonConsts<T>>,
     /// The model's options, as the spec gives them (timestep, integrator,
     /// which law contacts follow, solver, medium): the step reads them here.
     /// Those with a T-valued form are lifted beside them (`gravity`, `soft`).
@@ -218,6 +221,7 @@ impl<T: Real> Tree<T> {
             free_bodies: vec![],
             mocap_pos: vec![],
             mocap_quat: vec![],
+            tendons: vec![],
             opt: Options::default(),
         }
     }
@@ -237,6 +241,10 @@ impl<T: Real> Tree<T> {
             || c.limits.iter().any(Option::is_some)
             || c.frictionloss.iter().any(|(f, _)| *f > T::zero())
             || !c.equalities.is_empty()
+            || self
+                .tendons
+                .iter()
+                .any(|t| t.limit.is_some() || t.frictionloss.0 > T::zero())
     }
 
     pub fn nv(&self) -> usize {

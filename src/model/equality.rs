@@ -16,6 +16,8 @@
 //! - `joint`: q1 - q1_0 = c0 + c1 d + c2 d^2 + c3 d^3 + c4 d^4 with d =
 //!   q2 - q2_0 (`polycoef`, the _0 at qpos0); with one joint, q1 - q1_0 =
 //!   c0. Hinges and slides only.
+//! - `tendon`: the same law on two tendons' lengths (L1 - L1_0 = c0 + c1 d
+//!   + ... with d = L2 - L2_0, the _0 at qpos0).
 
 use nalgebra::{Quaternion, Vector3};
 
@@ -50,6 +52,11 @@ pub enum EqualityKind {
         joints: [Option<usize>; 2],
         polycoef: [f64; 5],
     },
+    /// Indices into [`super::Spec::tendons`].
+    Tendon {
+        tendons: [Option<usize>; 2],
+        polycoef: [f64; 5],
+    },
 }
 
 /// The two objects of a connect or weld: bodies, or sites (indices into
@@ -65,14 +72,15 @@ impl Equality {
     /// (errors name the equality): its solver parameters, finite numbers,
     /// two different objects that exist, joints that are hinges or slides.
     pub fn check(&self, spec: &super::Spec) -> Result<(), String> {
-        self.check_parts(spec.bodies.len(), spec.sites.len(), &spec.joints)
+        let counts = [spec.bodies.len(), spec.sites.len(), spec.tendons.len()];
+        self.check_parts(counts, &spec.joints)
     }
 
-    /// [`Equality::check`] in a model of `nbody` bodies, `nsite` sites and `joints`.
+    /// [`Equality::check`] in a model of `nbody` bodies, `nsite` sites,
+    /// `ntendon` tendons and `joints`.
     pub fn check_parts(
         &self,
-        nbody: usize,
-        nsite: usize,
+        [nbody, nsite, ntendon]: [usize; 3],
         joints: &[super::Joint],
     ) -> Result<(), String> {
         let owner = format!("equality '{}'", self.name);
@@ -85,6 +93,9 @@ impl Equality {
             }
             EqualityKind::Joint { joints: ids, .. } => {
                 ids[0].is_some() && ids.iter().flatten().all(|j| *j < joints.len())
+            }
+            EqualityKind::Tendon { tendons, .. } => {
+                tendons[0].is_some() && tendons.iter().flatten().all(|t| *t < ntendon)
             }
         };
         if !exists {
@@ -125,6 +136,9 @@ impl Equality {
                     }
                 }
                 (polycoef.to_vec(), ids[0] == ids[1])
+            }
+            EqualityKind::Tendon { tendons, polycoef } => {
+                (polycoef.to_vec(), tendons[0] == tendons[1])
             }
         };
         if !finite(&numbers) {

@@ -39,6 +39,7 @@ pub mod mjcf;
 pub mod params;
 pub mod sensor;
 mod state;
+pub mod tendon;
 pub mod urdf;
 mod xml;
 
@@ -54,6 +55,7 @@ pub use sensor::{
     ActuatorQuantity, FrameObject, FrameQuantity, JointQuantity, Sensor, SensorKind, SiteQuantity,
 };
 pub use state::{Inputs, State};
+pub use tendon::Tendon;
 
 /// Errors from building, loading or editing a model.
 #[derive(Debug, thiserror::Error)]
@@ -647,6 +649,8 @@ pub struct Spec {
     pub hfields: Vec<hfield::HField>,
     /// Equality constraints (MJCF `<equality>`), rows of the constraint model.
     pub equalities: Vec<Equality>,
+    /// Tendons (MJCF `<tendon>`): fixed tendons.
+    pub tendons: Vec<Tendon>,
 }
 
 /// Which inertia tensors a model accepts, beyond finite, symmetric and
@@ -737,6 +741,13 @@ impl Spec {
     /// owns `q[i]` and `v[i]`).
     pub fn one_dof_joints(&self) -> bool {
         self.joints.iter().all(|j| j.kind.nv() == 1)
+    }
+
+    /// Whether a tendon has a spring or a damper.
+    pub fn has_tendon_springs(&self) -> bool {
+        self.tendons
+            .iter()
+            .any(|t| t.stiffness != 0.0 || t.damping != 0.0)
     }
 
     /// Whether a body with joints above it has gravity compensation.
@@ -908,6 +919,16 @@ impl Spec {
         }
         for s in &self.sensors {
             s.check(self).map_err(ModelError::NotPhysical)?;
+        }
+        for t in &self.tendons {
+            t.check(&self.joints).map_err(ModelError::NotPhysical)?;
+            let rows = t.range.is_some() || t.frictionloss > 0.0;
+            if rows && o.contact_model == ContactModel::Smooth {
+                return Err(ModelError::Unsupported(format!(
+                    "tendon '{}': tendon limits and frictionloss need the constraint contact model",
+                    t.name
+                )));
+            }
         }
         for e in &self.equalities {
             e.check(self).map_err(ModelError::NotPhysical)?;

@@ -47,7 +47,9 @@ pub(super) fn differentiable(c: &Constrained<f64>) -> bool {
 fn analytic(kind: ConstraintKind) -> bool {
     match kind {
         ConstraintKind::DofFriction | ConstraintKind::JointLimit | ConstraintKind::Contact => true,
-        ConstraintKind::Equality => false,
+        ConstraintKind::Equality | ConstraintKind::TendonFriction | ConstraintKind::TendonLimit => {
+            false
+        }
     }
 }
 
@@ -76,7 +78,11 @@ pub(super) fn add_row_partials(
     find_slopes(tree, data, &c.contacts, (&mut slopes, &mut scratch.pre));
     for (Origin { kind, id }, range) in rows.by_origin() {
         match kind {
-            ConstraintKind::Equality => unreachable!("equality rows take the dual path"),
+            ConstraintKind::Equality
+            | ConstraintKind::TendonFriction
+            | ConstraintKind::TendonLimit => {
+                unreachable!("equality and tendon rows take the dual path")
+            }
             ConstraintKind::DofFriction => {}
             ConstraintKind::JointLimit => {
                 limit::add_state_partials(tree.nv(), (c, id, range), &jar, r_q);
@@ -108,7 +114,11 @@ pub(super) fn add_invweight_partials(
     let mut dlog_r = vec![0.0; rows.len()];
     for (Origin { kind, id }, range) in rows.by_origin() {
         dlog_r[range].fill(match kind {
-            ConstraintKind::Equality => unreachable!("equality rows take the dual path"),
+            ConstraintKind::Equality
+            | ConstraintKind::TendonFriction
+            | ConstraintKind::TendonLimit => {
+                unreachable!("equality and tendon rows take the dual path")
+            }
             ConstraintKind::DofFriction | ConstraintKind::JointLimit => {
                 friction::dof_log_slope(consts, d_dof, id)
             }
@@ -242,8 +252,8 @@ mod tests {
                 }
                 (q, v) = model.step(&mut data, &q, &v, &tau).unwrap();
             }
-            // Every kind's rows active but equalities' (analytic(Equality) is false).
-            let expected = ConstraintKind::ORDER.map(|k| k != ConstraintKind::Equality);
+            // Every analytic kind's rows active (equality and tendon rows take dual numbers).
+            let expected = ConstraintKind::ORDER.map(analytic);
             assert_eq!(kinds_seen, expected, "{file}: every kind's rows active");
         }
     }

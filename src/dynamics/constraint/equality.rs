@@ -12,6 +12,9 @@
 //!   rotational invweight0.
 //! - joint: 1 row, error q1 - q1_0 - c0 - sum_k c_k d^k (d = q2 - q2_0),
 //!   J = e_1 - (dpoly/dd) e_2; A_ii the two dofs' invweight0.
+//! - tendon: the same on tendon lengths (d = L2 - L2_0, reference
+//!   lengths at qpos0), J = J_1 - (dpoly/dd) J_2 (the tendons' moments);
+//!   A_ii the two tendons' invweight0.
 //!
 //! Impedance from the norm of the equality's error (all its rows share
 //! it), aref per row from its own error component; MuJoCo 4 then
@@ -59,6 +62,13 @@ pub enum Held<T: Real> {
         second: Option<Coupled<T>>,
         polycoef: [T; 5],
     },
+    /// A tendon coupling of its first tendon to its second (if any),
+    /// indices into the tree's tendons.
+    Tendons {
+        first: usize,
+        second: Option<usize>,
+        polycoef: [T; 5],
+    },
 }
 
 /// A joint of a coupling: its coordinate in q, its dof (node), its qpos0.
@@ -96,6 +106,11 @@ pub(super) fn append<T: Real>(at: &At<T>, rows: &mut Rows<T>) {
                 second,
                 polycoef,
             } => joints(at, (origin, &eq.sol), (*first, *second, polycoef), rows),
+            Held::Tendons {
+                first,
+                second,
+                polycoef,
+            } => tendons(at, (origin, &eq.sol), (*first, *second, polycoef), rows),
         }
     }
 }
@@ -276,6 +291,62 @@ fn velocity_and_bias<T: Real>(at: &At<T>, node: Option<usize>) -> (Motion<T>, Mo
     (data.world_vel[node], bias)
 }
 
+/// The polynomial c1 d + c2 d^2 + c3 d^3 + c4 d^4 and its slope in d.
+fn poly<T: Real>(c: &[T; 5], d: T) -> (T, T) {
+    let (two, three, four): (T, T, T) = (lift(2.0), lift(3.0), lift(4.0));
+    let value = c[1] * d + c[2] * d * d + c[3] * d * d * d + c[4] * d * d * d * d;
+    let slope = c[1] + two * c[2] * d + three * c[3] * d * d + four * c[4] * d * d * d;
+    (value, slope)
+}
+
+/// Pushes a coupling's row: J (nv), its dofs (descending), A_ii, error.
+fn push_coupling<T: Real>(
+    at: &At<T>,
+    (origin, sol): (Origin, &SolParams<T>),
+    (row, dofs, diag, error): (Vec<T>, Vec<usize>, T, T),
+    rows: &mut Rows<T>,
+) {
+    rows.j.extend(row);
+    rows.moving(1, dofs);
+    let block = Block {
+        origin,
+        kind: &[RowKind::Equality],
+        diag: &[diag],
+        dist: error,
+        pos: None,
+        margin: 0.0,
+        sol: *sol,
+        floss: T::zero(),
+    };
+    rows.push(block, at.v, &at.tree.opt, None);
+}
+
+/// A tendon coupling's row.
+fn tendons<T: Real>(
+    at: &At<T>,
+    (origin, sol): (Origin, &SolParams<T>),
+    (first, second, c): (usize, Option<usize>, &[T; 5]),
+    rows: &mut Rows<T>,
+) {
+    let tree = at.tree;
+    let t1 = &tree.tendons[first];
+    let mut error = t1.length(at.q) - t1.length0 - c[0];
+    let mut row = vec![T::zero(); tree.nv()];
+    t1.add_moment(T::one(), &mut row);
+    let mut diag = t1.invweight;
+    let mut dofs = t1.dofs();
+    if let Some(t2) = second.map(|k| &tree.tendons[k]) {
+        let (value, slope) = poly(c, t2.length(at.q) - t2.length0);
+        error -= value;
+        t2.add_moment(-slope, &mut row);
+        diag += t2.invweight;
+        dofs.extend(t2.dofs());
+        dofs.sort_unstable_by(|a, b| b.cmp(a));
+        dofs.dedup();
+    }
+    push_coupling(at, (origin, sol), (row, dofs, diag, error), rows);
+}
+
 /// A joint coupling's row.
 fn joints<T: Real>(
     at: &At<T>,
@@ -292,10 +363,8 @@ fn joints<T: Real>(
     let mut diag = tree.constraint.dof_invweight[dof1];
     let mut dofs = vec![dof1];
     if let Some((q2, dof2, ref2)) = second {
-        let d = at.q[q2] - ref2;
-        let (two, three, four): (T, T, T) = (lift(2.0), lift(3.0), lift(4.0));
-        error -= c[1] * d + c[2] * d * d + c[3] * d * d * d + c[4] * d * d * d * d;
-        let slope = c[1] + two * c[2] * d + three * c[3] * d * d + four * c[4] * d * d * d;
+        let (value, slope) = poly(c, at.q[q2] - ref2);
+        error -= value;
         row[dof2] -= slope;
         diag += tree.constraint.dof_invweight[dof2];
         if dof2 != dof1 {
@@ -303,17 +372,5 @@ fn joints<T: Real>(
         }
     }
     dofs.sort_unstable_by(|a, b| b.cmp(a));
-    rows.j.extend(row);
-    rows.moving(1, dofs);
-    let block = Block {
-        origin,
-        kind: &[RowKind::Equality],
-        diag: &[diag],
-        dist: error,
-        pos: None,
-        margin: 0.0,
-        sol: *sol,
-        floss: T::zero(),
-    };
-    rows.push(block, at.v, &tree.opt, None);
+    push_coupling(at, (origin, sol), (row, dofs, diag, error), rows);
 }

@@ -6,6 +6,7 @@
 
 use super::impedance::Block;
 use super::{At, ConstraintKind, Origin, RowKind, Rows};
+use crate::model::SolParams;
 use crate::spatial::Real;
 
 /// Appends the dry friction rows, dof by dof.
@@ -15,20 +16,32 @@ pub(super) fn append<T: Real>(at: &At<T>, rows: &mut Rows<T>) {
         let (floss, sol) = consts.frictionloss[i];
         if floss > T::zero() {
             rows.unit(i, T::one());
-            let block = Block {
-                origin: Origin {
-                    kind: ConstraintKind::DofFriction,
-                    id: i,
-                },
-                kind: &[RowKind::Friction],
-                diag: &[consts.dof_invweight[i]],
-                dist: T::zero(),
-                pos: None,
-                margin: 0.0,
-                sol,
-                floss,
+            let origin = Origin {
+                kind: ConstraintKind::DofFriction,
+                id: i,
             };
-            rows.push(block, at.v, &at.tree.opt, None);
+            push(at, (origin, consts.dof_invweight[i]), (floss, sol), rows);
         }
     }
+}
+
+/// Pushes the dry friction row just appended to J: its origin and A_ii,
+/// its bound and solver parameters.
+pub(super) fn push<T: Real>(
+    at: &At<T>,
+    (origin, diag): (Origin, T),
+    (floss, sol): (T, SolParams<T>),
+    rows: &mut Rows<T>,
+) {
+    let block = Block {
+        origin,
+        kind: &[RowKind::Friction],
+        diag: &[diag],
+        dist: T::zero(),
+        pos: None,
+        margin: 0.0,
+        sol,
+        floss,
+    };
+    rows.push(block, at.v, &at.tree.opt, None);
 }

@@ -36,21 +36,38 @@ pub(super) fn append<T: Real>(at: &At<T>, rows: &mut Rows<T>) {
         for (dist, sign) in [(x - lift(lo), T::one()), (lift::<T>(hi) - x, -T::one())] {
             if dist < lift(margin) {
                 rows.unit(i, sign);
-                let block = Block {
-                    origin: Origin {
-                        kind: ConstraintKind::JointLimit,
-                        id: i,
-                    },
-                    kind: &[RowKind::Unilateral],
-                    diag: &[consts.dof_invweight[i]],
-                    dist,
-                    pos: None,
-                    margin,
-                    sol,
-                    floss: T::zero(),
+                let origin = Origin {
+                    kind: ConstraintKind::JointLimit,
+                    id: i,
                 };
-                rows.push(block, at.v, &at.tree.opt, None);
+                push_side(
+                    at,
+                    (origin, consts.dof_invweight[i]),
+                    (dist, margin, sol),
+                    rows,
+                );
             }
         }
     }
+}
+
+/// Pushes the limit row (one side) just appended to J: its origin and
+/// A_ii, its distance, margin and solver parameters.
+pub(super) fn push_side<T: Real>(
+    at: &At<T>,
+    (origin, diag): (Origin, T),
+    (dist, margin, sol): (T, f64, SolParams<T>),
+    rows: &mut Rows<T>,
+) {
+    let block = Block {
+        origin,
+        kind: &[RowKind::Unilateral],
+        diag: &[diag],
+        dist,
+        pos: None,
+        margin,
+        sol,
+        floss: T::zero(),
+    };
+    rows.push(block, at.v, &at.tree.opt, None);
 }

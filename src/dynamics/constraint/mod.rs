@@ -57,6 +57,7 @@ pub mod friction;
 pub mod impedance;
 pub mod limit;
 pub mod solver;
+pub mod tendon;
 
 pub use contact::{contact_forces, contacts, mixing, unreachable_pair, Mixing};
 pub use equality::{EqualityConsts, Held, Weld};
@@ -101,7 +102,8 @@ impl<T: Real> ConstraintConsts<T> {
 pub struct Origin {
     pub kind: ConstraintKind,
     /// The equality's index in the model; the dof of dry friction or a
-    /// limit; the contact's index in the state's contact list.
+    /// limit; the tendon's index; the contact's index in the state's
+    /// contact list.
     pub id: usize,
 }
 
@@ -112,18 +114,24 @@ pub enum ConstraintKind {
     Equality,
     /// Dry friction of a dof (mjCNSTR_FRICTION_DOF, [`friction`]).
     DofFriction,
+    /// Dry friction of a tendon (mjCNSTR_FRICTION_TENDON, [`tendon`]).
+    TendonFriction,
     /// A hinge's or slide's limit, either side (mjCNSTR_LIMIT_JOINT, [`limit`]).
     JointLimit,
+    /// A tendon's limit, either side (mjCNSTR_LIMIT_TENDON, [`tendon`]).
+    TendonLimit,
     /// A contact (mjCNSTR_CONTACT_*, [`contact`]).
     Contact,
 }
 
 impl ConstraintKind {
     /// The kinds in the order their rows are built: MuJoCo's.
-    pub const ORDER: [ConstraintKind; 4] = [
+    pub const ORDER: [ConstraintKind; 6] = [
         ConstraintKind::Equality,
         ConstraintKind::DofFriction,
+        ConstraintKind::TendonFriction,
         ConstraintKind::JointLimit,
+        ConstraintKind::TendonLimit,
         ConstraintKind::Contact,
     ];
 
@@ -132,7 +140,9 @@ impl ConstraintKind {
         match self {
             ConstraintKind::Equality => equality::append(at, rows),
             ConstraintKind::DofFriction => friction::append(at, rows),
+            ConstraintKind::TendonFriction => tendon::append_friction(at, rows),
             ConstraintKind::JointLimit => limit::append(at, rows),
+            ConstraintKind::TendonLimit => tendon::append_limits(at, rows),
             ConstraintKind::Contact => contact::append(at, rows),
         }
     }

@@ -4,20 +4,22 @@
 //! a connect is by body when it names body1 and an anchor, else by sites;
 //! a weld is by body when it names body1, else by sites; body2 defaults to
 //! the world; `polycoef` defaults to (0, 1, 0, 0, 0) and `torquescale` to 1.
-//! Tendon equalities and the flex ones are refused with the line.
+//! A tendon equality names tendon1 (and tendon2) as a joint one its
+//! joints. The flex ones are refused with the line.
 
 use nalgebra::{Quaternion, Vector3};
 
 use super::attributes::Attrs;
 use super::schema::{check_attributes, EQUALITY_ATTRS};
 use super::{children, elements, tag, unrecognized, unsupported, Node, Reader, Result};
-use crate::model::{Body, Equality, EqualityKind, Joint, Objects, Site};
+use crate::model::{Body, Equality, EqualityKind, Joint, Objects, Site, Tendon};
 
 /// The objects an equality may name.
 pub(super) struct Named<'s> {
     pub bodies: &'s [Body],
     pub joints: &'s [Joint],
     pub sites: &'s [Site],
+    pub tendons: &'s [Tendon],
 }
 
 impl<'a> Reader<'a> {
@@ -39,10 +41,7 @@ impl<'a> Reader<'a> {
                         "torquescale",
                     ],
                     "joint" => &["joint1", "joint2", "polycoef"],
-                    "tendon" => {
-                        let why = "tendon equalities need tendons, which are not modelled";
-                        return Err(unsupported(self.file, node, why));
-                    }
+                    "tendon" => &["tendon1", "tendon2", "polycoef"],
                     "flex" | "flexvert" | "flexstrain" => {
                         return Err(unsupported(self.file, node, "flexes change the dynamics"));
                     }
@@ -82,21 +81,39 @@ impl<'a> Reader<'a> {
                     torquescale: a.number("torquescale")?.unwrap_or(1.0),
                 }
             }
-            _ => {
+            kind => {
+                let (what, names): (&str, Vec<&str>) = match kind {
+                    "joint" => (
+                        "joint",
+                        named.joints.iter().map(|j| j.name.as_str()).collect(),
+                    ),
+                    _ => (
+                        "tendon",
+                        named.tendons.iter().map(|t| t.name.as_str()).collect(),
+                    ),
+                };
                 let find = |key: &str| -> Result<Option<usize>> {
                     let Some(name) = a.text(key) else {
                         return Ok(None);
                     };
-                    let j = named.joints.iter().position(|j| j.name == name);
-                    j.map(Some)
-                        .ok_or_else(|| a.error(node, format!("{key} '{name}' is not a joint")))
+                    let k = names.iter().position(|n| *n == name);
+                    k.map(Some)
+                        .ok_or_else(|| a.error(node, format!("{key} '{name}' is not a {what}")))
                 };
-                let Some(first) = find("joint1")? else {
-                    return Err(a.error(node, "a joint equality needs joint1"));
+                let Some(first) = find(&format!("{what}1"))? else {
+                    return Err(a.error(node, format!("a {what} equality needs {what}1")));
                 };
-                EqualityKind::Joint {
-                    joints: [Some(first), find("joint2")?],
-                    polycoef: a.leading("polycoef", [0.0, 1.0, 0.0, 0.0, 0.0])?,
+                let pair = [Some(first), find(&format!("{what}2"))?];
+                let polycoef = a.leading("polycoef", [0.0, 1.0, 0.0, 0.0, 0.0])?;
+                match what {
+                    "joint" => EqualityKind::Joint {
+                        joints: pair,
+                        polycoef,
+                    },
+                    _ => EqualityKind::Tendon {
+                        tendons: pair,
+                        polycoef,
+                    },
                 }
             }
         };
@@ -106,7 +123,8 @@ impl<'a> Reader<'a> {
             active: a.flag("active")?.unwrap_or(true),
             sol: a.sol_params("solref", "solimp")?,
         };
-        eq.check_parts(named.bodies.len(), named.sites.len(), named.joints)
+        let counts = [named.bodies.len(), named.sites.len(), named.tendons.len()];
+        eq.check_parts(counts, named.joints)
             .map_err(|e| a.error(node, e))?;
         Ok(eq)
     }

@@ -16,8 +16,8 @@
 //! and `<exclude>`), `<actuator>` (MuJoCo's motor, position, velocity,
 //! intvelocity, damper and general on hinges and slides: `actuators.rs`),
 //! `<site>` and `<sensor>` (`sites.rs`, `sensors.rs`: every sensor type laid
-//! out, the common ones computed), `<equality>` (connect, weld, joint:
-//! `equality.rs`), `<keyframe>` (`keyframes.rs`), and
+//! out, the common ones computed), `<tendon>` (fixed tendons: `tendons.rs`),
+//! `<equality>` (connect, weld, joint, tendon: `equality.rs`), `<keyframe>` (`keyframes.rs`), and
 //! `<custom>`'s `diffosi:` settings (the contact model, the smooth model's
 //! constants). The medium's forces are MuJoCo's inertia-box model
 //! (`dynamics/fluid.rs`).
@@ -28,16 +28,16 @@
 //! Ignored, since they do not change the dynamics: visual, the other assets
 //! (textures, materials, skins), size, statistic, other custom data, camera,
 //! light, the looks of geoms and tendons (rgba, material, group, width),
-//! `<compiler>`'s texturedir, fixed tendons that only measure, and the solver
+//! `<compiler>`'s texturedir, and the solver
 //! settings that only tune how the answer is approached (`options.rs`).
 //!
 //! Rejected with [`ModelError::Invalid`] naming the element and its line:
 //! - what changes the dynamics beyond a tree of joints with linear passive
 //!   forces, actuators, contacts, limits, dry friction and the inertia-box
 //!   fluid: limits and dry friction on ball and free joints, a free joint
-//!   that is not the only joint of a child of the world, spatial tendons and
-//!   fixed tendons that act (limit, spring, damping, dry friction, armature),
-//!   tendon and flex equalities, flexes and skins, the ellipsoid fluid model (fluidshape),
+//!   that is not the only joint of a child of the world, spatial tendons,
+//!   tendon armature (fixed tendons: `tendons.rs`), flex equalities,
+//!   flexes and skins, the ellipsoid fluid model (fluidshape),
 //!   gravcomp routed through actuators (`actuatorgravcomp`), bodies inside
 //!   a mocap body, noslip iterations, the `override`
 //!   flag, disabling springs, dampers, actuation or control clamping,
@@ -135,7 +135,8 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
     let mut tree = Tree::new();
     reader.read_world(&mut tree, &children(root, "worldbody"))?;
     check_unsupported_sections(file, root)?;
-    reader.check_tendons(&tree, root)?;
+    let mut tendons = reader.read_tendons(&tree, root)?;
+    tree::fill_names(&mut tendons, "tendon", |t| &mut t.name);
     reader.check_moving_bodies(&tree)?;
     reader.scale_total_mass(&mut tree);
     let mut actuators = reader.read_actuators(&tree, root)?;
@@ -150,6 +151,7 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
         bodies: &bodies,
         joints: &joints,
         sites: &sites,
+        tendons: &tendons,
     };
     let equalities = reader.read_equalities(root, &named)?;
     let mut meshes = std::mem::take(&mut reader.meshes);
@@ -175,6 +177,7 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
         meshes: meshes.compiled,
         hfields: std::mem::take(&mut reader.hfields.compiled),
         equalities,
+        tendons,
     };
     spec.keyframes = reader.read_keyframes(root, &spec)?;
     Ok(spec)
@@ -344,14 +347,11 @@ mod tests {
             ("", r#"<geom type="mesh" mesh="m"/>"#, "", "mesh"),
             ("", "", r#"<tendon><spatial name="t"/></tendon>"#, "spatial tendons"),
             ("", r#"<joint name="j"/>"#,
-             r#"<tendon><fixed stiffness="1"><joint joint="j" coef="1"/></fixed></tendon>"#,
-             "with stiffness"),
-            ("", r#"<joint name="j"/>"#,
-             r#"<tendon><fixed range="-1 1" limited="true"><joint joint="j"/></fixed></tendon>"#,
-             "limited fixed tendon"),
-            ("", "", r#"<tendon><fixed><joint joint="nowhere"/></fixed></tendon>"#,
+             r#"<tendon><fixed armature="1"><joint joint="j" coef="1"/></fixed></tendon>"#,
+             "tendon armature"),
+            ("", "", r#"<tendon><fixed><joint joint="nowhere" coef="1"/></fixed></tendon>"#,
              "unknown joint 'nowhere'"),
-            ("", "", r#"<equality><tendon tendon1="t"/></equality>"#, "tendon equalities"),
+            ("", "", r#"<equality><tendon tendon1="t"/></equality>"#, "tendon1 't' is not a tendon"),
             (r#"<option density="-1"/>"#, "", "", "density must be finite and >= 0"),
             ("", r#"<geom size="1" fluidshape="ellipsoid"/>"#, "", "fluidshape"),
             (r#"<option integrator="Verlet"/>"#, "", "", "must be one of"),

@@ -79,6 +79,7 @@ fn document(spec: &Spec) -> Result<String, ModelError> {
     write_options(&mut doc, &spec.opt)?;
     write_bodies(&mut doc, spec)?;
     write_contact(&mut doc, spec);
+    write_tendons(&mut doc, spec);
     write_equalities(&mut doc, spec);
     doc.open(1, Tag::new("actuator"));
     for a in &spec.actuators {
@@ -496,6 +497,34 @@ fn write_contact(doc: &mut Document, spec: &Spec) {
     doc.close(1, "contact");
 }
 
+fn write_tendons(doc: &mut Document, spec: &Spec) {
+    if spec.tendons.is_empty() {
+        return;
+    }
+    doc.open(1, Tag::new("tendon"));
+    for t in &spec.tendons {
+        let tag = Tag::new("fixed")
+            .text("name", &t.name)
+            .number("stiffness", t.stiffness)
+            .number("damping", t.damping)
+            .numbers("springlength", &t.springlength.unwrap_or([-1.0, -1.0]))
+            .number("frictionloss", t.frictionloss)
+            .limits("limited", "range", t.range.map(|[lo, hi]| (lo, hi)))
+            .number("margin", t.margin)
+            .sol("solreflimit", "solimplimit", &t.limit_sol)
+            .sol("solreffriction", "solimpfriction", &t.friction_sol);
+        doc.open(2, tag);
+        for (j, coef) in &t.joints {
+            let joint = Tag::new("joint")
+                .text("joint", &spec.joints[*j].name)
+                .number("coef", *coef);
+            doc.empty(3, joint);
+        }
+        doc.close(2, "fixed");
+    }
+    doc.close(1, "tendon");
+}
+
 fn write_equalities(doc: &mut Document, spec: &Spec) {
     if spec.equalities.is_empty() {
         return;
@@ -542,6 +571,16 @@ fn write_equalities(doc: &mut Document, spec: &Spec) {
                     .zip(["joint1", "joint2"])
                     .fold(tag, |t, (j, key)| match j {
                         Some(j) => t.text(key, &spec.joints[*j].name),
+                        None => t,
+                    })
+            }
+            EqualityKind::Tendon { tendons, polycoef } => {
+                let tag = Tag::new("tendon").numbers("polycoef", polycoef);
+                tendons
+                    .iter()
+                    .zip(["tendon1", "tendon2"])
+                    .fold(tag, |t, (k, key)| match k {
+                        Some(k) => t.text(key, &spec.tendons[*k].name),
                         None => t,
                     })
             }

@@ -195,6 +195,7 @@ pub fn parse(text: &str, file: &str, options: &LoadOptions) -> Result<Loaded> {
         meshes: reader.meshes.take().into_iter().map(|m| m.mesh).collect(),
         hfields: vec![],
         equalities: vec![],
+        tendons: vec![],
     };
     Ok(Loaded {
         spec,

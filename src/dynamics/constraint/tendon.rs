@@ -1,0 +1,63 @@
+//! Tendon rows (MuJoCo's mj_instantiateFriction and mj_instantiateLimit
+//! for tendons), each with J the tendon's moment (J_t, nv) and A_ii its
+//! tendon_invweight0 ([`crate::dynamics::tendon`]):
+//! - dry friction (efc_type mjCNSTR_FRICTION_TENDON): one row J_t per
+//!   tendon with `frictionloss` > 0, its force bounded by it; no distance;
+//! - limits (mjCNSTR_LIMIT_TENDON): per limited tendon of length L, one row
+//!   per side within the margin: J = +J_t below the range (dist = L - lo),
+//!   -J_t above it (dist = hi - L).
+//!
+//! The origin's id is the tendon's index in the model.
+
+use super::limit::{self, Limit};
+use super::{friction, At, ConstraintKind, Origin, Rows};
+use crate::dynamics::TendonConsts;
+use crate::spatial::{lift, Real};
+
+/// Appends J = sign J_t for tendon `t`.
+fn push_moment<T: Real>(rows: &mut Rows<T>, t: &TendonConsts<T>, sign: T) {
+    let start = rows.j.len();
+    rows.j.resize(start + rows.nv, T::zero());
+    t.add_moment(sign, &mut rows.j[start..]);
+    rows.moving(1, t.dofs());
+}
+
+/// Appends the tendons' dry friction rows, tendon by tendon.
+pub(super) fn append_friction<T: Real>(at: &At<T>, rows: &mut Rows<T>) {
+    for (id, t) in at.tree.tendons.iter().enumerate() {
+        let (floss, sol) = t.frictionloss;
+        if floss > T::zero() {
+            push_moment(rows, t, T::one());
+            let origin = Origin {
+                kind: ConstraintKind::TendonFriction,
+                id,
+            };
+            friction::push(at, (origin, t.invweight), (floss, sol), rows);
+        }
+    }
+}
+
+/// Appends the tendons' limit rows, tendon by tendon, the lower side first.
+pub(super) fn append_limits<T: Real>(at: &At<T>, rows: &mut Rows<T>) {
+    for (id, t) in at.tree.tendons.iter().enumerate() {
+        let Some(Limit {
+            range: (lo, hi),
+            margin,
+            sol,
+        }) = t.limit
+        else {
+            continue;
+        };
+        let l = t.length(at.q);
+        for (dist, sign) in [(l - lift(lo), T::one()), (lift::<T>(hi) - l, -T::one())] {
+            if dist < lift(margin) {
+                push_moment(rows, t, sign);
+                let origin = Origin {
+                    kind: ConstraintKind::TendonLimit,
+                    id,
+                };
+                limit::push_side(at, (origin, t.invweight), (dist, margin, sol), rows);
+            }
+        }
+    }
+}
