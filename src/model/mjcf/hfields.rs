@@ -216,14 +216,27 @@ mod tests {
     }
 
     #[test]
-    fn a_step_refuses_a_height_field_within_reach() {
-        let bodies = r#"<geom type="hfield" hfield="h"/>
-            <body><joint type="slide" axis="0 0 1"/><geom size="0.1"/></body>"#;
-        let m = load(&model(FIELD, bodies, ""));
-        let mut data = m.data();
-        let err = m.step(&mut data, &[0.3], &[0.0], &[0.0]).unwrap_err();
-        assert_eq!(err, StepError::NoCollider([0, 1]));
-        // Beyond the bounding sphere's reach it steps.
-        assert!(m.step(&mut data, &[3.0], &[0.0], &[0.0]).is_ok());
+    fn a_step_refuses_a_height_field_pair_without_a_collider_within_reach() {
+        // A sphere collides (collision/hfield.rs); a box, or a sphere with a
+        // margin, is refused while within reach.
+        let bodies = |geom: &str| {
+            format!(
+                r#"<geom type="hfield" hfield="h"/>
+                <body><joint type="slide" axis="0 0 1"/>{geom}</body>"#
+            )
+        };
+        let ball = load(&model(FIELD, &bodies(r#"<geom size="0.1"/>"#), ""));
+        assert!(ball.step(&mut ball.data(), &[0.3], &[0.0], &[0.0]).is_ok());
+        for geom in [
+            r#"<geom type="box" size="0.1 0.1 0.1"/>"#,
+            r#"<geom size="0.1" margin="0.01"/>"#,
+        ] {
+            let m = load(&model(FIELD, &bodies(geom), ""));
+            let mut data = m.data();
+            let err = m.step(&mut data, &[0.3], &[0.0], &[0.0]).unwrap_err();
+            assert_eq!(err, StepError::NoCollider([0, 1]));
+            // Beyond the bounding sphere's reach it steps.
+            assert!(m.step(&mut data, &[3.0], &[0.0], &[0.0]).is_ok());
+        }
     }
 }
