@@ -1,0 +1,118 @@
+"""Height-field colliders (src/dynamics/collision/hfield.rs) against MuJoCo's mj_forward: a
+small tilted field (4 x 5 grid) and a sphere, capsule, ellipsoid or cylinder at random
+poses (fixed seed) where MuJoCo's contacts begin, up to 0.03 deep. A geom over several
+prisms takes one contact per prism, in MuJoCo's order.
+
+What is asserted is what holds: the same contacts in every state; for spheres and capsules
+(GJK's distance of the centre or segment) their points, frames and distances equal to
+MuJoCo's to 1e-12 in every state; for ellipsoids and cylinders (EPA, ended by its
+35-expansion budget; MuJoCo 4.0.0's binary takes other iterations than the published
+source, see test_convex.py) to 1e-9 in some states and within the bound below in all.
+Boxes, meshes and pairs with a margin are refused (hfield.rs says why)."""
+
+import mujoco
+import numpy as np
+import pytest
+
+import diffosi
+
+FIELD = """<asset><hfield name="h" nrow="4" ncol="5" size="0.6 0.5 0.2 0.1"
+ elevation="0 1 2 1 0  1 3 2 0 1  2 1 0 1 2  0 2 3 1 0"/></asset>"""
+STATES = 20
+DEEPEST = 0.03
+
+# The geoms, the worst difference from MuJoCo allowed (measured on seed 7 over all
+# states: 1e-14 for spheres, 2e-14 for capsules, 5.7e-3 for ellipsoids, 1.2e-2 for
+# cylinders; twice that or 1e-12), and how many states must agree to 1e-9 (measured:
+# 20, 20, 3, 5).
+GEOMS = [
+    (("sphere", "0.1"), 1e-12, STATES),
+    (("capsule", "0.05 0.1"), 1e-12, STATES),
+    (("ellipsoid", "0.1 0.07 0.05"), 1.2e-2, 2),
+    (("cylinder", "0.08 0.06"), 2.5e-2, 3),
+]
+
+
+def scene(kind, size):
+    return f"""<mujoco><option gravity="0 0 0"/>{FIELD}<worldbody>
+<geom name="a" type="hfield" hfield="h" euler="5 -3 10"/>
+<body name="b"><freejoint/><geom name="b" type="{kind}" size="{size}"/></body>
+</worldbody></mujoco>"""
+
+
+def forward(m, q):
+    d = mujoco.MjData(m)
+    d.qpos[:] = q
+    mujoco.mj_forward(m, d)
+    return d
+
+
+def near_touch(m, rng):
+    """A random pose over the field, lowered to where MuJoCo's first contact appears
+    (bisection), then up to DEEPEST deeper."""
+    xy, quat = rng.uniform(-0.5, 0.5, 2), rng.normal(size=4)
+    quat /= np.linalg.norm(quat)
+    lo, hi = -0.3, 0.6
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if forward(m, np.r_[xy, mid, quat]).ncon else (lo, mid)
+    return np.r_[xy, lo - rng.uniform(0.0, DEEPEST), quat]
+
+
+@pytest.mark.parametrize("geom, bound, exact_states", GEOMS, ids=[g[0] for g, _, _ in GEOMS])
+def test_contacts_are_mujocos(geom, bound, exact_states, tmp_path):
+    rng = np.random.default_rng(7)
+    path = tmp_path / "field.xml"
+    path.write_text(scene(*geom))
+    m = mujoco.MjModel.from_xml_string(path.read_text())
+    ours_model = diffosi.Model.load(str(path))
+    exact, worst, several = 0, 0.0, 0
+    for _ in range(STATES):
+        q = near_touch(m, rng)
+        d = forward(m, q)
+        ours = ours_model.contacts(q, np.zeros(6))
+        assert len(ours) == d.ncon >= 1, (geom, q)
+        several += d.ncon > 1
+        err = 0.0
+        for c, theirs in zip(ours, d.contact[:d.ncon]):
+            assert set(c["geoms"]) == {"a", "b"}
+            err = max(err, np.abs(c["point"] - theirs.pos).max(),
+                      np.abs(c["frame"] - theirs.frame.reshape(3, 3)).max(),
+                      abs(-c["depth"] - theirs.dist))
+        exact += err < 1e-9
+        worst = max(worst, err)
+    assert several > 0, geom  # some states meet more than one prism
+    assert exact >= exact_states, (geom, exact)
+    assert worst < bound, (geom, worst)
+
+
+def test_a_ball_rolls_down_the_field_as_in_mujoco(tmp_path):
+    """A ball resting on the field, stepped 200 times: MuJoCo's trajectory (the solver
+    converges, so states agree to the contacts' rounding)."""
+    xml = scene("sphere", "0.1").replace('<option gravity="0 0 0"/>', "")
+    path = tmp_path / "ball.xml"
+    path.write_text(xml)
+    m = mujoco.MjModel.from_xml_string(xml)
+    d = mujoco.MjData(m)
+    d.qpos[:3] = [0.1, -0.1, 0.4]
+    ours = diffosi.Model.load(str(path))
+    q, v = d.qpos.copy(), np.zeros(6)
+    worst = 0.0
+    for _ in range(200):
+        mujoco.mj_step(m, d)
+        q, v = ours.step(q, v, np.zeros(6))
+        worst = max(worst, np.abs(q - d.qpos).max())
+    assert d.ncon > 0
+    assert worst < 1e-9, worst
+
+
+@pytest.mark.parametrize("geom", ['type="box" size="0.1 0.1 0.1"', 'size="0.1" margin="0.01"'])
+def test_pairs_without_a_collider_are_refused_within_reach(geom, tmp_path):
+    xml = f"""<mujoco>{FIELD}<worldbody><geom type="hfield" hfield="h"/>
+<body><freejoint/><geom {geom}/></body></worldbody></mujoco>"""
+    path = tmp_path / "refused.xml"
+    path.write_text(xml)
+    m = diffosi.Model.load(str(path))
+    q = np.r_[0.0, 0.0, 0.2, 1.0, 0.0, 0.0, 0.0]
+    with pytest.raises(ValueError, match="collider"):
+        m.step(q, np.zeros(6), np.zeros(6))
