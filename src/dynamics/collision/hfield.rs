@@ -183,7 +183,12 @@ mod tests {
         };
         let mut out = vec![];
         let s2 = Shape::Sphere { radius };
-        hfield((&h, &s1, &at(Vector3::zeros())), (&s2, &at(ball)), 0.0, &mut out);
+        hfield(
+            (&h, &s1, &at(Vector3::zeros())),
+            (&s2, &at(ball)),
+            0.0,
+            &mut out,
+        );
         out
     }
 
@@ -197,7 +202,11 @@ mod tests {
         assert_eq!(c.len(), 1);
         assert!((c[0].dist + 0.02).abs() < 1e-12, "{}", c[0].dist);
         assert!((c[0].normal - n).norm() < 1e-12, "{}", c[0].normal);
-        assert!((c[0].pos - (foot - n * 0.01)).norm() < 1e-12, "{}", c[0].pos);
+        assert!(
+            (c[0].pos - (foot - n * 0.01)).norm() < 1e-12,
+            "{}",
+            c[0].pos
+        );
         // Apart: none; beyond the field: none.
         assert!(contacts(slope, foot + n * 0.11, 0.1).is_empty());
         assert!(contacts(slope, Vector3::new(1.2, 0.0, 0.5), 0.1).is_empty());

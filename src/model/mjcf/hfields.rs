@@ -1,10 +1,11 @@
-//! `<asset><hfield>`: height fields from MuJoCo's binary file format or
-//! inline `elevation` data (see [`crate::model::hfield`]), found like mesh
+//! `<asset><hfield>`: height fields from a PNG image, MuJoCo's binary file
+//! format or inline `elevation` data (see [`crate::model::hfield`]), found like mesh
 //! files (at `meshdir`, as MuJoCo looks for them). `elevation` lists the
 //! rows from the top (y = +size[1]) down, as MuJoCo reads it; without it
 //! and without a file the field is flat. A field without a name takes its
 //! file's. Attributes read: name, file, nrow, ncol, size, elevation;
-//! content_type is accepted and ignored. PNG files are refused.
+//! content_type is accepted and ignored (a `.png` file is an image, any
+//! other MuJoCo's binary format).
 
 use std::collections::HashMap;
 
@@ -201,8 +202,8 @@ mod tests {
         let nan = format!(r#"nrow="2" ncol="2" {size} elevation="1 nan 3 4""#);
         assert_rejects(&field(&nan), "not a finite number");
         assert_rejects(&field(&format!(r#"nrow="-2" ncol="2" {size}"#)), "negative");
-        let png = r#"<asset><hfield file="terrain.png" size="1 1 1 1"/></asset>"#;
-        assert_rejects(&model(png, "", ""), "PNG");
+        let png = r#"<asset><hfield file="no-such-terrain.png" size="1 1 1 1"/></asset>"#;
+        assert_rejects(&model(png, "", ""), "no-such-terrain.png");
         let geom = |g: &str| model(FIELD, g, "");
         assert_rejects(
             &geom(r#"<geom type="hfield" hfield="x"/>"#),
