@@ -18,6 +18,10 @@
 //!   its distance that of the grown bodies (MuJoCo passes margin 0 here);
 //! - at most [`MAXCONPAIR`] contacts, in the walk's order.
 //!
+//! The margin's part is MuJoCo's published source; MuJoCo 4.0.0's binary
+//! differs (it reports the bare shapes' contacts up to the margin), so
+//! pairs with a margin are refused ([`collides_with`]) and run with zero.
+//!
 //! Contacts are transformed back to the world; the normal points from the
 //! field into the geom. A zero-size cell gives a flat prism, which GJK
 //! handles like any other polytope.
