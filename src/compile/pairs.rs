@@ -124,7 +124,8 @@ pub fn collision_pairs<T: Real>(
             if a > b {
                 geoms.swap(0, 1);
             }
-            (geoms, params, supported(a, b, &spec.opt.solver.ccd))
+            let margin = params.margin + params.gap;
+            (geoms, params, supported(a, b, &spec.opt.solver.ccd, margin))
         })
         .collect()
 }

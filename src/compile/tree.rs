@@ -6,6 +6,8 @@
 //! pairs, the fluid's equivalent boxes). Named physical parameters enter
 //! through `lift_param`, which is how the derivatives seed their directions.
 
+use std::sync::Arc;
+
 use nalgebra::{Matrix3, Vector3};
 
 use super::equality::equality_consts;
@@ -21,7 +23,7 @@ use crate::dynamics::constraint::Limit;
 use crate::dynamics::contact::{Pair, Soft};
 use crate::dynamics::{BodyFrame, NodeJoint, Tree};
 use crate::model::params::inertia_to_six;
-use crate::model::{Body, ContactModel, Joint, JointKind, Param, Spec};
+use crate::model::{Body, ContactModel, Joint, JointKind, Param, Shape, Spec};
 use crate::spatial::{lift, lift_vector, Inertia, Real, Transform};
 
 impl<T: Real> Tree<T> {
@@ -183,11 +185,15 @@ impl<T: Real> Tree<T> {
         let geom = &model.geoms[g];
         let frame = self.body[geom.body];
         let offset = Transform::from_pose_f64(&geom.rot, &geom.pos).compose(&frame.offset);
-        self.geoms.push(GeomFrame::new(
+        let mut placed = GeomFrame::new(
             (g, geom.body, &frame),
             offset,
             (geom.shape, model.rbound(&geom.shape)),
-        ));
+        );
+        if let Shape::HField { hfield, .. } = geom.shape {
+            placed.field = Some(Arc::new(model.hfields[hfield].clone()));
+        }
+        self.geoms.push(placed);
         self.geoms.len() - 1
     }
 

@@ -1,6 +1,6 @@
 //! Height fields as MuJoCo 4's compiler makes them (`mjCHField`): an
-//! elevation grid read from MuJoCo's binary format or given inline, scaled
-//! to [0, 1].
+//! elevation grid read from MuJoCo's binary format, a PNG image or given
+//! inline, scaled to [0, 1].
 //!
 //! Frame and units: the field spans x in [-size\[0], size\[0]] and y in
 //! [-size\[1], size\[1]] of its geom frame; column c lies at x = -size\[0] +
@@ -79,24 +79,52 @@ impl HField {
     }
 }
 
-/// Reads a height-field file: MuJoCo's binary format (`nrow`, `ncol` as
-/// 32-bit integers, then nrow ncol 32-bit floats, little-endian, the first
-/// row at y = -size\[1]). PNG images are refused (not read yet).
+/// Reads a height-field file: a PNG image (`.png`, see [`read_png`]) or
+/// MuJoCo's binary format (`nrow`, `ncol` as 32-bit integers, then nrow
+/// ncol 32-bit floats, little-endian, the first row at y = -size\[1]).
 pub fn read_file(path: &Path) -> Result<((usize, usize), Vec<f32>), String> {
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    if ext == "png" {
-        return Err("PNG height fields are not supported (use MuJoCo's binary format)".into());
-    }
     let size = std::fs::metadata(path).map_err(|e| e.to_string())?.len();
     if size > MAX_FILE_BYTES {
         return Err(format!(
             "hfield file of {size} bytes; at most {MAX_FILE_BYTES} are read"
         ));
     }
-    read_binary(&std::fs::read(path).map_err(|e| e.to_string())?)
+    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    if ext == "png" {
+        read_png(&bytes)
+    } else {
+        read_binary(&bytes)
+    }
+}
+
+/// A PNG image as MuJoCo reads a height field (lodepng decoding to 8-bit
+/// grey): one elevation per pixel, the image's width the columns and its
+/// height the rows, its top row at y = +size[1] (rows reversed); the grey
+/// level 0-255 of a grey image (lower bit depths scaled up, 16 bits cut to
+/// their high byte), the red level of a colour or palette image; alpha
+/// ignored. The compiler then scales the levels to [0, 1].
+pub fn read_png(bytes: &[u8]) -> Result<((usize, usize), Vec<f32>), String> {
+    let error = |e: png::DecodingError| format!("error decoding PNG: {e}");
+    let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+    decoder.set_transformations(png::Transformations::normalize_to_color8());
+    let mut reader = decoder.read_info().map_err(error)?;
+    let size = reader
+        .output_buffer_size()
+        .ok_or("PNG image too large to decode")?;
+    let mut pixels = vec![0; size];
+    let frame = reader.next_frame(&mut pixels).map_err(error)?;
+    let (ncol, nrow) = (frame.width as usize, frame.height as usize);
+    let channels = frame.color_type.samples();
+    let level = |r: usize, c: usize| f32::from(pixels[r * frame.line_size + c * channels]);
+    let data = (0..nrow)
+        .rev()
+        .flat_map(|r| (0..ncol).map(move |c| level(r, c)))
+        .collect();
+    Ok(((nrow, ncol), data))
 }
 
 /// MuJoCo's binary height-field format (see [`read_file`]), with its checks.
@@ -172,5 +200,60 @@ mod tests {
         // MuJoCo's geom_size and geom_rbound for size (1, 2, 0.5, 0.1).
         assert_eq!(HField::geom_size(&h.size), [1.0, 2.0, 0.175]);
         assert!((HField::rbound(&h.size) - 2.29128784747792).abs() < 1e-15);
+    }
+
+    /// A 3 x 2 PNG image of `color` and `depth` with rows `pixels` (top first).
+    fn png(color: png::ColorType, depth: png::BitDepth, pixels: &[u8]) -> Vec<u8> {
+        let mut out = vec![];
+        let mut encoder = png::Encoder::new(&mut out, 3, 2);
+        encoder.set_color(color);
+        encoder.set_depth(depth);
+        if color == png::ColorType::Indexed {
+            encoder.set_palette(vec![10, 0, 0, 90, 50, 50, 200, 9, 9]);
+        }
+        let mut writer = encoder.write_header().unwrap();
+        writer.write_image_data(pixels).unwrap();
+        writer.finish().unwrap();
+        out
+    }
+
+    #[test]
+    fn png_images_read_as_mujoco_reads_them() {
+        use png::{BitDepth::*, ColorType::*};
+        let compiled = |bytes: Vec<u8>| {
+            let (dims, data) = read_png(&bytes).unwrap();
+            assert_eq!(dims, (2, 3));
+            HField::compile("h", [1.0; 4], dims, data).unwrap().data
+        };
+        // MuJoCo 4.0.0's hfield_data of the same images (rows reversed, the grey
+        // level, a colour's red, a 16-bit level's high byte, scaled to [0, 1]).
+        let levels = [0.28, 0.0, 1.0, 0.04, 0.08, 0.16];
+        let grey = [10, 20, 40, 70, 0, 250];
+        let rgb = [10, 1, 2, 20, 3, 4, 40, 5, 6, 70, 7, 8, 0, 9, 9, 250, 1, 1];
+        let wide = [10, 255, 20, 0, 40, 7, 70, 1, 0, 200, 250, 0];
+        for data in [
+            compiled(png(Grayscale, Eight, &grey)),
+            compiled(png(Rgb, Eight, &rgb)),
+            compiled(png(Grayscale, Sixteen, &wide)),
+        ] {
+            assert!(
+                data.iter().zip(levels).all(|(a, b)| (a - b).abs() < 1e-7),
+                "{data:?}"
+            );
+        }
+        // Palette entries' red levels 10, 90, 200; two-bit grey levels 0 to 3.
+        let palette = compiled(png(Indexed, Eight, &[0, 1, 2, 2, 1, 0]));
+        let mujoco = [1.0, 0.42105263, 0.0, 0.0, 0.42105263, 1.0];
+        assert!(palette
+            .iter()
+            .zip(mujoco)
+            .all(|(a, b)| (a - b).abs() < 1e-7));
+        let two_bit = compiled(png(Grayscale, Two, &[0b00011011, 0b11100100]));
+        let mujoco = [1.0, 0.6666667, 0.33333334, 0.0, 0.33333334, 0.6666667];
+        assert!(two_bit
+            .iter()
+            .zip(mujoco)
+            .all(|(a, b)| (a - b).abs() < 1e-7));
+        assert!(read_png(b"not a png").unwrap_err().contains("decoding PNG"));
     }
 }

@@ -96,8 +96,9 @@ pub(super) fn find_slopes(
             }
             for (t, u) in basis[..len].iter().enumerate() {
                 let dual = std::array::from_fn(|s| perturbed(&poses[s], (s == side).then_some(u)));
-                let touches = contact_geometry(shapes, dual, reach, pre)
-                    .filter(|(_, _, dist)| dist.re < pair.params.margin);
+                let touches =
+                    contact_geometry((shapes, geoms[0].field.as_deref()), dual, reach, pre)
+                        .filter(|(_, _, dist)| dist.re < pair.params.margin);
                 for (moves, (p, e, dist)) in out[start..end].iter_mut().zip(touches) {
                     if let Moves::Basis { slopes, .. } = &mut moves[side] {
                         slopes[t] = Slope {

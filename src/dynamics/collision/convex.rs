@@ -55,16 +55,45 @@ pub(super) struct Body<'a, T: Real> {
     mat: Matrix3<T>,
     margin: T,
     core: Core,
+    /// A height field's prism instead of the shape (hfield.rs): its six
+    /// vertices in the working frame (pos and mat unused).
+    prism: Option<&'a [Vector3<T>; 6]>,
 }
 
-impl<T: Real> Body<'_, T> {
-    /// The geom's centre, where GJK starts.
+impl<'a, T: Real> Body<'a, T> {
+    /// The geom `shape` at `pos`, `mat`, grown by half of `margin`.
+    pub fn placed(shape: &'a Shape, (pos, mat): (Vector3<T>, Matrix3<T>), margin: T) -> Self {
+        Body {
+            shape,
+            pos,
+            mat,
+            margin,
+            core: Core::Whole,
+            prism: None,
+        }
+    }
+
+    /// A height field's prism (`shape` the field's), as hfield.rs makes it.
+    pub fn prism(shape: &'a Shape, vertices: &'a [Vector3<T>; 6]) -> Self {
+        Body {
+            prism: Some(vertices),
+            ..Body::placed(shape, (Vector3::zeros(), Matrix3::identity()), T::zero())
+        }
+    }
+
+    /// The geom's centre, where GJK starts (a prism's centroid).
     pub fn centre(&self) -> Vector3<T> {
-        self.pos
+        match self.prism {
+            Some(p) => super::hfield::centroid(p),
+            None => self.pos,
+        }
     }
 
     /// The point farthest along the unit world direction `dir`.
     pub fn support(&self, dir: &Vector3<T>) -> Vector3<T> {
+        if let Some(p) = self.prism {
+            return super::hfield::prism_support(p, dir);
+        }
         let [_, half_length, _] = self.shape.size();
         match self.core {
             Core::Point => self.pos,
@@ -127,20 +156,14 @@ pub(super) fn convex<T: Real>(
     margin: T,
     out: &mut Vec<Pre<T>>,
 ) {
-    let body = |shape, p: &Placed<T>| Body {
-        shape,
-        pos: p.pos,
-        mat: p.mat,
-        margin,
-        core: Core::Whole,
-    };
+    let body = |shape, p: &Placed<T>| Body::placed(shape, (p.pos, p.mat), margin);
     let (a, b) = (body(s1, p1), body(s2, p2));
     out.extend(contact(&a, &b, margin));
 }
 
 /// One contact of the bodies (MuJoCo's `mjc_penetration` over `mjc_ccd`),
 /// if they overlap.
-fn contact<T: Real>(a: &Body<T>, b: &Body<T>, margin: T) -> Option<Pre<T>> {
+pub(super) fn contact<T: Real>(a: &Body<T>, b: &Body<T>, margin: T) -> Option<Pre<T>> {
     let (x1, x2, dist) = witnesses(a, b)?;
     (dist < T::zero()).then(|| Pre {
         dist: margin + dist,

@@ -76,6 +76,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+use crate::model::hfield::HField;
 use crate::model::{Ccd, PairParams, Shape};
 use crate::spatial::{lift, Real, Transform};
 
@@ -85,6 +86,7 @@ mod convex;
 mod epa;
 mod geom;
 mod gjk;
+mod hfield;
 mod plane;
 mod record;
 mod shape;
@@ -124,8 +126,9 @@ pub struct ConstraintContact<T: Real> {
 }
 
 /// MuJoCo's geom types (mjtGeom), in its order: a pair's geom 1 is the one
-/// of lower type. Height fields and meshes have no colliders yet; their
-/// rows and columns of the table wait for them.
+/// of lower type. Meshes have no colliders yet; their rows and columns of
+/// the table wait for them. A height field's pairs run hfield.rs (they
+/// need its elevations) rather than the table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum GeomType {
     Plane,
@@ -171,10 +174,15 @@ pub fn collider<T: Real>(a: GeomType, b: GeomType) -> Option<Collider<T>> {
 }
 
 /// Whether a collider exists for geoms of types a and b (either order)
-/// under the convex-collision settings `ccd`: a pair of the general convex collider only under the
+/// under the convex-collision settings `ccd` and within `margin` (margin
+/// plus gap): a pair of the general convex collider only under the
 /// settings it runs (MuJoCo's defaults); other settings would give other
-/// contacts, so its pairs then have no collider.
-pub fn supported(a: GeomType, b: GeomType, ccd: &Ccd) -> bool {
+/// contacts, so its pairs then have no collider. A height field's pairs:
+/// see [`hfield::collides_with`].
+pub fn supported(a: GeomType, b: GeomType, ccd: &Ccd, margin: f64) -> bool {
+    if a.min(b) == GeomType::Hfield {
+        return ccd.is_default() && hfield::collides_with(a.max(b), margin);
+    }
     match collider::<f64>(a.min(b), a.max(b)) {
         Some(f) => {
             ccd.is_default() || !std::ptr::fn_addr_eq(f, convex::convex::<f64> as Collider<f64>)
@@ -223,7 +231,8 @@ pub fn collide<T: Real>(
     let pair = &pairs[index];
     let [g1, g2] = geoms;
     let reach = pair.params.margin + pair.params.gap;
-    for (pos, frame, dist) in contact_geometry([&g1.shape, &g2.shape], poses, reach, pre) {
+    let shapes = ([&g1.shape, &g2.shape], g1.field.as_deref());
+    for (pos, frame, dist) in contact_geometry(shapes, poses, reach, pre) {
         out.push(ConstraintContact {
             geoms: [g1.geom, g2.geom],
             bodies: [g1.body, g2.body],
@@ -237,17 +246,21 @@ pub fn collide<T: Real>(
 }
 
 /// The point, frame and distance (see [`ConstraintContact`]) of each contact
-/// of two rank-ordered shapes at their world poses, within `reach`; `pre` is
-/// scratch, kept by the caller so that repeated calls do not allocate.
+/// of two rank-ordered shapes at their world poses, within `reach` (with
+/// geom 1's height field when it is one); `pre` is scratch, kept by the
+/// caller so that repeated calls do not allocate.
 pub fn contact_geometry<'a, T: Real>(
-    shapes: [&Shape; 2],
+    (shapes, field): ([&Shape; 2], Option<&HField>),
     poses: [Transform<T>; 2],
     reach: f64,
     pre: &'a mut Vec<Pre<T>>,
 ) -> impl Iterator<Item = (Vector3<T>, Matrix3<T>, T)> + 'a {
     let (p1, p2) = (Placed::of(&poses[0]), Placed::of(&poses[1]));
     pre.clear();
-    narrow((shapes[0], &p1), (shapes[1], &p2), lift(reach), pre);
+    match field {
+        Some(f) => hfield::hfield((f, shapes[0], &p1), (shapes[1], &p2), lift(reach), pre),
+        None => narrow((shapes[0], &p1), (shapes[1], &p2), lift(reach), pre),
+    }
     pre.drain(..)
         .map(|c| (c.pos, make_frame(c.normal, c.tangent), c.dist))
 }
@@ -325,34 +338,47 @@ mod tests {
             for &b in &types[..i] {
                 assert!(collider::<f64>(a, b).is_none(), "{a:?} {b:?}");
                 assert_eq!(
-                    supported(a, b, &Ccd::default()),
-                    supported(b, a, &Ccd::default())
+                    supported(a, b, &Ccd::default(), 0.0),
+                    supported(b, a, &Ccd::default(), 0.0)
                 );
             }
         }
         let count = types
             .iter()
             .flat_map(|&a| types.iter().map(move |&b| (a, b)))
-            .filter(|&(a, b)| a <= b && supported(a, b, &Ccd::default()))
+            .filter(|&(a, b)| a <= b && supported(a, b, &Ccd::default(), 0.0))
             .count();
-        assert_eq!(count, 17);
-        assert!(supported(GeomType::Box, GeomType::Capsule, &Ccd::default()));
+        assert_eq!(count, 21);
+        let (h, ccd) = (GeomType::Hfield, Ccd::default());
+        assert!(supported(GeomType::Capsule, h, &ccd, 0.0));
+        assert!(!supported(h, GeomType::Capsule, &ccd, 0.01));
+        assert!(!supported(h, GeomType::Box, &ccd, 0.0));
+        assert!(!supported(h, GeomType::Plane, &ccd, 0.0));
+        assert!(supported(
+            GeomType::Box,
+            GeomType::Capsule,
+            &Ccd::default(),
+            0.0
+        ));
         assert!(supported(
             GeomType::Ellipsoid,
             GeomType::Capsule,
-            &Ccd::default()
+            &Ccd::default(),
+            0.0
         ));
         assert!(!supported(
             GeomType::Cylinder,
             GeomType::Capsule,
-            &Ccd::default()
+            &Ccd::default(),
+            0.0
         ));
         assert!(supported(
             GeomType::Plane,
             GeomType::Ellipsoid,
-            &Ccd::default()
+            &Ccd::default(),
+            0.0
         ));
-        assert!(!supported(GeomType::Plane, GeomType::Mesh, &Ccd::default()));
+        assert!(!supported(GeomType::Plane, GeomType::Mesh, &Ccd::default(), 0.0));
     }
 
     #[test]
@@ -393,8 +419,8 @@ mod tests {
                 ..Ccd::default()
             },
         ] {
-            assert!(!supported(e, c, &other), "{other:?}");
-            assert!(supported(b, c, &other), "{other:?}");
+            assert!(!supported(e, c, &other, 0.0), "{other:?}");
+            assert!(supported(b, c, &other, 0.0), "{other:?}");
         }
     }
 }

@@ -1,10 +1,11 @@
-//! `<asset><hfield>`: height fields from MuJoCo's binary file format or
-//! inline `elevation` data (see [`crate::model::hfield`]), found like mesh
+//! `<asset><hfield>`: height fields from a PNG image, MuJoCo's binary file
+//! format or inline `elevation` data (see [`crate::model::hfield`]), found like mesh
 //! files (at `meshdir`, as MuJoCo looks for them). `elevation` lists the
 //! rows from the top (y = +size[1]) down, as MuJoCo reads it; without it
 //! and without a file the field is flat. A field without a name takes its
 //! file's. Attributes read: name, file, nrow, ncol, size, elevation;
-//! content_type is accepted and ignored. PNG files are refused.
+//! content_type is accepted and ignored (a `.png` file is an image, any
+//! other MuJoCo's binary format).
 
 use std::collections::HashMap;
 
@@ -201,8 +202,8 @@ mod tests {
         let nan = format!(r#"nrow="2" ncol="2" {size} elevation="1 nan 3 4""#);
         assert_rejects(&field(&nan), "not a finite number");
         assert_rejects(&field(&format!(r#"nrow="-2" ncol="2" {size}"#)), "negative");
-        let png = r#"<asset><hfield file="terrain.png" size="1 1 1 1"/></asset>"#;
-        assert_rejects(&model(png, "", ""), "PNG");
+        let png = r#"<asset><hfield file="no-such-terrain.png" size="1 1 1 1"/></asset>"#;
+        assert_rejects(&model(png, "", ""), "no-such-terrain.png");
         let geom = |g: &str| model(FIELD, g, "");
         assert_rejects(
             &geom(r#"<geom type="hfield" hfield="x"/>"#),
@@ -216,14 +217,27 @@ mod tests {
     }
 
     #[test]
-    fn a_step_refuses_a_height_field_within_reach() {
-        let bodies = r#"<geom type="hfield" hfield="h"/>
-            <body><joint type="slide" axis="0 0 1"/><geom size="0.1"/></body>"#;
-        let m = load(&model(FIELD, bodies, ""));
-        let mut data = m.data();
-        let err = m.step(&mut data, &[0.3], &[0.0], &[0.0]).unwrap_err();
-        assert_eq!(err, StepError::NoCollider([0, 1]));
-        // Beyond the bounding sphere's reach it steps.
-        assert!(m.step(&mut data, &[3.0], &[0.0], &[0.0]).is_ok());
+    fn a_step_refuses_a_height_field_pair_without_a_collider_within_reach() {
+        // A sphere collides (collision/hfield.rs); a box, or a sphere with a
+        // margin, is refused while within reach.
+        let bodies = |geom: &str| {
+            format!(
+                r#"<geom type="hfield" hfield="h"/>
+                <body><joint type="slide" axis="0 0 1"/>{geom}</body>"#
+            )
+        };
+        let ball = load(&model(FIELD, &bodies(r#"<geom size="0.1"/>"#), ""));
+        assert!(ball.step(&mut ball.data(), &[0.3], &[0.0], &[0.0]).is_ok());
+        for geom in [
+            r#"<geom type="box" size="0.1 0.1 0.1"/>"#,
+            r#"<geom size="0.1" margin="0.01"/>"#,
+        ] {
+            let m = load(&model(FIELD, &bodies(geom), ""));
+            let mut data = m.data();
+            let err = m.step(&mut data, &[0.3], &[0.0], &[0.0]).unwrap_err();
+            assert_eq!(err, StepError::NoCollider([0, 1]));
+            // Beyond the bounding sphere's reach it steps.
+            assert!(m.step(&mut data, &[3.0], &[0.0], &[0.0]).is_ok());
+        }
     }
 }

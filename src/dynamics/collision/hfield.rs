@@ -1,0 +1,254 @@
+//! Height field against a convex geom, as MuJoCo 4 computes it
+//! (`mjc_ConvexHField`, engine_collision_convex.c): the field is cut into
+//! triangular prisms and each prism near the geom meets it through the
+//! general convex collider ([`super::convex`]), one contact per prism.
+//!
+//! Everything runs in the field's frame (see [`HField`] for its grid):
+//! - the geom's extent along the field's axes (its support points, without
+//!   margin) culls the pair when it is off the field's box, and bounds the
+//!   sub-grid of cells: columns floor((xmin + sx) / 2sx (ncol - 1)) to
+//!   ceil((xmax + sx) / 2sx (ncol - 1)), rows likewise along y;
+//! - each cell (r, c) of the sub-grid gives two prisms, walked row by row
+//!   as a strip: the triangle of grid points (c-1, r+1), (c-1, r), (c, r+1),
+//!   then (c-1, r), (c, r+1), (c, r); a prism's top vertices sit at the
+//!   elevations raised by the pair's margin, its bottom ones at -size[3];
+//! - a prism whose top lies wholly below the geom's lowest point is
+//!   skipped; the others meet the geom (grown by half the margin, as the
+//!   convex collider grows a geom) and give a contact when they overlap,
+//!   its distance that of the grown bodies (MuJoCo passes margin 0 here);
+//! - at most [`MAXCONPAIR`] contacts, in the walk's order.
+//!
+//! The margin's part is MuJoCo's published source; MuJoCo 4.0.0's binary
+//! differs (it reports the bare shapes' contacts up to the margin), so
+//! pairs with a margin are refused ([`collides_with`]) and run with zero.
+//!
+//! Contacts are transformed back to the world; the normal points from the
+//! field into the geom. A zero-size cell gives a flat prism, which GJK
+//! handles like any other polytope.
+
+use nalgebra::{convert_ref_unchecked, Matrix3, Vector3};
+
+use super::convex::{contact, Body};
+use super::{GeomType, Placed, Pre};
+use crate::model::hfield::HField;
+use crate::model::Shape;
+use crate::spatial::{lift, Real};
+
+/// MuJoCo's mjMAXCONPAIR: the most contacts of one geom pair.
+pub const MAXCONPAIR: usize = 50;
+
+/// Whether a height field collides here with geoms of this type, within
+/// `margin` (the pair's margin plus gap). Refused: a box and a mesh, which
+/// MuJoCo 4.0.0 meets with its discrete GJK and EPA (vertex indices end
+/// EPA early, depths differ from the exact ones by up to half) that
+/// convex.rs does not have yet; a pair with a margin, which MuJoCo 4.0.0
+/// measures other than its published source (no raised prism, no grown
+/// geom: the contacts of the bare shapes); a plane or another height
+/// field, as in MuJoCo.
+pub fn collides_with(other: GeomType, margin: f64) -> bool {
+    use GeomType::*;
+    margin == 0.0 && matches!(other, Sphere | Capsule | Ellipsoid | Cylinder)
+}
+
+/// The contacts of the height field `field` (geom 1, shape `s1` at `p1`)
+/// with the geom `s2` at `p2` within `margin`; see the module documentation.
+pub(super) fn hfield<T: Real>(
+    (field, s1, p1): (&HField, &Shape, &Placed<T>),
+    (s2, p2): (&Shape, &Placed<T>),
+    margin: T,
+    out: &mut Vec<Pre<T>>,
+) {
+    let pos = p1.mat.tr_mul(&(p2.pos - p1.pos));
+    let mat = p1.mat.tr_mul(&p2.mat);
+    let Some(bounds) = extent(s2, &pos, &mat) else {
+        return;
+    };
+    let m: f64 = convert_ref_unchecked(&margin);
+    let [sx, sy, sz, base] = field.size;
+    let [xmin, xmax, ymin, ymax, zmin, zmax] = bounds;
+    if xmin - m > sx || xmax + m < -sx || ymin - m > sy || ymax + m < -sy {
+        return;
+    }
+    if zmin - m > sz || zmax + m < -base {
+        return;
+    }
+    let geom = Body::placed(s2, (pos, mat), margin);
+    let start = out.len();
+    let (cols, rows) = (
+        span(xmin, xmax, sx, field.ncol),
+        span(ymin, ymax, sy, field.nrow),
+    );
+    if cols.0 >= cols.1 || rows.0 >= rows.1 {
+        return;
+    }
+    let (dx, dy) = (
+        2.0 * sx / (field.ncol - 1) as f64,
+        2.0 * sy / (field.nrow - 1) as f64,
+    );
+    let vertex = |r: usize, c: usize| {
+        let z = f64::from(field.data[r * field.ncol + c]) * sz;
+        (dx * c as f64 - sx, dy * r as f64 - sy, z)
+    };
+    let mut prism = [Vector3::new(T::zero(), T::zero(), lift(-base)); 6];
+    for r in rows.0..rows.1 {
+        push(&mut prism, vertex(r + 1, cols.0), margin);
+        push(&mut prism, vertex(r, cols.0), margin);
+        for c in cols.0 + 1..=cols.1 {
+            for dr in [1, 0] {
+                push(&mut prism, vertex(r + dr, c), margin);
+                if prism[3..].iter().all(|v| v.z < lift(zmin)) {
+                    continue;
+                }
+                if let Some(c) = contact(&Body::prism(s1, &prism), &geom, T::zero()) {
+                    out.push(Pre {
+                        pos: p1.mat * c.pos + p1.pos,
+                        normal: p1.mat * c.normal,
+                        ..c
+                    });
+                    if out.len() - start >= MAXCONPAIR {
+                        return;
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The geom's extent along the field's axes: [xmin, xmax, ymin, ymax,
+/// zmin, zmax] of its support points (geom at `pos`, `mat` in the field's
+/// frame), None for a shape without support.
+fn extent<T: Real>(shape: &Shape, pos: &Vector3<T>, mat: &Matrix3<T>) -> Option<[f64; 6]> {
+    let mut out = [0.0; 6];
+    for (k, o) in out.iter_mut().enumerate() {
+        let mut dir = Vector3::zeros();
+        dir[k / 2] = if k % 2 == 0 { -T::one() } else { T::one() };
+        let point = mat * shape.support(&mat.tr_mul(&dir))? + pos;
+        *o = convert_ref_unchecked(&point[k / 2]);
+    }
+    Some(out)
+}
+
+/// The grid lines (first, last) that a geom spanning [lo, hi] reaches on
+/// an axis of half-size `half` with `n` lines, clamped to the grid.
+fn span(lo: f64, hi: f64, half: f64, n: usize) -> (usize, usize) {
+    let at = |x: f64| (x + half) / (2.0 * half) * (n - 1) as f64;
+    let first = at(lo).floor().max(0.0) as usize;
+    let last = at(hi).ceil().min((n - 1) as f64).max(0.0) as usize;
+    (first, last)
+}
+
+/// MuJoCo's prism update: the strip's oldest grid point leaves, the grid
+/// point (x, y, elevation) enters as the third top and bottom vertex.
+fn push<T: Real>(prism: &mut [Vector3<T>; 6], (x, y, z): (f64, f64, f64), margin: T) {
+    prism[0] = prism[1];
+    prism[1] = prism[2];
+    prism[3] = prism[4];
+    prism[4] = prism[5];
+    let (x, y) = (lift::<T>(x), lift::<T>(y));
+    prism[2].x = x;
+    prism[2].y = y;
+    prism[5] = Vector3::new(x, y, lift::<T>(z) + margin);
+}
+
+/// A prism's support point: the vertex farthest along `dir` among the top
+/// three (dir.z >= 0) or the bottom three, the first of equals.
+pub(super) fn prism_support<T: Real>(prism: &[Vector3<T>; 6], dir: &Vector3<T>) -> Vector3<T> {
+    let half = if dir.z < T::zero() { 0 } else { 3 };
+    let mut best = prism[half];
+    for v in &prism[half + 1..half + 3] {
+        if v.dot(dir) > best.dot(dir) {
+            best = *v;
+        }
+    }
+    best
+}
+
+/// A prism's centroid, where GJK starts.
+pub(super) fn centroid<T: Real>(prism: &[Vector3<T>; 6]) -> Vector3<T> {
+    prism.iter().fold(Vector3::zeros(), |s, v| s + v) * lift::<T>(1.0 / 6.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 3 x 3 grid over [-1, 1]^2, elevations `data` (row-major from y = -1) scaled by 0.5, base 0.2.
+    fn field(data: [f32; 9]) -> (HField, Shape) {
+        let size = [1.0, 1.0, 0.5, 0.2];
+        let h = HField::compile("h", size, (3, 3), data.to_vec()).unwrap();
+        (h, Shape::HField { hfield: 0, size })
+    }
+
+    fn contacts(data: [f32; 9], ball: Vector3<f64>, radius: f64) -> Vec<Pre<f64>> {
+        let (h, s1) = field(data);
+        let at = |pos| Placed {
+            pos,
+            mat: Matrix3::identity(),
+        };
+        let mut out = vec![];
+        let s2 = Shape::Sphere { radius };
+        hfield(
+            (&h, &s1, &at(Vector3::zeros())),
+            (&s2, &at(ball)),
+            0.0,
+            &mut out,
+        );
+        out
+    }
+
+    #[test]
+    fn a_sphere_on_a_sloped_cell_touches_its_plane() {
+        // Elevations rise along x: the surface z = 0.25 (x + 1) over the grid, one plane.
+        let slope = [0.0, 0.5, 1.0, 0.0, 0.5, 1.0, 0.0, 0.5, 1.0];
+        let n = Vector3::new(-0.25, 0.0, 1.0).normalize();
+        let foot = Vector3::new(0.4, 0.3, 0.35);
+        let c = contacts(slope, foot + n * 0.08, 0.1);
+        assert_eq!(c.len(), 1);
+        assert!((c[0].dist + 0.02).abs() < 1e-12, "{}", c[0].dist);
+        assert!((c[0].normal - n).norm() < 1e-12, "{}", c[0].normal);
+        assert!(
+            (c[0].pos - (foot - n * 0.01)).norm() < 1e-12,
+            "{}",
+            c[0].pos
+        );
+        // Apart: none; beyond the field: none.
+        assert!(contacts(slope, foot + n * 0.11, 0.1).is_empty());
+        assert!(contacts(slope, Vector3::new(1.2, 0.0, 0.5), 0.1).is_empty());
+    }
+
+    #[test]
+    fn deep_and_flat_contacts_are_finite() {
+        // A sphere sunk below a flat field's surface, and one on a flat field with
+        // a zero-height base cell: finite contacts, one per prism met.
+        let flat = [0.0; 9];
+        for centre in [Vector3::new(0.1, 0.2, -0.05), Vector3::new(0.0, 0.0, 0.05)] {
+            let c = contacts(flat, centre, 0.1);
+            assert!(!c.is_empty());
+            for k in &c {
+                assert!(k.dist.is_finite() && k.pos.iter().all(|x| x.is_finite()));
+                assert!(k.normal.iter().all(|x| x.is_finite()) && k.dist < 0.0);
+            }
+        }
+    }
+
+    #[test]
+    fn the_prism_support_takes_the_top_or_bottom_triangle() {
+        let v = |x, y, z| Vector3::new(x, y, z);
+        let prism = [
+            v(0.0, 0.0, -1.0),
+            v(1.0, 0.0, -1.0),
+            v(0.0, 1.0, -1.0),
+            v(0.0, 0.0, 0.5),
+            v(1.0, 0.0, 0.2),
+            v(0.0, 1.0, 0.9),
+        ];
+        assert_eq!(prism_support(&prism, &v(0.0, 0.0, 1.0)), prism[5]);
+        assert_eq!(prism_support(&prism, &v(1.0, 0.0, -0.1)), prism[1]);
+        // Ties go to the first vertex.
+        assert_eq!(prism_support(&prism, &v(0.0, 0.0, -1.0)), prism[0]);
+        assert!((centroid(&prism) - v(1.0 / 3.0, 1.0 / 3.0, -1.4 / 6.0)).norm() < 1e-15);
+        assert_eq!(span(-0.3, 0.3, 1.0, 3), (0, 2));
+        assert_eq!(span(0.1, 0.3, 1.0, 5), (2, 3));
+        assert_eq!(span(-3.0, -2.0, 1.0, 5), (0, 0));
+    }
+}
