@@ -21,7 +21,7 @@
 use std::time::Instant;
 
 use diffosi::derivatives::Transition;
-use diffosi::model::State;
+use diffosi::model::{Inputs, State};
 use diffosi::osi::{ChangeDetection, Lm, Online, Problem, Sampling};
 use diffosi::tasks::{average_mu, by_name};
 use diffosi::Model;
@@ -89,7 +89,13 @@ fn simulate(steps: usize) -> (Vec<Checkpoint>, String) {
     let series = measured(steps, |i| {
         let t = i as f64 * dt;
         let tau = [t.sin(), (2.0 * t).cos()];
-        (q, v) = model.step(&mut data, &q, &v, &tau).expect("a finite step");
+        State { q, v, .. } = model
+            .step(
+                &mut data,
+                &State::new(q.to_vec(), v.to_vec()),
+                &Inputs::tau(&tau),
+            )
+            .expect("a finite step");
     });
     (series, format!("final q = {q:.6?}, v = {v:.6?}"))
 }
@@ -127,7 +133,17 @@ fn identify(updates: usize) -> (Vec<Checkpoint>, String) {
         let mut draw = |h: f64| rng.random_range(-h..=h);
         let (q, v) = (vec![draw(1.0), draw(0.5)], vec![draw(1.0), draw(2.0)]);
         let tau = vec![draw(10.0), 0.0];
-        let (q_next, v_next) = truth.step(&mut data, &q, &v, &tau).expect("a finite step");
+        let State {
+            q: q_next,
+            v: v_next,
+            ..
+        } = truth
+            .step(
+                &mut data,
+                &State::new(q.to_vec(), v.to_vec()),
+                &Inputs::tau(&tau),
+            )
+            .expect("a finite step");
         let transition = Transition {
             start: State::new(q, v),
             tau,

@@ -8,7 +8,7 @@
 //! let model = diffosi::Model::load(concat!(env!("CARGO_MANIFEST_DIR"), "/reference_models/cartpole.xml"))?;
 //! let mut data = model.data();
 //! // State (q, v) = ((cart x, pole angle), their rates); tau = generalized forces.
-//! let (q1, v1) = model.step(&mut data, &[0.0, 0.1], &[0.0, 0.0], &[0.0, 0.0])?;
+//! let State { q: q1, v: v1, .. } = model.step(&mut data, &State::new(vec![0.0, 0.1], vec![0.0, 0.0]), &Inputs::tau(&[0.0, 0.0]))?;
 //! assert!(v1[1] > 0.0, "the tilted pole falls further");
 //! assert_eq!(q1[1], 0.1 + model.opt.timestep * v1[1]);
 //! # Ok(())

@@ -3,6 +3,7 @@
 mod common;
 
 use diffosi::dynamics::{bias_forces, crba, Data};
+use diffosi::model::{Inputs, State};
 use diffosi::Model;
 use nalgebra::{Matrix2, Vector2, Vector3};
 
@@ -108,7 +109,13 @@ fn pendulum_small_angle_period() {
     let (mut q, mut v) = (vec![joint.reference + amplitude], vec![0.0]);
     let mut crossings = vec![];
     for t in 0..((6.0 * expected / h) as usize) {
-        let (q1, v1) = model.step(&mut data, &q, &v, &[0.0]).unwrap();
+        let State { q: q1, v: v1, .. } = model
+            .step(
+                &mut data,
+                &State::new(q.to_vec(), v.to_vec()),
+                &Inputs::tau(&[0.0]),
+            )
+            .unwrap();
         let (a, b) = (q[0] - joint.reference, q1[0] - joint.reference);
         if a > 0.0 && b <= 0.0 {
             crossings.push((t as f64 + a / (a - b)) * h);

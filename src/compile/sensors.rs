@@ -17,13 +17,13 @@ use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 use super::Model;
 use crate::dynamics::constraint::{contact_forces, ConstraintKind, Origin};
 use crate::dynamics::{
-    acceleration, check_colliders, check_inputs, rnea_with_transforms, world_frames, Constrained,
-    Contact, Data, StepError,
+    acceleration, check_colliders, rnea_with_transforms, world_frames, Constrained, Contact, Data,
+    StepError,
 };
 use crate::model::MINVAL;
 use crate::model::{
-    ContactModel, FrameObject, FrameQuantity, JointKind, JointQuantity, PassiveMode, Sensor,
-    SensorKind, SiteQuantity,
+    ContactModel, FrameObject, FrameQuantity, Inputs, JointKind, JointQuantity, PassiveMode,
+    Sensor, SensorKind, SiteQuantity, State,
 };
 use crate::spatial::{Force, Inertia, Motion, Transform};
 
@@ -42,16 +42,16 @@ impl Model {
     }
 
     /// The readings of every sensor (MuJoCo's sensordata, laid out by
-    /// [`Model::sensor_layout`]) at (q, v) under generalized forces tau
-    /// (MuJoCo's qfrc_applied) with ctrl = 0, the mocap bodies where `data`
-    /// holds them ([`crate::dynamics::mocap::set_mocap`]). Fails on a sensor
-    /// that is read but not computed, naming it.
+    /// [`Model::sensor_layout`]) at x = (q, v) under generalized forces
+    /// u.tau (MuJoCo's qfrc_applied) with ctrl = 0, the mocap bodies at u's
+    /// poses (empty: the compiled ones). The actuators are left out, as in
+    /// [`Model::contacts`] (a non-empty ctrl or act is refused). Fails on a
+    /// sensor that is read but not computed, naming it.
     pub fn sensor_readings(
         &self,
         data: &mut Data<f64>,
-        q: &[f64],
-        v: &[f64],
-        tau: &[f64],
+        x: &State,
+        u: &Inputs,
     ) -> Result<Vec<f64>, StepError> {
         let unsupported = self.sensors.iter().find_map(|s| match &s.kind {
             SensorKind::Unsupported { element, why } => Some((s, element, why)),
@@ -81,8 +81,8 @@ impl Model {
                 why: "the smooth contact model has no limit rows (MuJoCo's efc)".into(),
             });
         }
+        let (q, v, tau) = self.unactuated(data, x, u)?;
         let tree = self.tree();
-        check_inputs(tree, (q, v, tau))?;
         check_colliders(tree, data, (q, v))?;
         let mut qdd = vec![0.0; self.nv()];
         let mode = (PassiveMode::Explicit, self.opt.timestep);

@@ -94,6 +94,14 @@ pub enum StepError {
          (gravcomp) is not supported yet (their identification with modelled constraints is)"
     )]
     NoGravcompDerivatives,
+    /// An input an evaluation would ignore: contacts and sensor readings
+    /// ([`crate::Model::contacts`], [`crate::Model::sensor_readings`]) leave
+    /// the actuators out, so they take no ctrl or act.
+    #[error(
+        "{name} is not read here: contacts and sensor readings leave the actuators out (pass \
+         it empty)"
+    )]
+    NotRead { name: &'static str },
     /// The next state is finite but a Jacobian block overflowed.
     #[error("the step Jacobian {block} is not finite (state, forces or parameters too large)")]
     JacobianNotFinite { block: &'static str },

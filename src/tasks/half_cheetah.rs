@@ -251,6 +251,7 @@ impl Task for HalfCheetah {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::Inputs;
 
     #[test]
     fn the_contact_variant_at_the_files_values_is_the_task() {
@@ -270,10 +271,32 @@ mod tests {
         q[1] -= 0.3;
         let tau = vec![0.0; a.nv()];
         let (mut da, mut db) = (a.data(), b.data());
-        assert_eq!(a.step(&mut da, &q, &v, &tau), b.step(&mut db, &q, &v, &tau));
+        assert_eq!(
+            a.step(
+                &mut da,
+                &State::new(q.to_vec(), v.to_vec()),
+                &Inputs::tau(&tau)
+            ),
+            b.step(
+                &mut db,
+                &State::new(q.to_vec(), v.to_vec()),
+                &Inputs::tau(&tau)
+            )
+        );
         // No armature, more friction: another step.
         wide.mu_map().apply(&mut b, &[mass, 0.0, 0.5]).unwrap();
-        assert_ne!(a.step(&mut da, &q, &v, &tau), b.step(&mut db, &q, &v, &tau));
+        assert_ne!(
+            a.step(
+                &mut da,
+                &State::new(q.to_vec(), v.to_vec()),
+                &Inputs::tau(&tau)
+            ),
+            b.step(
+                &mut db,
+                &State::new(q.to_vec(), v.to_vec()),
+                &Inputs::tau(&tau)
+            )
+        );
         assert_eq!(b.get_param("joint/bfoot/armature").unwrap(), vec![0.0]);
         assert_eq!(
             b.get_param("geom/floor/friction").unwrap(),

@@ -157,6 +157,7 @@ mod tests {
     use super::super::{step_jacobians, Workspace, Wrt};
     use super::*;
     use crate::dynamics::acceleration;
+    use crate::model::{Inputs, State};
     use crate::model::{Integrator, Param};
     use crate::Model;
 
@@ -240,7 +241,13 @@ mod tests {
                         }
                     }
                 }
-                (q, v) = model.step(&mut data, &q, &v, &tau).unwrap();
+                State { q, v, .. } = model
+                    .step(
+                        &mut data,
+                        &State::new(q.to_vec(), v.to_vec()),
+                        &Inputs::tau(&tau),
+                    )
+                    .unwrap();
             }
             // Every kind's rows active but equalities' (analytic(Equality) is false).
             let expected = ConstraintKind::ORDER.map(|k| k != ConstraintKind::Equality);
@@ -296,7 +303,16 @@ mod tests {
                     let tau: Vec<f64> = (0..n)
                         .map(|i| 0.02 * (0.3 * (k + i) as f64).sin())
                         .collect();
-                    if k % 48 == 0 && !model.contacts(&mut data, &q, &v, &tau).unwrap().is_empty() {
+                    if k % 48 == 0
+                        && !model
+                            .contacts(
+                                &mut data,
+                                &State::new(q.to_vec(), v.to_vec()),
+                                &Inputs::tau(&tau),
+                            )
+                            .unwrap()
+                            .is_empty()
+                    {
                         let x = (&q[..], &v[..], &tau[..]);
                         let j = step_jacobians(&model, &mut ws, x, &wrt).unwrap();
                         let mut duals = Default::default();
@@ -319,7 +335,13 @@ mod tests {
                         }
                         checked += 1;
                     }
-                    (q, v) = model.step(&mut data, &q, &v, &tau).unwrap();
+                    State { q, v, .. } = model
+                        .step(
+                            &mut data,
+                            &State::new(q.to_vec(), v.to_vec()),
+                            &Inputs::tau(&tau),
+                        )
+                        .unwrap();
                 }
                 assert!(checked >= 3, "{file}: {checked} states in contact");
             }
