@@ -58,15 +58,8 @@ fn bench_model(c: &mut Criterion, name: &str, param: &str) {
         ..Wrt::default()
     };
     c.bench_function(&format!("jacobian_step/{name}"), |b| {
-        b.iter(|| {
-            model
-                .step(
-                    &mut data,
-                    &State::new(black_box(&q).to_vec(), v.to_vec()),
-                    &Inputs::tau(&tau),
-                )
-                .unwrap()
-        })
+        let (x, u) = (State::new(q.clone(), v.clone()), Inputs::tau(&tau));
+        b.iter(|| model.step(&mut data, black_box(&x), &u).unwrap())
     });
     let mut transition = TransitionJacobians::new(model.nq(), model.nv());
     c.bench_function(&format!("jacobian_full/{name}"), |b| {
@@ -132,15 +125,8 @@ fn bench_constraint(c: &mut Criterion) {
         ..Wrt::default()
     };
     c.bench_function("constraint_step/half_cheetah", |b| {
-        b.iter(|| {
-            model
-                .step(
-                    &mut data,
-                    &State::new(black_box(&q).to_vec(), v.to_vec()),
-                    &Inputs::tau(&tau),
-                )
-                .unwrap()
-        })
+        let (x, u) = (State::new(q.clone(), v.clone()), Inputs::tau(&tau));
+        b.iter(|| model.step(&mut data, black_box(&x), &u).unwrap())
     });
     let mut transition = TransitionJacobians::new(model.nq(), model.nv());
     c.bench_function("constraint_jacobian_full/half_cheetah", |b| {

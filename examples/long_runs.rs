@@ -90,11 +90,7 @@ fn simulate(steps: usize) -> (Vec<Checkpoint>, String) {
         let t = i as f64 * dt;
         let tau = [t.sin(), (2.0 * t).cos()];
         State { q, v, .. } = model
-            .step(
-                &mut data,
-                &State::new(q.to_vec(), v.to_vec()),
-                &Inputs::tau(&tau),
-            )
+            .step(&mut data, &State::new(q, v), &Inputs::tau(&tau))
             .expect("a finite step");
     });
     (series, format!("final q = {q:.6?}, v = {v:.6?}"))

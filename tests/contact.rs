@@ -213,11 +213,7 @@ fn a_resting_box_carries_its_weight() {
     let mut data = model.data();
     for _ in 0..2000 {
         State { q, v, .. } = model
-            .step(
-                &mut data,
-                &State::new(q.to_vec(), v.to_vec()),
-                &Inputs::tau(&vec![0.0; n]),
-            )
+            .step(&mut data, &State::new(q, v), &Inputs::tau(&vec![0.0; n]))
             .unwrap();
     }
     let contacts = model
@@ -307,11 +303,7 @@ fn the_half_cheetah_lands_and_stands() {
     let mut data = model.data();
     for _ in 0..300 {
         State { q, v, .. } = model
-            .step(
-                &mut data,
-                &State::new(q.to_vec(), v.to_vec()),
-                &Inputs::tau(&vec![0.0; n]),
-            )
+            .step(&mut data, &State::new(q, v), &Inputs::tau(&vec![0.0; n]))
             .unwrap();
     }
     let contacts = model

@@ -464,11 +464,7 @@ fn jacobians_through_constraint_contact_match_finite_differences() {
         let tau = vec![0.0; n];
         for _ in 0..steps {
             State { q, v, .. } = model
-                .step(
-                    &mut data,
-                    &State::new(q.to_vec(), v.to_vec()),
-                    &Inputs::tau(&tau),
-                )
+                .step(&mut data, &State::new(q, v), &Inputs::tau(&tau))
                 .unwrap();
         }
         let touching = model

@@ -300,11 +300,7 @@ fn standing_ant(integrator: Integrator) {
     let tau = vec![0.0; model.nv()];
     for _ in 0..100 {
         State { q, v, .. } = model
-            .step(
-                &mut data,
-                &State::new(q.to_vec(), v.to_vec()),
-                &Inputs::tau(&tau),
-            )
+            .step(&mut data, &State::new(q, v), &Inputs::tau(&tau))
             .unwrap();
     }
     assert!(

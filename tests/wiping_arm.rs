@@ -80,11 +80,7 @@ fn pressed_tool_balances_spring_and_weight() {
         let mut tau = c + m * a;
         tau[7] = 0.0;
         State { q, v, .. } = model
-            .step(
-                &mut data,
-                &State::new(q.to_vec(), v.to_vec()),
-                &Inputs::tau(tau.as_slice()),
-            )
+            .step(&mut data, &State::new(q, v), &Inputs::tau(tau.as_slice()))
             .unwrap();
     }
     let contacts = model

@@ -37,11 +37,7 @@ pub fn settled(model: &Model, steps: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let mut data = model.data();
     for _ in 0..steps {
         State { q, v, .. } = model
-            .step(
-                &mut data,
-                &State::new(q.to_vec(), v.to_vec()),
-                &Inputs::tau(&tau),
-            )
+            .step(&mut data, &State::new(q, v), &Inputs::tau(&tau))
             .unwrap();
     }
     (q, v, tau)

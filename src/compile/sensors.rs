@@ -81,7 +81,8 @@ impl Model {
                 why: "the smooth contact model has no limit rows (MuJoCo's efc)".into(),
             });
         }
-        let (q, v, tau) = self.unactuated(data, x, u)?;
+        self.unactuated(data, x, u)?;
+        let (q, v, tau) = (&x.q[..], &x.v[..], &u.tau[..]);
         let tree = self.tree();
         check_colliders(tree, data, (q, v))?;
         let mut qdd = vec![0.0; self.nv()];

@@ -122,7 +122,8 @@ impl Model {
         x: &State,
         u: &Inputs,
     ) -> Result<Vec<Contact<f64>>, StepError> {
-        let (q, v, tau) = self.unactuated(data, x, u)?;
+        self.unactuated(data, x, u)?;
+        let (q, v, tau) = (&x.q[..], &x.v[..], &u.tau[..]);
         if self.opt.contact_model == ContactModel::Smooth {
             let mut out = vec![0.0; self.nv()];
             dynamics::add_soft_forces(&self.tree, data, (q, v), &mut out);
@@ -136,23 +137,22 @@ impl Model {
         }))
     }
 
-    /// (q, v, tau) of an evaluation that leaves the actuators out (contacts,
-    /// sensor readings), checked, with the mocap bodies placed at u's poses
+    /// Checks x and u for an evaluation that leaves the actuators out
+    /// (contacts, sensor readings) and places the mocap bodies at u's poses
     /// in `data`; a non-empty ctrl or act is refused rather than ignored.
-    pub(super) fn unactuated<'a>(
+    pub(super) fn unactuated(
         &self,
         data: &mut Data<f64>,
-        x: &'a State,
-        u: &'a Inputs,
-    ) -> Result<(&'a [f64], &'a [f64], &'a [f64]), StepError> {
+        x: &State,
+        u: &Inputs,
+    ) -> Result<(), StepError> {
         for (name, given) in [("ctrl", &u.ctrl), ("act", &x.act)] {
             if !given.is_empty() {
                 return Err(StepError::NotRead { name });
             }
         }
         dynamics::check_inputs(&self.tree, (&x.q, &x.v, &u.tau))?;
-        dynamics::mocap::set_mocap(&self.tree, data, (&u.mocap_pos, &u.mocap_quat))?;
-        Ok((&x.q, &x.v, &u.tau))
+        dynamics::mocap::set_mocap(&self.tree, data, (&u.mocap_pos, &u.mocap_quat))
     }
 
     /// Steps from `x0` under each of `inputs` (each step's ctrl, tau and

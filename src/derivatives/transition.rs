@@ -119,11 +119,7 @@ mod tests {
             let tau: Vec<f64> = (0..n).map(|i| 0.1 * (i as f64).sin()).collect();
             for _ in 0..200 {
                 State { q, v, .. } = model
-                    .step(
-                        &mut data,
-                        &State::new(q.to_vec(), v.to_vec()),
-                        &Inputs::tau(&tau),
-                    )
+                    .step(&mut data, &State::new(q, v), &Inputs::tau(&tau))
                     .unwrap();
             }
             let touching = !model

@@ -242,11 +242,7 @@ mod tests {
                     }
                 }
                 State { q, v, .. } = model
-                    .step(
-                        &mut data,
-                        &State::new(q.to_vec(), v.to_vec()),
-                        &Inputs::tau(&tau),
-                    )
+                    .step(&mut data, &State::new(q, v), &Inputs::tau(&tau))
                     .unwrap();
             }
             // Every kind's rows active but equalities' (analytic(Equality) is false).
@@ -336,11 +332,7 @@ mod tests {
                         checked += 1;
                     }
                     State { q, v, .. } = model
-                        .step(
-                            &mut data,
-                            &State::new(q.to_vec(), v.to_vec()),
-                            &Inputs::tau(&tau),
-                        )
+                        .step(&mut data, &State::new(q, v), &Inputs::tau(&tau))
                         .unwrap();
                 }
                 assert!(checked >= 3, "{file}: {checked} states in contact");
