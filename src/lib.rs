@@ -8,9 +8,10 @@
 //! let model = diffosi::Model::load(concat!(env!("CARGO_MANIFEST_DIR"), "/reference_models/cartpole.xml"))?;
 //! let mut data = model.data();
 //! // State (q, v) = ((cart x, pole angle), their rates); tau = generalized forces.
-//! let State { q: q1, v: v1, .. } = model.step(&mut data, &State::new(vec![0.0, 0.1], vec![0.0, 0.0]), &Inputs::tau(&[0.0, 0.0]))?;
-//! assert!(v1[1] > 0.0, "the tilted pole falls further");
-//! assert_eq!(q1[1], 0.1 + model.opt.timestep * v1[1]);
+//! let x = diffosi::model::State::new(vec![0.0, 0.1], vec![0.0, 0.0]);
+//! let next = model.step(&mut data, &x, &diffosi::model::Inputs::tau(&[0.0, 0.0]))?;
+//! assert!(next.v[1] > 0.0, "the tilted pole falls further");
+//! assert_eq!(next.q[1], 0.1 + model.opt.timestep * next.v[1]);
 //! # Ok(())
 //! # }
 //! ```
