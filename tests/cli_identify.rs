@@ -31,17 +31,14 @@ fn cartpole_rows(mass: f64, len: usize, seed: u64) -> Vec<String> {
                     .collect()
             };
             let (q, v, tau) = (draw([1.0, 0.5]), draw([1.0, 2.0]), draw([10.0, 0.0]));
-            let State {
-                q: q_next,
-                v: v_next,
-                ..
-            } = model
+            let next = model
                 .step(
                     &mut data,
-                    &State::new(q.to_vec(), v.to_vec()),
+                    &State::new(q.clone(), v.clone()),
                     &Inputs::tau(&tau),
                 )
                 .unwrap();
+            let (q_next, v_next) = (next.q, next.v);
             let cells: Vec<String> = [q, v, tau, q_next, v_next]
                 .concat()
                 .iter()

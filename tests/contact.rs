@@ -343,24 +343,22 @@ fn limits_push_back_and_switch_off() {
     let v = vec![0.0; n];
     let tau = vec![0.0; n];
     let free = model.edited(|s| s.opt.limits = false).unwrap();
-    let State {
-        q: _, v: v_limited, ..
-    } = model
+    let next = model
         .step(
             &mut model.data(),
-            &State::new(q.to_vec(), v.to_vec()),
+            &State::new(q.clone(), v.clone()),
             &Inputs::tau(&tau),
         )
         .unwrap();
-    let State {
-        q: _, v: v_free, ..
-    } = free
+    let (_, v_limited) = (next.q, next.v);
+    let next = free
         .step(
             &mut free.data(),
-            &State::new(q.to_vec(), v.to_vec()),
+            &State::new(q.clone(), v.clone()),
             &Inputs::tau(&tau),
         )
         .unwrap();
+    let (_, v_free) = (next.q, next.v);
     // 10 mrad past the lower limit: about k_l * 0.01 = 10 N m pushes up.
     assert!(v_limited[bthigh] - v_free[bthigh] > 0.01);
     // Inside the range the limits do nothing measurable.

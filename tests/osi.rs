@@ -43,17 +43,14 @@ fn transition(truth: &Model, r: &mut StdRng, ranges: &[f64]) -> Transition {
             .collect()
     };
     let (q, v, tau) = (draw(0), draw(1), draw(2));
-    let State {
-        q: q_next,
-        v: v_next,
-        ..
-    } = truth
+    let next = truth
         .step(
             &mut truth.data(),
-            &State::new(q.to_vec(), v.to_vec()),
+            &State::new(q.clone(), v.clone()),
             &Inputs::tau(&tau),
         )
         .unwrap();
+    let (q_next, v_next) = (next.q, next.v);
     Transition {
         start: State::new(q, v),
         tau,

@@ -65,17 +65,14 @@ fn window(truth: &Model, len: usize, seed: u64) -> Vec<Transition> {
                     &Inputs::tau(&tau),
                 )
                 .unwrap();
-            let State {
-                q: q_next,
-                v: v_next,
-                ..
-            } = truth
+            let next = truth
                 .step(
                     &mut data,
-                    &State::new(q.to_vec(), v.to_vec()),
+                    &State::new(q.clone(), v.clone()),
                     &Inputs::tau(&tau),
                 )
                 .unwrap();
+            let (q_next, v_next) = (next.q, next.v);
             Transition {
                 start: State::new(q, v),
                 tau,

@@ -389,20 +389,22 @@ fn twins_have_the_same_dynamics() {
                 .zip(&cu)
                 .map(|(a, b)| (a - b).abs())
                 .fold(0.0, f64::max);
-            let State { q: qm, v: vm, .. } = mjcf
+            let next = mjcf
                 .step(
                     &mut dm,
-                    &State::new(q.to_vec(), v.to_vec()),
+                    &State::new(q.clone(), v.clone()),
                     &Inputs::tau(&tau),
                 )
                 .unwrap();
-            let State { q: qu, v: vu, .. } = urdf
+            let (qm, vm) = (next.q, next.v);
+            let next = urdf
                 .step(
                     &mut du,
-                    &State::new(q.to_vec(), v.to_vec()),
+                    &State::new(q.clone(), v.clone()),
                     &Inputs::tau(&tau),
                 )
                 .unwrap();
+            let (qu, vu) = (next.q, next.v);
             let s_err = qm
                 .iter()
                 .chain(&vm)

@@ -32,17 +32,14 @@ fn window(model: &Model, map: &ParamMap, mu: f64, len: usize) -> Vec<Transition>
                 common::uniform(&mut r, -2.0, 2.0),
             ];
             let tau = vec![common::uniform(&mut r, -10.0, 10.0), 0.0];
-            let State {
-                q: q_next,
-                v: v_next,
-                ..
-            } = truth
+            let next = truth
                 .step(
                     &mut truth.data(),
-                    &State::new(q.to_vec(), v.to_vec()),
+                    &State::new(q.clone(), v.clone()),
                     &Inputs::tau(&tau),
                 )
                 .unwrap();
+            let (q_next, v_next) = (next.q, next.v);
             Transition {
                 start: State::new(q, v),
                 tau,
@@ -329,17 +326,14 @@ fn rows_match_through_contact() {
             .map(|k| {
                 let (mut q, v, tau) = common::random_state(&model, 40 + k);
                 q[1] = -0.15; // the feet in the floor
-                let State {
-                    q: q_next,
-                    v: v_next,
-                    ..
-                } = truth
+                let next = truth
                     .step(
                         &mut truth.data(),
-                        &State::new(q.to_vec(), v.to_vec()),
+                        &State::new(q.clone(), v.clone()),
                         &Inputs::tau(&tau),
                     )
                     .unwrap();
+                let (q_next, v_next) = (next.q, next.v);
                 Transition {
                     start: State::new(q, v),
                     tau,

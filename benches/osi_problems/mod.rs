@@ -119,17 +119,14 @@ impl Task {
                 let q: Vec<f64> = q0.iter().zip(&dq).map(|(a, b)| a + b).collect();
                 let v = draw(self.ranges[1]);
                 let tau = draw(self.ranges[2]);
-                let State {
-                    q: q_next,
-                    v: v_next,
-                    ..
-                } = truth
+                let next = truth
                     .step(
                         &mut data,
-                        &State::new(q.to_vec(), v.to_vec()),
+                        &State::new(q.clone(), v.clone()),
                         &Inputs::tau(&tau),
                     )
                     .unwrap();
+                let (q_next, v_next) = (next.q, next.v);
                 Transition {
                     start: State::new(q, v),
                     tau,
@@ -153,17 +150,14 @@ impl Task {
                 let tau: Vec<f64> = (0..n)
                     .map(|_| rng.random_range(-self.ranges[2]..self.ranges[2]))
                     .collect();
-                let State {
-                    q: q_next,
-                    v: v_next,
-                    ..
-                } = truth
+                let next = truth
                     .step(
                         &mut data,
-                        &State::new(q.to_vec(), v.to_vec()),
+                        &State::new(q.clone(), v.clone()),
                         &Inputs::tau(&tau),
                     )
                     .unwrap();
+                let (q_next, v_next) = (next.q, next.v);
                 let t = Transition {
                     start: State::new(q.clone(), v.clone()),
                     tau,

@@ -342,17 +342,14 @@ mod tests {
             .map(|t| {
                 let s = (t as f64 * 0.7).sin();
                 let (q, v, tau) = (vec![0.1 * s, 0.4 * s], vec![s, -s], vec![8.0 * s, 0.0]);
-                let State {
-                    q: q_next,
-                    v: mut v_next,
-                    ..
-                } = truth
+                let next = truth
                     .step(
                         &mut truth.data(),
-                        &State::new(q.to_vec(), v.to_vec()),
+                        &State::new(q.clone(), v.clone()),
                         &Inputs::tau(&tau),
                     )
                     .unwrap();
+                let (q_next, mut v_next) = (next.q, next.v);
                 if t % corrupt == corrupt - 1 {
                     v_next[1] += 0.5;
                 }

@@ -269,34 +269,12 @@ mod tests {
         // A state with both feet pressed into the floor: contact rows act.
         let State { mut q, v, .. } = plain.reset(&mut rand::SeedableRng::seed_from_u64(3));
         q[1] -= 0.3;
-        let tau = vec![0.0; a.nv()];
+        let (x, u) = (State::new(q, v), Inputs::tau(&vec![0.0; a.nv()]));
         let (mut da, mut db) = (a.data(), b.data());
-        assert_eq!(
-            a.step(
-                &mut da,
-                &State::new(q.to_vec(), v.to_vec()),
-                &Inputs::tau(&tau)
-            ),
-            b.step(
-                &mut db,
-                &State::new(q.to_vec(), v.to_vec()),
-                &Inputs::tau(&tau)
-            )
-        );
+        assert_eq!(a.step(&mut da, &x, &u), b.step(&mut db, &x, &u));
         // No armature, more friction: another step.
         wide.mu_map().apply(&mut b, &[mass, 0.0, 0.5]).unwrap();
-        assert_ne!(
-            a.step(
-                &mut da,
-                &State::new(q.to_vec(), v.to_vec()),
-                &Inputs::tau(&tau)
-            ),
-            b.step(
-                &mut db,
-                &State::new(q.to_vec(), v.to_vec()),
-                &Inputs::tau(&tau)
-            )
-        );
+        assert_ne!(a.step(&mut da, &x, &u), b.step(&mut db, &x, &u));
         assert_eq!(b.get_param("joint/bfoot/armature").unwrap(), vec![0.0]);
         assert_eq!(
             b.get_param("geom/floor/friction").unwrap(),

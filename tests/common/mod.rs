@@ -305,17 +305,14 @@ pub fn cheetah_walk(truth: &Model, len: usize, seed: u64) -> Vec<Transition> {
                     tau[3 + i] = g * uniform(&mut rng, -1.0, 1.0);
                 }
             }
-            let State {
-                q: q_next,
-                v: v_next,
-                ..
-            } = truth
+            let next = truth
                 .step(
                     &mut data,
-                    &State::new(q.to_vec(), v.to_vec()),
+                    &State::new(q.clone(), v.clone()),
                     &Inputs::tau(&tau),
                 )
                 .unwrap();
+            let (q_next, v_next) = (next.q, next.v);
             let t = Transition {
                 start: State::new(q.clone(), v.clone()),
                 tau: tau.clone(),
