@@ -182,6 +182,8 @@ class Model:
         taus: ArrayLike,
         ctrls: ArrayLike | None = None,
         act0: ArrayLike | None = None,
+        mocap_pos: ArrayLike | None = None,
+        mocap_quat: ArrayLike | None = None,
     ) -> tuple[_F64, ...]:
         """taus (T, nv) -> (Q (T+1, nq), V (T+1, nv)), and A (T+1, na) when na > 0."""
     def step_jacobians(
@@ -204,11 +206,27 @@ class Model:
         q: ArrayLike,
         v: ArrayLike,
         tau: ArrayLike,
+        ctrl: ArrayLike | None = None,
+        act: ArrayLike | None = None,
         mocap_pos: ArrayLike | None = None,
         mocap_quat: ArrayLike | None = None,
     ) -> _F64: ...
-    def contacts(self, q: ArrayLike, v: ArrayLike, tau: ArrayLike | None = None) -> list[_Contact]: ...
-    def body_contact_forces(self, q: ArrayLike, v: ArrayLike, tau: ArrayLike | None = None) -> _F64:
+    def contacts(
+        self,
+        q: ArrayLike,
+        v: ArrayLike,
+        tau: ArrayLike | None = None,
+        mocap_pos: ArrayLike | None = None,
+        mocap_quat: ArrayLike | None = None,
+    ) -> list[_Contact]: ...
+    def body_contact_forces(
+        self,
+        q: ArrayLike,
+        v: ArrayLike,
+        tau: ArrayLike | None = None,
+        mocap_pos: ArrayLike | None = None,
+        mocap_quat: ArrayLike | None = None,
+    ) -> _F64:
         """(len(body_names), 3) net contact force on each body, N, world frame."""
 
 @final

@@ -9,7 +9,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use diffosi::derivatives::{
     step_jacobians, transition_jacobians, TransitionJacobians, Workspace, Wrt,
 };
-use diffosi::model::ContactModel;
+use diffosi::model::{ContactModel, Inputs, State};
 use diffosi::Model;
 use std::hint::black_box;
 
@@ -21,13 +21,23 @@ fn finite_difference_jacobian(
     out: &mut [f64],
 ) {
     let n = model.nv();
-    let (q0, v0) = model.step(data, x[0], x[1], x[2]).unwrap();
+    let State { q: q0, v: v0, .. } = model
+        .step(
+            data,
+            &State::new(x[0].to_vec(), x[1].to_vec()),
+            &Inputs::tau(x[2]),
+        )
+        .unwrap();
     let mut inputs = [x[0].to_vec(), x[1].to_vec(), x[2].to_vec()];
     for k in 0..3 * n {
         let eps = 1e-7;
         inputs[k / n][k % n] += eps;
-        let (q1, v1) = model
-            .step(data, &inputs[0], &inputs[1], &inputs[2])
+        let State { q: q1, v: v1, .. } = model
+            .step(
+                data,
+                &State::new(inputs[0].to_vec(), inputs[1].to_vec()),
+                &Inputs::tau(&inputs[2]),
+            )
             .unwrap();
         inputs[k / n][k % n] -= eps;
         for i in 0..n {
@@ -48,7 +58,8 @@ fn bench_model(c: &mut Criterion, name: &str, param: &str) {
         ..Wrt::default()
     };
     c.bench_function(&format!("jacobian_step/{name}"), |b| {
-        b.iter(|| model.step(&mut data, black_box(&q), &v, &tau).unwrap())
+        let (x, u) = (State::new(q.clone(), v.clone()), Inputs::tau(&tau));
+        b.iter(|| model.step(&mut data, black_box(&x), &u).unwrap())
     });
     let mut transition = TransitionJacobians::new(model.nq(), model.nv());
     c.bench_function(&format!("jacobian_full/{name}"), |b| {
@@ -114,7 +125,8 @@ fn bench_constraint(c: &mut Criterion) {
         ..Wrt::default()
     };
     c.bench_function("constraint_step/half_cheetah", |b| {
-        b.iter(|| model.step(&mut data, black_box(&q), &v, &tau).unwrap())
+        let (x, u) = (State::new(q.clone(), v.clone()), Inputs::tau(&tau));
+        b.iter(|| model.step(&mut data, black_box(&x), &u).unwrap())
     });
     let mut transition = TransitionJacobians::new(model.nq(), model.nv());
     c.bench_function("constraint_jacobian_full/half_cheetah", |b| {

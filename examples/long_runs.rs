@@ -21,7 +21,7 @@
 use std::time::Instant;
 
 use diffosi::derivatives::Transition;
-use diffosi::model::State;
+use diffosi::model::{Inputs, State};
 use diffosi::osi::{ChangeDetection, Lm, Online, Problem, Sampling};
 use diffosi::tasks::{average_mu, by_name};
 use diffosi::Model;
@@ -84,14 +84,16 @@ fn simulate(steps: usize) -> (Vec<Checkpoint>, String) {
     );
     let model = Model::load(path).expect("the shipped double pendulum loads");
     let mut data = model.data();
-    let (mut q, mut v) = (vec![0.5, -0.3], vec![0.0, 0.0]);
+    let mut x = State::new(vec![0.5, -0.3], vec![0.0, 0.0]);
     let dt = model.opt.timestep;
     let series = measured(steps, |i| {
         let t = i as f64 * dt;
         let tau = [t.sin(), (2.0 * t).cos()];
-        (q, v) = model.step(&mut data, &q, &v, &tau).expect("a finite step");
+        x = model
+            .step(&mut data, &x, &Inputs::tau(&tau))
+            .expect("a finite step");
     });
-    (series, format!("final q = {q:.6?}, v = {v:.6?}"))
+    (series, format!("final q = {:.6?}, v = {:.6?}", x.q, x.v))
 }
 
 /// The true mu of update i: it jumps every `every` updates.
@@ -127,7 +129,14 @@ fn identify(updates: usize) -> (Vec<Checkpoint>, String) {
         let mut draw = |h: f64| rng.random_range(-h..=h);
         let (q, v) = (vec![draw(1.0), draw(0.5)], vec![draw(1.0), draw(2.0)]);
         let tau = vec![draw(10.0), 0.0];
-        let (q_next, v_next) = truth.step(&mut data, &q, &v, &tau).expect("a finite step");
+        let next = truth
+            .step(
+                &mut data,
+                &State::new(q.clone(), v.clone()),
+                &Inputs::tau(&tau),
+            )
+            .expect("a finite step");
+        let (q_next, v_next) = (next.q, next.v);
         let transition = Transition {
             start: State::new(q, v),
             tau,

@@ -37,7 +37,7 @@
 //! // State (q, v) = ((cart x, pole angle), their rates); tau = generalized forces.
 //! let x = State::new(vec![0.0, 0.1], vec![0.0, 0.0]);
 //! let u = Inputs { tau: vec![0.0, 0.0], ..Inputs::default() };
-//! let next = model.step_inputs(&mut data, &x, &u)?;
+//! let next = model.step(&mut data, &x, &u)?;
 //! assert!(next.v[1] > 0.0, "the tilted pole falls further");
 //! assert_eq!(next.q[1], 0.1 + model.opt.timestep * next.v[1]);
 //!

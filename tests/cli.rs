@@ -3,6 +3,7 @@
 mod common;
 
 use common::{run_cli, temp_path};
+use diffosi::model::{Inputs, State};
 
 #[test]
 fn simulate_writes_the_rollout_with_given_torques() {
@@ -38,7 +39,10 @@ fn simulate_writes_the_rollout_with_given_torques() {
         .map(|r| r.split(',').map(|x| x.parse().unwrap()).collect())
         .collect();
     let states = model
-        .rollout(&[0.1, -0.2], &[0.0, 0.5], taus.iter().map(|t| t.as_slice()))
+        .rollout(
+            &State::new(vec![0.1, -0.2], vec![0.0, 0.5]),
+            taus.iter().map(|t| Inputs::tau(t)),
+        )
         .unwrap();
     for (t, (line, x)) in lines[1..].iter().zip(&states).enumerate() {
         let row: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();

@@ -5,6 +5,7 @@
 mod common;
 
 use common::{run_cli, temp_path};
+use diffosi::model::{Inputs, State};
 use diffosi::Model;
 
 const CARTPOLE: &str = "reference_models/cartpole.xml";
@@ -30,7 +31,14 @@ fn cartpole_rows(mass: f64, len: usize, seed: u64) -> Vec<String> {
                     .collect()
             };
             let (q, v, tau) = (draw([1.0, 0.5]), draw([1.0, 2.0]), draw([10.0, 0.0]));
-            let (q_next, v_next) = model.step(&mut data, &q, &v, &tau).unwrap();
+            let next = model
+                .step(
+                    &mut data,
+                    &State::new(q.clone(), v.clone()),
+                    &Inputs::tau(&tau),
+                )
+                .unwrap();
+            let (q_next, v_next) = (next.q, next.v);
             let cells: Vec<String> = [q, v, tau, q_next, v_next]
                 .concat()
                 .iter()

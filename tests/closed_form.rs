@@ -3,6 +3,7 @@
 mod common;
 
 use diffosi::dynamics::{bias_forces, crba, Data};
+use diffosi::model::{Inputs, State};
 use diffosi::Model;
 use nalgebra::{Matrix2, Vector2, Vector3};
 
@@ -108,7 +109,14 @@ fn pendulum_small_angle_period() {
     let (mut q, mut v) = (vec![joint.reference + amplitude], vec![0.0]);
     let mut crossings = vec![];
     for t in 0..((6.0 * expected / h) as usize) {
-        let (q1, v1) = model.step(&mut data, &q, &v, &[0.0]).unwrap();
+        let next = model
+            .step(
+                &mut data,
+                &State::new(q.clone(), v.clone()),
+                &Inputs::tau(&[0.0]),
+            )
+            .unwrap();
+        let (q1, v1) = (next.q, next.v);
         let (a, b) = (q[0] - joint.reference, q1[0] - joint.reference);
         if a > 0.0 && b <= 0.0 {
             crossings.push((t as f64 + a / (a - b)) * h);

@@ -6,7 +6,7 @@ mod common;
 
 use diffosi::derivatives::{step_jacobians, Workspace, Wrt};
 use diffosi::dynamics::body_contact_forces;
-use diffosi::model::Param;
+use diffosi::model::{Inputs, Param, State};
 use diffosi::Model;
 
 fn cheetah() -> Model {
@@ -89,9 +89,8 @@ fn geoms_touch_where_their_shapes_say() {
         let contacts = model
             .contacts(
                 &mut model.data(),
-                &vec![0.0; n],
-                &vec![0.0; n],
-                &vec![0.0; n],
+                &State::new(vec![0.0; n].to_vec(), vec![0.0; n].to_vec()),
+                &Inputs::tau(&vec![0.0; n]),
             )
             .unwrap();
         let touching: Vec<_> = contacts.iter().filter(|c| c.dist < 0.0).collect();
@@ -125,7 +124,11 @@ fn a_pair_rubs_with_its_larger_friction_times_the_scale() {
         let mut model = common::smooth(Model::from_mjcf(&text, "rub.xml").unwrap());
         model.set_param("contact/friction", &[scale]).unwrap();
         let contacts = model
-            .contacts(&mut model.data(), &[0.0, 0.0], &[0.3, 0.0], &[0.0, 0.0])
+            .contacts(
+                &mut model.data(),
+                &State::new(vec![0.0, 0.0], vec![0.3, 0.0]),
+                &Inputs::tau(&[0.0, 0.0]),
+            )
             .unwrap();
         let [c] = &contacts[..] else {
             panic!("one contact, got {}", contacts.len())
@@ -170,7 +173,11 @@ fn spheres_and_capsules_touch_at_their_closest_points() {
         let model = common::crossing(shape, at);
         let zero = vec![0.0; model.nv()];
         let contacts = model
-            .contacts(&mut model.data(), &zero, &zero, &zero)
+            .contacts(
+                &mut model.data(),
+                &State::new(zero.to_vec(), zero.to_vec()),
+                &Inputs::tau(&zero),
+            )
             .unwrap();
         let [c] = &contacts[..] else {
             panic!("{shape}: one contact, got {}", contacts.len())
@@ -205,10 +212,16 @@ fn a_resting_box_carries_its_weight() {
     (q[3], v[0]) = (0.05, 0.3);
     let mut data = model.data();
     for _ in 0..2000 {
-        (q, v) = model.step(&mut data, &q, &v, &vec![0.0; n]).unwrap();
+        State { q, v, .. } = model
+            .step(&mut data, &State::new(q, v), &Inputs::tau(&vec![0.0; n]))
+            .unwrap();
     }
     let contacts = model
-        .contacts(&mut data, &q, &v, &vec![0.0; v.len()])
+        .contacts(
+            &mut data,
+            &State::new(q.to_vec(), v.to_vec()),
+            &Inputs::tau(&vec![0.0; v.len()]),
+        )
         .unwrap();
     let forces = body_contact_forces(&contacts, model.bodies.len());
     let weight = mass * 9.81;
@@ -232,7 +245,13 @@ fn steps_depend_on_their_inputs_only() {
     let (mut q, v, tau) = common::random_state(&model, 3);
     q[1] = -0.15; // feet in the floor
     let (other_q, other_v, other_tau) = common::random_state(&model, 4);
-    let fresh = model.step(&mut model.data(), &q, &v, &tau).unwrap();
+    let fresh = model
+        .step(
+            &mut model.data(),
+            &State::new(q.to_vec(), v.to_vec()),
+            &Inputs::tau(&tau),
+        )
+        .unwrap();
     let mut data = model.data();
     let mut ws = Workspace::new(&model);
     let params = [Param::ContactStiffness];
@@ -244,16 +263,33 @@ fn steps_depend_on_their_inputs_only() {
     let first = step_jacobians(&model, &mut ws, (&q, &v, &tau), &wrt).unwrap();
     for _ in 0..3 {
         model
-            .step(&mut data, &other_q, &other_v, &other_tau)
+            .step(
+                &mut data,
+                &State::new(other_q.to_vec(), other_v.to_vec()),
+                &Inputs::tau(&other_tau),
+            )
             .unwrap();
         step_jacobians(&model, &mut ws, (&other_q, &other_v, &other_tau), &wrt).unwrap();
-        assert_eq!(model.step(&mut data, &q, &v, &tau).unwrap(), fresh);
+        assert_eq!(
+            model
+                .step(
+                    &mut data,
+                    &State::new(q.to_vec(), v.to_vec()),
+                    &Inputs::tau(&tau)
+                )
+                .unwrap(),
+            fresh
+        );
         let again = step_jacobians(&model, &mut ws, (&q, &v, &tau), &wrt).unwrap();
         assert_eq!(again, first);
     }
-    assert_eq!((first.q_next, first.v_next), fresh);
+    assert_eq!((first.q_next, first.v_next), (fresh.q, fresh.v));
     let contacts = model
-        .contacts(&mut data, &q, &v, &vec![0.0; v.len()])
+        .contacts(
+            &mut data,
+            &State::new(q.to_vec(), v.to_vec()),
+            &Inputs::tau(&vec![0.0; v.len()]),
+        )
         .unwrap();
     assert!(contacts.iter().any(|c| c.dist < 0.0), "in contact");
     assert_eq!(n, 9);
@@ -266,10 +302,16 @@ fn the_half_cheetah_lands_and_stands() {
     let (mut q, mut v) = (vec![0.0; n], vec![0.0; n]);
     let mut data = model.data();
     for _ in 0..300 {
-        (q, v) = model.step(&mut data, &q, &v, &vec![0.0; n]).unwrap();
+        State { q, v, .. } = model
+            .step(&mut data, &State::new(q, v), &Inputs::tau(&vec![0.0; n]))
+            .unwrap();
     }
     let contacts = model
-        .contacts(&mut data, &q, &v, &vec![0.0; v.len()])
+        .contacts(
+            &mut data,
+            &State::new(q.to_vec(), v.to_vec()),
+            &Inputs::tau(&vec![0.0; v.len()]),
+        )
         .unwrap();
     let deepest = contacts.iter().map(|c| -c.dist).fold(f64::MIN, f64::max);
     let forces = body_contact_forces(&contacts, model.bodies.len());
@@ -301,13 +343,39 @@ fn limits_push_back_and_switch_off() {
     let v = vec![0.0; n];
     let tau = vec![0.0; n];
     let free = model.edited(|s| s.opt.limits = false).unwrap();
-    let (_, v_limited) = model.step(&mut model.data(), &q, &v, &tau).unwrap();
-    let (_, v_free) = free.step(&mut free.data(), &q, &v, &tau).unwrap();
+    let next = model
+        .step(
+            &mut model.data(),
+            &State::new(q.clone(), v.clone()),
+            &Inputs::tau(&tau),
+        )
+        .unwrap();
+    let (_, v_limited) = (next.q, next.v);
+    let next = free
+        .step(
+            &mut free.data(),
+            &State::new(q.clone(), v.clone()),
+            &Inputs::tau(&tau),
+        )
+        .unwrap();
+    let (_, v_free) = (next.q, next.v);
     // 10 mrad past the lower limit: about k_l * 0.01 = 10 N m pushes up.
     assert!(v_limited[bthigh] - v_free[bthigh] > 0.01);
     // Inside the range the limits do nothing measurable.
     q[bthigh] = 0.0;
-    let inside = model.step(&mut model.data(), &q, &v, &tau).unwrap();
-    let inside_free = free.step(&mut free.data(), &q, &v, &tau).unwrap();
+    let inside = model
+        .step(
+            &mut model.data(),
+            &State::new(q.to_vec(), v.to_vec()),
+            &Inputs::tau(&tau),
+        )
+        .unwrap();
+    let inside_free = free
+        .step(
+            &mut free.data(),
+            &State::new(q.to_vec(), v.to_vec()),
+            &Inputs::tau(&tau),
+        )
+        .unwrap();
     assert_eq!(inside, inside_free);
 }

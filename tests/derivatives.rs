@@ -6,7 +6,7 @@ mod common;
 
 use diffosi::derivatives::{step_jacobians, StepJacobians, Workspace, Wrt};
 use diffosi::dynamics::{step, Data, Tree};
-use diffosi::model::{Integrator, Param, PassiveMode};
+use diffosi::model::{Inputs, Integrator, Param, PassiveMode, State};
 use diffosi::Model;
 use nalgebra::{DMatrix, DMatrixView};
 use num_dual::Dual64;
@@ -82,8 +82,11 @@ fn finite_differences(
                 dv[(i, col)] = (v1[i] - v2[i]) / w;
             }
         };
-    let stepped =
-        |m: &Model, q: &[f64], v: &[f64], tau: &[f64]| m.step(&mut m.data(), q, v, tau).unwrap();
+    let stepped = |m: &Model, q: &[f64], v: &[f64], tau: &[f64]| {
+        let x = State::new(q.to_vec(), v.to_vec());
+        let State { q, v, .. } = m.step(&mut m.data(), &x, &Inputs::tau(tau)).unwrap();
+        (q, v)
+    };
     for k in 0..3 * n {
         let shifted = |e: f64| {
             let mut x = [q.to_vec(), v.to_vec(), tau.to_vec()];
@@ -149,7 +152,14 @@ fn check_state_against_fd(model: &Model, (q, v, tau): (Vec<f64>, Vec<f64>, Vec<f
         params: &params,
     };
     let j = step_jacobians(model, &mut ws, (&q, &v, &tau), &wrt).unwrap();
-    let (plain_q, plain_v) = model.step(&mut model.data(), &q, &v, &tau).unwrap();
+    let next = model
+        .step(
+            &mut model.data(),
+            &State::new(q.clone(), v.clone()),
+            &Inputs::tau(&tau),
+        )
+        .unwrap();
+    let (plain_q, plain_v) = (next.q, next.v);
     assert_eq!(
         (&j.q_next, &j.v_next),
         (&plain_q, &plain_v),
@@ -326,7 +336,11 @@ fn at_depth(model: &Model, seed: u64, height: usize, depth: f64) -> (Vec<f64>, V
     let (mut q, v, tau) = common::random_state(model, seed);
     q[height] = 0.0;
     let contacts = model
-        .contacts(&mut model.data(), &q, &v, &vec![0.0; v.len()])
+        .contacts(
+            &mut model.data(),
+            &State::new(q.to_vec(), v.to_vec()),
+            &Inputs::tau(&vec![0.0; v.len()]),
+        )
         .unwrap();
     let deepest = contacts.iter().map(|c| -c.dist).fold(f64::MIN, f64::max);
     // Contacts beyond the cutoff are not listed: start from a touching pose.
@@ -366,9 +380,8 @@ fn jacobians_through_contact_match_finite_differences() {
             let contacts = model
                 .contacts(
                     &mut model.data(),
-                    &state.0,
-                    &state.1,
-                    &vec![0.0; state.1.len()],
+                    &State::new(state.0.to_vec(), state.1.to_vec()),
+                    &Inputs::tau(&vec![0.0; state.1.len()]),
                 )
                 .unwrap();
             let deepest = contacts.iter().map(|c| -c.dist).fold(f64::MIN, f64::max);
@@ -412,7 +425,11 @@ fn jacobians_through_capsule_contact_match_finite_differences() {
             let scale = |i: usize| if (1..=3).contains(&i) { 0.002 } else { 0.03 };
             let q: Vec<f64> = q.iter().enumerate().map(|(i, x)| scale(i) * x).collect();
             let contacts = model
-                .contacts(&mut model.data(), &q, &v, &vec![0.0; v.len()])
+                .contacts(
+                    &mut model.data(),
+                    &State::new(q.to_vec(), v.to_vec()),
+                    &Inputs::tau(&vec![0.0; v.len()]),
+                )
                 .unwrap();
             let [c] = &contacts[..] else {
                 panic!("case {k}: one contact, got {}", contacts.len())
@@ -443,9 +460,17 @@ fn jacobians_through_constraint_contact_match_finite_differences() {
         let (mut q, mut v) = (model.reference_q(), vec![0.0; n]);
         let tau = vec![0.0; n];
         for _ in 0..steps {
-            (q, v) = model.step(&mut data, &q, &v, &tau).unwrap();
+            State { q, v, .. } = model
+                .step(&mut data, &State::new(q, v), &Inputs::tau(&tau))
+                .unwrap();
         }
-        let touching = model.contacts(&mut data, &q, &v, &tau).unwrap();
+        let touching = model
+            .contacts(
+                &mut data,
+                &State::new(q.to_vec(), v.to_vec()),
+                &Inputs::tau(&tau),
+            )
+            .unwrap();
         assert!(!touching.is_empty(), "{file}: not in contact");
         check_state_against_fd(&model, (q, v, tau), file);
     }

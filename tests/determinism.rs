@@ -13,7 +13,7 @@
 mod common;
 
 use common::{random_model, random_state, rng};
-use diffosi::model::{Integrator, PassiveMode, State};
+use diffosi::model::{Inputs, Integrator, PassiveMode, State};
 use diffosi::osi::mlp::{train_mlp, MlpConfig};
 use diffosi::rl::Policy;
 use diffosi::tasks::{Cartpole, Task};
@@ -28,7 +28,7 @@ fn seeded_rollout(model: &Model, seed: u64, steps: usize) -> Vec<State> {
         .map(|_| (0..model.nv()).map(|_| r.random_range(-1.0..1.0)).collect())
         .collect();
     model
-        .rollout(&q, &v, taus.iter().map(|t| t.as_slice()))
+        .rollout(&State::new(q, v), taus.iter().map(|t| Inputs::tau(t)))
         .unwrap()
 }
 

@@ -5,7 +5,7 @@ mod common;
 
 use common::{random_model, random_state};
 use diffosi::dynamics::{step, Data, Tree};
-use diffosi::model::{Integrator, PassiveMode};
+use diffosi::model::{Inputs, Integrator, PassiveMode, State};
 use num_dual::Dual64;
 
 #[test]
@@ -21,7 +21,8 @@ fn dual_numbers_differentiate_a_step() {
         let tree: Tree<Dual64> = Tree::build(&model);
         let mut data = Data::new(&tree);
         let (q, v, tau) = random_state(&model, seed);
-        let (q_plain, _) = model.step(&mut model.data(), &q, &v, &tau).unwrap();
+        let (x, u) = (State::new(q.clone(), v.clone()), Inputs::tau(&tau));
+        let q_plain = model.step(&mut model.data(), &x, &u).unwrap().q;
         for k in 0..n {
             // Seed dq_k = 1 and read d(q', v')/dq_k from the dual parts.
             let qd: Vec<Dual64> = (0..n)
@@ -35,12 +36,12 @@ fn dual_numbers_differentiate_a_step() {
             let eps = 1e-6;
             let mut f64_data = model.data();
             let mut shifted = |s: f64| {
-                let mut qs = q.clone();
-                qs[k] += s;
-                model.step(&mut f64_data, &qs, &v, &tau).unwrap()
+                let mut x = x.clone();
+                x.q[k] += s;
+                model.step(&mut f64_data, &x, &u).unwrap()
             };
-            let (qp, vp) = shifted(eps);
-            let (qm, vm) = shifted(-eps);
+            let State { q: qp, v: vp, .. } = shifted(eps);
+            let State { q: qm, v: vm, .. } = shifted(-eps);
             for i in 0..n {
                 let fd_q = (qp[i] - qm[i]) / (2.0 * eps);
                 let fd_v = (vp[i] - vm[i]) / (2.0 * eps);

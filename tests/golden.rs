@@ -7,7 +7,7 @@ mod common;
 
 use common::{rel_err, Rollout};
 use diffosi::dynamics::{bias_forces, crba, Data};
-use diffosi::model::{Fluid, Integrator, PassiveMode};
+use diffosi::model::{Fluid, Inputs, Integrator, PassiveMode, State};
 use diffosi::Model;
 use nalgebra::Vector3;
 use serde::Deserialize;
@@ -110,14 +110,18 @@ fn compare(golden: &Golden) -> Errors {
         let mut c = vec![0.0; model.nv()];
         bias_forces(model.tree(), &mut data, &s.q, &s.v, &mut c);
         bias = bias.max(rel_err(&c, &s.bias));
-        let (q1, v1) = model.step(&mut data, &s.q, &s.v, &s.tau).unwrap();
+        let (x, u) = (State::new(s.q.clone(), s.v.clone()), Inputs::tau(&s.tau));
+        let State { q: q1, v: v1, .. } = model.step(&mut data, &x, &u).unwrap();
         one_step = one_step
             .max(rel_err(&q1, &s.q_next))
             .max(rel_err(&v1, &s.v_next));
     }
     let r = &golden.rollout;
     let states = model
-        .rollout(&r.q0, &r.v0, r.taus.iter().map(|t| t.as_slice()))
+        .rollout(
+            &State::new(r.q0.clone(), r.v0.clone()),
+            r.taus.iter().map(|t| Inputs::tau(t)),
+        )
         .unwrap();
     let rollout = states
         .iter()

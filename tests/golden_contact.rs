@@ -9,6 +9,7 @@
 mod common;
 
 use common::rel_err;
+use diffosi::model::Inputs;
 use diffosi::Model;
 use serde::Deserialize;
 use sha2::Digest;
@@ -58,11 +59,14 @@ fn compare(name: &str, golden: &Golden) -> (f64, f64, usize) {
     let mut data = model.data();
     let (mut step, mut force, mut limits) = (0.0f64, 0.0f64, 0);
     for (k, s) in golden.states.iter().enumerate() {
-        let (q1, v1) = model.step(&mut data, &s.q, &s.v, &s.tau).unwrap();
+        let x = diffosi::model::State::new(s.q.clone(), s.v.clone());
+        let u = Inputs::tau(&s.tau);
+        let next = model.step(&mut data, &x, &u).unwrap();
+        let (q1, v1) = (next.q, next.v);
         step = step
             .max(rel_err(&q1, &s.q_next))
             .max(rel_err(&v1, &s.v_next));
-        let ours = model.contacts(&mut data, &s.q, &s.v, &s.tau).unwrap();
+        let ours = model.contacts(&mut data, &x, &u).unwrap();
         assert_eq!(ours.len(), s.contacts.len(), "{name} state {k}: contacts");
         for theirs in &s.contacts {
             let c = ours

@@ -9,7 +9,7 @@
 mod common;
 
 use common::{rel_err, Rollout};
-use diffosi::model::{Fluid, Integrator, PassiveMode};
+use diffosi::model::{Fluid, Inputs, Integrator, PassiveMode, State};
 use diffosi::Model;
 use serde::Deserialize;
 
@@ -91,7 +91,8 @@ fn one_step_equals_mujoco_with_quaternions() {
         let mut data = model.data();
         let mut worst = 0.0f64;
         for s in &golden.one_step {
-            let (q1, v1) = model.step(&mut data, &s.q, &s.v, &s.tau).unwrap();
+            let (x, u) = (State::new(s.q.clone(), s.v.clone()), Inputs::tau(&s.tau));
+            let State { q: q1, v: v1, .. } = model.step(&mut data, &x, &u).unwrap();
             worst = worst
                 .max(rel_err(&q1, &s.q_next))
                 .max(rel_err(&v1, &s.v_next));
@@ -107,7 +108,10 @@ fn rollouts_follow_mujoco() {
         let model = model(golden);
         let r = &golden.rollout;
         let states = model
-            .rollout(&r.q0, &r.v0, r.taus.iter().map(Vec::as_slice))
+            .rollout(
+                &State::new(r.q0.clone(), r.v0.clone()),
+                r.taus.iter().map(|t| Inputs::tau(t)),
+            )
             .unwrap();
         let worst = states
             .iter()

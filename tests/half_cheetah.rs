@@ -3,7 +3,7 @@
 //! DiffOSI identifying the torso mass from single transitions through contact.
 
 use diffosi::control::{task_problem, Episode};
-use diffosi::model::State;
+use diffosi::model::{Inputs, State};
 use diffosi::osi::{Identifier, Lm};
 use diffosi::tasks::{self, Env, HalfCheetah, Task};
 use rand::rngs::StdRng;
@@ -168,9 +168,8 @@ fn diffosi_finds_the_torso_mass_from_one_transition_through_contact() {
             .model()
             .contacts(
                 &mut data,
-                &transition.start.q,
-                &transition.start.v,
-                &vec![0.0; transition.start.v.len()],
+                &transition.start,
+                &Inputs::tau(&vec![0.0; transition.start.v.len()]),
             )
             .unwrap();
         in_contact += usize::from(!contacts.is_empty());

@@ -4,7 +4,7 @@
 mod common;
 
 use diffosi::control::ilqr::{run_mpc_episode, Ilqr, MpcEpisode, MpcOptions};
-use diffosi::model::State;
+use diffosi::model::{Inputs, State};
 use diffosi::tasks::{Cartpole, Task};
 use rand::rngs::StdRng;
 use rand::SeedableRng;
@@ -38,7 +38,9 @@ fn ilqr_lowers_the_cost_at_every_accepted_iteration() {
     let mut x = x0.clone();
     for (t, u) in plan.actions.iter().enumerate() {
         assert_eq!(plan.action(t, &x), *u);
-        (x.q, x.v) = model.step(&mut data, &x.q, &x.v, &task.forces(u)).unwrap();
+        x = model
+            .step(&mut data, &x, &Inputs::tau(&task.forces(u)))
+            .unwrap();
     }
     assert_eq!(&x, plan.states.last().unwrap());
 }

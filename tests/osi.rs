@@ -6,7 +6,7 @@
 mod common;
 
 use diffosi::derivatives::Transition;
-use diffosi::model::{MapEntry, ParamMap, State};
+use diffosi::model::{Inputs, MapEntry, ParamMap, State};
 use diffosi::osi::{
     Adam, Average, ChangeDetection, CmaEs, Estimate, Identifier, Lm, Online, Oracle, Problem,
     Random, Sampling,
@@ -43,7 +43,14 @@ fn transition(truth: &Model, r: &mut StdRng, ranges: &[f64]) -> Transition {
             .collect()
     };
     let (q, v, tau) = (draw(0), draw(1), draw(2));
-    let (q_next, v_next) = truth.step(&mut truth.data(), &q, &v, &tau).unwrap();
+    let next = truth
+        .step(
+            &mut truth.data(),
+            &State::new(q.clone(), v.clone()),
+            &Inputs::tau(&tau),
+        )
+        .unwrap();
+    let (q_next, v_next) = (next.q, next.v);
     Transition {
         start: State::new(q, v),
         tau,

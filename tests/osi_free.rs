@@ -8,7 +8,7 @@ mod common;
 
 use diffosi::derivatives::Transition;
 use diffosi::dynamics::configuration::integrate;
-use diffosi::model::{Fluid, Integrator, ParamMap, State};
+use diffosi::model::{Fluid, Inputs, Integrator, ParamMap, State};
 use diffosi::osi::{Identifier, Lm, Problem};
 use diffosi::Model;
 
@@ -58,8 +58,21 @@ fn window(truth: &Model, len: usize, seed: u64) -> Vec<Transition> {
     (0..len as u64)
         .map(|k| {
             let (q0, v, tau) = common::random_state(truth, 100 * seed + k);
-            let (q, _) = truth.step(&mut data, &q0, &v, &tau).unwrap();
-            let (q_next, v_next) = truth.step(&mut data, &q, &v, &tau).unwrap();
+            let State { q, v: _, .. } = truth
+                .step(
+                    &mut data,
+                    &State::new(q0.to_vec(), v.to_vec()),
+                    &Inputs::tau(&tau),
+                )
+                .unwrap();
+            let next = truth
+                .step(
+                    &mut data,
+                    &State::new(q.clone(), v.clone()),
+                    &Inputs::tau(&tau),
+                )
+                .unwrap();
+            let (q_next, v_next) = (next.q, next.v);
             Transition {
                 start: State::new(q, v),
                 tau,

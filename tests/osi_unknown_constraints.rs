@@ -8,7 +8,7 @@
 mod common;
 
 use diffosi::derivatives::{Impulses, Transition};
-use diffosi::model::{ContactModel, Integrator, MapEntry, ParamMap, PassiveMode, State};
+use diffosi::model::{ContactModel, Inputs, Integrator, MapEntry, ParamMap, PassiveMode, State};
 use diffosi::osi::{Identifier, Lm, OsiError, Problem};
 use diffosi::Model;
 use nalgebra::{DMatrix, DVector};
@@ -74,7 +74,7 @@ fn our_constrained_steps_leave_no_residual_under_every_passive_mode() {
             .iter()
             .filter(|t| {
                 !truth
-                    .contacts(&mut data, &t.start.q, &t.start.v, &t.tau)
+                    .contacts(&mut data, &t.start, &Inputs::tau(&t.tau))
                     .unwrap()
                     .is_empty()
             })
@@ -222,8 +222,10 @@ fn impulses_through_the_mass_matrix_alone() {
     let window: Vec<Transition> = common::cheetah_walk(&truth, 80, 6)
         .into_iter()
         .map(|t| {
-            let (_, v_free) = free
-                .step(&mut data, &t.start.q, &t.start.v, &t.tau)
+            let State {
+                q: _, v: v_free, ..
+            } = free
+                .step(&mut data, &t.start, &Inputs::tau(&t.tau))
                 .unwrap();
             let v_free = DVector::from_vec(v_free);
             let m = common::mass_matrix(&truth, &t.start.q);

@@ -18,7 +18,7 @@ mod common;
 use common::{bias, energy, mass_matrix, random_model};
 use diffosi::derivatives::{step_jacobians, Workspace, Wrt};
 use diffosi::dynamics::{aba, rnea, Data};
-use diffosi::model::{Integrator, Param, PassiveMode};
+use diffosi::model::{Inputs, Integrator, Param, PassiveMode, State};
 use diffosi::Model;
 use nalgebra::{DMatrix, DVector};
 use proptest::prelude::*;
@@ -109,7 +109,8 @@ proptest! {
             model.joints.iter().zip(v).map(|(j, v)| j.damping * v * v).sum()
         };
         let zero = vec![0.0; model.nv()];
-        let states = model.rollout(&q, &v, std::iter::repeat_n(&zero[..], 200)).unwrap();
+        let rest = std::iter::repeat_n(Inputs::tau(&zero), 200);
+        let states = model.rollout(&State::new(q.clone(), v.clone()), rest).unwrap();
         let e0 = energy(&model, &q, &v).abs() + 1.0;
         let mut work = 0.0;
         for w in states.windows(2) {
@@ -164,11 +165,12 @@ proptest! {
                 m.set(&[(*p, &value)]).unwrap();
                 at += p.size();
             }
-            m.step(&mut m.data(), &moved(&q, &dq), &moved(&v, &dv), &moved(&tau, &dtau)).unwrap()
+            let x = State::new(moved(&q, &dq), moved(&v, &dv));
+            m.step(&mut m.data(), &x, &Inputs::tau(&moved(&tau, &dtau))).unwrap()
         };
-        let ((qa, va), (qb, vb)) = (shifted(eps), shifted(-eps));
+        let (a, b) = (shifted(eps), shifted(-eps));
         let fd = |a: &[f64], b: &[f64]| (column(a) - column(b)) / (2.0 * eps);
-        for (name, exact, approx) in [("q'", jd_q, fd(&qa, &qb)), ("v'", jd_v, fd(&va, &vb))] {
+        for (name, exact, approx) in [("q'", jd_q, fd(&a.q, &b.q)), ("v'", jd_v, fd(&a.v, &b.v))] {
             let err = (&exact - &approx).amax() / (1.0 + approx.amax());
             prop_assert!(err < 1e-6, "{}: J d differs from FD by {:e}", name, err);
         }

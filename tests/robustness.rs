@@ -7,7 +7,7 @@ mod common;
 use common::run_cli;
 use diffosi::derivatives::{step_jacobians, Workspace, Wrt};
 use diffosi::dynamics::StepError;
-use diffosi::model::{MapEntry, ParamMap};
+use diffosi::model::{Inputs, MapEntry, ParamMap, State};
 use diffosi::Model;
 
 fn load(name: &str) -> Model {
@@ -59,7 +59,13 @@ fn jacobians_that_overflow_are_an_error_naming_the_block() {
     let tiny = [1e-300, 1e-300, 1e-300, 0.0, 0.0, 0.0];
     model.set_param("body/pendulum/inertia", &tiny).unwrap();
     let x = (&[0.3][..], &[0.0][..], &[1.0][..]);
-    assert!(model.step(&mut model.data(), x.0, x.1, x.2).is_ok());
+    assert!(model
+        .step(
+            &mut model.data(),
+            &State::new(x.0.to_vec(), x.1.to_vec()),
+            &Inputs::tau(x.2)
+        )
+        .is_ok());
     let params = [model.param("body/pendulum/mass").unwrap()];
     let wrt = Wrt {
         state: true,
@@ -108,21 +114,21 @@ fn a_rollout_names_the_step_and_the_value_that_failed() {
     let model = load("cartpole.xml");
     let mut taus = vec![vec![0.0, 0.0]; 5];
     taus[3][1] = f64::NAN;
+    let start = State::new(vec![0.0, 0.1], vec![0.0, 0.0]);
     let err = model
-        .rollout(&[0.0, 0.1], &[0.0, 0.0], taus.iter().map(|t| t.as_slice()))
+        .rollout(&start, taus.iter().map(|t| Inputs::tau(t)))
         .unwrap_err();
     assert_eq!(err.to_string(), "step 3: tau[1] is not finite");
     taus[3] = vec![0.0];
     let err = model
-        .rollout(&[0.0, 0.1], &[0.0, 0.0], taus.iter().map(|t| t.as_slice()))
+        .rollout(&start, taus.iter().map(|t| Inputs::tau(t)))
         .unwrap_err();
     assert_eq!(err.to_string(), "step 3: tau has length 1, expected 2");
     // A state that overflows is divergence, not a NaN trajectory.
     let err = model
         .rollout(
-            &[0.0, 0.1],
-            &[0.0, 1e200],
-            taus[..1].iter().map(|t| t.as_slice()),
+            &State::new(vec![0.0, 0.1], vec![0.0, 1e200]),
+            taus[..1].iter().map(|t| Inputs::tau(t)),
         )
         .unwrap_err();
     let StepError::DivergedAt { cause } = err.source else {
@@ -301,10 +307,9 @@ fn a_model_without_joints_steps_and_differentiates() {
             (0, params.iter().map(|p| p.size()).sum())
         );
     }
-    assert_eq!(
-        model.step(&mut model.data(), &[], &[], &[]).unwrap(),
-        (vec![], vec![])
-    );
+    let empty = State::default();
+    let next = model.step(&mut model.data(), &empty, &Inputs::default());
+    assert_eq!(next.unwrap(), empty);
 }
 
 /// Fuzz finding (MJCF target): a body whose name holds '/' listed parameter
@@ -366,13 +371,21 @@ fn the_contact_models_refuse_what_they_cannot_do_yet() {
     let model = Model::from_mjcf(text, "cylinder.xml").unwrap();
     let zero = [0.0, 0.0];
     let err = model
-        .step(&mut model.data(), &zero, &zero, &zero)
+        .step(
+            &mut model.data(),
+            &State::new(zero.to_vec(), zero.to_vec()),
+            &Inputs::tau(&zero),
+        )
         .unwrap_err();
     assert_eq!(err, StepError::NoCollider([0, 1]));
     assert!(err.to_string().contains("no collider"), "{err}");
     let smooth = common::smooth(model.clone());
     let err = smooth
-        .step(&mut smooth.data(), &zero, &zero, &zero)
+        .step(
+            &mut smooth.data(),
+            &State::new(zero.to_vec(), zero.to_vec()),
+            &Inputs::tau(&zero),
+        )
         .unwrap_err();
     assert_eq!(err, StepError::NoSmoothLaw([0, 1]));
     assert!(err.to_string().contains("no force law"), "{err}");
@@ -393,7 +406,13 @@ fn the_contact_models_refuse_what_they_cannot_do_yet() {
         );
         // Out of reach they step.
         let apart = [0.0, 1.0];
-        assert!(m.step(&mut m.data(), &apart, &zero, &zero).is_ok());
+        assert!(m
+            .step(
+                &mut m.data(),
+                &State::new(apart.to_vec(), zero.to_vec()),
+                &Inputs::tau(&zero)
+            )
+            .is_ok());
         assert!(step_jacobians(m, &mut ws, (&apart, &zero, &zero), &wrt).is_ok());
     }
 }

@@ -8,6 +8,7 @@
 use std::path::PathBuf;
 
 use diffosi::dynamics::StepError;
+use diffosi::model::{Inputs, State};
 use diffosi::Model;
 use serde_json::Value;
 
@@ -38,7 +39,13 @@ fn compare(name: &str) {
     let mut data = model.data();
     for (k, state) in golden["states"].as_array().unwrap().iter().enumerate() {
         let [q, v, tau, theirs] = ["q", "v", "tau", "sensordata"].map(|key| numbers(&state[key]));
-        let ours = model.sensor_readings(&mut data, &q, &v, &tau).unwrap();
+        let ours = model
+            .sensor_readings(
+                &mut data,
+                &State::new(q.to_vec(), v.to_vec()),
+                &Inputs::tau(&tau),
+            )
+            .unwrap();
         assert_eq!(ours.len(), theirs.len());
         for (i, (a, b)) in ours.iter().zip(&theirs).enumerate() {
             let sensor = model
@@ -72,7 +79,11 @@ fn sensors_not_computed_fail_by_name() {
         </worldbody><sensor><gyro site="s"/><touch name="foot" site="s"/></sensor></mujoco>"#;
     let model = Model::from_mjcf(xml, "touch.xml").unwrap();
     let err = model
-        .sensor_readings(&mut model.data(), &[0.0], &[0.0], &[0.0])
+        .sensor_readings(
+            &mut model.data(),
+            &State::new(vec![0.0], vec![0.0]),
+            &Inputs::tau(&[0.0]),
+        )
         .unwrap_err();
     assert!(matches!(err, StepError::SensorNotComputed { .. }));
     let message = err.to_string();
@@ -97,9 +108,19 @@ fn smooth_contact_forces_enter_force_sensors() {
     let v = [0.3, -0.1, -0.05, 0.2, 0.1, -0.3];
     let mut data = smooth.data();
     let readings = smooth
-        .sensor_readings(&mut data, &q, &v, &[0.0; 6])
+        .sensor_readings(
+            &mut data,
+            &State::new(q.to_vec(), v.to_vec()),
+            &Inputs::tau(&[0.0; 6]),
+        )
         .unwrap();
-    let contacts = smooth.contacts(&mut data, &q, &v, &[0.0; 6]).unwrap();
+    let contacts = smooth
+        .contacts(
+            &mut data,
+            &State::new(q.to_vec(), v.to_vec()),
+            &Inputs::tau(&[0.0; 6]),
+        )
+        .unwrap();
     assert!(contacts.iter().any(|c| c.normal_force > 10.0));
     let layout = smooth.sensor_layout();
     let at = |name: &str| {
@@ -130,7 +151,11 @@ fn limit_sensors_need_the_constraint_model() {
         .unwrap();
     let (q, v) = (smooth.reference_q(), vec![0.0; smooth.nv()]);
     let err = smooth
-        .sensor_readings(&mut smooth.data(), &q, &v, &v)
+        .sensor_readings(
+            &mut smooth.data(),
+            &State::new(q.to_vec(), v.to_vec()),
+            &Inputs::tau(&v),
+        )
         .unwrap_err();
     assert!(
         err.to_string()

@@ -13,7 +13,7 @@ use diffosi::derivatives::{
     step_jacobians, transition_jacobians, TransitionJacobians, Workspace, Wrt,
 };
 use diffosi::dynamics::configuration::{integrate, subtract};
-use diffosi::model::{Fluid, Integrator, PassiveMode};
+use diffosi::model::{Fluid, Inputs, Integrator, PassiveMode, State};
 use diffosi::Model;
 use nalgebra::{DVector, Vector3};
 
@@ -38,7 +38,9 @@ fn stepped(
     integrate(tree, x.0, d.0, 1.0, &mut q);
     let v: Vec<f64> = x.1.iter().zip(d.1).map(|(a, b)| a + b).collect();
     let tau: Vec<f64> = x.2.iter().zip(d.2).map(|(a, b)| a + b).collect();
-    model.step(&mut model.data(), &q, &v, &tau).unwrap()
+    let next = model.step(&mut model.data(), &State::new(q, v), &Inputs::tau(&tau));
+    let State { q, v, .. } = next.unwrap();
+    (q, v)
 }
 
 /// The central difference of the step along one input direction, as (dq' tangent, dv').
@@ -91,7 +93,13 @@ fn check(name: &str, model: &Model, x: (&[f64], &[f64], &[f64]), params: &[&str]
         params: &ids,
     };
     let j = step_jacobians(model, &mut Workspace::new(model), x, &wrt).unwrap();
-    let (q1, v1) = model.step(&mut model.data(), x.0, x.1, x.2).unwrap();
+    let State { q: q1, v: v1, .. } = model
+        .step(
+            &mut model.data(),
+            &State::new(x.0.to_vec(), x.1.to_vec()),
+            &Inputs::tau(x.2),
+        )
+        .unwrap();
     assert!(
         j.q_next
             .iter()
@@ -291,10 +299,19 @@ fn standing_ant(integrator: Integrator) {
     let (mut q, mut v) = (model.reference_q(), vec![0.0; model.nv()]);
     let tau = vec![0.0; model.nv()];
     for _ in 0..100 {
-        (q, v) = model.step(&mut data, &q, &v, &tau).unwrap();
+        State { q, v, .. } = model
+            .step(&mut data, &State::new(q, v), &Inputs::tau(&tau))
+            .unwrap();
     }
     assert!(
-        !model.contacts(&mut data, &q, &v, &tau).unwrap().is_empty(),
+        !model
+            .contacts(
+                &mut data,
+                &State::new(q.to_vec(), v.to_vec()),
+                &Inputs::tau(&tau)
+            )
+            .unwrap()
+            .is_empty(),
         "the ant stands"
     );
     let tau: Vec<f64> = (0..model.nv()).map(|i| (i as f64).sin()).collect();

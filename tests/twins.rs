@@ -27,7 +27,7 @@
 mod common;
 
 use diffosi::dynamics::{bias_forces, body_poses, crba};
-use diffosi::model::{Geom, JointKind, Shape};
+use diffosi::model::{Geom, Inputs, JointKind, Shape, State};
 use diffosi::Model;
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
@@ -389,8 +389,22 @@ fn twins_have_the_same_dynamics() {
                 .zip(&cu)
                 .map(|(a, b)| (a - b).abs())
                 .fold(0.0, f64::max);
-            let (qm, vm) = mjcf.step(&mut dm, &q, &v, &tau).unwrap();
-            let (qu, vu) = urdf.step(&mut du, &q, &v, &tau).unwrap();
+            let next = mjcf
+                .step(
+                    &mut dm,
+                    &State::new(q.clone(), v.clone()),
+                    &Inputs::tau(&tau),
+                )
+                .unwrap();
+            let (qm, vm) = (next.q, next.v);
+            let next = urdf
+                .step(
+                    &mut du,
+                    &State::new(q.clone(), v.clone()),
+                    &Inputs::tau(&tau),
+                )
+                .unwrap();
+            let (qu, vu) = (next.q, next.v);
             let s_err = qm
                 .iter()
                 .chain(&vm)

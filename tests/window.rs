@@ -8,7 +8,7 @@ mod common;
 use diffosi::derivatives::{
     step_jacobians, window_residuals, window_residuals_into, Transition, WindowFit, Workspace, Wrt,
 };
-use diffosi::model::{Integrator, MapEntry, Param, ParamMap, PassiveMode, State};
+use diffosi::model::{Inputs, Integrator, MapEntry, Param, ParamMap, PassiveMode, State};
 use diffosi::Model;
 use nalgebra::{DMatrix, DVector};
 
@@ -32,7 +32,14 @@ fn window(model: &Model, map: &ParamMap, mu: f64, len: usize) -> Vec<Transition>
                 common::uniform(&mut r, -2.0, 2.0),
             ];
             let tau = vec![common::uniform(&mut r, -10.0, 10.0), 0.0];
-            let (q_next, v_next) = truth.step(&mut truth.data(), &q, &v, &tau).unwrap();
+            let next = truth
+                .step(
+                    &mut truth.data(),
+                    &State::new(q.clone(), v.clone()),
+                    &Inputs::tau(&tau),
+                )
+                .unwrap();
+            let (q_next, v_next) = (next.q, next.v);
             Transition {
                 start: State::new(q, v),
                 tau,
@@ -146,8 +153,12 @@ fn assert_rows_match(
             &wrt,
         )
         .unwrap();
-        let (q_next, v_next) = model
-            .step(&mut model.data(), &tr.start.q, &tr.start.v, &tr.tau)
+        let State {
+            q: q_next,
+            v: v_next,
+            ..
+        } = model
+            .step(&mut model.data(), &tr.start, &Inputs::tau(&tr.tau))
             .unwrap();
         let predicted = q_next.iter().chain(&v_next);
         let observed = tr.next.q.iter().chain(&tr.next.v);
@@ -192,13 +203,11 @@ fn rows_match_the_step_and_its_parameter_jacobians() {
         let window: Vec<Transition> = (0..3)
             .map(|k| {
                 let (q, v, tau) = common::random_state(&model, 100 * seed + k);
-                let next = |tau: &[f64]| truth.step(&mut truth.data(), &q, &v, tau).unwrap();
-                let (q_next, v_next) = next(&tau.iter().map(|t| t + 0.1).collect::<Vec<_>>());
-                Transition {
-                    start: State::new(q, v),
-                    tau,
-                    next: State::new(q_next, v_next),
-                }
+                let start = State::new(q, v);
+                let pushed: Vec<f64> = tau.iter().map(|t| t + 0.1).collect();
+                let u = Inputs::tau(&pushed);
+                let next = truth.step(&mut truth.data(), &start, &u).unwrap();
+                Transition { start, tau, next }
             })
             .collect();
         let mut ws = Workspace::new(&model);
@@ -317,7 +326,14 @@ fn rows_match_through_contact() {
             .map(|k| {
                 let (mut q, v, tau) = common::random_state(&model, 40 + k);
                 q[1] = -0.15; // the feet in the floor
-                let (q_next, v_next) = truth.step(&mut truth.data(), &q, &v, &tau).unwrap();
+                let next = truth
+                    .step(
+                        &mut truth.data(),
+                        &State::new(q.clone(), v.clone()),
+                        &Inputs::tau(&tau),
+                    )
+                    .unwrap();
+                let (q_next, v_next) = (next.q, next.v);
                 Transition {
                     start: State::new(q, v),
                     tau,
@@ -328,9 +344,8 @@ fn rows_match_through_contact() {
         let contacts = model
             .contacts(
                 &mut model.data(),
-                &window[0].start.q,
-                &window[0].start.v,
-                &vec![0.0; window[0].start.v.len()],
+                &State::new(window[0].start.q.to_vec(), window[0].start.v.to_vec()),
+                &Inputs::tau(&vec![0.0; window[0].start.v.len()]),
             )
             .unwrap();
         assert!(contacts.iter().any(|c| c.dist < 0.0));

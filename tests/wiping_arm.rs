@@ -13,6 +13,7 @@
 mod common;
 
 use diffosi::dynamics::body_poses;
+use diffosi::model::{Inputs, State};
 use diffosi::tasks::tool_down_at;
 use diffosi::Model;
 use nalgebra::{DVector, Vector3};
@@ -78,10 +79,16 @@ fn pressed_tool_balances_spring_and_weight() {
         }
         let mut tau = c + m * a;
         tau[7] = 0.0;
-        (q, v) = model.step(&mut data, &q, &v, tau.as_slice()).unwrap();
+        State { q, v, .. } = model
+            .step(&mut data, &State::new(q, v), &Inputs::tau(tau.as_slice()))
+            .unwrap();
     }
     let contacts = model
-        .contacts(&mut data, &q, &v, &vec![0.0; v.len()])
+        .contacts(
+            &mut data,
+            &State::new(q.to_vec(), v.to_vec()),
+            &Inputs::tau(&vec![0.0; v.len()]),
+        )
         .unwrap();
     assert_eq!(contacts.len(), 1);
     let n = contacts[0].normal_force;

@@ -1,6 +1,6 @@
 //! What the benchmarks share: the reference models and a fixed state.
 
-use diffosi::model::ContactModel;
+use diffosi::model::{ContactModel, Inputs, State};
 use diffosi::Model;
 
 /// A reference model, contacts and joint limits off: the articulated dynamics
@@ -36,7 +36,9 @@ pub fn settled(model: &Model, steps: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let (mut q, mut v, tau) = (model.reference_q(), vec![0.0; n], vec![0.0; n]);
     let mut data = model.data();
     for _ in 0..steps {
-        (q, v) = model.step(&mut data, &q, &v, &tau).unwrap();
+        State { q, v, .. } = model
+            .step(&mut data, &State::new(q, v), &Inputs::tau(&tau))
+            .unwrap();
     }
     (q, v, tau)
 }

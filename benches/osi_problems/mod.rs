@@ -17,8 +17,7 @@ mod common;
 
 pub use common::{load, load_with_contact, settled};
 use diffosi::derivatives::Transition;
-use diffosi::model::ContactModel;
-use diffosi::model::{ParamMap, State};
+use diffosi::model::{ContactModel, Inputs, ParamMap, State};
 use diffosi::osi::Problem;
 use diffosi::tasks::{Cartpole, HalfCheetah, Task as _};
 use diffosi::Model;
@@ -120,7 +119,14 @@ impl Task {
                 let q: Vec<f64> = q0.iter().zip(&dq).map(|(a, b)| a + b).collect();
                 let v = draw(self.ranges[1]);
                 let tau = draw(self.ranges[2]);
-                let (q_next, v_next) = truth.step(&mut data, &q, &v, &tau).unwrap();
+                let next = truth
+                    .step(
+                        &mut data,
+                        &State::new(q.clone(), v.clone()),
+                        &Inputs::tau(&tau),
+                    )
+                    .unwrap();
+                let (q_next, v_next) = (next.q, next.v);
                 Transition {
                     start: State::new(q, v),
                     tau,
@@ -144,7 +150,14 @@ impl Task {
                 let tau: Vec<f64> = (0..n)
                     .map(|_| rng.random_range(-self.ranges[2]..self.ranges[2]))
                     .collect();
-                let (q_next, v_next) = truth.step(&mut data, &q, &v, &tau).unwrap();
+                let next = truth
+                    .step(
+                        &mut data,
+                        &State::new(q.clone(), v.clone()),
+                        &Inputs::tau(&tau),
+                    )
+                    .unwrap();
+                let (q_next, v_next) = (next.q, next.v);
                 let t = Transition {
                     start: State::new(q.clone(), v.clone()),
                     tau,

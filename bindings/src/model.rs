@@ -4,7 +4,6 @@
 use engine::derivatives::{
     input_jacobians, step_jacobians, transition_jacobians, TransitionJacobians, Workspace, Wrt,
 };
-use engine::dynamics::mocap::set_mocap;
 use engine::dynamics::{body_contact_forces, Contact, Data};
 use engine::model::urdf::LoadOptions;
 use engine::model::{ContactModel, Inputs, Integrator, JointKind, Param, PassiveMode, State};
@@ -18,9 +17,13 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
 
 use crate::convert::{
-    entries, float_array, keyword, matrix, name_of, shape, to_numpy, vector, MatrixPair,
+    check_finite, entries, float_array, keyword, matrix, name_of, shape, to_numpy, vector,
+    MatrixPair,
 };
 use crate::errors::{model_error, param_error};
+
+/// The optional mocap_pos and mocap_quat arguments of a Python call.
+type MocapArgs<'a, 'py> = (Option<&'a Bound<'py, PyAny>>, Option<&'a Bound<'py, PyAny>>);
 
 /// A rigid-body model with its simulation buffers.
 ///
@@ -364,28 +367,38 @@ impl PyModel {
     }
 
     /// Every sensor's readings at (q, v) under generalized forces tau, as
-    /// MuJoCo's sensordata after mj_forward (ctrl = 0): a 1-D array laid out
-    /// by `sensor_adr` and `sensor_dim`, the mocap bodies at mocap_pos,
-    /// mocap_quat as `step` places them. A sensor type that is read but not
-    /// computed raises ValueError naming it.
-    #[pyo3(signature = (q, v, tau, mocap_pos = None, mocap_quat = None))]
+    /// MuJoCo's sensordata after mj_forward: a 1-D array laid out by
+    /// `sensor_adr` and `sensor_dim`. ctrl (nu) and act (na) set the
+    /// actuators (None: zero), mocap_pos and mocap_quat the mocap bodies as
+    /// `step` places them. A sensor type that is read but not computed
+    /// raises ValueError naming it.
+    #[pyo3(signature = (q, v, tau, ctrl = None, act = None, mocap_pos = None, mocap_quat = None))]
+    #[allow(clippy::too_many_arguments)]
     fn sensors<'py>(
         &mut self,
         py: Python<'py>,
         q: &Bound<'py, PyAny>,
         v: &Bound<'py, PyAny>,
         tau: &Bound<'py, PyAny>,
+        ctrl: Option<&Bound<'py, PyAny>>,
+        act: Option<&Bound<'py, PyAny>>,
         mocap_pos: Option<&Bound<'py, PyAny>>,
         mocap_quat: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let (q, v, tau) = self.state(q, v, tau)?;
-        let (pos, quat) = self.mocap(mocap_pos, mocap_quat)?;
-        let error = |e| PyValueError::new_err(format!("sensors: {e}"));
-        set_mocap(self.model.tree(), &mut self.data, (&pos, &quat)).map_err(error)?;
+        let (ctrl, act) = self.actuation(ctrl, act)?;
+        let (mocap_pos, mocap_quat) = self.mocap(mocap_pos, mocap_quat)?;
+        let x = State { q, v, act };
+        let u = Inputs {
+            ctrl,
+            tau,
+            mocap_pos,
+            mocap_quat,
+        };
         let readings = self
             .model
-            .sensor_readings(&mut self.data, &q, &v, &tau)
-            .map_err(error)?;
+            .sensor_readings(&mut self.data, &x, &u)
+            .map_err(|e| PyValueError::new_err(format!("sensors: {e}")))?;
         Ok(PyArray1::from_vec(py, readings))
     }
 
@@ -449,7 +462,7 @@ impl PyModel {
         };
         let next = self
             .model
-            .step_inputs(&mut self.data, &x, &u)
+            .step(&mut self.data, &x, &u)
             .map_err(|e| PyValueError::new_err(format!("step: {e}")))?;
         let mut out = vec![
             PyArray1::from_vec(py, next.q),
@@ -479,9 +492,13 @@ impl PyModel {
 
     /// Steps from (q0, v0) under each row of taus (shape (T, nv)) and of
     /// ctrls (shape (T, nu); zeros if None), from activations act0 (na;
-    /// zeros if None); returns the visited states as arrays of shapes
-    /// (T+1, nq) and (T+1, nv), and (T+1, na) for a model with activations.
-    #[pyo3(signature = (q0, v0, taus, ctrls = None, act0 = None))]
+    /// zeros if None), the mocap bodies at mocap_pos and mocap_quat (per
+    /// step, shapes (T, nmocap, 3) and (T, nmocap, 4), or one pose for every
+    /// step, (nmocap, 3) and (nmocap, 4); the compiled poses if None);
+    /// returns the visited states as arrays of shapes (T+1, nq) and
+    /// (T+1, nv), and (T+1, na) for a model with activations.
+    #[pyo3(signature = (q0, v0, taus, ctrls = None, act0 = None, mocap_pos = None, mocap_quat = None))]
+    #[allow(clippy::too_many_arguments)]
     fn rollout<'py>(
         &mut self,
         py: Python<'py>,
@@ -490,6 +507,8 @@ impl PyModel {
         taus: &Bound<'py, PyAny>,
         ctrls: Option<&Bound<'py, PyAny>>,
         act0: Option<&Bound<'py, PyAny>>,
+        mocap_pos: Option<&Bound<'py, PyAny>>,
+        mocap_quat: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyTuple>> {
         let q0 = vector(q0, "q0", self.model.nq(), "nq")?;
         let v0 = vector(v0, "v0", self.model.nv(), "nv")?;
@@ -516,6 +535,8 @@ impl PyModel {
             Some(a) => vector(a, "act0", na, "na")?,
             None => vec![0.0; na],
         };
+        let poses = self.mocap_steps(mocap_pos, "mocap_pos", 3, steps)?;
+        let turns = self.mocap_steps(mocap_quat, "mocap_quat", 4, steps)?;
         let (mut qs, mut vs, mut acts) = (
             Array2::zeros((steps + 1, nq)),
             Array2::zeros((steps + 1, nv)),
@@ -543,10 +564,11 @@ impl PyModel {
                 let u = Inputs {
                     ctrl: row(&ctrls),
                     tau: row(&taus),
-                    ..Inputs::default()
+                    mocap_pos: poses[t].clone(),
+                    mocap_quat: turns[t].clone(),
                 };
                 x = model
-                    .step_inputs(data, &x, &u)
+                    .step(data, &x, &u)
                     .map_err(|e| format!("rollout step {t}: {e}"))?;
             }
             Ok::<(), String>(())
@@ -687,17 +709,20 @@ impl PyModel {
     /// and 6), `frame` (3 x 3, rows: the normal and two tangents, MuJoCo's
     /// contact frame) and `frame_force` (6: normal, tangential, torsional and
     /// rolling components in that frame, mj_contactForce's); b feels the
-    /// opposite. Empty when contacts are off. NaN or infinite input raises
-    /// ValueError.
-    #[pyo3(signature = (q, v, tau = None))]
+    /// opposite. Empty when contacts are off. The mocap bodies at mocap_pos,
+    /// mocap_quat as `step` places them (the compiled poses if None). NaN or
+    /// infinite input raises ValueError.
+    #[pyo3(signature = (q, v, tau = None, mocap_pos = None, mocap_quat = None))]
     fn contacts<'py>(
         &mut self,
         py: Python<'py>,
         q: &Bound<'py, PyAny>,
         v: &Bound<'py, PyAny>,
         tau: Option<&Bound<'py, PyAny>>,
+        mocap_pos: Option<&Bound<'py, PyAny>>,
+        mocap_quat: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyList>> {
-        let contacts = self.contact_list(q, v, tau)?;
+        let contacts = self.contact_list(q, v, tau, (mocap_pos, mocap_quat))?;
         let out = PyList::empty(py);
         for c in contacts {
             let d = PyDict::new(py);
@@ -725,16 +750,19 @@ impl PyModel {
     /// The net contact force on each body at (q, v) under `tau` (default
     /// zero): an array of shape (number of bodies, 3), rows in `body_names`
     /// order (the world first), world frame, N: the sum of the forces of
-    /// `contacts(q, v, tau)` on the body (no moments). The rows sum to zero.
-    #[pyo3(signature = (q, v, tau = None))]
+    /// `contacts(q, v, tau, mocap_pos, mocap_quat)` on the body (no
+    /// moments). The rows sum to zero.
+    #[pyo3(signature = (q, v, tau = None, mocap_pos = None, mocap_quat = None))]
     fn body_contact_forces<'py>(
         &mut self,
         py: Python<'py>,
         q: &Bound<'py, PyAny>,
         v: &Bound<'py, PyAny>,
         tau: Option<&Bound<'py, PyAny>>,
+        mocap_pos: Option<&Bound<'py, PyAny>>,
+        mocap_quat: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let contacts = self.contact_list(q, v, tau)?;
+        let contacts = self.contact_list(q, v, tau, (mocap_pos, mocap_quat))?;
         let forces = body_contact_forces(&contacts, self.model.bodies.len());
         let a = Array2::from_shape_fn((forces.len(), 3), |(b, k)| forces[b][k]);
         Ok(PyArray2::from_owned_array(py, a))
@@ -758,20 +786,13 @@ impl PyModel {
         q: &Bound<'_, PyAny>,
         v: &Bound<'_, PyAny>,
         tau: Option<&Bound<'_, PyAny>>,
+        mocap: MocapArgs<'_, '_>,
     ) -> PyResult<Vec<Contact<f64>>> {
-        let q = vector(q, "q", self.model.nq(), "nq")?;
-        let v = vector(v, "v", self.model.nv(), "nv")?;
-        let tau = match tau {
-            Some(t) => vector(t, "tau", self.model.nv(), "nv")?,
-            None => vec![0.0; self.model.nv()],
-        };
-        let error = |e| PyValueError::new_err(format!("contacts: {e}"));
-        // The mocap bodies at their compiled poses.
-        set_mocap(self.model.tree(), &mut self.data, (&[], &[])).map_err(error)?;
+        let (x, u) = self.unactuated(q, v, tau, mocap)?;
         let contacts = self
             .model
-            .contacts(&mut self.data, &q, &v, &tau)
-            .map_err(error)?;
+            .contacts(&mut self.data, &x, &u)
+            .map_err(|e| PyValueError::new_err(format!("contacts: {e}")))?;
         let finite = |c: &Contact<f64>| {
             c.pos.iter().chain(&c.force()).all(|x| x.is_finite()) && c.dist.is_finite()
         };
@@ -822,6 +843,73 @@ impl PyModel {
             None => Ok(vec![]),
         };
         Ok((read(pos, "mocap_pos", 3)?, read(quat, "mocap_quat", 4)?))
+    }
+
+    /// A rollout's mocap poses (`width` 3: positions, 4: quaternions), one
+    /// list per step: None gives empty lists (the compiled poses), a 2-D
+    /// (nmocap, width) array the same pose for every step, a 3-D (T, nmocap,
+    /// width) array one per step.
+    fn mocap_steps(
+        &self,
+        given: Option<&Bound<'_, PyAny>>,
+        name: &str,
+        width: usize,
+        steps: usize,
+    ) -> PyResult<Vec<Vec<f64>>> {
+        let Some(given) = given else {
+            return Ok(vec![vec![]; steps]);
+        };
+        let n = self.model.tree().nmocap();
+        let array = float_array(given, name)?;
+        let dims = array.shape().to_vec();
+        let per_step = match dims[..] {
+            [rows, w] if (rows, w) == (n, width) => false,
+            [t, rows, w] if (t, rows, w) == (steps, n, width) => true,
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "{name} must be ({n}, {width}) (nmocap = {n}, one pose for every step) or \
+                     ({steps}, {n}, {width}) (T = {steps} steps), got shape {}",
+                    shape(&dims)
+                )))
+            }
+        };
+        let values = entries(&array);
+        check_finite(name, &values, |i| format!("[{i}] (flattened)"))?;
+        let pose = n * width;
+        Ok(if per_step {
+            (0..steps)
+                .map(|t| values[t * pose..(t + 1) * pose].to_vec())
+                .collect()
+        } else {
+            vec![values; steps]
+        })
+    }
+
+    /// The state (q, v) and inputs (tau, zero if None; the mocap poses, the
+    /// compiled ones if None) of an evaluation without actuators (contacts,
+    /// sensors), converted and checked.
+    fn unactuated(
+        &self,
+        q: &Bound<'_, PyAny>,
+        v: &Bound<'_, PyAny>,
+        tau: Option<&Bound<'_, PyAny>>,
+        (pos, quat): MocapArgs<'_, '_>,
+    ) -> PyResult<(State, Inputs)> {
+        let nv = self.model.nv();
+        let q = vector(q, "q", self.model.nq(), "nq")?;
+        let v = vector(v, "v", nv, "nv")?;
+        let tau = match tau {
+            Some(t) => vector(t, "tau", nv, "nv")?,
+            None => vec![0.0; nv],
+        };
+        let (mocap_pos, mocap_quat) = self.mocap(pos, quat)?;
+        let u = Inputs {
+            tau,
+            mocap_pos,
+            mocap_quat,
+            ..Inputs::default()
+        };
+        Ok((State::new(q, v), u))
     }
 
     fn state(

@@ -17,7 +17,7 @@
 use diffosi::derivatives::{step_jacobians, StepJacobians, Workspace, Wrt};
 use diffosi::dynamics::StepError;
 use diffosi::model::mesh::{self, MeshSettings};
-use diffosi::model::{mjcf, Integrator, Param, PassiveMode};
+use diffosi::model::{mjcf, Inputs, Integrator, Param, PassiveMode, State};
 use diffosi::Model;
 
 /// The reference models, MJCF and URDF twins, as the step check loads them.
@@ -347,7 +347,8 @@ pub fn check_step_and_jacobians(
     (q, v, tau): (&[f64], &[f64], &[f64]),
     params: &[Param],
 ) {
-    let stepped = model.step(&mut model.data(), q, v, tau);
+    let x = State::new(q.to_vec(), v.to_vec());
+    let stepped = model.step(&mut model.data(), &x, &Inputs::tau(tau));
     let first_bad = [("q", q), ("v", v), ("tau", tau)]
         .into_iter()
         .find_map(|(name, x)| x.iter().position(|x| !x.is_finite()).map(|i| (name, i)));
@@ -356,8 +357,8 @@ pub fn check_step_and_jacobians(
             assert_eq!((*name, *index), (want, i));
         }
         (_, Some(bad)) => panic!("non-finite {bad:?} not refused: {stepped:?}"),
-        (Ok((q1, v1)), None) => {
-            assert!(q1.iter().chain(v1).all(|x| x.is_finite()));
+        (Ok(next), None) => {
+            assert!(next.q.iter().chain(&next.v).all(|x| x.is_finite()));
         }
         (Err(StepError::DivergedAt { .. }), None) => {}
         // A documented refusal: geoms within reach that the constraint model

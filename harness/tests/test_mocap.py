@@ -128,3 +128,55 @@ def test_mocap_bodies_that_mujoco_or_we_refuse(tmp_path, body, expected):
     path.write_text(f"<mujoco><worldbody>{body}</worldbody></mujoco>")
     with pytest.raises(ValueError, match=expected):
         diffosi.Model.load(str(path))
+
+
+def test_rollout_takes_a_mocap_pose_per_step_as_mj_step_does(models):
+    m, ours = models
+    d = mujoco.MjData(m)
+    q, v, tau = state(m, 2)
+    T = 6
+    pos = np.stack([poses(k)[0] for k in range(T)])
+    quat = np.stack([poses(k)[1] for k in range(T)])
+    taus = np.tile(tau, (T, 1))
+    d.qpos[:], d.qvel[:] = q, v
+    expected = [d.qpos.copy()]
+    for t in range(T):
+        d.qfrc_applied[:] = tau
+        d.mocap_pos[:], d.mocap_quat[:] = pos[t], quat[t]
+        mujoco.mj_step(m, d)
+        expected.append(d.qpos.copy())
+    qs, _ = ours.rollout(q, v, taus, mocap_pos=pos, mocap_quat=quat)
+    np.testing.assert_allclose(qs, np.array(expected), rtol=0, atol=1e-11)
+    # One pose for every step is that pose repeated.
+    one = ours.rollout(q, v, taus, mocap_pos=pos[0], mocap_quat=quat[0])
+    repeated = ours.rollout(q, v, taus, mocap_pos=pos[[0] * T], mocap_quat=quat[[0] * T])
+    np.testing.assert_array_equal(one[0], repeated[0])
+    assert np.abs(one[0][-1] - qs[-1]).max() > 1e-6, "the poses matter"
+
+
+def test_contacts_take_the_mocap_pose(models):
+    m, ours = models
+    d = mujoco.MjData(m)
+    q, v, tau = state(m, 3)
+    pos, quat = poses(3)
+    d.qpos[:], d.qvel[:], d.qfrc_applied[:] = q, v, tau
+    d.mocap_pos[:], d.mocap_quat[:] = pos, quat
+    mujoco.mj_forward(m, d)
+    pressed = ours.contacts(q, v, tau, mocap_pos=pos, mocap_quat=quat)
+    depths = sorted(c["depth"] for c in pressed)
+    np.testing.assert_allclose(depths, sorted(-c.dist for c in d.contact[:d.ncon]), rtol=0, atol=1e-12)
+    # Without a pose, the compiled one (the box away), whatever was evaluated before.
+    assert len(ours.contacts(q, v, tau)) == d.ncon - 1
+    forces = ours.body_contact_forces(q, v, tau, mocap_pos=pos, mocap_quat=quat)
+    assert np.abs(forces[1]).max() > 0, "the box feels the sphere"
+
+
+def test_bad_rollout_mocap_inputs_are_refused(models):
+    _, ours = models
+    q, v, taus = ours.reference_q(), np.zeros(6), np.zeros((4, 6))
+    with pytest.raises(ValueError, match=r"mocap_pos must be \(1, 3\) .* or \(4, 1, 3\) .* got shape \(3, 1, 3\)"):
+        ours.rollout(q, v, taus, mocap_pos=np.zeros((3, 1, 3)))
+    with pytest.raises(ValueError, match=r"mocap_quat must be \(1, 4\) .* got shape \(4,\)"):
+        ours.rollout(q, v, taus, mocap_quat=np.ones(4))
+    with pytest.raises(ValueError, match="mocap_pos.* is not finite"):
+        ours.rollout(q, v, taus, mocap_pos=np.full((1, 3), np.inf))

@@ -16,9 +16,11 @@ import diffosi
 DATA = Path(__file__).resolve().parents[2] / "tests" / "data"
 
 
-def mujoco_sensordata(mm, q, v, tau):
+def mujoco_sensordata(mm, q, v, tau, ctrl=None, act=None):
     d = mujoco.MjData(mm)
     d.qpos[:], d.qvel[:], d.qfrc_applied[:] = q, v, tau
+    if ctrl is not None:
+        d.ctrl[:], d.act[:] = ctrl, act
     mujoco.mj_forward(mm, d)
     return d.sensordata.copy()
 
@@ -42,6 +44,11 @@ def test_sensors_match_mujoco_forward(name):
         v, tau = 0.5 * rng.standard_normal(mm.nv), rng.standard_normal(mm.nv)
         ours, theirs = m.sensors(q, v, tau), mujoco_sensordata(mm, q, v, tau)
         assert ours.shape == theirs.shape
+        np.testing.assert_array_less(np.abs(ours - theirs) / np.maximum(1, np.abs(theirs)), 1e-12)
+        ctrl, act = rng.standard_normal(mm.nu), rng.standard_normal(mm.na)
+        ours = m.sensors(q, v, tau, ctrl=ctrl, act=act)
+        theirs = mujoco_sensordata(mm, q, v, tau, ctrl, act)
+        assert np.abs(theirs - mujoco_sensordata(mm, q, v, tau)).max() > 1e-3  # the inputs act
         np.testing.assert_array_less(np.abs(ours - theirs) / np.maximum(1, np.abs(theirs)), 1e-12)
 
 
@@ -81,8 +88,8 @@ ACTUATED = """<mujoco><option magnetic="0.2 -0.4 0.3"/><compiler autolimits="tru
 
 
 def test_magnetometer_and_actuator_sensors_match_mujoco_forward(tmp_path):
-    """At ctrl = 0 and act = 0 (the readings' inputs are q, v, tau): the actuators' bias forces, a
-    clamped force range, two actuators on one joint, and their forces entering the accelerations."""
+    """At ctrl = 0 and act = 0, then at random ctrl and act: the actuators' bias forces, a clamped
+    force range, two actuators on one joint, and their forces entering the accelerations."""
     path = tmp_path / "actuated.xml"
     path.write_text(ACTUATED)
     m, mm = diffosi.Model.load(str(path)), mujoco.MjModel.from_xml_path(str(path))

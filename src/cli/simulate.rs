@@ -12,7 +12,7 @@
 use std::io::Write;
 
 use diffosi::compile::{collision_pairs, contact_pairs};
-use diffosi::model::ContactModel;
+use diffosi::model::{ContactModel, Inputs, State};
 use diffosi::Model;
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -42,7 +42,7 @@ pub fn simulate(
             .expect("valid template"),
     );
     let mut data = model.data();
-    let (mut q, mut v) = (q0, v0);
+    let mut x = State::new(q0, v0);
     let file = std::fs::File::create(output)
         .map_err(|e| format!("cannot write {}: {e}", output.display()))?;
     let mut out = std::io::BufWriter::new(file);
@@ -64,18 +64,18 @@ pub fn simulate(
     let zero = vec![0.0; model.nv()];
     for t in 0..=steps {
         if t > 0 {
-            (q, v) = model
-                .step(&mut data, &q, &v, &taus[t - 1])
+            x = model
+                .step(&mut data, &x, &Inputs::tau(&taus[t - 1]))
                 .map_err(|e| format!("step {}: {e}", t - 1))?;
             bar.inc(1);
         }
         let time = t as f64 * model.opt.timestep;
         let tau = taus.get(t).unwrap_or(&zero);
-        let sensed = normal_forces(&model, &mut data, &pairs, (&q, &v, tau))
+        let sensed = normal_forces(&model, &mut data, &pairs, (&x.q, &x.v, tau))
             .map_err(|e| format!("contacts at step {t}: {e}"))?;
         let row: Vec<String> = std::iter::once(time)
-            .chain(q.iter().copied())
-            .chain(v.iter().copied())
+            .chain(x.q.iter().copied())
+            .chain(x.v.iter().copied())
             .chain(sensed)
             .map(|x| format!("{x:?}"))
             .collect();
@@ -117,7 +117,7 @@ fn normal_forces(
     if pairs.is_empty() {
         return Ok(out);
     }
-    for c in model.contacts(data, q, v, tau)? {
+    for c in model.contacts(data, &State::new(q.to_vec(), v.to_vec()), &Inputs::tau(tau))? {
         let [g1, g2] = c.geoms;
         if let Some(k) = pairs.iter().position(|&p| p == [g2, g1]) {
             out[k] += c.normal_force;

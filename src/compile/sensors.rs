@@ -15,16 +15,15 @@
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 
 use super::Model;
-use crate::dynamics::actuation::ActuatorTerm;
 use crate::dynamics::constraint::{contact_forces, ConstraintKind, Origin};
 use crate::dynamics::{
-    acceleration, check_colliders, check_inputs, rnea_with_transforms, world_frames, Constrained,
-    Contact, Data, StepError,
+    acceleration, check_actuation, check_colliders, rnea_with_transforms, world_frames,
+    Constrained, Contact, Data, StepError,
 };
 use crate::model::MINVAL;
 use crate::model::{
-    ActuatorQuantity, ContactModel, FrameObject, FrameQuantity, JointKind, JointQuantity,
-    PassiveMode, Sensor, SensorKind, SiteQuantity,
+    ActuatorQuantity, ContactModel, FrameObject, FrameQuantity, Inputs, JointKind, JointQuantity,
+    PassiveMode, Sensor, SensorKind, SiteQuantity, State,
 };
 use crate::spatial::{Force, Inertia, Motion, Transform};
 
@@ -43,16 +42,16 @@ impl Model {
     }
 
     /// The readings of every sensor (MuJoCo's sensordata, laid out by
-    /// [`Model::sensor_layout`]) at (q, v) under generalized forces tau
-    /// (MuJoCo's qfrc_applied) with ctrl = 0, the mocap bodies where `data`
-    /// holds them ([`crate::dynamics::mocap::set_mocap`]). Fails on a sensor
-    /// that is read but not computed, naming it.
+    /// [`Model::sensor_layout`]) at x = (q, v, act) under u: generalized
+    /// forces u.tau (MuJoCo's qfrc_applied), the actuators' forces at
+    /// u.ctrl and x.act (empty: zero), the mocap bodies at u's poses (empty:
+    /// the compiled ones), as mj_forward reads them. Fails on a sensor that
+    /// is read but not computed, naming it.
     pub fn sensor_readings(
         &self,
         data: &mut Data<f64>,
-        q: &[f64],
-        v: &[f64],
-        tau: &[f64],
+        x: &State,
+        u: &Inputs,
     ) -> Result<Vec<f64>, StepError> {
         let unsupported = self.sensors.iter().find_map(|s| match &s.kind {
             SensorKind::Unsupported { element, why } => Some((s, element, why)),
@@ -83,9 +82,11 @@ impl Model {
             });
         }
         let tree = self.tree();
-        check_inputs(tree, (q, v, tau))?;
+        check_actuation(tree, (&u.ctrl, &x.act))?;
+        self.place(data, x, u)?;
+        let (q, v, tau) = (&x.q[..], &x.v[..], &u.tau[..]);
         check_colliders(tree, data, (q, v))?;
-        let actuator_force = self.idle_actuator_forces(q, v);
+        let actuator_force = self.scalar_actuator_forces(x, u);
         let mut applied = tau.to_vec();
         for (a, f) in tree.actuators.iter().zip(&actuator_force) {
             applied[a.dof] += a.law.gear * f;
@@ -121,15 +122,17 @@ impl Model {
         Ok(out)
     }
 
-    /// Each actuator's scalar force (MuJoCo's actuator_force) at (q, v)
-    /// with ctrl = 0 and act = 0.
-    fn idle_actuator_forces(&self, q: &[f64], v: &[f64]) -> Vec<f64> {
+    /// Each actuator's scalar force (MuJoCo's actuator_force) at x under
+    /// u's controls (an empty ctrl or act is zero).
+    fn scalar_actuator_forces(&self, x: &State, u: &Inputs) -> Vec<f64> {
         let h = self.opt.timestep;
-        let at = |a: &ActuatorTerm| (q[a.q_at], v[a.dof]);
-        let actuators = &self.tree().actuators;
+        let entry = |xs: &[f64], i: Option<usize>| i.and_then(|i| xs.get(i)).map_or(0.0, |&y| y);
+        let actuators = self.tree().actuators.iter().enumerate();
         actuators
-            .iter()
-            .map(|a| a.scalar_force(h, at(a), (0.0, 0.0)))
+            .map(|(i, a)| {
+                let at = (x.q[a.q_at], x.v[a.dof]);
+                a.scalar_force(h, at, (entry(&u.ctrl, Some(i)), entry(&x.act, a.act)))
+            })
             .collect()
     }
 

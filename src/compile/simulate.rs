@@ -1,5 +1,7 @@
 //! Simulation on f64 states: the convenience layer over [`crate::dynamics`].
 
+use std::borrow::Borrow;
+
 use super::Model;
 use crate::dynamics::{self, Contact, Data, StepError};
 use crate::model::{ContactModel, Inputs, State};
@@ -16,7 +18,7 @@ impl Model {
     /// Generalized forces from motor controls: tau = sum gear * gain * u on
     /// each actuated joint's dof, for models whose actuators are all
     /// motor-like ([`crate::model::Actuator::force_per_control`]; others add
-    /// nothing here: step them with ctrl, [`Model::step_inputs`]).
+    /// nothing here: step them with ctrl, [`Model::step`]).
     pub fn actuator_forces(&self, u: &[f64]) -> Vec<f64> {
         let mut tau = vec![0.0; self.nv()];
         for (a, &ui) in self.actuators.iter().zip(u) {
@@ -32,34 +34,33 @@ impl Model {
         Data::new(&self.tree)
     }
 
-    /// One step from (q, v) under generalized forces tau (length nv), the
-    /// mocap bodies at their compiled poses. A step that diverges names its likely cause
-    /// ([`StepError::DivergedAt`]).
-    pub fn step(
-        &self,
-        data: &mut Data<f64>,
-        q: &[f64],
-        v: &[f64],
-        tau: &[f64],
-    ) -> Result<(Vec<f64>, Vec<f64>), StepError> {
-        let (mut q1, mut v1) = (vec![0.0; self.nq()], vec![0.0; self.nv()]);
-        dynamics::mocap::set_mocap(&self.tree, data, (&[], &[]))?;
-        match dynamics::step(&self.tree, data, (q, v, tau), (&mut q1, &mut v1)) {
+    /// One step as MuJoCo's mj_step takes it: from the state x = (q, v,
+    /// act) under the inputs u = (ctrl, tau, mocap poses)
+    /// ([`dynamics::step_actuated`]; an empty ctrl or act is zero, empty
+    /// mocap poses the compiled ones). The next state has na activations.
+    /// A step that diverges names its likely cause ([`StepError::DivergedAt`]).
+    pub fn step(&self, data: &mut Data<f64>, x: &State, u: &Inputs) -> Result<State, StepError> {
+        let mut next = State {
+            q: vec![0.0; self.nq()],
+            v: vec![0.0; self.nv()],
+            act: vec![0.0; self.na()],
+        };
+        let out = (&mut next.q[..], &mut next.v[..], &mut next.act[..]);
+        let state = (&x.q[..], &x.v[..], &x.act[..]);
+        dynamics::mocap::set_mocap(&self.tree, data, (&u.mocap_pos, &u.mocap_quat))?;
+        match dynamics::step_actuated(&self.tree, data, state, (&u.ctrl, &u.tau), out) {
             Err(StepError::Diverged) => Err(StepError::DivergedAt {
-                cause: self.divergence_cause(data, (q, v, tau)),
+                cause: self.divergence_cause(data, x, u),
             }),
-            result => result.map(|()| (q1, v1)),
+            result => result.map(|()| next),
         }
     }
 
-    /// What a diverging step from (q, v) most likely blew up on: the fastest
-    /// dof (its joint, and whether it is beyond its range), and the deepest
-    /// contact if any.
-    fn divergence_cause(
-        &self,
-        data: &mut Data<f64>,
-        (q, v, tau): (&[f64], &[f64], &[f64]),
-    ) -> String {
+    /// What a diverging step from x under u most likely blew up on: the
+    /// fastest dof (its joint, and whether it is beyond its range), and the
+    /// deepest contact if any.
+    fn divergence_cause(&self, data: &mut Data<f64>, x: &State, u: &Inputs) -> String {
+        let State { q, v, .. } = x;
         let Some((dof, speed)) = v
             .iter()
             .map(|x| x.abs())
@@ -87,7 +88,12 @@ impl Model {
                 cause += &format!(", at q = {:.4e} beyond its range [{lo}, {hi}]", q[qa]);
             }
         }
-        let contacts = self.contacts(data, q, v, tau).unwrap_or_default();
+        let at = State::new(q.clone(), v.clone());
+        let passive = Inputs {
+            ctrl: vec![],
+            ..u.clone()
+        };
+        let contacts = self.contacts(data, &at, &passive).unwrap_or_default();
         if let Some(c) = contacts.iter().min_by(|a, b| a.dist.total_cmp(&b.dist)) {
             let [a, b] = c.geoms.map(|g| self.geoms[g].name.clone());
             cause += &format!(
@@ -102,43 +108,22 @@ impl Model {
         cause
     }
 
-    /// One step as MuJoCo's mj_step takes it: from the state x = (q, v,
-    /// act) under the inputs u = (ctrl, tau, mocap poses)
-    /// ([`dynamics::step_actuated`]; an empty ctrl or act is zero, empty
-    /// mocap poses the compiled ones). The next state has na activations.
-    pub fn step_inputs(
+    /// The contacts at x = (q, v) with their forces, the mocap bodies at u's
+    /// poses (empty: the compiled ones): those a semi-implicit Euler step
+    /// from (q, v) under generalized forces u.tau applies (net force per
+    /// body: [`dynamics::body_contact_forces`]). Under the smooth model the
+    /// forces depend on (q, v) only ([`dynamics::contact`]); under the
+    /// constraint model they are the solver's and depend on tau too
+    /// ([`dynamics::constraint::contact_forces`]). The actuators are left
+    /// out: a non-empty ctrl or act is refused ([`StepError::NotRead`]).
+    pub fn contacts(
         &self,
         data: &mut Data<f64>,
         x: &State,
         u: &Inputs,
-    ) -> Result<State, StepError> {
-        let mut next = State {
-            q: vec![0.0; self.nq()],
-            v: vec![0.0; self.nv()],
-            act: vec![0.0; self.na()],
-        };
-        let out = (&mut next.q[..], &mut next.v[..], &mut next.act[..]);
-        let state = (&x.q[..], &x.v[..], &x.act[..]);
-        dynamics::mocap::set_mocap(&self.tree, data, (&u.mocap_pos, &u.mocap_quat))?;
-        dynamics::step_actuated(&self.tree, data, state, (&u.ctrl, &u.tau), out)?;
-        Ok(next)
-    }
-
-    /// The contacts at (q, v) with their forces (the mocap bodies where
-    /// `data` holds them, [`dynamics::mocap::set_mocap`]): those a
-    /// semi-implicit Euler step from (q, v) under generalized forces tau applies (net force per
-    /// body: [`dynamics::body_contact_forces`]). Under the smooth model the
-    /// forces depend on (q, v) only ([`dynamics::contact`]); under the
-    /// constraint model they are the solver's and depend on tau too
-    /// ([`dynamics::constraint::contact_forces`]).
-    pub fn contacts(
-        &self,
-        data: &mut Data<f64>,
-        q: &[f64],
-        v: &[f64],
-        tau: &[f64],
     ) -> Result<Vec<Contact<f64>>, StepError> {
-        dynamics::check_inputs(&self.tree, (q, v, tau))?;
+        self.unactuated(data, x, u)?;
+        let (q, v, tau) = (&x.q[..], &x.v[..], &u.tau[..]);
         if self.opt.contact_model == ContactModel::Smooth {
             let mut out = vec![0.0; self.nv()];
             dynamics::add_soft_forces(&self.tree, data, (q, v), &mut out);
@@ -152,41 +137,46 @@ impl Model {
         }))
     }
 
-    /// Steps from `x0` under each of `inputs`; returns the T+1 states
-    /// visited, the initial state first.
-    pub fn rollout_inputs<'a>(
+    /// Checks x and u for an evaluation that leaves the actuators out
+    /// (contacts) and places the mocap bodies at u's poses in `data`; a
+    /// non-empty ctrl or act is refused rather than ignored.
+    fn unactuated(&self, data: &mut Data<f64>, x: &State, u: &Inputs) -> Result<(), StepError> {
+        for (name, given) in [("ctrl", &u.ctrl), ("act", &x.act)] {
+            if !given.is_empty() {
+                return Err(StepError::NotRead { name });
+            }
+        }
+        self.place(data, x, u)
+    }
+
+    /// Checks (q, v, tau) of x and u and places the mocap bodies at u's
+    /// poses in `data`.
+    pub(super) fn place(
+        &self,
+        data: &mut Data<f64>,
+        x: &State,
+        u: &Inputs,
+    ) -> Result<(), StepError> {
+        dynamics::check_inputs(&self.tree, (&x.q, &x.v, &u.tau))?;
+        dynamics::mocap::set_mocap(&self.tree, data, (&u.mocap_pos, &u.mocap_quat))
+    }
+
+    /// Steps from `x0` under each of `inputs` (each step's ctrl, tau and
+    /// mocap poses; owned or borrowed); returns the T+1 states visited, the
+    /// initial state first.
+    pub fn rollout(
         &self,
         x0: &State,
-        inputs: impl IntoIterator<Item = &'a Inputs>,
+        inputs: impl IntoIterator<Item = impl Borrow<Inputs>>,
     ) -> Result<Vec<State>, RolloutError> {
         let mut data = self.data();
         let mut states = vec![x0.clone()];
         for (step, u) in inputs.into_iter().enumerate() {
             let x = states.last().expect("starts non-empty");
             let next = self
-                .step_inputs(&mut data, x, u)
+                .step(&mut data, x, u.borrow())
                 .map_err(|source| RolloutError { step, source })?;
             states.push(next);
-        }
-        Ok(states)
-    }
-
-    /// Steps from (q0, v0) under each row of `taus`; returns the T+1 states
-    /// visited, the initial state first.
-    pub fn rollout<'a>(
-        &self,
-        q0: &[f64],
-        v0: &[f64],
-        taus: impl IntoIterator<Item = &'a [f64]>,
-    ) -> Result<Vec<State>, RolloutError> {
-        let mut data = self.data();
-        let mut states = vec![State::new(q0.to_vec(), v0.to_vec())];
-        for (step, tau) in taus.into_iter().enumerate() {
-            let State { q, v, .. } = states.last().expect("starts non-empty");
-            let (q, v) = self
-                .step(&mut data, q, v, tau)
-                .map_err(|source| RolloutError { step, source })?;
-            states.push(State::new(q, v));
         }
         Ok(states)
     }

@@ -56,7 +56,7 @@ use rand::{RngExt, SeedableRng};
 use super::ControlError;
 use crate::derivatives::{transition_jacobians, TransitionJacobians, Workspace};
 use crate::dynamics::{Data, StepError};
-use crate::model::State;
+use crate::model::{Inputs, State};
 use crate::tasks::{Env, Task};
 use crate::Model;
 
@@ -265,9 +265,11 @@ impl<'a> Ilqr<'a> {
     /// One control step from `state` under `action` (held forces).
     fn control_step(&mut self, state: &State, action: &[f64]) -> Result<State, StepError> {
         let tau = self.task.forces(action);
+        let u = Inputs::tau(&tau);
         let mut next = state.clone();
         for _ in 0..self.task.substeps() {
-            (next.q, next.v) = self.model.step(&mut self.data, &next.q, &next.v, &tau)?;
+            let State { q, v, .. } = self.model.step(&mut self.data, &next, &u)?;
+            (next.q, next.v) = (q, v);
         }
         Ok(next)
     }
@@ -1033,7 +1035,7 @@ mod tests {
         }
         let contacts = task
             .model()
-            .contacts(&mut task.model().data(), &x.q, &x.v, &[0.0; 9]);
+            .contacts(&mut task.model().data(), &x, &Inputs::tau(&[0.0; 9]));
         assert!(!contacts.unwrap().is_empty(), "standing on the floor");
         let u = vec![0.1, -0.2, 0.3, -0.1, 0.2, 0.05];
         let (a, b, _) = planner.linearise(&x, &u).unwrap();

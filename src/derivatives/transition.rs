@@ -97,6 +97,7 @@ pub fn transition_jacobians(
 mod tests {
     use super::*;
     use crate::model::Integrator;
+    use crate::model::{Inputs, State};
 
     /// A and B hold step_jacobians' blocks bit for bit, on the fast path
     /// (Euler, in contact) and on the assembled one (RK4), without and with
@@ -117,9 +118,18 @@ mod tests {
             let (mut q, mut v) = (model.reference_q(), vec![0.0; n]);
             let tau: Vec<f64> = (0..n).map(|i| 0.1 * (i as f64).sin()).collect();
             for _ in 0..200 {
-                (q, v) = model.step(&mut data, &q, &v, &tau).unwrap();
+                State { q, v, .. } = model
+                    .step(&mut data, &State::new(q, v), &Inputs::tau(&tau))
+                    .unwrap();
             }
-            let touching = !model.contacts(&mut data, &q, &v, &tau).unwrap().is_empty();
+            let touching = !model
+                .contacts(
+                    &mut data,
+                    &State::new(q.to_vec(), v.to_vec()),
+                    &Inputs::tau(&tau),
+                )
+                .unwrap()
+                .is_empty();
             assert_eq!(touching, file == "half_cheetah.xml");
             let wrt = Wrt {
                 state: true,

@@ -110,6 +110,11 @@ pub enum StepError {
          modelled constraints is)"
     )]
     NoTendonDerivatives,
+    /// An input an evaluation would ignore: contacts
+    /// ([`crate::Model::contacts`]) leave the actuators out, so they take no
+    /// ctrl or act.
+    #[error("{name} is not read here: contacts leave the actuators out (pass it empty)")]
+    NotRead { name: &'static str },
     /// The next state is finite but a Jacobian block overflowed.
     #[error("the step Jacobian {block} is not finite (state, forces or parameters too large)")]
     JacobianNotFinite { block: &'static str },

@@ -31,6 +31,17 @@ pub struct Inputs {
     pub mocap_quat: Vec<f64>,
 }
 
+impl Inputs {
+    /// Generalized forces tau alone: no controls (zero), the mocap bodies at
+    /// their compiled poses.
+    pub fn tau(tau: &[f64]) -> Inputs {
+        Inputs {
+            tau: tau.to_vec(),
+            ..Inputs::default()
+        }
+    }
+}
+
 /// Written as the pair [q, v], with act third only when it has entries (the
 /// form reports had before act existed).
 impl serde::Serialize for State {

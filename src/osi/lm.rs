@@ -313,6 +313,7 @@ fn latin_hypercube(problem: &Problem, count: usize, seed: u64) -> Vec<Vec<f64>> 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::Inputs;
     use crate::model::State;
     use crate::tasks::{by_name, Task};
 
@@ -341,7 +342,14 @@ mod tests {
             .map(|t| {
                 let s = (t as f64 * 0.7).sin();
                 let (q, v, tau) = (vec![0.1 * s, 0.4 * s], vec![s, -s], vec![8.0 * s, 0.0]);
-                let (q_next, mut v_next) = truth.step(&mut truth.data(), &q, &v, &tau).unwrap();
+                let next = truth
+                    .step(
+                        &mut truth.data(),
+                        &State::new(q.clone(), v.clone()),
+                        &Inputs::tau(&tau),
+                    )
+                    .unwrap();
+                let (q_next, mut v_next) = (next.q, next.v);
                 if t % corrupt == corrupt - 1 {
                     v_next[1] += 0.5;
                 }

@@ -251,6 +251,7 @@ impl Task for HalfCheetah {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::Inputs;
 
     #[test]
     fn the_contact_variant_at_the_files_values_is_the_task() {
@@ -268,12 +269,12 @@ mod tests {
         // A state with both feet pressed into the floor: contact rows act.
         let State { mut q, v, .. } = plain.reset(&mut rand::SeedableRng::seed_from_u64(3));
         q[1] -= 0.3;
-        let tau = vec![0.0; a.nv()];
+        let (x, u) = (State::new(q, v), Inputs::tau(&vec![0.0; a.nv()]));
         let (mut da, mut db) = (a.data(), b.data());
-        assert_eq!(a.step(&mut da, &q, &v, &tau), b.step(&mut db, &q, &v, &tau));
+        assert_eq!(a.step(&mut da, &x, &u), b.step(&mut db, &x, &u));
         // No armature, more friction: another step.
         wide.mu_map().apply(&mut b, &[mass, 0.0, 0.5]).unwrap();
-        assert_ne!(a.step(&mut da, &q, &v, &tau), b.step(&mut db, &q, &v, &tau));
+        assert_ne!(a.step(&mut da, &x, &u), b.step(&mut db, &x, &u));
         assert_eq!(b.get_param("joint/bfoot/armature").unwrap(), vec![0.0]);
         assert_eq!(
             b.get_param("geom/floor/friction").unwrap(),

@@ -28,7 +28,7 @@ use rand::RngExt;
 
 use crate::derivatives::Transition;
 use crate::dynamics::{Data, StepError};
-use crate::model::{ParamError, ParamMap, State};
+use crate::model::{Inputs, ParamError, ParamMap, State};
 use crate::Model;
 
 /// A control task on a simulated model (see the module docs for conventions).
@@ -222,8 +222,9 @@ impl<'a> Env<'a> {
     pub fn step(&mut self, action: &[f64]) -> Result<Outcome, EnvError> {
         let tau = self.task.forces(action);
         let model = &self.model;
+        let u = Inputs::tau(&tau);
         let step = |data: &mut Data<f64>, x: &State| {
-            let (q, v) = model.step(data, &x.q, &x.v, &tau)?;
+            let State { q, v, .. } = model.step(data, x, &u)?;
             Ok::<_, StepError>(State::new(q, v))
         };
         let mut start = self.state.clone();

@@ -3,7 +3,9 @@
 
 use diffosi::derivatives::Transition;
 use diffosi::dynamics::{bias_forces, body_poses, crba, Data};
-use diffosi::model::{Body, Integrator, Joint, JointKind, Options, ParamMap, PassiveMode, State};
+use diffosi::model::{
+    Body, Inputs, Integrator, Joint, JointKind, Options, ParamMap, PassiveMode, State,
+};
 use diffosi::Model;
 use nalgebra::{DMatrix, DVector};
 use nalgebra::{Matrix3, Rotation3, Vector3};
@@ -303,7 +305,14 @@ pub fn cheetah_walk(truth: &Model, len: usize, seed: u64) -> Vec<Transition> {
                     tau[3 + i] = g * uniform(&mut rng, -1.0, 1.0);
                 }
             }
-            let (q_next, v_next) = truth.step(&mut data, &q, &v, &tau).unwrap();
+            let next = truth
+                .step(
+                    &mut data,
+                    &State::new(q.clone(), v.clone()),
+                    &Inputs::tau(&tau),
+                )
+                .unwrap();
+            let (q_next, v_next) = (next.q, next.v);
             let t = Transition {
                 start: State::new(q.clone(), v.clone()),
                 tau: tau.clone(),

@@ -167,6 +167,7 @@ mod tests {
     use super::super::{step_jacobians, Workspace, Wrt};
     use super::*;
     use crate::dynamics::acceleration;
+    use crate::model::{Inputs, State};
     use crate::model::{Integrator, Param};
     use crate::Model;
 
@@ -250,7 +251,9 @@ mod tests {
                         }
                     }
                 }
-                (q, v) = model.step(&mut data, &q, &v, &tau).unwrap();
+                State { q, v, .. } = model
+                    .step(&mut data, &State::new(q, v), &Inputs::tau(&tau))
+                    .unwrap();
             }
             // Every analytic kind's rows active (equality and tendon rows take dual numbers).
             let expected = ConstraintKind::ORDER.map(analytic);
@@ -306,7 +309,16 @@ mod tests {
                     let tau: Vec<f64> = (0..n)
                         .map(|i| 0.02 * (0.3 * (k + i) as f64).sin())
                         .collect();
-                    if k % 48 == 0 && !model.contacts(&mut data, &q, &v, &tau).unwrap().is_empty() {
+                    if k % 48 == 0
+                        && !model
+                            .contacts(
+                                &mut data,
+                                &State::new(q.to_vec(), v.to_vec()),
+                                &Inputs::tau(&tau),
+                            )
+                            .unwrap()
+                            .is_empty()
+                    {
                         let x = (&q[..], &v[..], &tau[..]);
                         let j = step_jacobians(&model, &mut ws, x, &wrt).unwrap();
                         let mut duals = Default::default();
@@ -329,7 +341,9 @@ mod tests {
                         }
                         checked += 1;
                     }
-                    (q, v) = model.step(&mut data, &q, &v, &tau).unwrap();
+                    State { q, v, .. } = model
+                        .step(&mut data, &State::new(q, v), &Inputs::tau(&tau))
+                        .unwrap();
                 }
                 assert!(checked >= 3, "{file}: {checked} states in contact");
             }

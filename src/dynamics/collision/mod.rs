@@ -378,7 +378,12 @@ mod tests {
             &Ccd::default(),
             0.0
         ));
-        assert!(!supported(GeomType::Plane, GeomType::Mesh, &Ccd::default(), 0.0));
+        assert!(!supported(
+            GeomType::Plane,
+            GeomType::Mesh,
+            &Ccd::default(),
+            0.0
+        ));
     }
 
     #[test]

@@ -118,6 +118,7 @@ mod tests {
     use super::super::test_util::*;
     use crate::dynamics::StepError;
     use crate::model::Shape;
+    use crate::model::{Inputs, State};
 
     const FIELD: &str = r#"<asset><hfield name="h" nrow="2" ncol="3" size="1 2 0.5 0.1"
         elevation="1 2 3 4 5 7"/></asset>"#;
@@ -227,17 +228,35 @@ mod tests {
             )
         };
         let ball = load(&model(FIELD, &bodies(r#"<geom size="0.1"/>"#), ""));
-        assert!(ball.step(&mut ball.data(), &[0.3], &[0.0], &[0.0]).is_ok());
+        assert!(ball
+            .step(
+                &mut ball.data(),
+                &State::new(vec![0.3], vec![0.0]),
+                &Inputs::tau(&[0.0])
+            )
+            .is_ok());
         for geom in [
             r#"<geom type="box" size="0.1 0.1 0.1"/>"#,
             r#"<geom size="0.1" margin="0.01"/>"#,
         ] {
             let m = load(&model(FIELD, &bodies(geom), ""));
             let mut data = m.data();
-            let err = m.step(&mut data, &[0.3], &[0.0], &[0.0]).unwrap_err();
+            let err = m
+                .step(
+                    &mut data,
+                    &State::new(vec![0.3], vec![0.0]),
+                    &Inputs::tau(&[0.0]),
+                )
+                .unwrap_err();
             assert_eq!(err, StepError::NoCollider([0, 1]));
             // Beyond the bounding sphere's reach it steps.
-            assert!(m.step(&mut data, &[3.0], &[0.0], &[0.0]).is_ok());
+            assert!(m
+                .step(
+                    &mut data,
+                    &State::new(vec![3.0], vec![0.0]),
+                    &Inputs::tau(&[0.0])
+                )
+                .is_ok());
         }
     }
 }

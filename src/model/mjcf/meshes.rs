@@ -220,6 +220,7 @@ pub(super) fn file_stem(file: &str) -> String {
 
 #[cfg(test)]
 mod tests {
+    use crate::model::{Inputs, State};
     use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 
     use super::super::parse;
@@ -330,7 +331,13 @@ mod tests {
             .expect("a colliding mesh has a hull");
         assert_eq!((hull.vertices.len(), hull.faces.len()), (8, 12));
         let q = m.reference_q();
-        let err = m.step(&mut m.data(), &q, &[0.0], &[0.0]).unwrap_err();
+        let err = m
+            .step(
+                &mut m.data(),
+                &State::new(q.to_vec(), vec![0.0]),
+                &Inputs::tau(&[0.0]),
+            )
+            .unwrap_err();
         assert!(err.to_string().contains("within reach"), "{err}");
     }
 
