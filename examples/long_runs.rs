@@ -129,19 +129,8 @@ fn identify(updates: usize) -> (Vec<Checkpoint>, String) {
         let mut draw = |h: f64| rng.random_range(-h..=h);
         let (q, v) = (vec![draw(1.0), draw(0.5)], vec![draw(1.0), draw(2.0)]);
         let tau = vec![draw(10.0), 0.0];
-        let next = truth
-            .step(
-                &mut data,
-                &State::new(q.clone(), v.clone()),
-                &Inputs::tau(&tau),
-            )
-            .expect("a finite step");
-        let (q_next, v_next) = (next.q, next.v);
-        let transition = Transition {
-            start: State::new(q, v),
-            tau,
-            next: State::new(q_next, v_next),
-        };
+        let transition =
+            Transition::simulated(&truth, &mut data, State::new(q, v), tau).expect("a finite step");
         let estimate = online.push(transition).expect("an estimate");
         changes += usize::from(estimate.flags.changed);
         if i % every >= every / 2 {

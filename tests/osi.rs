@@ -6,7 +6,7 @@
 mod common;
 
 use diffosi::derivatives::Transition;
-use diffosi::model::{Inputs, MapEntry, ParamMap, State};
+use diffosi::model::{MapEntry, ParamMap, State};
 use diffosi::osi::{
     Adam, Average, ChangeDetection, CmaEs, Estimate, Identifier, Lm, Online, Oracle, Problem,
     Random, Sampling,
@@ -43,19 +43,7 @@ fn transition(truth: &Model, r: &mut StdRng, ranges: &[f64]) -> Transition {
             .collect()
     };
     let (q, v, tau) = (draw(0), draw(1), draw(2));
-    let next = truth
-        .step(
-            &mut truth.data(),
-            &State::new(q.clone(), v.clone()),
-            &Inputs::tau(&tau),
-        )
-        .unwrap();
-    let (q_next, v_next) = (next.q, next.v);
-    Transition {
-        start: State::new(q, v),
-        tau,
-        next: State::new(q_next, v_next),
-    }
+    Transition::simulated(truth, &mut truth.data(), State::new(q, v), tau).unwrap()
 }
 
 const CARTPOLE_RANGES: [f64; 6] = [1.0, 0.5, 1.0, 2.0, 10.0, 0.0];

@@ -65,19 +65,7 @@ fn window(truth: &Model, len: usize, seed: u64) -> Vec<Transition> {
                     &Inputs::tau(&tau),
                 )
                 .unwrap();
-            let next = truth
-                .step(
-                    &mut data,
-                    &State::new(q.clone(), v.clone()),
-                    &Inputs::tau(&tau),
-                )
-                .unwrap();
-            let (q_next, v_next) = (next.q, next.v);
-            Transition {
-                start: State::new(q, v),
-                tau,
-                next: State::new(q_next, v_next),
-            }
+            Transition::simulated(truth, &mut data, State::new(q, v), tau).unwrap()
         })
         .collect()
 }

@@ -32,19 +32,7 @@ fn window(model: &Model, map: &ParamMap, mu: f64, len: usize) -> Vec<Transition>
                 common::uniform(&mut r, -2.0, 2.0),
             ];
             let tau = vec![common::uniform(&mut r, -10.0, 10.0), 0.0];
-            let next = truth
-                .step(
-                    &mut truth.data(),
-                    &State::new(q.clone(), v.clone()),
-                    &Inputs::tau(&tau),
-                )
-                .unwrap();
-            let (q_next, v_next) = (next.q, next.v);
-            Transition {
-                start: State::new(q, v),
-                tau,
-                next: State::new(q_next, v_next),
-            }
+            Transition::simulated(&truth, &mut truth.data(), State::new(q, v), tau).unwrap()
         })
         .collect()
 }

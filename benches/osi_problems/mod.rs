@@ -119,19 +119,7 @@ impl Task {
                 let q: Vec<f64> = q0.iter().zip(&dq).map(|(a, b)| a + b).collect();
                 let v = draw(self.ranges[1]);
                 let tau = draw(self.ranges[2]);
-                let next = truth
-                    .step(
-                        &mut data,
-                        &State::new(q.clone(), v.clone()),
-                        &Inputs::tau(&tau),
-                    )
-                    .unwrap();
-                let (q_next, v_next) = (next.q, next.v);
-                Transition {
-                    start: State::new(q, v),
-                    tau,
-                    next: State::new(q_next, v_next),
-                }
+                Transition::simulated(&truth, &mut data, State::new(q, v), tau).unwrap()
             })
             .collect()
     }

@@ -37,6 +37,20 @@ pub struct Transition {
     pub next: State,
 }
 
+impl Transition {
+    /// The transition `model` takes from `start` under tau (a simulated
+    /// observation: [`Model::step`]).
+    pub fn simulated(
+        model: &Model,
+        data: &mut Data<f64>,
+        start: State,
+        tau: Vec<f64>,
+    ) -> Result<Transition, StepError> {
+        let next = model.step(data, &start, &crate::model::Inputs::tau(&tau))?;
+        Ok(Transition { start, tau, next })
+    }
+}
+
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum WindowError {

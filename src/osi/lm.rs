@@ -313,7 +313,6 @@ fn latin_hypercube(problem: &Problem, count: usize, seed: u64) -> Vec<Vec<f64>> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::Inputs;
     use crate::model::State;
     use crate::tasks::{by_name, Task};
 
@@ -342,22 +341,13 @@ mod tests {
             .map(|t| {
                 let s = (t as f64 * 0.7).sin();
                 let (q, v, tau) = (vec![0.1 * s, 0.4 * s], vec![s, -s], vec![8.0 * s, 0.0]);
-                let next = truth
-                    .step(
-                        &mut truth.data(),
-                        &State::new(q.clone(), v.clone()),
-                        &Inputs::tau(&tau),
-                    )
-                    .unwrap();
-                let (q_next, mut v_next) = (next.q, next.v);
+                let start = State::new(q, v);
+                let mut seen =
+                    Transition::simulated(&truth, &mut truth.data(), start, tau).unwrap();
                 if t % corrupt == corrupt - 1 {
-                    v_next[1] += 0.5;
+                    seen.next.v[1] += 0.5;
                 }
-                Transition {
-                    start: State::new(q, v),
-                    tau,
-                    next: State::new(q_next, v_next),
-                }
+                seen
             })
             .collect()
     }

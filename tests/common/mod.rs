@@ -3,9 +3,7 @@
 
 use diffosi::derivatives::Transition;
 use diffosi::dynamics::{bias_forces, body_poses, crba, Data};
-use diffosi::model::{
-    Body, Inputs, Integrator, Joint, JointKind, Options, ParamMap, PassiveMode, State,
-};
+use diffosi::model::{Body, Integrator, Joint, JointKind, Options, ParamMap, PassiveMode, State};
 use diffosi::Model;
 use nalgebra::{DMatrix, DVector};
 use nalgebra::{Matrix3, Rotation3, Vector3};
@@ -295,7 +293,7 @@ pub fn cheetah_walk(truth: &Model, len: usize, seed: u64) -> Vec<Transition> {
     let mut rng: StdRng = rng(seed);
     let n = truth.nv();
     let mut data = truth.data();
-    let (mut q, mut v) = (vec![0.0; n], vec![0.0; n]);
+    let mut x = State::new(vec![0.0; n], vec![0.0; n]);
     let mut tau = vec![0.0; n];
     let gears = [120.0, 90.0, 60.0, 120.0, 60.0, 30.0];
     (0..len)
@@ -305,20 +303,8 @@ pub fn cheetah_walk(truth: &Model, len: usize, seed: u64) -> Vec<Transition> {
                     tau[3 + i] = g * uniform(&mut rng, -1.0, 1.0);
                 }
             }
-            let next = truth
-                .step(
-                    &mut data,
-                    &State::new(q.clone(), v.clone()),
-                    &Inputs::tau(&tau),
-                )
-                .unwrap();
-            let (q_next, v_next) = (next.q, next.v);
-            let t = Transition {
-                start: State::new(q.clone(), v.clone()),
-                tau: tau.clone(),
-                next: State::new(q_next.clone(), v_next.clone()),
-            };
-            (q, v) = (q_next, v_next);
+            let t = Transition::simulated(truth, &mut data, x.clone(), tau.clone()).unwrap();
+            x = t.next.clone();
             t
         })
         .collect()
