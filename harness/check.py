@@ -477,8 +477,6 @@ def corpus_row(case, args) -> dict:
     """One corpus model's row: per engine loaded, one-step error and the compiled mismatches
     that reach the dynamics (not inert), or why we could not read or check it."""
     row: dict = {"model": case.name, "kind": case.kind}
-    if case.excluded:
-        return {**row, "excluded": case.excluded}
     one = argparse.Namespace(**{**vars(args), "model": case.path, "twin": None, "package_dir": case.package_dirs})
     try:
         doc = check(one, Silent())
@@ -504,9 +502,9 @@ def corpus_cell(r: dict) -> str:
 
 def corpus_markdown(doc: dict) -> list[str]:
     names = doc["engines"]
-    rows = [[r["model"], r.get("excluded") or r["ours"]] + [corpus_cell(r["engines"][n]) if "engines" in r else "-"
+    rows = [[r["model"], r["ours"]] + [corpus_cell(r["engines"][n]) if "engines" in r else "-"
                                                            for n in names]
-            + ["excluded" if "excluded" in r else "PASS" if r["pass"] else "**FAIL**"] for r in doc["models"]]
+            + ["PASS" if r["pass"] else "**FAIL**"] for r in doc["models"]]
     loaded = {n: sum(1 for r in doc["models"] if r.get("engines", {}).get(n, {}).get("loaded")) for n in names}
     return [
         "# Check over the corpus", "",

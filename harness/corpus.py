@@ -1,8 +1,7 @@
 """The corpus: real robot files from three collections, each loaded, stepped and checked against its engine.
 
 The collections are test data installed by `make setup` (requirements-data.txt, pip --no-deps):
-- dm_control: every suite model (dm_control/suite/*.xml). One with tendons or equality
-  constraints (MuJoCo's compiled ntendon or neq > 0) is listed but not checked: issue 39.
+- dm_control: every suite model (dm_control/suite/*.xml).
 - example-robot-data: every URDF (cmeel.prefix/share/example-robot-data/robots) that
   PyBullet loads.
 - pybullet_data: every robot URDF, where a robot is a URDF that PyBullet loads and in which
@@ -77,7 +76,6 @@ class Case:
     root: Path
     reference: str  # nq/nv/nu in the engine (MuJoCo; PyBullet: its movable joints, no actuators)
     package_dirs: list = field(default_factory=list)
-    excluded: str = ""  # why the model is listed but not checked
 
     @property
     def name(self) -> str:
@@ -163,8 +161,7 @@ def discover() -> list:
     for path in sorted(suite.glob("*.xml")):
         with quiet_stdio():  # MuJoCo prints compiler warnings (settotalmass is deprecated)
             m = load_mjcf(path)
-        excluded = f"issue 39: ntendon {m.ntendon}, neq {m.neq}" if m.ntendon or m.neq else ""
-        cases.append(Case("dm_control", path, suite, f"{m.nq}/{m.nv}/{m.nu}", excluded=excluded))
+        cases.append(Case("dm_control", path, suite, f"{m.nq}/{m.nv}/{m.nu}"))
     erd = example_robot_data()
     cases += pybullet_cases("example-robot-data", erd, [erd.parent.parent, erd], robots_only=False)
     cases += pybullet_cases("pybullet_data", pybullet_data(), [pybullet_data()], robots_only=True)
@@ -388,9 +385,6 @@ def check(case: Case, seed: int) -> dict:
     row = {"model": case.name, "source": case.source, "kind": case.kind, "reference": case.reference,
            "ours": NOT_RUN, "load": NOT_RUN, "one_step": NOT_RUN, "one_step_error": None, "pinocchio": NOT_RUN,
            "pinocchio_error": None, "rest": NOT_RUN, "rest_max_speed": None, "notes": {}}
-    if case.excluded:
-        row.update({"excluded": case.excluded, "pass": None})
-        return row
     try:
         ours = load_ours(case)
     except (ValueError, OSError) as e:
@@ -459,16 +453,15 @@ def reason(row: dict) -> str:
 
 
 def summary(rows: list) -> list[list]:
-    """Per source: models, excluded, passed, failed."""
+    """Per source: models, passed, failed."""
     out = []
     for source in SOURCES:
         mine = [r for r in rows if r["source"] == source]
-        out.append([source, len(mine), sum(r["pass"] is None for r in mine), sum(r["pass"] is True for r in mine),
-                    sum(r["pass"] is False for r in mine)])
+        out.append([source, len(mine), sum(r["pass"] for r in mine), sum(not r["pass"] for r in mine)])
     return out
 
 
-SUMMARY_HEADER = ["source", "models", "excluded (issue 39)", "pass", "fail"]
+SUMMARY_HEADER = ["source", "models", "pass", "fail"]
 HEADER = ["model", "nq/nv/nu (engine)", "nq/nv/nu (ours)", "load", "one step", "Pinocchio",
           f"{REST_STEPS} steps at rest (max abs v)", "result"]
 
@@ -481,10 +474,10 @@ def cell(status: str, number: float | None, width: int = 60) -> str:
 
 
 def table_rows(rows: list) -> list[list]:
-    return [[r["model"], r["reference"], r["ours"], cell(r.get("excluded") or r["load"], None),
+    return [[r["model"], r["reference"], r["ours"], cell(r["load"], None),
              cell(r["one_step"], r["one_step_error"]), cell(r["pinocchio"], r["pinocchio_error"]),
              cell(r["rest"], r["rest_max_speed"]),
-             "excluded" if r["pass"] is None else "PASS" if r["pass"] else "**FAIL**"] for r in rows]
+             "PASS" if r["pass"] else "**FAIL**"] for r in rows]
 
 
 def failure_lines(rows: list) -> list[str]:

@@ -164,12 +164,13 @@ def test_corpus_report_has_a_row_per_model_and_a_column_per_engine(tmp_path, mon
     from harness import corpus
 
     everything = corpus.discover()
-    picked = [c for c in everything if c.name in ("dm_control:pendulum.xml", "pybullet_data:kuka_iiwa/model.urdf")]
-    picked.append(next(c for c in everything if c.excluded))  # tendons or equality constraints: issue 39
+    names = ("dm_control:pendulum.xml", "pybullet_data:kuka_iiwa/model.urdf", "dm_control:ball_in_cup.xml")
+    picked = [c for c in everything if c.name in names]
     monkeypatch.setattr(corpus, "discover", lambda: picked)
     parser = argparse.ArgumentParser()
     check.add_arguments(parser)
-    assert check.run(parser.parse_args(["--corpus", "--steps", "10", "--samples", "2", "--out", str(tmp_path)])) == 0
+    # ball_in_cup is refused by ours (a spatial tendon), so the corpus does not pass
+    assert check.run(parser.parse_args(["--corpus", "--steps", "10", "--samples", "2", "--out", str(tmp_path)])) == 1
     doc = json.loads((tmp_path / "check-corpus.json").read_text())
     rows = {r["model"]: r for r in doc["models"]}
     assert rows["pybullet_data:kuka_iiwa/model.urdf"]["pass"]
@@ -179,7 +180,8 @@ def test_corpus_report_has_a_row_per_model_and_a_column_per_engine(tmp_path, mon
     assert pendulum["mujoco"]["one_step_error"] <= 1e-9
     # DART's own MjcfParser loads it: compared compiled, not stepped
     assert pendulum["dart"]["loaded"] and pendulum["dart"]["one_step_error"] is None
-    assert picked[-1].name in rows and "excluded" in rows[picked[-1].name]
+    cup = rows["dm_control:ball_in_cup.xml"]
+    assert not cup["pass"] and "spatial tendons" in cup["ours"], cup
     md = (tmp_path / "check-corpus.md").read_text()
     assert "| model | ours | mujoco | pybullet | dart | result |" in md
 
