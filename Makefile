@@ -49,6 +49,7 @@ test: setup
 	cargo clippy --release --locked --all-targets -- -D warnings
 	cargo clippy --release --locked -p diffosi-python -- -D warnings
 	cargo test --release --locked
+	RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --locked
 	$(VENV)/bin/python -m pytest -q harness/tests --ignore=harness/tests/test_install.py
 
 # The wheel installed as a user installs it (harness/tests/test_install.py: a fresh venv,

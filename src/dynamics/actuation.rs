@@ -142,7 +142,7 @@ impl ActuatorTerm {
     /// `bias`) at joint coordinate x, velocity xd, control c (before
     /// clamping) and activation a: gear w (1, l, l') and gear (1, l, l'),
     /// w what the gain multiplies, l = gear x, l' = gear xd. A fixed gain
-    /// reads gainprm[0] alone, no bias reads nothing, and while the force
+    /// reads gainprm\[0] alone, no bias reads nothing, and while the force
     /// range clamps the force both are zero.
     pub fn law_slopes(&self, h: f64, (x, xd): (f64, f64), (c, a): (f64, f64)) -> [[f64; 3]; 2] {
         let c = clamp(c, self.law.ctrl_range);

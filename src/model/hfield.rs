@@ -103,7 +103,7 @@ pub fn read_file(path: &Path) -> Result<((usize, usize), Vec<f32>), String> {
 
 /// A PNG image as MuJoCo reads a height field (lodepng decoding to 8-bit
 /// grey): one elevation per pixel, the image's width the columns and its
-/// height the rows, its top row at y = +size[1] (rows reversed); the grey
+/// height the rows, its top row at y = +size\[1] (rows reversed); the grey
 /// level 0-255 of a grey image (lower bit depths scaled up, 16 bits cut to
 /// their high byte), the red level of a colour or palette image; alpha
 /// ignored. The compiler then scales the levels to [0, 1].

@@ -25,10 +25,10 @@
 //!   MuJoCo's compiler checks them.
 //! - `actuator/<name>/gain` (3 values): MuJoCo's gainprm[0..3], the
 //!   constant, length and velocity coefficients of the gain (a fixed gain
-//!   reads gainprm[0] only; its other two stay 0); `actuator/<name>/bias`
+//!   reads gainprm\[0] only; its other two stay 0); `actuator/<name>/bias`
 //!   (3 values): biasprm[0..3], an affine bias's (an actuator without bias
-//!   has no such parameter). A position servo's kp is gain[0] = -bias[1]
-//!   and its kv is -bias[2]; a velocity servo's kv is gain[0] = -bias[2]:
+//!   has no such parameter). A position servo's kp is gain\[0] = -bias\[1]
+//!   and its kv is -bias\[2]; a velocity servo's kv is gain\[0] = -bias\[2]:
 //!   move kp or kv through a [`ParamMap`] that writes both entries.
 //!   MuJoCo's forces are linear in them, read at the actuator's length
 //!   and velocity (gear times the joint's).

@@ -178,7 +178,7 @@ pub fn collider<T: Real>(a: GeomType, b: GeomType) -> Option<Collider<T>> {
 /// plus gap): a pair of the general convex collider only under the
 /// settings it runs (MuJoCo's defaults); other settings would give other
 /// contacts, so its pairs then have no collider. A height field's pairs:
-/// see [`hfield::collides_with`].
+/// see `hfield::collides_with`.
 pub fn supported(a: GeomType, b: GeomType, ccd: &Ccd, margin: f64) -> bool {
     if a.min(b) == GeomType::Hfield {
         return ccd.is_default() && hfield::collides_with(a.max(b), margin);
