@@ -251,4 +251,35 @@ mod tests {
         assert_eq!(span(0.1, 0.3, 1.0, 5), (2, 3));
         assert_eq!(span(-3.0, -2.0, 1.0, 5), (0, 0));
     }
+
+    #[test]
+    fn a_step_refuses_a_height_field_pair_without_a_collider_within_reach() {
+        use crate::dynamics::StepError;
+        use crate::model::{Inputs, State};
+        // A sphere collides; a box, or a sphere with a margin, is refused
+        // while within reach.
+        let load = |geom: &str| {
+            let xml = format!(
+                r#"<mujoco><asset><hfield name="h" nrow="2" ncol="3" size="1 2 0.5 0.1"
+                elevation="1 2 3 4 5 7"/></asset><worldbody><geom type="hfield" hfield="h"/>
+                <body><joint type="slide" axis="0 0 1"/>{geom}</body></worldbody></mujoco>"#
+            );
+            crate::Model::from_mjcf(&xml, "test.xml").unwrap()
+        };
+        let at = |z: f64| State::new(vec![z], vec![0.0]);
+        let tau = Inputs::tau(&[0.0]);
+        let ball = load(r#"<geom size="0.1"/>"#);
+        assert!(ball.step(&mut ball.data(), &at(0.3), &tau).is_ok());
+        for geom in [
+            r#"<geom type="box" size="0.1 0.1 0.1"/>"#,
+            r#"<geom size="0.1" margin="0.01"/>"#,
+        ] {
+            let m = load(geom);
+            let mut data = m.data();
+            let err = m.step(&mut data, &at(0.3), &tau).unwrap_err();
+            assert_eq!(err, StepError::NoCollider([0, 1]));
+            // Beyond the bounding sphere's reach it steps.
+            assert!(m.step(&mut data, &at(3.0), &tau).is_ok());
+        }
+    }
 }

@@ -116,9 +116,7 @@ fn flip_rows(data: &[f32], ncol: usize) -> Vec<f32> {
 #[cfg(test)]
 mod tests {
     use super::super::test_util::*;
-    use crate::dynamics::StepError;
     use crate::model::Shape;
-    use crate::model::{Inputs, State};
 
     const FIELD: &str = r#"<asset><hfield name="h" nrow="2" ncol="3" size="1 2 0.5 0.1"
         elevation="1 2 3 4 5 7"/></asset>"#;
@@ -215,48 +213,5 @@ mod tests {
             &geom(r#"<geom type="box" size="1 1 1" hfield="h"/>"#),
             "cannot name a height field",
         );
-    }
-
-    #[test]
-    fn a_step_refuses_a_height_field_pair_without_a_collider_within_reach() {
-        // A sphere collides (collision/hfield.rs); a box, or a sphere with a
-        // margin, is refused while within reach.
-        let bodies = |geom: &str| {
-            format!(
-                r#"<geom type="hfield" hfield="h"/>
-                <body><joint type="slide" axis="0 0 1"/>{geom}</body>"#
-            )
-        };
-        let ball = load(&model(FIELD, &bodies(r#"<geom size="0.1"/>"#), ""));
-        assert!(ball
-            .step(
-                &mut ball.data(),
-                &State::new(vec![0.3], vec![0.0]),
-                &Inputs::tau(&[0.0])
-            )
-            .is_ok());
-        for geom in [
-            r#"<geom type="box" size="0.1 0.1 0.1"/>"#,
-            r#"<geom size="0.1" margin="0.01"/>"#,
-        ] {
-            let m = load(&model(FIELD, &bodies(geom), ""));
-            let mut data = m.data();
-            let err = m
-                .step(
-                    &mut data,
-                    &State::new(vec![0.3], vec![0.0]),
-                    &Inputs::tau(&[0.0]),
-                )
-                .unwrap_err();
-            assert_eq!(err, StepError::NoCollider([0, 1]));
-            // Beyond the bounding sphere's reach it steps.
-            assert!(m
-                .step(
-                    &mut data,
-                    &State::new(vec![3.0], vec![0.0]),
-                    &Inputs::tau(&[0.0])
-                )
-                .is_ok());
-        }
     }
 }
