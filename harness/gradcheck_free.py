@@ -33,6 +33,20 @@ CASES = {"ant": "gymnasium:ant.xml", "humanoid": "gymnasium:humanoid.xml",
          "free_ball in a wind": "reference_models/free_ball.xml"}
 
 
+def a_error(m, ours, q, v, tau) -> float:
+    """Our exact A = d(q', v')/d(q, v) against MuJoCo's mjd_transitionFD (centred, eps EPS) at (q,
+    v, tau), relative: max |a - A| / max(1, max |A|)."""
+    import mujoco
+
+    d = mujoco.MjData(m)
+    d.qpos[:], d.qvel[:], d.qfrc_applied[:] = q, v, tau
+    mujoco.mj_forward(m, d)
+    A = np.zeros((2 * m.nv, 2 * m.nv))
+    mujoco.mjd_transitionFD(m, d, EPS, True, A, None, None, None)
+    a, _ = ours.transition_jacobians(q, v, tau)
+    return float(np.abs(a - A).max() / max(1.0, np.abs(A).max()))
+
+
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--states", type=int, default=5)
     ap.add_argument("--seed", type=int, default=0)

@@ -385,16 +385,7 @@ impl PyModel {
         mocap_pos: Option<&Bound<'py, PyAny>>,
         mocap_quat: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let (q, v, tau) = self.state(q, v, tau)?;
-        let (ctrl, act) = self.actuation(ctrl, act)?;
-        let (mocap_pos, mocap_quat) = self.mocap(mocap_pos, mocap_quat)?;
-        let x = State { q, v, act };
-        let u = Inputs {
-            ctrl,
-            tau,
-            mocap_pos,
-            mocap_quat,
-        };
+        let (x, u) = self.actuated((q, v, tau), (ctrl, act), (mocap_pos, mocap_quat))?;
         let readings = self
             .model
             .sensor_readings(&mut self.data, &x, &u)
@@ -450,16 +441,7 @@ impl PyModel {
         mocap_pos: Option<&Bound<'py, PyAny>>,
         mocap_quat: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyTuple>> {
-        let (q, v, tau) = self.state(q, v, tau)?;
-        let (ctrl, act) = self.actuation(ctrl, act)?;
-        let (mocap_pos, mocap_quat) = self.mocap(mocap_pos, mocap_quat)?;
-        let x = State { q, v, act };
-        let u = Inputs {
-            ctrl,
-            tau,
-            mocap_pos,
-            mocap_quat,
-        };
+        let (x, u) = self.actuated((q, v, tau), (ctrl, act), (mocap_pos, mocap_quat))?;
         let next = self
             .model
             .step(&mut self.data, &x, &u)
@@ -888,6 +870,26 @@ impl PyModel {
     /// The state (q, v) and inputs (tau, zero if None; the mocap poses, the
     /// compiled ones if None) of an evaluation without actuators (contacts,
     /// sensors), converted and checked.
+    /// The state (q, v, act) and inputs (ctrl, tau, mocap poses) of a step
+    /// or an evaluation that reads the actuators, each checked and named.
+    fn actuated(
+        &self,
+        (q, v, tau): (&Bound<'_, PyAny>, &Bound<'_, PyAny>, &Bound<'_, PyAny>),
+        (ctrl, act): (Option<&Bound<'_, PyAny>>, Option<&Bound<'_, PyAny>>),
+        mocap: MocapArgs<'_, '_>,
+    ) -> PyResult<(State, Inputs)> {
+        let (q, v, tau) = self.state(q, v, tau)?;
+        let (ctrl, act) = self.actuation(ctrl, act)?;
+        let (mocap_pos, mocap_quat) = self.mocap(mocap.0, mocap.1)?;
+        let u = Inputs {
+            ctrl,
+            tau,
+            mocap_pos,
+            mocap_quat,
+        };
+        Ok((State { q, v, act }, u))
+    }
+
     fn unactuated(
         &self,
         q: &Bound<'_, PyAny>,
