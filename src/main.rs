@@ -20,8 +20,10 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Simulate a model and write t, q..., v... per step as CSV, and for a
-    /// model with contacts each geom pair's normal force (N) at that state.
+    /// Simulate a model and write one transition per step as CSV, in the
+    /// layout `identify` reads: t, q_..., v_..., tau_..., q_next_...,
+    /// v_next_..., and for a model with contacts each geom pair's normal force
+    /// fn_... (N) at the row's state.
     Simulate {
         #[command(flatten)]
         model: cli::ModelFile,
@@ -64,7 +66,8 @@ enum Command {
     /// ||(step(q, v, tau) - (q_next, v_next)) / scale||^2. Prints each value
     /// with its standard error, the final loss, iterations, evaluations and
     /// flags (unexcited: a direction the data does not excite kept its start
-    /// value; at_bound; not_converged).
+    /// value; at_bound; not_converged; misfit: the residuals are larger than
+    /// --scale says the noise is, loss per degree of freedom above 4).
     #[command(verbatim_doc_comment)]
     Identify {
         #[command(flatten)]
@@ -75,6 +78,8 @@ enum Command {
         /// CSV of transitions, one per row: q (nq values), v (nv), tau (nv),
         /// q_next (nq), v_next (nv), i.e. nq+nv+nv+nq+nv comma-separated numbers.
         /// A first row that is not numeric is a header; blank lines are skipped.
+        /// A header naming its columns q_..., v_..., tau_..., q_next_...,
+        /// v_next_... (simulate's CSV) selects them and ignores the others.
         #[arg(long)]
         transitions: PathBuf,
         /// Solver: lm (bounded Levenberg-Marquardt), adam (the paper's variant) or
@@ -97,8 +102,8 @@ enum Command {
         #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
         init: Option<Vec<f64>>,
         /// Residual scale: 2 nv values (q part then v part) or one for all; best
-        /// the measurement noise of each state component. Default 1e-6 dt for
-        /// positions and 1e-6 for velocities (noise-free data).
+        /// the measurement noise of each state component. Default 1e-3 dt for
+        /// positions and 1e-3 for velocities, as Python's DiffOsi.
         #[arg(long, value_delimiter = ',')]
         scale: Option<Vec<f64>>,
         /// The transitions' contact, limits and dry friction are not ours
@@ -123,7 +128,9 @@ enum Command {
             requires = "unknown_constraints"
         )]
         impulses: cli::identify::ImpulsesArg,
-        /// Print JSON instead of text.
+        /// Print JSON instead of text: Python's DiffOsi.identify result
+        /// (params, std, loss, iterations, evaluations, flags: a list of
+        /// names) with names, method and transitions.
         #[arg(long)]
         json: bool,
     },

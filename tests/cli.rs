@@ -30,8 +30,12 @@ fn simulate_writes_the_rollout_with_given_torques() {
     assert!(ok, "{err}");
     let csv = std::fs::read_to_string(&out).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
-    assert_eq!(lines[0], "t,q_slider,q_hinge,v_slider,v_hinge");
-    assert_eq!(lines.len(), 52);
+    assert_eq!(
+        lines[0],
+        "t,q_slider,q_hinge,v_slider,v_hinge,tau_slider,tau_hinge,\
+         q_next_slider,q_next_hinge,v_next_slider,v_next_hinge"
+    );
+    assert_eq!(lines.len(), 51);
 
     let model = diffosi::Model::load("reference_models/cartpole.xml").unwrap();
     let taus: Vec<Vec<f64>> = rows
@@ -44,11 +48,17 @@ fn simulate_writes_the_rollout_with_given_torques() {
             taus.iter().map(|t| Inputs::tau(t)),
         )
         .unwrap();
-    for (t, (line, x)) in lines[1..].iter().zip(&states).enumerate() {
+    // One transition per row: the state at t, the torque of the step from
+    // it, the state after it.
+    for (t, line) in lines[1..].iter().enumerate() {
         let row: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+        let (x, next) = (&states[t], &states[t + 1]);
         assert!((row[0] - t as f64 * model.opt.timestep).abs() < 1e-12);
         assert_eq!(&row[1..3], x.q.as_slice(), "row {t}");
         assert_eq!(&row[3..5], x.v.as_slice(), "row {t}");
+        assert_eq!(&row[5..7], taus[t].as_slice(), "row {t}");
+        assert_eq!(&row[7..9], next.q.as_slice(), "row {t}");
+        assert_eq!(&row[9..11], next.v.as_slice(), "row {t}");
     }
 }
 
@@ -69,7 +79,11 @@ fn simulate_refuses_a_wrong_initial_state_before_writing() {
         run_cli(&[&args[..], &["--q0", "0.1,0", "-o", out.to_str().unwrap()]].concat());
     assert!(ok, "{err}");
     let csv = std::fs::read_to_string(&out).unwrap();
-    assert_eq!(csv.lines().nth(1), Some("0.0,0.1,0.0,0.0,0.0"));
+    let first: Vec<&str> = csv.lines().nth(1).unwrap().split(',').collect();
+    assert_eq!(
+        first[..7],
+        ["0.0", "0.1", "0.0", "0.0", "0.0", "0.0", "0.0"]
+    );
 }
 
 /// Force sensing: a 2 kg box dropped from 5 cm with a tilt settles on the
@@ -89,8 +103,9 @@ fn simulate_names_each_coordinate_of_free_and_ball_joints() {
     assert!(ok, "{err}");
     let csv = std::fs::read_to_string(&out).unwrap();
     let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
-    // t, nq = 16 positions, nv = 13 velocities (no geom pairs: contype 0)
-    assert_eq!(header.len(), 1 + 16 + 13, "{header:?}");
+    // t, nq = 16 positions, nv = 13 velocities, 13 torques, then the next
+    // state (no geom pairs: contype 0)
+    assert_eq!(header.len(), 1 + 2 * (16 + 13) + 13, "{header:?}");
     assert_eq!(
         header[1..8],
         [
@@ -104,6 +119,9 @@ fn simulate_names_each_coordinate_of_free_and_ball_joints() {
         ]
     );
     assert_eq!(header[17..20], ["v_root:vx", "v_root:vy", "v_root:vz"]);
+    assert_eq!(header[30..32], ["tau_root:vx", "tau_root:vy"]);
+    assert_eq!(header[43..45], ["q_next_root:x", "q_next_root:y"]);
+    assert_eq!(header[59], "v_next_root:vx");
     assert!(csv
         .lines()
         .skip(1)
@@ -200,6 +218,71 @@ fn simulate_explains_bad_input() {
         out,
     ]);
     assert!(!ok && err.contains("v[1] is not finite"), "{err}");
+}
+
+/// `--set` changes a named parameter as Python's `Model.set_param`, and
+/// simulate's CSV is what identify reads: the pole mass set (0.3, the file's
+/// is 0.1) comes back from it to 1e-9, with no flag.
+#[test]
+fn simulate_with_set_feeds_identify() {
+    let out = temp_path("cli", "set.csv");
+    let out = out.to_str().unwrap();
+    let cartpole = "reference_models/cartpole.xml";
+    let args = ["simulate", cartpole, "--steps", "40", "--q0", "0.1,0.3"];
+    let set = [
+        "--set",
+        "body/pole/mass=0.3",
+        "--set",
+        "joint/hinge/damping=0.05",
+    ];
+    let (ok, _, err) = run_cli(&[&args[..], &set, &["--v0", "0,-1", "-o", out]].concat());
+    assert!(ok, "{err}");
+    let (ok, json, err) = run_cli(&[
+        "identify",
+        cartpole,
+        "--params",
+        "body/pole/mass",
+        "--set",
+        "joint/hinge/damping=0.05",
+        "--transitions",
+        out,
+        "--json",
+    ]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let mass = v["params"][0].as_f64().unwrap();
+    assert!((mass - 0.3).abs() < 1e-9, "{v}");
+    assert_eq!(v["flags"], serde_json::json!([]), "{v}");
+    assert_eq!(v["transitions"], 40);
+
+    // Without the damping the transitions are not explained: misfit.
+    let (ok, json, err) = run_cli(&[
+        "identify",
+        cartpole,
+        "--params",
+        "body/pole/mass",
+        "--transitions",
+        out,
+        "--json",
+    ]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert!(
+        v["flags"].as_array().unwrap().contains(&"misfit".into()),
+        "{v}"
+    );
+
+    for (bad, says) in [
+        ("body/pole/mass", "no '='"),
+        ("body/pole/mass=heavy", "'heavy' is not a finite number"),
+        ("body/pole/mass=nan", "'nan' is not a finite number"),
+        ("body/pole/mass=-1", "body/pole/mass"),
+        ("body/pole/colour=1", "unknown parameter 'body/pole/colour'"),
+        ("body/pole/com=1", "--set body/pole/com=1"),
+    ] {
+        let (ok, _, err) = run_cli(&[&args[..], &["--set", bad, "-o", out]].concat());
+        assert!(!ok && err.contains(says), "{bad}: {err}");
+    }
 }
 
 #[test]

@@ -3,7 +3,7 @@
 //! `constraints` arguments and the result dict.
 
 use engine::derivatives::Impulses;
-use engine::osi::{Estimate, Loss, Problem};
+use engine::osi::{default_scale, Estimate, Loss, Problem};
 use engine::Model;
 use numpy::PyArray1;
 use pyo3::exceptions::PyValueError;
@@ -12,19 +12,6 @@ use pyo3::types::{PyDict, PyList};
 
 use crate::convert::vector;
 use crate::errors::osi_error;
-
-/// The residual scale on velocities when `scale` is not given; positions get
-/// `timestep` times this (see `DiffOsi`).
-const DEFAULT_V_SCALE: f64 = 1e-3;
-
-/// The default residual scale: `DEFAULT_V_SCALE` on every v and `timestep`
-/// times it on every q (see `DiffOsi`).
-fn default_scale(model: &Model) -> Vec<f64> {
-    let nv = model.nv();
-    let mut s = vec![model.opt.timestep * DEFAULT_V_SCALE; nv];
-    s.extend(std::iter::repeat_n(DEFAULT_V_SCALE, nv));
-    s
-}
 
 /// The margin (m or rad) within which a body or joint counts as possibly
 /// constrained when constraints are unknown.
@@ -131,16 +118,6 @@ pub(crate) fn estimate_dict<'py>(
     out.set_item("loss", e.loss)?;
     out.set_item("iterations", e.iterations)?;
     out.set_item("evaluations", e.evaluations)?;
-    let flags: Vec<&str> = [
-        (e.flags.unexcited, "unexcited"),
-        (e.flags.at_bound, "at_bound"),
-        (e.flags.not_converged, "not_converged"),
-        (e.flags.misfit, "misfit"),
-        (e.flags.changed, "changed"),
-    ]
-    .into_iter()
-    .filter_map(|(on, name)| on.then_some(name))
-    .collect();
-    out.set_item("flags", PyList::new(py, flags)?)?;
+    out.set_item("flags", PyList::new(py, e.flags.names())?)?;
     Ok(out)
 }

@@ -7,7 +7,7 @@ use std::path::Path;
 use diffosi::derivatives::Impulses;
 use diffosi::derivatives::Transition;
 use diffosi::model::{Param, ParamMap, State};
-use diffosi::osi::{Adam, CmaEs, Estimate, Identifier, Lm, Problem};
+use diffosi::osi::{default_scale, Adam, CmaEs, Estimate, Identifier, Lm, Problem};
 use serde_json::json;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -99,13 +99,9 @@ pub fn identify(r: Request) -> Result<(), String> {
         }
     }
     let nv = model.nv();
-    let dt = model.opt.timestep;
-    let default_scale = (0..2 * nv)
-        .map(|k| if k < nv { 1e-6 * dt } else { 1e-6 })
-        .collect();
     let scale = match r.scale {
         Some(s) if s.len() == 1 => vec![s[0]; 2 * nv],
-        s => values("--scale", s, default_scale, 2 * nv)
+        s => values("--scale", s, default_scale(&model), 2 * nv)
             .map_err(|e| format!("{e} (or a single value for all)"))?,
     };
     if let Some(s) = scale.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
@@ -133,7 +129,7 @@ pub fn identify(r: Request) -> Result<(), String> {
     }
     .map_err(|e| e.to_string())?;
     if r.json {
-        let out = to_json(r.params, &params, r.method, window.len(), &estimate);
+        let out = to_json(&labels, r.method, window.len(), &estimate);
         println!("{}", serde_json::to_string_pretty(&out).unwrap());
     } else {
         print_text(&labels, r.method, window.len(), &estimate);
@@ -200,30 +196,37 @@ fn values(
     }
 }
 
+/// The transition blocks in a row's order, with their column prefix in a
+/// named header (as `diffosi simulate` writes it).
+const BLOCKS: [(&str, &str); 5] = [
+    ("q", "q_"),
+    ("v", "v_"),
+    ("tau", "tau_"),
+    ("q_next", "q_next_"),
+    ("v_next", "v_next_"),
+];
+
 /// Reads one transition per row: q (nq), v (nv), tau (nv), q_next (nq),
 /// v_next (nv), comma separated. A first non-blank row that is not numeric is
-/// a header; blank lines are skipped.
+/// a header; blank lines are skipped. A header whose names carry the prefixes
+/// `q_`, `v_`, `tau_`, `q_next_`, `v_next_` (simulate's CSV) selects those
+/// columns, each block in the header's order, and other columns (`t`,
+/// `fn_...`) are ignored.
 pub fn read_transitions(path: &Path, nq: usize, nv: usize) -> Result<Vec<Transition>, String> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    let blocks = [
-        ("q", nq),
-        ("v", nv),
-        ("tau", nv),
-        ("q_next", nq),
-        ("v_next", nv),
-    ];
-    let width: usize = blocks.iter().map(|b| b.1).sum();
-    let column = |c: usize| {
-        let mut c = c;
-        for (what, n) in blocks {
-            if c < n {
-                return format!("{what}[{c}]");
-            }
-            c -= n;
-        }
-        unreachable!()
-    };
+    let sizes = [nq, nv, nv, nq, nv];
+    let width: usize = sizes.iter().sum();
+    let layout = || format!("q: {nq}, v: {nv}, tau: {nv}, q_next: {nq}, v_next: {nv}");
+    // The columns read, in transition order, with their labels; and the
+    // number of cells a row must have.
+    let mut columns: Vec<(usize, String)> = BLOCKS
+        .iter()
+        .zip(sizes)
+        .flat_map(|((what, _), n)| (0..n).map(move |i| format!("{what}[{i}]")))
+        .enumerate()
+        .collect();
+    let mut cells_per_row = width;
     let mut rows = vec![];
     let mut seen_data = false;
     for (i, line) in text.lines().enumerate() {
@@ -236,29 +239,36 @@ pub fn read_transitions(path: &Path, nq: usize, nv: usize) -> Result<Vec<Transit
         let parsed: Vec<Result<f64, _>> = cells.iter().map(|c| c.parse::<f64>()).collect();
         if !seen_data && parsed.iter().all(|p| p.is_err()) {
             seen_data = true;
+            if let Some(named) = named_columns(&cells, sizes).map_err(|e| format!("{at}: {e}"))? {
+                (columns, cells_per_row) = (named, cells.len());
+            }
             continue; // header
         }
         seen_data = true;
-        if cells.len() != width {
-            return Err(format!(
-                "{at}: expected {width} values (q: {nq}, v: {nv}, tau: {nv}, q_next: {nq}, v_next: {nv}), got {}",
-                cells.len()
-            ));
+        if cells.len() != cells_per_row {
+            return Err(if cells_per_row == width {
+                format!(
+                    "{at}: expected {width} values ({}), got {}",
+                    layout(),
+                    cells.len()
+                )
+            } else {
+                format!(
+                    "{at}: expected {cells_per_row} values (as the header), got {}",
+                    cells.len()
+                )
+            });
         }
         let mut row = Vec::with_capacity(width);
-        for (c, (cell, value)) in cells.iter().zip(parsed).enumerate() {
-            let value = value.map_err(|_| {
-                format!(
-                    "{at}, column {} ({}): '{cell}' is not a number",
-                    c + 1,
-                    column(c)
-                )
+        for (c, label) in &columns {
+            let (cell, value) = (cells[*c], &parsed[*c]);
+            let value = *value.as_ref().map_err(|_| {
+                format!("{at}, column {} ({label}): '{cell}' is not a number", c + 1)
             })?;
             if !value.is_finite() {
                 return Err(format!(
-                    "{at}, column {} ({}): value {value} is not finite",
-                    c + 1,
-                    column(c)
+                    "{at}, column {} ({label}): value {value} is not finite",
+                    c + 1
                 ));
             }
             row.push(value);
@@ -281,6 +291,44 @@ pub fn read_transitions(path: &Path, nq: usize, nv: usize) -> Result<Vec<Transit
     Ok(rows)
 }
 
+/// The columns of a named header in transition order (see
+/// [`read_transitions`]), or None when no name carries a block's prefix.
+/// Each block must have its size.
+fn named_columns(
+    header: &[&str],
+    sizes: [usize; 5],
+) -> Result<Option<Vec<(usize, String)>>, String> {
+    // The longest matching prefix wins: q_next_x is q_next, not q.
+    let block = |name: &str| {
+        BLOCKS
+            .iter()
+            .enumerate()
+            .filter(|(_, (_, prefix))| name.starts_with(prefix))
+            .max_by_key(|(_, (_, prefix))| prefix.len())
+            .map(|(k, _)| k)
+    };
+    if header.iter().all(|name| block(name).is_none()) {
+        return Ok(None);
+    }
+    let mut columns = vec![];
+    for (k, ((what, prefix), n)) in BLOCKS.iter().zip(sizes).enumerate() {
+        let found: Vec<(usize, String)> = header
+            .iter()
+            .enumerate()
+            .filter(|(_, name)| block(name) == Some(k))
+            .map(|(c, name)| (c, name.to_string()))
+            .collect();
+        if found.len() != n {
+            return Err(format!(
+                "the header names {} {what} columns ({prefix}...), expected {n}",
+                found.len()
+            ));
+        }
+        columns.extend(found);
+    }
+    Ok(Some(columns))
+}
+
 fn method_name(m: Method) -> &'static str {
     match m {
         Method::Lm => "lm",
@@ -289,38 +337,26 @@ fn method_name(m: Method) -> &'static str {
     }
 }
 
+/// The estimate as Python's `DiffOsi.identify` returns it (`params`: mu
+/// flattened, `std`, `loss`, `iterations`, `evaluations`, `flags`: the names
+/// of the flags set), plus what the command line adds: `names` (one label
+/// per mu component), `method` and `transitions`.
 fn to_json(
-    names: &[String],
-    params: &[Param],
+    labels: &[String],
     method: Method,
     transitions: usize,
     e: &Estimate,
 ) -> serde_json::Value {
-    let mut k = 0;
-    let mut out = vec![];
-    for (name, p) in names.iter().zip(params) {
-        let n = p.size();
-        out.push(json!({
-            "name": name,
-            "value": &e.mu[k..k + n],
-            "std": &e.std[k..k + n],
-        }));
-        k += n;
-    }
     json!({
-        "method": method_name(method),
-        "transitions": transitions,
-        "params": out,
-        "mu": e.mu,
+        "params": e.mu,
         "std": e.std,
         "loss": e.loss,
         "iterations": e.iterations,
         "evaluations": e.evaluations,
-        "flags": {
-            "unexcited": e.flags.unexcited,
-            "at_bound": e.flags.at_bound,
-            "not_converged": e.flags.not_converged,
-        },
+        "flags": e.flags.names(),
+        "names": labels,
+        "method": method_name(method),
+        "transitions": transitions,
     })
 }
 
@@ -335,16 +371,7 @@ fn print_text(labels: &[String], method: Method, transitions: usize, e: &Estimat
     }
     println!("loss {:.6e}", e.loss);
     println!("iterations {}, evaluations {}", e.iterations, e.evaluations);
-    let f = e.flags;
-    let flags: Vec<&str> = [
-        (f.unexcited, "unexcited"),
-        (f.at_bound, "at_bound"),
-        (f.not_converged, "not_converged"),
-    ]
-    .iter()
-    .filter(|(on, _)| *on)
-    .map(|(_, name)| *name)
-    .collect();
+    let flags = e.flags.names();
     println!(
         "flags: {}",
         if flags.is_empty() {

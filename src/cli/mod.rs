@@ -41,6 +41,11 @@ pub struct ModelFile {
     /// zeroed).
     #[arg(long, value_name = "READING", default_value = "pinocchio")]
     pub inertial: Inertials,
+    /// Set a named parameter after loading, as Python's `Model.set_param`
+    /// (repeatable; a vector's values comma separated, e.g.
+    /// `--set body/pole/mass=0.3 --set body/pole/com=0,0,0.5`).
+    #[arg(long = "set", value_name = "NAME=VALUE", allow_hyphen_values = true)]
+    pub set: Vec<String>,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -57,9 +62,15 @@ impl ModelFile {
             package_dirs: self.package_dirs.clone(),
             inertials: self.inertial,
         };
-        let model = Model::load_with(&self.model, &options).map_err(|e| e.to_string())?;
+        let mut model = Model::load_with(&self.model, &options).map_err(|e| e.to_string())?;
         for warning in model.warnings() {
             eprintln!("warning: {warning}");
+        }
+        for assignment in &self.set {
+            let (name, value) = parse_set(assignment)?;
+            model
+                .set_param(name, &value)
+                .map_err(|e| format!("--set {assignment}: {e}"))?;
         }
         let Some(law) = self.contact_model else {
             return Ok(model);
@@ -72,4 +83,18 @@ impl ModelFile {
             .edited(|s| s.opt.contact_model = law)
             .map_err(|e| e.to_string())
     }
+}
+
+/// `NAME=VALUE` with VALUE one or more comma-separated finite numbers.
+fn parse_set(assignment: &str) -> Result<(&str, Vec<f64>), String> {
+    let bad = |why: &str| format!("--set {assignment}: {why} (expected NAME=VALUE[,VALUE...])");
+    let (name, value) = assignment.split_once('=').ok_or_else(|| bad("no '='"))?;
+    let values = value
+        .split(',')
+        .map(|x| match x.trim().parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            _ => Err(bad(&format!("'{x}' is not a finite number"))),
+        })
+        .collect::<Result<Vec<f64>, String>>()?;
+    Ok((name.trim(), values))
 }

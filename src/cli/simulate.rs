@@ -1,13 +1,16 @@
-//! `diffosi simulate`: a rollout written as CSV.
+//! `diffosi simulate`: a rollout written as CSV, one transition per row, in
+//! the layout `diffosi identify` reads.
 //!
-//! Columns: `t` (s), `q_<joint>`, `v_<joint>`, then for a model with contact
-//! pairs one `fn_<geom a>_<geom b>` per pair (force sensing): the normal
-//! force (N) on a along the contact normal at the row's state, summed over
-//! the pair's contact points (a box's corners, a capsule's two ends), which
-//! is the force the step from that row applies under that step's torques
-//! (the last row: none). 0 out of reach; b is the plane, or the geom first
-//! in MuJoCo's shape order (see `diffosi::dynamics::contact` and
-//! `diffosi::dynamics::collision` for the conventions).
+//! Columns: `t` (s, the row's start), `q_<joint>`, `v_<joint>` (the state at
+//! t), `tau_<dof>` (the generalized force of the step from t), `q_next_<joint>`,
+//! `v_next_<joint>` (the state after that step), then for a model with
+//! contact pairs one `fn_<geom a>_<geom b>` per pair (force sensing): the
+//! normal force (N) on a along the contact normal at the row's state, summed
+//! over the pair's contact points (a box's corners, a capsule's two ends),
+//! which is the force the row's step applies under its tau. 0 out of reach;
+//! b is the plane, or the geom first in MuJoCo's shape order (see
+//! `diffosi::dynamics::contact` and `diffosi::dynamics::collision` for the
+//! conventions).
 
 use std::io::Write;
 
@@ -50,36 +53,44 @@ pub fn simulate(
     let (q_names, v_names) = model.coordinate_names();
     let pairs = sensed_pairs(&model);
     let geom = |g: usize| model.geoms[g].name.as_str();
-    let header: Vec<String> = std::iter::once("t".to_string())
-        .chain(q_names.iter().map(|n| format!("q_{n}")))
-        .chain(v_names.iter().map(|n| format!("v_{n}")))
-        .chain(
-            pairs
-                .iter()
-                .map(|&[a, b]| format!("fn_{}_{}", geom(a), geom(b))),
-        )
-        .collect();
+    let named = |prefix: &str, names: &[String]| -> Vec<String> {
+        names.iter().map(|n| format!("{prefix}_{n}")).collect()
+    };
+    let header: Vec<String> = [
+        vec!["t".to_string()],
+        named("q", &q_names),
+        named("v", &v_names),
+        named("tau", &v_names),
+        named("q_next", &q_names),
+        named("v_next", &v_names),
+        pairs
+            .iter()
+            .map(|&[a, b]| format!("fn_{}_{}", geom(a), geom(b)))
+            .collect(),
+    ]
+    .concat();
     writeln!(out, "{}", header.join(",")).map_err(io)?;
     let started = std::time::Instant::now();
-    let zero = vec![0.0; model.nv()];
-    for t in 0..=steps {
-        if t > 0 {
-            x = model
-                .step(&mut data, &x, &Inputs::tau(&taus[t - 1]))
-                .map_err(|e| format!("step {}: {e}", t - 1))?;
-            bar.inc(1);
-        }
-        let time = t as f64 * model.opt.timestep;
-        let tau = taus.get(t).unwrap_or(&zero);
+    for (t, tau) in taus.iter().enumerate() {
         let sensed = normal_forces(&model, &mut data, &pairs, (&x.q, &x.v, tau))
             .map_err(|e| format!("contacts at step {t}: {e}"))?;
+        let next = model
+            .step(&mut data, &x, &Inputs::tau(tau))
+            .map_err(|e| format!("step {t}: {e}"))?;
+        let time = t as f64 * model.opt.timestep;
         let row: Vec<String> = std::iter::once(time)
-            .chain(x.q.iter().copied())
-            .chain(x.v.iter().copied())
+            .chain(
+                [&x.q, &x.v, tau, &next.q, &next.v]
+                    .into_iter()
+                    .flatten()
+                    .copied(),
+            )
             .chain(sensed)
             .map(|x| format!("{x:?}"))
             .collect();
         writeln!(out, "{}", row.join(",")).map_err(io)?;
+        x = next;
+        bar.inc(1);
     }
     out.flush().map_err(io)?;
     bar.finish_and_clear();

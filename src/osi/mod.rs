@@ -118,6 +118,25 @@ pub struct Problem {
     elimination: Option<Elimination>,
 }
 
+/// The velocity residual scale when none is given: a measurement noise of
+/// 1e-3 (m/s or rad/s), the level the misfit test, the Huber threshold and
+/// the excitation floor are stated in units of. Noise-free data fits as well
+/// under it (the minimiser does not depend on a common factor); a problem
+/// that wants rounding-level misfit detection sets its own (the tasks'
+/// [`task_problem`](crate::control::task_problem) uses 1e-6).
+pub const DEFAULT_NOISE: f64 = 1e-3;
+
+/// The default residual scale of a model's transitions: [`DEFAULT_NOISE`] on
+/// every v and `timestep` times it on every q (under semi-implicit Euler a
+/// position residual is dt times the velocity residual that caused it, so
+/// both weigh alike). The CLI's `identify` and the Python classes use it.
+pub fn default_scale(model: &Model) -> Vec<f64> {
+    let nv = model.nv();
+    let mut scale = vec![model.opt.timestep * DEFAULT_NOISE; nv];
+    scale.extend(std::iter::repeat_n(DEFAULT_NOISE, nv));
+    scale
+}
+
 impl Problem {
     /// Checks the bounds, the prior (inside the bounds, mapping onto a
     /// physical model) and the scale.
@@ -398,6 +417,23 @@ pub struct Flags {
     /// [`Online`]'s change detection judged the last pushed transition a
     /// change of mu: the window held only transitions from it on.
     pub changed: bool,
+}
+
+impl Flags {
+    /// The names of the flags that are set, in declaration order (the
+    /// Python result's `flags` list and the CLI's).
+    pub fn names(&self) -> Vec<&'static str> {
+        [
+            (self.unexcited, "unexcited"),
+            (self.at_bound, "at_bound"),
+            (self.not_converged, "not_converged"),
+            (self.misfit, "misfit"),
+            (self.changed, "changed"),
+        ]
+        .into_iter()
+        .filter_map(|(on, name)| on.then_some(name))
+        .collect()
+    }
 }
 
 /// An identifier's answer.
