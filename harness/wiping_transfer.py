@@ -21,6 +21,13 @@ every 1 ms step. Per run (true mu drawn uniformly in [1, 100]^2, seeded):
    DiffOSI's estimate (UC-DiffOSI), at the middle of the box (UC-Average) and with DR's
    gains; the same gains in our engine (the source) beside them.
 
+3. where UC-Oracle's gap comes from (issue 37): its metric in the target and in ours split into
+   the landing (the first 100 ms of contact), the steps right after a one-step contact dropout
+   (a step with no contact force inside the contact phase: the next one catches up) and the
+   rest; the tip's depth in the table at the regulated force in each engine; and ours with the
+   stiffest soft contact MuJoCo allows (table solref 0.002 s), which asks how much of a hard
+   contact's gap the contact's compliance alone makes.
+
 Goal (issue 19): UC-DiffOSI's metric within 10% of UC-Oracle's in the target and of its own
 in ours. Writes <out>/transfer-wiping-<target>.{md,json} per target and, for several targets,
 transfer-wiping-summary.{md,json,png} (`targets.<engine>.diffosi_over_oracle` = UC-DiffOSI's
@@ -45,6 +52,8 @@ METHODS = ("UC-Oracle", "UC-DiffOSI", "UC-Average", "DR")
 TARGETS = ("mujoco", "pybullet", "dart")
 NAMES = {"mujoco": "MuJoCo", "pybullet": "PyBullet", "dart": "DART", "ours": "ours"}
 GOAL = 1.10  # UC-DiffOSI's metric at most 10% above UC-Oracle's, and above its own in ours
+LANDING = 100  # steps (ms) after the first contact counted as the landing
+STIFF_SOLREF = [0.002, 1.0]  # MuJoCo's stiffest soft contact at 1 ms (timeconst >= 2 timesteps)
 
 
 def arm(target: str, mu):
@@ -58,12 +67,42 @@ def arm(target: str, mu):
     return engine
 
 
-def episode(target: str, wiping, mu, gains, start) -> dict:
-    """One closed-loop episode in `target`: states, offsets xi and sensed forces per step."""
-    engine = arm(target, mu)
+def ours_arm(mu, solref=None):
+    """Our engine stepped from Python (harness.contact.OursContact) running the arm at mu, with
+    the table's contact at `solref` if given."""
+    from harness.contact import OursContact
+
+    engine = OursContact(MODEL)
+    engine.m.set_param("joint/tool/stiffness", 100.0 * mu[0])
+    engine.m.set_param("joint/tool/damping", mu[1])
+    if solref is not None:
+        engine.m.set_param("geom/table/solref", solref)
+    engine.close = lambda: None
+    return engine
+
+
+def tip_depth(engine, tau) -> float:
+    """The tip's depth in the table (m, > 0 overlapping; nan out of contact) of the step just
+    taken (ours: of the step about to be taken under tau): MuJoCo's -dist, PyBullet's
+    -contactDistance, DART's penetrationDepth, ours Model.contacts' depth."""
+    if engine.name == "ours":
+        depths = [c["depth"] for c in engine.m.contacts(engine.q, engine.v, tau)]
+    elif engine.name == "mujoco":
+        depths = [-engine.d.contact[i].dist for i in range(engine.d.ncon)]
+    elif engine.name == "pybullet":
+        depths = [-c[8] for c in engine.p.getContactPoints(bodyA=engine.body)]
+    else:
+        depths = [c.penetrationDepth for c in engine.world.getLastCollisionResult().getContacts()]
+    return max(depths, default=np.nan)
+
+
+def episode(target: str, wiping, mu, gains, start, depth: bool = False) -> dict:
+    """One closed-loop episode in `target` ("stiff-ours": `stiff_ours`): states, offsets xi and
+    sensed forces per step, with `depth` the tip's depth (`tip_depth`) too."""
+    engine = ours_arm(mu, STIFF_SOLREF) if target == "stiff-ours" else arm(target, mu)
     engine.set_state(*start)
     xi, force = 0.0, 0.0  # nothing sensed before the first step
-    rows = {"q": [], "v": [], "xi": [], "force": []}
+    rows = {"q": [], "v": [], "xi": [], "force": [], "depth": []}
     for k in range(STEPS + 1):
         q, v = engine.get_state()
         for key, value in (("q", q), ("v", v), ("xi", xi), ("force", force)):
@@ -71,7 +110,11 @@ def episode(target: str, wiping, mu, gains, start) -> dict:
         if k == STEPS:
             break
         tau, xi = wiping.act(k, q, v, xi, force, gains=gains)
+        if depth and engine.name == "ours":
+            rows["depth"].append(tip_depth(engine, tau))
         engine.step(tau)
+        if depth and engine.name != "ours":
+            rows["depth"].append(tip_depth(engine, tau))
         force = engine.normal_force
         if not np.all(np.isfinite(engine.get_state()[0])):
             raise FloatingPointError(f"{target} diverged at step {k} (mu {mu}, gains {gains})")
@@ -82,6 +125,55 @@ def episode(target: str, wiping, mu, gains, start) -> dict:
 def metric(force: np.ndarray) -> float:
     touching = force[force > CONTACT]
     return float(np.mean((touching - F_GOAL) ** 2)) if len(touching) else float("inf")
+
+
+def metric_parts(force: np.ndarray) -> dict:
+    """The metric split into the landing (the first `LANDING` steps from the first contact), the
+    steps right after a dropout (a step sensing no contact once contact began) and the rest,
+    each as its share of the metric (they sum to it); the number of dropouts and the mean force
+    sensed right after them."""
+    touching = force > CONTACT
+    first = int(np.argmax(touching))
+    squares = np.where(touching, (force - F_GOAL) ** 2, 0.0) / max(1, touching.sum())
+    after = np.zeros(len(force), bool)
+    after[first + 1:] = ~touching[first:-1]
+    landing = float(squares[first:first + LANDING].sum())
+    dropout = float(squares[after & (np.arange(len(force)) >= first + LANDING)].sum())
+    caught = force[after & touching]
+    return {"landing": landing, "after_dropout": dropout, "rest": float(squares.sum()) - landing - dropout,
+            "dropouts": int(after[first + 1:].sum()), "force_after_dropout": float(caught.mean()) if len(caught)
+            else float("nan")}
+
+
+def parts_of(ep: dict) -> dict:
+    """An episode's metric, its parts (`metric_parts`) and the tip's median depth (m) over the
+    last second."""
+    return {"metric": metric(ep["force"]), **metric_parts(ep["force"]),
+            "depth": float(np.nanmedian(ep["depth"][-1000:]))}
+
+
+_SOURCE: dict = {}
+
+
+def source_parts(wiping, mu, gains, start) -> dict:
+    """`parts_of` UC-Oracle's episode in ours and in ours with the stiffest soft contact (the
+    same for every target: computed once per mu and gains)."""
+    key = (tuple(mu), tuple(gains))
+    if key not in _SOURCE:
+        _SOURCE[key] = {"ours": parts_of(ours_episode(wiping, mu, gains)),
+                        "stiff-ours": parts_of(episode("stiff-ours", wiping, mu, gains, start, depth=True))}
+    return _SOURCE[key]
+
+
+def ours_episode(wiping, mu, gains) -> dict:
+    """Our engine's episode (`Wiping.episode`, the source's numbers) with the tip's depth read
+    by Model.contacts along it."""
+    ep = wiping.episode(mu, gains=gains)
+    engine, depth = ours_arm(mu), []
+    for q, v, tau in zip(ep["q"][-1001:-1], ep["v"][-1001:-1], ep["tau"][-1001:-1]):
+        engine.set_state(q, v)
+        depth.append(tip_depth(engine, tau))
+    return {"force": np.asarray(ep["force"]), "depth": np.array(depth)}
 
 
 def target_report(target: str, runs: int, seed: int) -> dict:
@@ -110,8 +202,11 @@ def target_report(target: str, runs: int, seed: int) -> dict:
                "methods": {}}
         for name in METHODS:
             g = gains[name]
-            row["methods"][name] = {"gains": g, "target": metric(episode(target, wiping, mu, g, start)["force"]),
+            ep = episode(target, wiping, mu, g, start, depth=name == "UC-Oracle")
+            row["methods"][name] = {"gains": g, "target": metric(ep["force"]),
                                     "ours": float(wiping.episode(mu, gains=g)["metric"])}
+            if name == "UC-Oracle":
+                row["why"] = {target: parts_of(ep), **source_parts(wiping, mu, g, start)}
         out.append(row)
         print(f"  {target:8s} run {r + 1}/{runs}: mu {np.round(mu, 2)}, DiffOSI from {NAMES[target]} "
               f"{np.round(mu_hat, 2)} ({time.perf_counter() - begin:.1f} s)", flush=True)
@@ -153,6 +248,68 @@ GAP_WORDS = {
 }
 
 
+def why_means(doc: dict) -> dict:
+    """`parts_of` per engine (the target, ours, stiff-ours) averaged over the runs, with the mean
+    tool stiffness k_p (N/m) times the depth ours sinks beyond the target's (N)."""
+    engines = list(doc["runs"][0]["why"])
+    out = {e: {k: float(np.nanmean([r["why"][e][k] for r in doc["runs"]])) for k in doc["runs"][0]["why"][e]}
+           for e in engines}
+    out["compliance_force"] = float(np.mean([100.0 * r["mu"][0] * (r["why"]["ours"]["depth"]
+                                                                   - r["why"][doc["target"]]["depth"])
+                                             for r in doc["runs"]]))
+    return out
+
+
+def why_finding(doc: dict, w: dict) -> str:
+    """What the parts say, in words, for this target (numbers from `why_means`)."""
+    t, o, st, E = w[doc["target"]], w["ours"], w["stiff-ours"], NAMES[doc["target"]]
+    mm = 1e3
+    if doc["target"] == "mujoco":
+        return "MuJoCo runs our contact law: every part is ours."
+    landing = (f"landing {t['landing']:.3f} against ours {o['landing']:.3f} N^2, rest {t['rest']:.3f} against "
+               f"{o['rest']:.3f} N^2")
+    if doc["target"] == "dart":
+        gap = t["metric"] - o["metric"]
+        share = t["after_dropout"] / gap if gap > 0 else float("nan")
+        return (f"DART loses the tip's contact for single steps. Its hard contact holds the tip "
+                f"{mm * t['depth']:.4f} mm deep (ours sinks {mm * o['depth']:.3f} mm at the same force); when "
+                f"the stroke lifts it through zero depth DART's collision finds no contact for a step, and the "
+                f"next step's force catches up ({t['force_after_dropout']:.1f} N on average). "
+                f"{t['dropouts']:.0f} such dropouts per episode; the steps after them carry "
+                f"{t['after_dropout']:.3f} of UC-Oracle's {t['metric']:.3f} N^2, {100 * share:.0f}% of the gap to "
+                f"ours ({o['metric']:.3f} N^2); without them DART scores {t['metric'] - t['after_dropout']:.3f} "
+                f"N^2 ({landing}). The force fluctuation at the episode's end is these spikes. It is DART's "
+                "contact (no penetration allowance, no margin): not ours to mend.")
+    return (f"{E} has no dropouts ({t['dropouts']:.0f} per episode); its gap is in the landing and what "
+            f"follows ({landing}): after landing the force sits above the goal and decays only at the "
+            f"admittance loop's rate 1/(k_xi k_p). Its hard contact holds the tip {mm * t['depth']:.4f} mm "
+            f"deep where our soft contact (MuJoCo's default solref 0.02 s) sinks {mm * o['depth']:.3f} mm at "
+            f"the same force, so at the pose our loop reaches {E}'s tool is compressed that much more: "
+            f"{w['compliance_force']:.2f} N at the runs' tool stiffness. Ours with the stiffest soft contact "
+            f"MuJoCo allows (table solref {STIFF_SOLREF[0]} s: the tip {mm * st['depth']:.3f} mm deep) scores "
+            f"{st['metric']:.3f} N^2 against {o['metric']:.3f}: a stiffer contact alone moves ours "
+            f"{100 * (st['metric'] - o['metric']) / (t['metric'] - o['metric']):.0f}% of the way to "
+            f"{E}'s {t['metric']:.3f}, its tip still {st['depth'] / t['depth']:.0f}x deeper than {E}'s. The "
+            f"rest is consistent with {E}'s contact being stiffer still (not measured further). {E}'s hard "
+            "contact, not ours to mend: the task runs MuJoCo's contact law.")
+
+
+def why_markdown(doc: dict) -> list[str]:
+    w, E = why_means(doc), NAMES[doc["target"]]
+    names = {doc["target"]: E, "ours": "ours", "stiff-ours": f"ours, table solref {STIFF_SOLREF[0]} s"}
+    lines = ["## Where UC-Oracle's gap comes from", "",
+             f"UC-Oracle's metric (N^2, mean over the runs) split into the landing (the first {LANDING} ms of "
+             "contact), the steps right after a one-step contact dropout (a step sensing no contact once "
+             "contact began; the next catches up) and the rest; the tip's median depth in the table over "
+             "the last second.", ""]
+    lines += markdown_table(["engine", "metric", "landing", "after a dropout", "rest", "dropouts per episode",
+                             "tip depth (mm)"],
+                            [[names[e], f"{w[e]['metric']:.3f}", f"{w[e]['landing']:.3f}",
+                              f"{w[e]['after_dropout']:.3f}", f"{w[e]['rest']:.3f}", f"{w[e]['dropouts']:.1f}",
+                              f"{1e3 * w[e]['depth']:.4f}"] for e in names])
+    return lines + ["", why_finding(doc, w), ""]
+
+
 def markdown(doc: dict) -> list[str]:
     s, E = doc["summary"], NAMES[doc["target"]]
     err = np.array([r["mu_abs_error"] for r in doc["runs"]])
@@ -175,8 +332,9 @@ def markdown(doc: dict) -> list[str]:
               f"{np.mean([x['mean_force'] for x in last]):.2f} N over the last second (std "
               f"{np.mean([x['std_force'] for x in last]):.2f} N, in contact "
               f"{100 * np.mean([x['in_contact'] for x in last]):.0f}% of the steps).", "",
-              GAP_WORDS[doc["target"]], "",
-              f"DiffOSI from {E}'s canonical-gain episode (in our engine): mean |mu_hat - mu| "
+              GAP_WORDS[doc["target"]], ""]
+    lines += why_markdown(doc)
+    lines += [f"DiffOSI from {E}'s canonical-gain episode (in our engine): mean |mu_hat - mu| "
               f"k_p {err[:, 0].mean():.3g} N/cm, k_d {err[:, 1].mean():.3g} N s/m; flags per run: "
               + ", ".join(str(r["flags"] or "none") for r in doc["runs"]) + ".", "", "## Runs", ""]
     lines += markdown_table(["mu", "DiffOSI mu_hat"] + [f"{n} ({E})" for n in METHODS],

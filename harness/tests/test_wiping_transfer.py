@@ -28,12 +28,25 @@ def test_one_run_in_every_engine(tmp_path):
         assert all(1.0 <= x <= 100.0 for x in run["mu_hat"])
         for m in run["methods"].values():
             assert np.isfinite(m["target"]) and 0.0 < m["ours"] < 10.0
+        # UC-Oracle's gap taken apart: the parts sum to the metric in every engine.
+        for where, parts in run["why"].items():
+            assert abs(parts["landing"] + parts["after_dropout"] + parts["rest"] - parts["metric"]) < 1e-12, where
+        assert run["why"][target]["metric"] == run["methods"]["UC-Oracle"]["target"]
+        assert abs(run["why"]["ours"]["metric"] - run["methods"]["UC-Oracle"]["ours"]) < 1e-12  # Rust vs numpy sums
     mujoco = docs[0]["mujoco"]
     # The same contact law: MuJoCo's metric is ours to rounding, and DiffOSI finds mu from it.
     for m in mujoco["runs"][0]["methods"].values():
         assert abs(m["target"] - m["ours"]) <= 1e-6 * m["ours"]
     assert np.max(mujoco["runs"][0]["mu_abs_error"]) < 1e-6
     assert mujoco["meets_goal"]
+    # MuJoCo's parts are ours; DART drops the tip's contact for single steps, PyBullet does not,
+    # and both hard contacts hold the tip shallower than our soft one.
+    why = {t: docs[0][t]["runs"][0]["why"] for t in TARGETS}
+    for key in ("landing", "after_dropout", "rest", "depth"):
+        assert abs(why["mujoco"]["mujoco"][key] - why["mujoco"]["ours"][key]) < 1e-9, key
+    assert why["dart"]["dart"]["dropouts"] > 0 and why["pybullet"]["pybullet"]["dropouts"] == 0
+    for t in ("pybullet", "dart"):
+        assert why[t][t]["depth"] < 0.1 * why[t]["ours"]["depth"], t
 
 
 def test_wiping_takes_no_unmodelled_effects(tmp_path):
