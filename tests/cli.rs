@@ -244,6 +244,8 @@ fn simulate_with_set_feeds_identify() {
         "body/pole/mass",
         "--set",
         "joint/hinge/damping=0.05",
+        "--contact-model",
+        "constraint", // a law edit keeps the --set values
         "--transitions",
         out,
         "--json",

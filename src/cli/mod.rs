@@ -55,7 +55,8 @@ pub enum ContactLaw {
 }
 
 impl ModelFile {
-    /// The model, its load warnings printed to stderr.
+    /// The model, its load warnings printed to stderr, under the contact law
+    /// asked, then with the `--set` parameters.
     pub fn load(&self) -> Result<Model, String> {
         let options = LoadOptions {
             floating_base: self.floating_base,
@@ -66,22 +67,22 @@ impl ModelFile {
         for warning in model.warnings() {
             eprintln!("warning: {warning}");
         }
+        if let Some(law) = self.contact_model {
+            let law = match law {
+                ContactLaw::Constraint => ContactModel::Constraint,
+                ContactLaw::Smooth => ContactModel::Smooth,
+            };
+            model = model
+                .edited(|s| s.opt.contact_model = law)
+                .map_err(|e| e.to_string())?;
+        }
         for assignment in &self.set {
             let (name, value) = parse_set(assignment)?;
             model
                 .set_param(name, &value)
                 .map_err(|e| format!("--set {assignment}: {e}"))?;
         }
-        let Some(law) = self.contact_model else {
-            return Ok(model);
-        };
-        let law = match law {
-            ContactLaw::Constraint => ContactModel::Constraint,
-            ContactLaw::Smooth => ContactModel::Smooth,
-        };
-        model
-            .edited(|s| s.opt.contact_model = law)
-            .map_err(|e| e.to_string())
+        Ok(model)
     }
 }
 
