@@ -276,20 +276,23 @@ fn wipe_writes_the_episode_and_its_torques_replay_it_open_loop() {
         replay.to_str().unwrap(),
     ]);
     assert!(ok, "{err}");
+    // simulate writes one transition per row: t, q, v, tau, q_next, v_next
+    // (8 each), then fn_tip_table at column 41.
     let (_, replayed) = read_csv(&replay);
     let mut gap = 0.0_f64;
-    for (a, b) in rows.iter().zip(&replayed) {
+    for (k, b) in replayed.iter().enumerate() {
         for i in 1..17 {
-            gap = gap.max((a[i] - b[i]).abs());
+            gap = gap.max((rows[k][i] - b[i]).abs());
+            gap = gap.max((rows[k + 1][i] - b[i + 24]).abs());
         }
     }
     // The force the controller sensed at row k + 1 is the one of the step from row k.
     for (a, b) in rows[1..].iter().zip(&replayed) {
         assert!(
-            (a[25] - b[17]).abs() <= 1e-9 * (1.0 + a[25].abs()),
+            (a[25] - b[41]).abs() <= 1e-9 * (1.0 + a[25].abs()),
             "force {} vs {}",
             a[25],
-            b[17]
+            b[41]
         );
     }
     assert!(gap < 1e-12, "open-loop replay drifts by {gap}");

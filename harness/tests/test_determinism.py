@@ -53,18 +53,20 @@ def test_a_python_rollout_is_bitwise_the_binary_rollout(tmp_path):
     header = out.read_text().splitlines()[0].split(",")
     rows = np.loadtxt(out, delimiter=",", skiprows=1)
     nq, nv = q.shape[1], v.shape[1]
-    assert rows[:, 1:1 + nq].tobytes() == q.tobytes()
-    assert rows[:, 1 + nq:1 + nq + nv].tobytes() == v.tobytes()
+    # One transition per row: t, q, v, tau, q_next, v_next, then the force columns.
+    blocks = np.split(rows[:, 1:], np.cumsum([nq, nv, nv, nq, nv]), axis=1)
+    for got, want in zip(blocks, (q[:-1], v[:-1], taus, q[1:], v[1:])):
+        assert np.ascontiguousarray(got).tobytes() == np.ascontiguousarray(want).tobytes()
     # The force-sensing columns, one per geom pair: the normal forces Model.contacts reports
-    # under the torques of the step from that row (none after the last).
+    # under the torques of the step from that row.
     model = diffosi.Model.load(path)
-    pairs = [name[len("fn_"):] for name in header[1 + nq + nv:]]
+    pairs = [name[len("fn_"):] for name in header[1 + 2 * nq + 3 * nv:]]
     assert pairs and all(p.endswith("_floor") for p in pairs)
-    forces = rows[:, 1 + nq + nv:]
+    forces = blocks[-1]
     assert forces.max() > 1.0  # the cheetah does touch its floor
-    for t in (0, int(forces.sum(axis=1).argmax()), 200):
+    for t in (0, int(forces.sum(axis=1).argmax()), 199):
         sensed = dict.fromkeys(pairs, 0.0)
-        tau = taus[t] if t < len(taus) else np.zeros(nv)
+        tau = taus[t]
         for c in model.contacts(q[t], v[t], tau):
             sensed["_".join(c["geoms"])] += c["normal_force"]
         assert forces[t].tolist() == list(sensed.values())
