@@ -131,7 +131,7 @@ def metric_parts(force: np.ndarray) -> dict:
     """The metric split into the landing (the first `LANDING` steps from the first contact), the
     steps right after a dropout (a step sensing no contact once contact began) and the rest,
     each as its share of the metric (they sum to it); the number of dropouts and the mean force
-    sensed right after them."""
+    sensed right after them (None without dropouts)."""
     touching = force > CONTACT
     first = int(np.argmax(touching))
     squares = np.where(touching, (force - F_GOAL) ** 2, 0.0) / max(1, touching.sum())
@@ -142,7 +142,7 @@ def metric_parts(force: np.ndarray) -> dict:
     caught = force[after & touching]
     return {"landing": landing, "after_dropout": dropout, "rest": float(squares.sum()) - landing - dropout,
             "dropouts": int(after[first + 1:].sum()), "force_after_dropout": float(caught.mean()) if len(caught)
-            else float("nan")}
+            else None}
 
 
 def parts_of(ep: dict) -> dict:
@@ -252,8 +252,11 @@ def why_means(doc: dict) -> dict:
     """`parts_of` per engine (the target, ours, stiff-ours) averaged over the runs, with the mean
     tool stiffness k_p (N/m) times the depth ours sinks beyond the target's (N)."""
     engines = list(doc["runs"][0]["why"])
-    out = {e: {k: float(np.nanmean([r["why"][e][k] for r in doc["runs"]])) for k in doc["runs"][0]["why"][e]}
-           for e in engines}
+    def mean(key: str, engine: str):  # over the runs where it is defined (None: no dropout)
+        xs = [x for r in doc["runs"] if (x := r["why"][engine][key]) is not None and np.isfinite(x)]
+        return float(np.mean(xs)) if xs else None
+
+    out = {e: {k: mean(k, e) for k in doc["runs"][0]["why"][e]} for e in engines}
     out["compliance_force"] = float(np.mean([100.0 * r["mu"][0] * (r["why"]["ours"]["depth"]
                                                                    - r["why"][doc["target"]]["depth"])
                                              for r in doc["runs"]]))
