@@ -103,7 +103,7 @@ BAD = [
     ('<fixed><joint joint="h"/></fixed>', r"bad.xml:4: <joint>: a tendon's <joint> needs coef"),
     ('<fixed armature="0.1"><joint joint="h" coef="1"/></fixed>', r"bad.xml:4: <fixed>: .*tendon armature"),
     ('<fixed stiffness="-1"><joint joint="h" coef="1"/></fixed>', r"bad.xml:4: <fixed>: .*stiffness must be"),
-    ('<spatial><site site="s"/></spatial>', r"bad.xml:4: <spatial>: .*spatial tendons"),
+    ('<spatial><site site="s"/></spatial>', r"bad.xml:4: <site>: unknown site 's'"),
     ('<fixed name="t"><joint joint="b" coef="1"/></fixed>', r"bad.xml:4: <fixed>: .*'b' must be a hinge or a slide"),
 ]
 

@@ -55,7 +55,7 @@ pub use sensor::{
     ActuatorQuantity, FrameObject, FrameQuantity, JointQuantity, Sensor, SensorKind, SiteQuantity,
 };
 pub use state::{Inputs, State};
-pub use tendon::Tendon;
+pub use tendon::{Tendon, Wrap};
 
 /// Errors from building, loading or editing a model.
 #[derive(Debug, thiserror::Error)]
