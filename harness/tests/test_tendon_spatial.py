@@ -113,3 +113,38 @@ def test_bad_spatial_tendons_name_the_line(tmp_path, tendon, message):
     path.write_text(BODY.format(tendon))
     with pytest.raises(ValueError, match=message):
         diffosi.Model.load(str(path))
+
+
+SIDES = {
+    # The sphere without its sidesite (the shorter way round), the cylinder
+    # held by one below it.
+    "swapped": [('<geom geom="ball" sidesite="side_up"/>', '<geom geom="ball"/>'),
+                ('<geom geom="drum"/>', '<geom geom="drum" sidesite="side_up"/>'),
+                ('<site name="side_up" pos="0 0 0.2"/>', '<site name="side_up" pos="0.05 0 -0.2"/>')],
+    # A sidesite inside the sphere: the path touches it from inside.
+    "inside": [('<site name="side_up" pos="0 0 0.2"/>', '<site name="side_up" pos="0 0 0.03"/>'),
+               ('<site name="u_top" pos="0.2 0.01 0.03"/>', '<site name="u_top" pos="0.2 0.01 0.08"/>'),
+               ('<site name="f_top" pos="0.2 -0.01 0.03"/>', '<site name="f_top" pos="0.2 -0.01 0.07"/>')],
+}
+
+
+@pytest.mark.parametrize("case", SIDES)
+def test_other_sides_match_mj_step(tmp_path, case):
+    text = TEXT
+    for old, new in SIDES[case]:
+        assert old in text
+        text = text.replace(old, new)
+    m, ours = models(tmp_path, text=text)
+    d = mujoco.MjData(m)
+    wrapped = set()
+    for seed in range(8):
+        q, v, tau = state(m, seed)
+        d.qpos[:], d.qvel[:], d.qfrc_applied[:] = q, v, tau
+        mujoco.mj_step(m, d)
+        wrapped |= set(d.wrap_obj.ravel().tolist())
+        q1, v1 = ours.step(q, v, tau)
+        np.testing.assert_allclose(q1, d.qpos, rtol=0, atol=1e-10)
+        np.testing.assert_allclose(v1, d.qvel, rtol=0, atol=1e-10)
+    assert {2, 3} <= wrapped
+    err = a_error(m, ours, *state(m, 0))
+    assert err < 1e-6, f"{err:.1e}"

@@ -284,3 +284,34 @@ fn inside<T: Real>(end: [Vector2<T>; 2], r: T) -> Option<(T, Vector2<T>, Vector2
     let (c, s) = (ang.cos(), ang.sin());
     done(Vector2::new(u.x * c - u.y * s, u.x * s + u.y * c) * r)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A unit sphere between (-2, 0, 0) and (2, 0, 0.1): each tangent
+    /// touches where cos(angle) = 1/|x|, and the path's length is the sum
+    /// of the tangents' lengths sqrt(|x|^2 - 1) and the arc between the
+    /// tangent points, all in the plane of the two ends and the centre.
+    #[test]
+    fn a_sphere_wrap_is_two_tangents_and_an_arc() {
+        let (x0, x1) = (Vector3::new(-2.0, 0.0, 0.0), Vector3::new(2.0, 0.0, 0.1));
+        let geom = Obstacle {
+            pos: Vector3::zeros(),
+            mat: Matrix3::identity(),
+            radius: 1.0,
+            cylinder: false,
+        };
+        let (arc, p0, p1) = wrap((&x0, &x1), &geom, None).unwrap();
+        let angle = |a: &Vector3<f64>, b: &Vector3<f64>| (a.dot(b) / (a.norm() * b.norm())).acos();
+        let expected = angle(&x0, &x1) - (1.0 / 2.0f64).acos() - (1.0 / x1.norm()).acos();
+        assert!((arc - expected).abs() < 1e-14, "{arc} vs {expected}");
+        for (p, x) in [(p0, x0), (p1, x1)] {
+            assert!((p.norm() - 1.0).abs() < 1e-14);
+            assert!(p.dot(&(x - p)).abs() < 1e-14, "tangent at {p}");
+        }
+        // Far above the sphere the segment stands straight.
+        let high = Vector3::new(0.0, 0.0, 3.0);
+        assert!(wrap((&(x0 + high), &(x1 + high)), &geom, None).is_none());
+    }
+}
