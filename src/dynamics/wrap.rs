@@ -14,10 +14,12 @@
 //! geom makes the path pass through the circle at one point where it
 //! touches it from inside (mju_wrapInside, Newton's method).
 //!
-//! Smoothness: within each case (no wrap, the two tangent solutions, the
-//! inside point) the result is smooth in x0, x1, pos and mat; it is
-//! continuous where the path starts to touch the geom, with a jump of the
-//! moment where it leaves it on a chord. The inside wrap's point comes
+//! Smoothness: within each case (no wrap, either way round, the inside
+//! point) the result is smooth in x0, x1, pos and mat. Where a segment
+//! starts to touch the geom the length and its gradient are continuous
+//! (the tangent points meet at the touching point); where the way round
+//! switches (the two ways equal without a sidesite, the sidesite's side
+//! changing with one) the length can jump. The inside wrap's point comes
 //! from at most 20 Newton steps to a tolerance 1e-6 (as MuJoCo's), so its
 //! derivatives are those of the iterate, not of the exact root.
 
