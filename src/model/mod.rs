@@ -649,7 +649,7 @@ pub struct Spec {
     pub hfields: Vec<hfield::HField>,
     /// Equality constraints (MJCF `<equality>`), rows of the constraint model.
     pub equalities: Vec<Equality>,
-    /// Tendons (MJCF `<tendon>`): fixed tendons.
+    /// Tendons (MJCF `<tendon>`): fixed and spatial.
     pub tendons: Vec<Tendon>,
 }
 
