@@ -19,7 +19,8 @@ import pytest
 
 import diffosi
 from harness.gradcheck_free import a_error
-from harness.tests.test_tendon import FRICTION_TENDON, INTEGRATORS, LIMIT_TENDON, models, state
+from harness.tests.test_tendon import (FRICTION_TENDON, INTEGRATORS, LIMIT_TENDON, matched_steps, models,
+                                       rollout_error, state)
 
 DATA = pathlib.Path(__file__).resolve().parents[2] / "tests" / "data"
 TEXT = (DATA / "tendon_spatial.xml").read_text()
@@ -28,34 +29,17 @@ TEXT = (DATA / "tendon_spatial.xml").read_text()
 @pytest.mark.parametrize("integrator", INTEGRATORS)
 def test_one_step_matches_mj_step(tmp_path, integrator):
     m, ours = models(tmp_path, integrator, TEXT)
-    d = mujoco.MjData(m)
     kinds, wrapped = set(), set()
-    for seed in range(8):
-        q, v, tau = state(m, seed)
-        d.qpos[:], d.qvel[:], d.qfrc_applied[:] = q, v, tau
-        mujoco.mj_step(m, d)
+    for d in matched_steps(m, ours, range(8), 1e-10):
         kinds |= set(d.efc_type[:d.nefc].tolist())
         wrapped |= set(d.wrap_obj.ravel().tolist())
-        q1, v1 = ours.step(q, v, tau)
-        np.testing.assert_allclose(q1, d.qpos, rtol=0, atol=1e-10)
-        np.testing.assert_allclose(v1, d.qvel, rtol=0, atol=1e-10)
     assert {FRICTION_TENDON, LIMIT_TENDON} <= kinds
     # Both the sphere (geom 2) and the cylinder (geom 3) wrapped somewhere.
     assert {2, 3} <= wrapped
 
 
 def test_rollout_matches_mj_step(tmp_path):
-    m, ours = models(tmp_path, text=TEXT)
-    d = mujoco.MjData(m)
-    rng = np.random.default_rng(5)
-    q, v = d.qpos.copy(), d.qvel.copy()
-    worst = 0.0
-    for _ in range(200):
-        tau = rng.normal(size=m.nv)
-        d.qfrc_applied[:] = tau
-        mujoco.mj_step(m, d)
-        q, v = ours.step(q, v, tau)
-        worst = max(worst, np.abs(q - d.qpos).max(), np.abs(v - d.qvel).max())
+    worst = rollout_error(*models(tmp_path, text=TEXT), np.random.default_rng(5))
     assert worst < 1e-9, f"{worst:.1e}"
 
 
@@ -135,16 +119,9 @@ def test_other_sides_match_mj_step(tmp_path, case):
         assert old in text
         text = text.replace(old, new)
     m, ours = models(tmp_path, text=text)
-    d = mujoco.MjData(m)
     wrapped = set()
-    for seed in range(8):
-        q, v, tau = state(m, seed)
-        d.qpos[:], d.qvel[:], d.qfrc_applied[:] = q, v, tau
-        mujoco.mj_step(m, d)
+    for d in matched_steps(m, ours, range(8), 1e-10):
         wrapped |= set(d.wrap_obj.ravel().tolist())
-        q1, v1 = ours.step(q, v, tau)
-        np.testing.assert_allclose(q1, d.qpos, rtol=0, atol=1e-10)
-        np.testing.assert_allclose(v1, d.qvel, rtol=0, atol=1e-10)
     assert {2, 3} <= wrapped
     err = a_error(m, ours, *state(m, 0))
     assert err < 1e-6, f"{err:.1e}"
@@ -171,13 +148,5 @@ def test_ball_in_cup_matches_mujoco():
     np.testing.assert_allclose(np.r_[q1, v1], np.r_[d.qpos, d.qvel], rtol=0, atol=1e-12)
     err = a_error(m, ours, q, v, tau)
     assert err < 1e-6, f"{err:.1e}"
-    mujoco.mj_resetData(m, d)
-    q, v = d.qpos.copy(), d.qvel.copy()
-    worst = 0.0
-    for _ in range(200):
-        tau = rng.normal(size=m.nv) * 0.5
-        d.qfrc_applied[:] = tau
-        mujoco.mj_step(m, d)
-        q, v = ours.step(q, v, tau)
-        worst = max(worst, np.abs(q - d.qpos).max(), np.abs(v - d.qvel).max())
+    worst = rollout_error(m, ours, rng, scale=0.5)
     assert worst < 1e-9, f"{worst:.1e}"
