@@ -118,6 +118,9 @@ fn sphere_plane<T: Real>(p0: &Vector3<T>, p1: &Vector3<T>) -> (Vector3<T>, Vecto
     (axis0, normal.cross(&axis0).normalize())
 }
 
+/// A 2-D wrap: the length on the circle and the two tangent points.
+type Planar<T> = (T, Vector2<T>, Vector2<T>);
+
 /// The signed angle from p to q about the origin, in (-pi, pi].
 fn winding<T: Real>(p: &Vector2<T>, q: &Vector2<T>) -> T {
     (p.x * q.y - p.y * q.x).atan2(p.dot(q))
@@ -142,12 +145,7 @@ fn crossing<T: Real>(p1: &Vector2<T>, p2: &Vector2<T>, p3: &Vector2<T>, p4: &Vec
 /// The 2-D wrap of end[0] -> end[1] around the circle of radius r at the
 /// origin, `side` the sidesite's direction scaled to r: arc length and
 /// tangent points.
-#[allow(clippy::type_complexity)]
-fn circle<T: Real>(
-    end: [Vector2<T>; 2],
-    side: Option<Vector2<T>>,
-    r: T,
-) -> Option<(T, Vector2<T>, Vector2<T>)> {
+fn circle<T: Real>(end: [Vector2<T>; 2], side: Option<Vector2<T>>, r: T) -> Option<Planar<T>> {
     let [e0, e1] = end;
     let (sq0, sq1, sqr) = (e0.norm_squared(), e1.norm_squared(), r * r);
     if sq0 < sqr || sq1 < sqr || r < lift(MINVAL) {
@@ -215,8 +213,7 @@ fn arc<T: Real>(p0: &Vector2<T>, p1: &Vector2<T>, ind: usize, r: T) -> T {
 
 /// The 2-D wrap with the sidesite inside the circle: the point where the
 /// path end[0] -> p -> end[1] touches the circle from inside; length 0.
-#[allow(clippy::type_complexity)]
-fn inside<T: Real>(end: [Vector2<T>; 2], r: T) -> Option<(T, Vector2<T>, Vector2<T>)> {
+fn inside<T: Real>(end: [Vector2<T>; 2], r: T) -> Option<Planar<T>> {
     let minval: T = lift(MINVAL);
     let [e0, e1] = end;
     let (len0, len1) = (e0.norm(), e1.norm());
