@@ -20,8 +20,6 @@ SEED = 0
 # mass 1 where a link has no <inertial>, Bullet's principal axes, unphysical tensors zeroed);
 # the Pinocchio check the default reading, the file as written.
 KNOWN_FAILURES = {
-    "dm_control:ball_in_cup.xml":
-        "load: <spatial>: <spatial> is not supported: spatial tendons change the dynamics",
     "dm_control:dog.xml":
         "load: <option>: noslip_iterations is not supported",
     "dm_control:fish.xml":

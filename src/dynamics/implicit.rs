@@ -120,7 +120,7 @@ fn velocity_derivative<T: Real>(
 ) {
     b.qderiv.fill(T::zero());
     add_damping_derivative(tree, &mut b.qderiv);
-    add_tendon_damping_derivative(tree, &mut b.qderiv);
+    add_tendon_damping_derivative(tree, data, &mut b.qderiv);
     add_fluid_derivative(tree, data, &mut b.qderiv);
     for (i, slope) in b.actuators.iter().enumerate() {
         b.qderiv[(i, i)] += *slope;
@@ -137,12 +137,16 @@ fn add_damping_derivative<T: Real>(tree: &Tree<T>, qderiv: &mut DMatrix<T>) {
     }
 }
 
-/// The tendons' damping derivative -sum damping J^T J (mjd_passive_vel).
-fn add_tendon_damping_derivative<T: Real>(tree: &Tree<T>, qderiv: &mut DMatrix<T>) {
-    for t in tree.tendons.iter().filter(|t| t.damping != T::zero()) {
-        for (_, r, cr) in &t.path {
-            for (_, c, cc) in &t.path {
-                qderiv[(*r, *c)] -= t.damping * *cr * *cc;
+/// The tendons' damping derivative -sum damping J^T J (mjd_passive_vel),
+/// J at the tendons' states in `data.tendon`.
+fn add_tendon_damping_derivative<T: Real>(tree: &Tree<T>, data: &Data<T>, qderiv: &mut DMatrix<T>) {
+    for (t, s) in tree.tendons.iter().zip(&data.tendon) {
+        if t.damping == T::zero() {
+            continue;
+        }
+        for &r in &t.support {
+            for &c in &t.support {
+                qderiv[(r, c)] -= t.damping * s.moment[r] * s.moment[c];
             }
         }
     }

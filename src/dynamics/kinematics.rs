@@ -41,6 +41,17 @@ pub fn body_poses<T: Real>(tree: &Tree<T>, q: &[T]) -> Vec<(Matrix3<T>, Vector3<
         .collect()
 }
 
+/// From the world to body `body`'s frame at the frames `data` holds
+/// ([`world_frames`]; a mocap body at the step's mocap pose).
+pub fn body_pose<T: Real>(tree: &Tree<T>, data: &Data<T>, body: usize) -> Transform<T> {
+    let frame = tree.body[body];
+    match (frame.node, frame.mocap) {
+        (Some(n), _) => frame.offset.compose(&data.world[n]),
+        (None, Some(k)) => frame.offset.compose(&data.mocap[k]),
+        (None, None) => frame.offset,
+    }
+}
+
 /// Fills `data.world`, `data.world_axis` and `data.world_vel` (see [`Data`])
 /// from `data.x_up`.
 pub fn world_frames<T: Real>(tree: &Tree<T>, data: &mut Data<T>, v: &[T]) {

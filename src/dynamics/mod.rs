@@ -33,6 +33,7 @@ mod rnea;
 mod step;
 pub mod tendon;
 mod tree;
+pub mod wrap;
 
 pub use aba::{aba, aba_with_transforms};
 pub use collision::{body_contact_forces, Contact};
@@ -40,7 +41,7 @@ pub use contact::{add_soft_forces, add_soft_forces_with_transforms};
 pub use crba::{crba, crba_with_transforms};
 pub use integrator::{implicit_terms, integrate_euler};
 pub use kinematics::{
-    body_force_to_joints, body_poses, point_jacobian, update_transforms, world_frames,
+    body_force_to_joints, body_pose, body_poses, point_jacobian, update_transforms, world_frames,
 };
 pub use ltdl::{ltdl_factor, ltdl_inverse, ltdl_solve, ltdl_solve_columns};
 pub use passive::{passive_forces, stretch};
@@ -49,7 +50,7 @@ pub use step::{
     acceleration, check_actuation, check_colliders, check_inputs, implicit_acceleration, step,
     step_actuated, step_applied, Constrained, StepError,
 };
-pub use tendon::{add_tendon_forces, TendonConsts};
+pub use tendon::{add_tendon_forces, tendon_states, TendonConsts, TendonState};
 pub use tree::{BodyFrame, NodeJoint, Tree};
 
 use crate::spatial::{ArticulatedInertia, Force, Inertia, Motion, Real, Transform};
@@ -88,6 +89,10 @@ pub struct Data<T: Real> {
     /// From the world to each mocap body's frame: the step's mocap input
     /// ([`mocap::set_mocap`]; the compiled poses until set).
     pub mocap: Vec<Transform<T>>,
+    /// The tendons' kinematics at the last force evaluation's state
+    /// ([`tendon_states`]), in model order: what every consumer of a
+    /// tendon's length, velocity and moment reads.
+    pub tendon: Vec<TendonState<T>>,
     /// Scratch vectors: the acceleration's (nv each), and the integrator's.
     scratch: [Vec<T>; 3],
     /// The step's applied forces with the actuators' (nv) and the
@@ -133,6 +138,7 @@ impl<T: Real> Data<T> {
             contacts: vec![],
             constrained: None,
             mocap: mocap::poses(&tree.mocap_pos, &tree.mocap_quat),
+            tendon: vec![],
             scratch: std::array::from_fn(|_| vec![T::zero(); n]),
             actuated: vec![T::zero(); n],
             act_rate: vec![T::zero(); tree.na],

@@ -20,7 +20,7 @@ use super::integrator::{
 use super::{
     aba_with_transforms, add_soft_forces_with_transforms, add_tendon_forces,
     bias_forces_with_transforms, crba_with_transforms, ltdl_factor, ltdl_solve, passive_forces,
-    update_transforms, world_frames, Data, Tree,
+    tendon_states, update_transforms, world_frames, Data, Tree,
 };
 use crate::model::{ContactModel, Integrator, PassiveMode};
 use crate::spatial::{lift, Real};
@@ -393,11 +393,18 @@ fn accelerate<T: Real>(
     (q, v, tau): (&[T], &[T], &[T]),
     qdd: &mut [T],
 ) {
+    update_transforms(tree, data, q);
+    let constraints = tree.opt.contact_model == ContactModel::Constraint && tree.has_constraints();
+    let spatial = tree.has_spatial_tendons();
+    if constraints || spatial || !tree.fluid.is_empty() || !tree.gravcomp.is_empty() {
+        world_frames(tree, data, v);
+    }
+    tendon_states(tree, data, (q, v));
     let mut scratch = std::mem::take(&mut data.scratch);
     let [force, extra, stretched, ..] = &mut scratch;
     implicit_terms(tree, (mode, h), (q, v), stretched, extra);
     passive_forces(tree, stretched, v, force);
-    add_tendon_forces(tree, (q, v), force);
+    add_tendon_forces(tree, data, force);
     for i in 0..tree.nv() {
         force[i] += tau[i];
     }
@@ -406,11 +413,6 @@ fn accelerate<T: Real>(
         Some(integrator) => Some(Lhs::Implicit(integrator)),
         None => implicit.then_some(Lhs::Diagonal(&extra[..])),
     };
-    update_transforms(tree, data, q);
-    let constraints = tree.opt.contact_model == ContactModel::Constraint && tree.has_constraints();
-    if constraints || !tree.fluid.is_empty() || !tree.gravcomp.is_empty() {
-        world_frames(tree, data, v);
-    }
     if !tree.fluid.is_empty() {
         add_fluid_forces(tree, data, force);
     }

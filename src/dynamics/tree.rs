@@ -247,6 +247,14 @@ impl<T: Real> Tree<T> {
                 .any(|t| t.limit.is_some() || t.frictionloss.0 > T::zero())
     }
 
+    /// Whether a tendon's path runs through sites (its kinematics read the
+    /// world frames).
+    pub fn has_spatial_tendons(&self) -> bool {
+        self.tendons
+            .iter()
+            .any(|t| matches!(t.path, super::tendon::Path::Spatial(_)))
+    }
+
     pub fn nv(&self) -> usize {
         self.parent.len()
     }

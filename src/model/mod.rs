@@ -55,7 +55,7 @@ pub use sensor::{
     ActuatorQuantity, FrameObject, FrameQuantity, JointQuantity, Sensor, SensorKind, SiteQuantity,
 };
 pub use state::{Inputs, State};
-pub use tendon::Tendon;
+pub use tendon::{Tendon, Wrap};
 
 /// Errors from building, loading or editing a model.
 #[derive(Debug, thiserror::Error)]
@@ -649,7 +649,7 @@ pub struct Spec {
     pub hfields: Vec<hfield::HField>,
     /// Equality constraints (MJCF `<equality>`), rows of the constraint model.
     pub equalities: Vec<Equality>,
-    /// Tendons (MJCF `<tendon>`): fixed tendons.
+    /// Tendons (MJCF `<tendon>`): fixed and spatial.
     pub tendons: Vec<Tendon>,
 }
 

@@ -33,7 +33,7 @@ use super::contact::path_dofs;
 use super::impedance::Block;
 use super::{At, ConstraintKind, Origin, RowKind, Rows};
 use crate::dynamics::configuration::Coordinates;
-use crate::dynamics::Tree;
+use crate::dynamics::{body_pose, Tree};
 use crate::model::SolParams;
 use crate::spatial::{lift, Motion, Real};
 
@@ -118,16 +118,11 @@ pub(super) fn append<T: Real>(at: &At<T>, rows: &mut Rows<T>) {
 /// A body's world pose (rotation, origin) and its node; a mocap body's
 /// from the step's mocap pose ([`crate::dynamics::mocap`]).
 fn pose<T: Real>(at: &At<T>, body: usize) -> (Rotation3<T>, Vector3<T>, Option<usize>) {
-    let frame = at.tree.body[body];
-    let x = match (frame.node, frame.mocap) {
-        (Some(n), _) => frame.offset.compose(&at.data.world[n]),
-        (None, Some(k)) => frame.offset.compose(&at.data.mocap[k]),
-        (None, None) => frame.offset,
-    };
+    let x = body_pose(at.tree, at.data, body);
     (
         Rotation3::from_matrix_unchecked(x.axes()),
         x.trans,
-        frame.node,
+        at.tree.body[body].node,
     )
 }
 
@@ -329,16 +324,17 @@ fn tendons<T: Real>(
     rows: &mut Rows<T>,
 ) {
     let tree = at.tree;
-    let t1 = &tree.tendons[first];
-    let mut error = t1.length(at.q) - t1.length0 - c[0];
+    let (t1, s1) = (&tree.tendons[first], &at.data.tendon[first]);
+    let mut error = s1.length - t1.length0 - c[0];
     let mut row = vec![T::zero(); tree.nv()];
-    t1.add_moment(T::one(), &mut row);
+    s1.add_moment(T::one(), &t1.support, &mut row);
     let mut diag = t1.invweight;
     let mut dofs = t1.dofs();
-    if let Some(t2) = second.map(|k| &tree.tendons[k]) {
-        let (value, slope) = poly(c, t2.length(at.q) - t2.length0);
+    if let Some(k) = second {
+        let (t2, s2) = (&tree.tendons[k], &at.data.tendon[k]);
+        let (value, slope) = poly(c, s2.length - t2.length0);
         error -= value;
-        t2.add_moment(-slope, &mut row);
+        s2.add_moment(-slope, &t2.support, &mut row);
         diag += t2.invweight;
         dofs.extend(t2.dofs());
         dofs.sort_unstable_by(|a, b| b.cmp(a));

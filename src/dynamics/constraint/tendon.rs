@@ -1,6 +1,8 @@
 //! Tendon rows (MuJoCo's mj_instantiateFriction and mj_instantiateLimit
 //! for tendons), each with J the tendon's moment (J_t, nv) and A_ii its
 //! tendon_invweight0 ([`crate::dynamics::tendon`]):
+//! The tendons' lengths and moments are their states at the rows' state
+//! (`Data::tendon`).
 //! - dry friction (efc_type mjCNSTR_FRICTION_TENDON): one row J_t per
 //!   tendon with `frictionloss` > 0, its force bounded by it; no distance;
 //! - limits (mjCNSTR_LIMIT_TENDON): per limited tendon of length L, one row
@@ -11,23 +13,23 @@
 
 use super::limit::{self, Limit};
 use super::{friction, At, ConstraintKind, Origin, Rows};
-use crate::dynamics::TendonConsts;
+use crate::dynamics::{TendonConsts, TendonState};
 use crate::spatial::{lift, Real};
 
-/// Appends J = sign J_t for tendon `t`.
-fn push_moment<T: Real>(rows: &mut Rows<T>, t: &TendonConsts<T>, sign: T) {
+/// Appends J = sign J_t for tendon `t` at its state `s`.
+fn push_moment<T: Real>(rows: &mut Rows<T>, (t, s): (&TendonConsts<T>, &TendonState<T>), sign: T) {
     let start = rows.j.len();
     rows.j.resize(start + rows.nv, T::zero());
-    t.add_moment(sign, &mut rows.j[start..]);
+    s.add_moment(sign, &t.support, &mut rows.j[start..]);
     rows.moving(1, t.dofs());
 }
 
 /// Appends the tendons' dry friction rows, tendon by tendon.
 pub(super) fn append_friction<T: Real>(at: &At<T>, rows: &mut Rows<T>) {
-    for (id, t) in at.tree.tendons.iter().enumerate() {
+    for (id, (t, s)) in at.tree.tendons.iter().zip(&at.data.tendon).enumerate() {
         let (floss, sol) = t.frictionloss;
         if floss > T::zero() {
-            push_moment(rows, t, T::one());
+            push_moment(rows, (t, s), T::one());
             let origin = Origin {
                 kind: ConstraintKind::TendonFriction,
                 id,
@@ -39,7 +41,7 @@ pub(super) fn append_friction<T: Real>(at: &At<T>, rows: &mut Rows<T>) {
 
 /// Appends the tendons' limit rows, tendon by tendon, the lower side first.
 pub(super) fn append_limits<T: Real>(at: &At<T>, rows: &mut Rows<T>) {
-    for (id, t) in at.tree.tendons.iter().enumerate() {
+    for (id, (t, s)) in at.tree.tendons.iter().zip(&at.data.tendon).enumerate() {
         let Some(Limit {
             range: (lo, hi),
             margin,
@@ -48,10 +50,10 @@ pub(super) fn append_limits<T: Real>(at: &At<T>, rows: &mut Rows<T>) {
         else {
             continue;
         };
-        let l = t.length(at.q);
+        let l = s.length;
         for (dist, sign) in [(l - lift(lo), T::one()), (lift::<T>(hi) - l, -T::one())] {
             if dist < lift(margin) {
-                push_moment(rows, t, sign);
+                push_moment(rows, (t, s), sign);
                 let origin = Origin {
                     kind: ConstraintKind::TendonLimit,
                     id,

@@ -16,7 +16,7 @@
 //! and `<exclude>`), `<actuator>` (MuJoCo's motor, position, velocity,
 //! intvelocity, damper and general on hinges and slides: `actuators.rs`),
 //! `<site>` and `<sensor>` (`sites.rs`, `sensors.rs`: every sensor type laid
-//! out, the common ones computed), `<tendon>` (fixed tendons: `tendons.rs`),
+//! out, the common ones computed), `<tendon>` (fixed and spatial tendons: `tendons.rs`),
 //! `<equality>` (connect, weld, joint, tendon: `equality.rs`), `<keyframe>` (`keyframes.rs`), and
 //! `<custom>`'s `diffosi:` settings (the contact model, the smooth model's
 //! constants). The medium's forces are MuJoCo's inertia-box model
@@ -35,7 +35,7 @@
 //! - what changes the dynamics beyond a tree of joints with linear passive
 //!   forces, actuators, contacts, limits, dry friction and the inertia-box
 //!   fluid: limits and dry friction on ball and free joints, a free joint
-//!   that is not the only joint of a child of the world, spatial tendons,
+//!   that is not the only joint of a child of the world,
 //!   tendon armature (fixed tendons: `tendons.rs`), flex equalities,
 //!   flexes and skins, the ellipsoid fluid model (fluidshape),
 //!   gravcomp routed through actuators (`actuatorgravcomp`), bodies inside
@@ -345,7 +345,12 @@ mod tests {
             ("", r#"<joint name="b" type="ball"/>"#, r#"<actuator><motor joint="b"/></actuator>"#,
              "actuators drive hinges and slides"),
             ("", r#"<geom type="mesh" mesh="m"/>"#, "", "mesh"),
-            ("", "", r#"<tendon><spatial name="t"/></tendon>"#, "spatial tendons"),
+            ("", "", r#"<tendon><spatial name="t"/></tendon>"#, "needs a path of sites"),
+            ("", r#"<geom name="g" type="box" size="1 1 1"/><site name="s"/>"#,
+             r#"<tendon><spatial><site site="s"/><geom geom="g"/><site site="s"/></spatial></tendon>"#,
+             "wrap geom 'g' must be a sphere or a cylinder"),
+            ("", "", r#"<tendon><spatial><site site="nowhere"/></spatial></tendon>"#,
+             "unknown site 'nowhere'"),
             ("", r#"<joint name="j"/>"#,
              r#"<tendon><fixed armature="1"><joint joint="j" coef="1"/></fixed></tendon>"#,
              "tendon armature"),

@@ -65,7 +65,14 @@ pub const FIXED_TENDON_ATTRS: &[&str] = &[
 /// A `<default>`'s `<tendon>` takes these (a spatial tendon's looks) besides
 /// [`FIXED_TENDON_ATTRS`].
 pub const DEFAULT_TENDON_ONLY_ATTRS: &[&str] = &["width", "material"];
-pub const TENDON_JOINT_ATTRS: &[&str] = &["joint", "coef"];
+/// A `<spatial>` takes these: a fixed tendon's and its looks.
+#[rustfmt::skip]
+pub const SPATIAL_TENDON_ATTRS: &[&str] = &[
+    "name", "class", "group", "limited", "actuatorfrclimited", "range", "actuatorfrcrange",
+    "solreflimit", "solimplimit", "solreffriction", "solimpfriction", "frictionloss",
+    "springlength", "margin", "stiffness", "damping", "armature", "rgba", "user", "width",
+    "material",
+];
 #[rustfmt::skip]
 pub const GEOM_ATTRS: &[&str] = &[
     "name", "class", "type", "contype", "conaffinity", "condim", "group", "priority", "size",

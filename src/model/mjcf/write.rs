@@ -44,7 +44,7 @@ use crate::model::{
     ActDynamics, Actuator, ActuatorQuantity, Bias, Body, Cone, ContactModel, EqualityKind,
     FrameObject, FrameQuantity, Gain, Geom, Integrator, Joint, JointKind, JointQuantity,
     ModelError, Objects, Options, PassiveMode, SensorKind, Shape, SiteQuantity, SoftOptions,
-    SolParams, Spec, CCD_ITERATIONS, CCD_TOLERANCE,
+    SolParams, Spec, Wrap, CCD_ITERATIONS, CCD_TOLERANCE,
 };
 
 /// Writes `spec` as an MJCF document, checked by reading and validating it.
@@ -503,7 +503,12 @@ fn write_tendons(doc: &mut Document, spec: &Spec) {
     }
     doc.open(1, Tag::new("tendon"));
     for t in &spec.tendons {
-        let tag = Tag::new("fixed")
+        let kind = if t.spatial.is_empty() {
+            "fixed"
+        } else {
+            "spatial"
+        };
+        let tag = Tag::new(kind)
             .text("name", &t.name)
             .number("stiffness", t.stiffness)
             .number("damping", t.damping)
@@ -520,9 +525,27 @@ fn write_tendons(doc: &mut Document, spec: &Spec) {
                 .number("coef", *coef);
             doc.empty(3, joint);
         }
-        doc.close(2, "fixed");
+        for w in &t.spatial {
+            doc.empty(3, wrap_tag(spec, w));
+        }
+        doc.close(2, kind);
     }
     doc.close(1, "tendon");
+}
+
+/// One element of a spatial tendon's path.
+fn wrap_tag(spec: &Spec, w: &Wrap) -> Tag {
+    match w {
+        Wrap::Site(k) => Tag::new("site").text("site", &spec.sites[*k].name),
+        Wrap::Geom { geom, sidesite } => {
+            let tag = Tag::new("geom").text("geom", &spec.geoms[*geom].name);
+            match sidesite {
+                Some(k) => tag.text("sidesite", &spec.sites[*k].name),
+                None => tag,
+            }
+        }
+        Wrap::Pulley { divisor } => Tag::new("pulley").number("divisor", *divisor),
+    }
 }
 
 fn write_equalities(doc: &mut Document, spec: &Spec) {
