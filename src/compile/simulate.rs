@@ -29,6 +29,21 @@ impl Model {
         tau
     }
 
+    /// The generalized forces (nv) a step from `x` under `u` applies before
+    /// the passive and constraint forces: u.tau plus the actuators' forces
+    /// read at x (MuJoCo's qfrc_applied + qfrc_actuator).
+    pub fn held_forces(&self, x: &State, u: &Inputs) -> Vec<f64> {
+        use dynamics::actuation::{act_rates, add_actuator_forces};
+        let actuators = &self.tree.actuators;
+        let mut rates = vec![0.0; x.act.len()];
+        act_rates(actuators, (&u.ctrl, &x.act), &mut rates);
+        let mut force = u.tau.clone();
+        force.resize(self.nv(), 0.0);
+        let (h, state) = (self.opt.timestep, (&x.q[..], &x.v[..]));
+        add_actuator_forces(actuators, h, state, (&u.ctrl, &x.act, &rates), &mut force);
+        force
+    }
+
     /// A workspace for this model's dynamics.
     pub fn data(&self) -> Data<f64> {
         Data::new(&self.tree)
