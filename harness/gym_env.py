@@ -1,7 +1,8 @@
 """Gymnasium environments of the paper's tasks on our engine: the cartpole (Section 4.2), the
-half cheetah (4.3) and the wiping arm (4.4).
+half cheetah (4.3) and the wiping arm (4.4), and the quadruped (issue 41).
 
-Registered as "diffosi/CartPole-v0", "diffosi/HalfCheetah-v0" and "diffosi/Wiping-v0" by
+Registered as "diffosi/CartPole-v0", "diffosi/HalfCheetah-v0", "diffosi/Wiping-v0" and
+"diffosi/Quadruped-v0" by
 harness/gym_hook.py wherever the wheel is installed (in the checkout, `import harness.gym_env`
 registers them); each is also vectorised by gymnasium (`gymnasium.make_vec(id, num_envs=8,
 vectorization_mode="sync" | "async")`; "async" steps the copies in processes of their own), and
@@ -212,5 +213,59 @@ class WipingEnv(MjcfRendering, gymnasium.Env):
         return self._observation(), float(reward), False, run.k >= run.steps, {"mu": self.mu.copy()}
 
 
+class QuadrupedEnv(gymnasium.Env):
+    """The quadruped, diffosi.Task("quadruped") (src/tasks/quadruped/ has its conventions): a
+    Unitree Go1 with a payload walks forward at 0.5 m/s. Observation (34): base height, gravity
+    in base axes, base linear and angular velocity in base axes, joint offsets from the standing
+    pose, joint rates; action twelve servo targets in [-1, 1] (clipped; target = standing pose +
+    0.5 a rad), held for the task's 4 physics steps of 0.005 s (50 Hz); reward the task metric
+    (velocity tracking + uprightness - energy); terminated on a fall (info["fell"]), truncated
+    after 1000 steps. mu = (payload mass in [0, 8] kg, its COM offset along the trunk's x in
+    [-0.1, 0.1] m): fixed if given, else drawn uniformly at every reset; info["mu"] says which.
+    reset(seed=...) seeds the mu draw and the task's reset noise. It does not render (its model
+    is a URDF, which the MJCF renderer does not draw)."""
+
+    metadata = {"render_modes": []}
+
+    def __init__(self, mu=None, render_mode=None):
+        if render_mode is not None:
+            raise ValueError(f"render_mode={render_mode!r}: diffosi/Quadruped-v0 does not render")
+        self.render_mode = None
+        self.task = diffosi.Task("quadruped")
+        self.mu_range = tuple(np.asarray(b, float) for b in self.task.mu_range)
+        if mu is not None:
+            mu = np.asarray(mu, float)
+            if mu.shape != (2,) or not np.all((self.mu_range[0] <= mu) & (mu <= self.mu_range[1])):
+                raise ValueError(f"mu = {mu}: (payload mass in [0, 8] kg, COM offset in [-0.1, 0.1] m)")
+        self.fixed_mu = mu
+        big = np.finfo(np.float64).max
+        self.observation_space = spaces.Box(-big, big, shape=(self.task.obs_dim,), dtype=np.float64)
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(self.task.act_dim,), dtype=np.float64)
+        self.mu, self.model, self._q, self._v, self._steps = None, None, None, None, 0
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        drawn = self.np_random.uniform(*self.mu_range)
+        self.mu = self.fixed_mu.copy() if self.fixed_mu is not None else drawn
+        self.model = self.task.model(self.mu)
+        self._q, self._v = self.task.reset(int(self.np_random.integers(2**63)))
+        self._steps = 0
+        return self.task.observe(self._q, self._v), {"mu": self.mu.copy()}
+
+    def step(self, action):
+        action = np.clip(np.asarray(action, dtype=np.float64).reshape(self.action_space.shape), -1.0, 1.0)
+        tau, ctrl = self.task.inputs(action)
+        q, v = self._q, self._v
+        for _ in range(self.task.substeps):
+            q, v = self.model.step(q, v, tau, ctrl=ctrl)
+        reward = self.task.metric(self._q, self._v, action, q, v)
+        self._q, self._v = q, v
+        self._steps += 1
+        fell = self.task.terminated(q, v)
+        truncated = not fell and self._steps >= self.task.horizon
+        return self.task.observe(q, v), float(reward), fell, truncated, {"mu": self.mu.copy(), "fell": fell}
+
+
 HALF_CHEETAH_ID, WIPING_ID = "diffosi/HalfCheetah-v0", "diffosi/Wiping-v0"
+QUADRUPED_ID = "diffosi/Quadruped-v0"
 gym_hook.register()

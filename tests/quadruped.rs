@@ -20,7 +20,8 @@ fn the_unloaded_go1_stands_on_its_servos_at_the_zero_action() {
     let m = task.model();
     assert_eq!((m.nq(), m.nv(), m.nu(), task.obs_dim()), (19, 18, 12, 34));
     let mut env = Env::new(&task);
-    env.reset(&[0.0, 0.0], &mut StdRng::seed_from_u64(1)).unwrap();
+    env.reset(&[0.0, 0.0], &mut StdRng::seed_from_u64(1))
+        .unwrap();
     for _ in 0..250 {
         let out = env.step(&[0.0; 12]).unwrap();
         assert!(!out.terminated, "fell at {:?}", env.state().q);
@@ -56,12 +57,21 @@ fn the_payload_is_the_trunks_composite_by_the_parameter_rules() {
     let i = i_t + shift(c_t - c, m_t) + i_p + shift(c_p - c, mass);
     composite.set_param("body/trunk/mass", &[m]).unwrap();
     composite.set_param("body/trunk/com", c.as_slice()).unwrap();
-    let six = [i[(0, 0)], i[(1, 1)], i[(2, 2)], i[(0, 1)], i[(0, 2)], i[(1, 2)]];
+    let six = [
+        i[(0, 0)],
+        i[(1, 1)],
+        i[(2, 2)],
+        i[(0, 1)],
+        i[(0, 2)],
+        i[(1, 2)],
+    ];
     composite.set_param("body/trunk/inertia", &six).unwrap();
     // Standing with the feet pressed into the floor, moving, under servo targets.
     let mut x0 = task.reset(&mut StdRng::seed_from_u64(2));
     x0.q[2] -= 0.03;
-    x0.v.iter_mut().enumerate().for_each(|(i, v)| *v = 0.1 * (i as f64).sin());
+    x0.v.iter_mut()
+        .enumerate()
+        .for_each(|(i, v)| *v = 0.1 * (i as f64).sin());
     let u = task.inputs(&[0.3; 12]);
     let (mut a, mut b) = (x0.clone(), x0);
     let (mut da, mut db) = (loaded.data(), composite.data());
@@ -70,7 +80,12 @@ fn the_payload_is_the_trunks_composite_by_the_parameter_rules() {
         b = composite.step(&mut db, &b, &u).unwrap();
     }
     assert!(gap(&a, &b) < 1e-9, "{}", gap(&a, &b));
-    assert!(gap(&a, &task.model().step(&mut task.model().data(), &a, &u).unwrap()) > 1e-3);
+    assert!(
+        gap(
+            &a,
+            &task.model().step(&mut task.model().data(), &a, &u).unwrap()
+        ) > 1e-3
+    );
 }
 
 /// The identifiers' view of a servo step: its start state and the forces
@@ -80,7 +95,8 @@ fn the_payload_is_the_trunks_composite_by_the_parameter_rules() {
 fn a_servo_steps_transition_replays_under_its_held_forces() {
     let task = Quadruped::new();
     let mut env = Env::new(&task);
-    env.reset(&[3.0, -0.05], &mut StdRng::seed_from_u64(3)).unwrap();
+    env.reset(&[3.0, -0.05], &mut StdRng::seed_from_u64(3))
+        .unwrap();
     for k in 0..30 {
         let action: Vec<f64> = (0..12).map(|j| ((j + k) as f64).cos()).collect();
         env.step(&action).unwrap();
@@ -88,7 +104,9 @@ fn a_servo_steps_transition_replays_under_its_held_forces() {
     let t = env.last_transition().unwrap();
     let mut model = task.model().clone();
     task.mu_map().apply(&mut model, env.mu()).unwrap();
-    let replay = model.step(&mut model.data(), &t.start, &Inputs::tau(&t.tau)).unwrap();
+    let replay = model
+        .step(&mut model.data(), &t.start, &Inputs::tau(&t.tau))
+        .unwrap();
     assert!(gap(&replay, &t.next) < 1e-12, "{}", gap(&replay, &t.next));
     assert!(t.tau[6..].iter().any(|f| f.abs() > 1.0), "{:?}", t.tau);
 }
