@@ -100,7 +100,35 @@ class CartPoleEnv(MjcfRendering, gymnasium.Env):
 
 
 
-class HalfCheetahEnv(MjcfRendering, gymnasium.Env):
+class TaskEnv(gymnasium.Env):
+    """A diffosi.Task stepped as gymnasium steps: the subclass sets `task` and, at reset, `model`
+    (the task's model at the episode's mu), `_q`, `_v` and `_steps`."""
+
+    def _spaces(self):
+        # The largest float stands for infinity, which gymnasium's checker rejects.
+        big = np.finfo(np.float64).max
+        self.observation_space = spaces.Box(-big, big, shape=(self.task.obs_dim,), dtype=np.float64)
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(self.task.act_dim,), dtype=np.float64)
+        self.mu, self.model, self._q, self._v, self._steps = None, None, None, None, 0
+
+    def _control_step(self, action):
+        """One control step (the action clipped, its inputs held for the task's substeps):
+        (observation, reward = the task metric, terminated, truncated)."""
+        action = np.clip(np.asarray(action, dtype=np.float64).reshape(self.action_space.shape), -1.0, 1.0)
+        tau, ctrl = self.task.inputs(action)
+        ctrl = ctrl if len(ctrl) else None
+        q, v = self._q, self._v
+        for _ in range(self.task.substeps):
+            q, v = self.model.step(q, v, tau, ctrl=ctrl)
+        reward = self.task.metric(self._q, self._v, action, q, v)
+        self._q, self._v = q, v
+        self._steps += 1
+        terminated = self.task.terminated(q, v)
+        truncated = not terminated and self._steps >= self.task.horizon
+        return self.task.observe(q, v), float(reward), terminated, truncated
+
+
+class HalfCheetahEnv(MjcfRendering, TaskEnv):
     """The paper's half cheetah, diffosi.Task("half_cheetah") (src/tasks/half_cheetah.rs has its
     conventions, gymnasium HalfCheetah-v5's): observation (17) the torso's height and pitch, the
     six leg joints, then every velocity; action six motor controls in [-1, 1] (clipped), held for
@@ -120,10 +148,7 @@ class HalfCheetahEnv(MjcfRendering, gymnasium.Env):
         if mu is not None and not self.mu_range[0] <= mu <= self.mu_range[1]:
             raise ValueError(f"mu = {mu} kg: the torso mass lies in {list(self.mu_range)}")
         self.fixed_mu = None if mu is None else float(mu)
-        big = np.finfo(np.float64).max
-        self.observation_space = spaces.Box(-big, big, shape=(self.task.obs_dim,), dtype=np.float64)
-        self.action_space = spaces.Box(-1.0, 1.0, shape=(self.task.act_dim,), dtype=np.float64)
-        self.mu, self.model, self._q, self._v, self._steps = None, None, None, None, 0
+        self._spaces()
 
     def reset(self, *, seed=None, options=None):
         super().reset(seed=seed)
@@ -134,17 +159,7 @@ class HalfCheetahEnv(MjcfRendering, gymnasium.Env):
         return self.task.observe(self._q, self._v), {"mu": self.mu}
 
     def step(self, action):
-        action = np.clip(np.asarray(action, dtype=np.float64).reshape(self.action_space.shape), -1.0, 1.0)
-        tau = self.task.forces(action)
-        q, v = self._q, self._v
-        for _ in range(self.task.substeps):
-            q, v = self.model.step(q, v, tau)
-        reward = self.task.metric(self._q, self._v, action, q, v)
-        self._q, self._v = q, v
-        self._steps += 1
-        terminated = self.task.terminated(q, v)
-        truncated = self._steps >= self.task.horizon
-        return self.task.observe(q, v), float(reward), terminated, truncated, {"mu": self.mu}
+        return *self._control_step(action), {"mu": self.mu}
 
     def render_q(self):
         return self._q
@@ -213,7 +228,7 @@ class WipingEnv(MjcfRendering, gymnasium.Env):
         return self._observation(), float(reward), False, run.k >= run.steps, {"mu": self.mu.copy()}
 
 
-class QuadrupedEnv(gymnasium.Env):
+class QuadrupedEnv(TaskEnv):
     """The quadruped, diffosi.Task("quadruped") (src/tasks/quadruped/ has its conventions): a
     Unitree Go1 with a payload walks forward at 0.5 m/s. Observation (34): base height, gravity
     in base axes, base linear and angular velocity in base axes, joint offsets from the standing
@@ -238,10 +253,7 @@ class QuadrupedEnv(gymnasium.Env):
             if mu.shape != (2,) or not np.all((self.mu_range[0] <= mu) & (mu <= self.mu_range[1])):
                 raise ValueError(f"mu = {mu}: (payload mass in [0, 8] kg, COM offset in [-0.1, 0.1] m)")
         self.fixed_mu = mu
-        big = np.finfo(np.float64).max
-        self.observation_space = spaces.Box(-big, big, shape=(self.task.obs_dim,), dtype=np.float64)
-        self.action_space = spaces.Box(-1.0, 1.0, shape=(self.task.act_dim,), dtype=np.float64)
-        self.mu, self.model, self._q, self._v, self._steps = None, None, None, None, 0
+        self._spaces()
 
     def reset(self, *, seed=None, options=None):
         super().reset(seed=seed)
@@ -253,17 +265,8 @@ class QuadrupedEnv(gymnasium.Env):
         return self.task.observe(self._q, self._v), {"mu": self.mu.copy()}
 
     def step(self, action):
-        action = np.clip(np.asarray(action, dtype=np.float64).reshape(self.action_space.shape), -1.0, 1.0)
-        tau, ctrl = self.task.inputs(action)
-        q, v = self._q, self._v
-        for _ in range(self.task.substeps):
-            q, v = self.model.step(q, v, tau, ctrl=ctrl)
-        reward = self.task.metric(self._q, self._v, action, q, v)
-        self._q, self._v = q, v
-        self._steps += 1
-        fell = self.task.terminated(q, v)
-        truncated = not fell and self._steps >= self.task.horizon
-        return self.task.observe(q, v), float(reward), fell, truncated, {"mu": self.mu.copy(), "fell": fell}
+        observation, reward, fell, truncated = self._control_step(action)
+        return observation, reward, fell, truncated, {"mu": self.mu.copy(), "fell": fell}
 
 
 HALF_CHEETAH_ID, WIPING_ID = "diffosi/HalfCheetah-v0", "diffosi/Wiping-v0"

@@ -1,6 +1,7 @@
 //! The quadruped task (src/tasks/quadruped): its model, its payload rule,
 //! its servo inputs and its episodes.
 
+use diffosi::model::params::{inertia_from_six, inertia_to_six};
 use diffosi::model::{Inputs, State};
 use diffosi::tasks::{Env, Quadruped, Task};
 use nalgebra::{Matrix3, Vector3};
@@ -44,8 +45,7 @@ fn the_payload_is_the_trunks_composite_by_the_parameter_rules() {
     let param = |name: &str| composite.get_param(name).unwrap();
     let (m_t, c_t) = (param("body/trunk/mass")[0], param("body/trunk/com"));
     let c_t = Vector3::from_column_slice(&c_t);
-    let s = param("body/trunk/inertia");
-    let i_t = Matrix3::new(s[0], s[3], s[4], s[3], s[1], s[5], s[4], s[5], s[2]);
+    let i_t = inertia_from_six(&param("body/trunk/inertia"));
     let c_p = Vector3::new(x, 0.0, 0.082);
     let per_kg = [0.01 + 0.0025, 0.04 + 0.0025, 0.04 + 0.01].map(|s| s / 12.0);
     let i_p = Matrix3::from_diagonal(&Vector3::from(per_kg)) * mass;
@@ -57,15 +57,9 @@ fn the_payload_is_the_trunks_composite_by_the_parameter_rules() {
     let i = i_t + shift(c_t - c, m_t) + i_p + shift(c_p - c, mass);
     composite.set_param("body/trunk/mass", &[m]).unwrap();
     composite.set_param("body/trunk/com", c.as_slice()).unwrap();
-    let six = [
-        i[(0, 0)],
-        i[(1, 1)],
-        i[(2, 2)],
-        i[(0, 1)],
-        i[(0, 2)],
-        i[(1, 2)],
-    ];
-    composite.set_param("body/trunk/inertia", &six).unwrap();
+    composite
+        .set_param("body/trunk/inertia", &inertia_to_six(&i))
+        .unwrap();
     // Standing with the feet pressed into the floor, moving, under servo targets.
     let mut x0 = task.reset(&mut StdRng::seed_from_u64(2));
     x0.q[2] -= 0.03;
