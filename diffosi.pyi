@@ -311,7 +311,7 @@ class CmaEs:
 
 @final
 class Task:
-    """A control task by name: "cartpole", "half_cheetah", "half_cheetah_contact"."""
+    """A control task by name: "cartpole", "half_cheetah", "half_cheetah_contact", "quadruped"."""
 
     def __new__(cls, name: str) -> Task: ...
     @property
@@ -335,6 +335,8 @@ class Task:
         """(mu (count, nmu), q0 (count, nq), v0 (count, nv))."""
     def observe(self, q: ArrayLike, v: ArrayLike) -> _F64: ...
     def forces(self, action: ArrayLike) -> _F64: ...
+    def inputs(self, action: ArrayLike) -> tuple[_F64, _F64]:
+        """(tau (nv,), ctrl (nu,) or empty) a control step holds."""
     def terminated(self, q: ArrayLike, v: ArrayLike) -> bool: ...
     def metric(self, q: ArrayLike, v: ArrayLike, action: ArrayLike, q_next: ArrayLike, v_next: ArrayLike) -> float: ...
 

@@ -1,7 +1,8 @@
 """Gymnasium environments of the paper's tasks on our engine: the cartpole (Section 4.2), the
-half cheetah (4.3) and the wiping arm (4.4).
+half cheetah (4.3) and the wiping arm (4.4), and the quadruped (issue 41).
 
-Registered as "diffosi/CartPole-v0", "diffosi/HalfCheetah-v0" and "diffosi/Wiping-v0" by
+Registered as "diffosi/CartPole-v0", "diffosi/HalfCheetah-v0", "diffosi/Wiping-v0" and
+"diffosi/Quadruped-v0" by
 harness/gym_hook.py wherever the wheel is installed (in the checkout, `import harness.gym_env`
 registers them); each is also vectorised by gymnasium (`gymnasium.make_vec(id, num_envs=8,
 vectorization_mode="sync" | "async")`; "async" steps the copies in processes of their own), and
@@ -99,7 +100,35 @@ class CartPoleEnv(MjcfRendering, gymnasium.Env):
 
 
 
-class HalfCheetahEnv(MjcfRendering, gymnasium.Env):
+class TaskEnv(gymnasium.Env):
+    """A diffosi.Task stepped as gymnasium steps: the subclass sets `task` and, at reset, `model`
+    (the task's model at the episode's mu), `_q`, `_v` and `_steps`."""
+
+    def _spaces(self):
+        # The largest float stands for infinity, which gymnasium's checker rejects.
+        big = np.finfo(np.float64).max
+        self.observation_space = spaces.Box(-big, big, shape=(self.task.obs_dim,), dtype=np.float64)
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(self.task.act_dim,), dtype=np.float64)
+        self.mu, self.model, self._q, self._v, self._steps = None, None, None, None, 0
+
+    def _control_step(self, action):
+        """One control step (the action clipped, its inputs held for the task's substeps):
+        (observation, reward = the task metric, terminated, truncated)."""
+        action = np.clip(np.asarray(action, dtype=np.float64).reshape(self.action_space.shape), -1.0, 1.0)
+        tau, ctrl = self.task.inputs(action)
+        ctrl = ctrl if len(ctrl) else None
+        q, v = self._q, self._v
+        for _ in range(self.task.substeps):
+            q, v = self.model.step(q, v, tau, ctrl=ctrl)
+        reward = self.task.metric(self._q, self._v, action, q, v)
+        self._q, self._v = q, v
+        self._steps += 1
+        terminated = self.task.terminated(q, v)
+        truncated = not terminated and self._steps >= self.task.horizon
+        return self.task.observe(q, v), float(reward), terminated, truncated
+
+
+class HalfCheetahEnv(MjcfRendering, TaskEnv):
     """The paper's half cheetah, diffosi.Task("half_cheetah") (src/tasks/half_cheetah.rs has its
     conventions, gymnasium HalfCheetah-v5's): observation (17) the torso's height and pitch, the
     six leg joints, then every velocity; action six motor controls in [-1, 1] (clipped), held for
@@ -119,10 +148,7 @@ class HalfCheetahEnv(MjcfRendering, gymnasium.Env):
         if mu is not None and not self.mu_range[0] <= mu <= self.mu_range[1]:
             raise ValueError(f"mu = {mu} kg: the torso mass lies in {list(self.mu_range)}")
         self.fixed_mu = None if mu is None else float(mu)
-        big = np.finfo(np.float64).max
-        self.observation_space = spaces.Box(-big, big, shape=(self.task.obs_dim,), dtype=np.float64)
-        self.action_space = spaces.Box(-1.0, 1.0, shape=(self.task.act_dim,), dtype=np.float64)
-        self.mu, self.model, self._q, self._v, self._steps = None, None, None, None, 0
+        self._spaces()
 
     def reset(self, *, seed=None, options=None):
         super().reset(seed=seed)
@@ -133,17 +159,7 @@ class HalfCheetahEnv(MjcfRendering, gymnasium.Env):
         return self.task.observe(self._q, self._v), {"mu": self.mu}
 
     def step(self, action):
-        action = np.clip(np.asarray(action, dtype=np.float64).reshape(self.action_space.shape), -1.0, 1.0)
-        tau = self.task.forces(action)
-        q, v = self._q, self._v
-        for _ in range(self.task.substeps):
-            q, v = self.model.step(q, v, tau)
-        reward = self.task.metric(self._q, self._v, action, q, v)
-        self._q, self._v = q, v
-        self._steps += 1
-        terminated = self.task.terminated(q, v)
-        truncated = self._steps >= self.task.horizon
-        return self.task.observe(q, v), float(reward), terminated, truncated, {"mu": self.mu}
+        return *self._control_step(action), {"mu": self.mu}
 
     def render_q(self):
         return self._q
@@ -212,5 +228,47 @@ class WipingEnv(MjcfRendering, gymnasium.Env):
         return self._observation(), float(reward), False, run.k >= run.steps, {"mu": self.mu.copy()}
 
 
+class QuadrupedEnv(TaskEnv):
+    """The quadruped, diffosi.Task("quadruped") (src/tasks/quadruped/ has its conventions): a
+    Unitree Go1 with a payload walks forward at 0.5 m/s. Observation (34): base height, gravity
+    in base axes, base linear and angular velocity in base axes, joint offsets from the standing
+    pose, joint rates; action twelve servo targets in [-1, 1] (clipped; target = standing pose +
+    0.5 a rad), held for the task's 4 physics steps of 0.005 s (50 Hz); reward the task metric
+    (velocity tracking + uprightness - energy); terminated on a fall (info["fell"]), truncated
+    after 1000 steps. mu = (payload mass in [0, 8] kg, its COM offset along the trunk's x in
+    [-0.1, 0.1] m): fixed if given, else drawn uniformly at every reset; info["mu"] says which.
+    reset(seed=...) seeds the mu draw and the task's reset noise. It does not render (its model
+    is a URDF, which the MJCF renderer does not draw)."""
+
+    metadata = {"render_modes": []}
+
+    def __init__(self, mu=None, render_mode=None):
+        if render_mode is not None:
+            raise ValueError(f"render_mode={render_mode!r}: diffosi/Quadruped-v0 does not render")
+        self.render_mode = None
+        self.task = diffosi.Task("quadruped")
+        self.mu_range = tuple(np.asarray(b, float) for b in self.task.mu_range)
+        if mu is not None:
+            mu = np.asarray(mu, float)
+            if mu.shape != (2,) or not np.all((self.mu_range[0] <= mu) & (mu <= self.mu_range[1])):
+                raise ValueError(f"mu = {mu}: (payload mass in [0, 8] kg, COM offset in [-0.1, 0.1] m)")
+        self.fixed_mu = mu
+        self._spaces()
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        drawn = self.np_random.uniform(*self.mu_range)
+        self.mu = self.fixed_mu.copy() if self.fixed_mu is not None else drawn
+        self.model = self.task.model(self.mu)
+        self._q, self._v = self.task.reset(int(self.np_random.integers(2**63)))
+        self._steps = 0
+        return self.task.observe(self._q, self._v), {"mu": self.mu.copy()}
+
+    def step(self, action):
+        observation, reward, fell, truncated = self._control_step(action)
+        return observation, reward, fell, truncated, {"mu": self.mu.copy(), "fell": fell}
+
+
 HALF_CHEETAH_ID, WIPING_ID = "diffosi/HalfCheetah-v0", "diffosi/Wiping-v0"
+QUADRUPED_ID = "diffosi/Quadruped-v0"
 gym_hook.register()

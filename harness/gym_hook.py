@@ -1,7 +1,7 @@
 """Registers the gymnasium environments of harness/gym_env.py under gymnasium's ids
-("diffosi/CartPole-v0", "diffosi/HalfCheetah-v0", "diffosi/Wiping-v0") in any Python of an
-environment where the wheel is installed, so that `gymnasium.make("diffosi/CartPole-v0")`
-needs no `import harness.gym_env` first.
+("diffosi/CartPole-v0", "diffosi/HalfCheetah-v0", "diffosi/Wiping-v0", "diffosi/Quadruped-v0")
+in any Python of an environment where the wheel is installed, so that
+`gymnasium.make("diffosi/CartPole-v0")` needs no `import harness.gym_env` first.
 
 Gymnasium 1.x loads no plugins (its `gymnasium.envs` entry-point group was removed in 1.0),
 so the wheel ships `diffosi_gym.pth`, which imports this module at interpreter start-up.
@@ -19,6 +19,7 @@ ENTRY_POINTS = {
     "diffosi/CartPole-v0": "harness.gym_env:CartPoleEnv",
     "diffosi/HalfCheetah-v0": "harness.gym_env:HalfCheetahEnv",
     "diffosi/Wiping-v0": "harness.gym_env:WipingEnv",
+    "diffosi/Quadruped-v0": "harness.gym_env:QuadrupedEnv",
 }
 
 

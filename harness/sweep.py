@@ -5,7 +5,7 @@ A sweep is a TOML file naming the work (sweeps/*.toml has examples):
     name = "cartpole-seeds"          # the default output directory: sweeps/out/<name>/
 
     [train]                          # PPO: every task x kind x seed
-    tasks = ["cartpole"]
+    tasks = ["cartpole"]             # the transfer tasks, or "quadruped" (training only, for now)
     kinds = ["uc", "dr"]
     seeds = [0, 1, 2, 3, 4]
     steps = 300000                   # environment steps (default: the shipped policies' budget)
@@ -62,6 +62,8 @@ KINDS = ("uc", "dr")
 TRAIN_KEYS = {"tasks", "kinds", "seeds", "steps"}
 TRANSFER_KEYS = {"tasks", "targets", "methods", "policy_seeds", "policies", "episodes", "seed", "window",
                  "horizon", "plot_episodes"}
+# Tasks a sweep trains without transferring them yet (issue 41: the quadruped's transfer is to come).
+TRAIN_ONLY = ("quadruped",)
 TABLES = {"cartpole": "cartpole", "half_cheetah": "cheetah"}  # diffosi reproduce's name of a task's tables
 PLOT_EPISODES = 3  # episodes per unit that keep their fed-mu trace (harness transfer plots them)
 # What a worker does not need of the checkout (it needs harness/ and reference_models/).
@@ -134,9 +136,10 @@ def load_spec(path: Path) -> tuple[str, list[Unit]]:
         return s
 
     train, move = section("train", TRAIN_KEYS), section("transfer", TRANSFER_KEYS)
+    trainable = (*transfer.TASKS, *TRAIN_ONLY)
     for task in train.get("tasks", []):
-        if task not in transfer.TASKS:
-            raise ValueError(f"{path}: [train] task {task!r}: one of {', '.join(transfer.TASKS)}")
+        if task not in trainable:
+            raise ValueError(f"{path}: [train] task {task!r}: one of {', '.join(trainable)}")
     if bad := set(train.get("kinds", KINDS)) - set(KINDS):
         raise ValueError(f"{path}: [train] kinds are {' and '.join(KINDS)}, not {sorted(bad)}")
     units = [unit("train", task=t, policy=k, seed=int(s), steps=train.get("steps"))

@@ -137,7 +137,7 @@ enum Command {
     /// Train a task's policy with PPO (writes the policy JSON and its learning
     /// curve, CSV and SVG), or a UC-MLP identifier (writes its weights JSON).
     Train {
-        /// Task name (cartpole, half_cheetah, half_cheetah_contact).
+        /// Task name (cartpole, half_cheetah, half_cheetah_contact, quadruped).
         #[arg(long, default_value = "cartpole")]
         task: String,
         /// uc: Universal Controller (observes the state and mu); dr:
@@ -177,7 +177,7 @@ enum Command {
     /// episodes with the true mu drawn uniformly (the same episodes for every
     /// policy and source). With several --policy files the summary pools them.
     Eval {
-        /// Task name (cartpole, half_cheetah, half_cheetah_contact).
+        /// Task name (cartpole, half_cheetah, half_cheetah_contact, quadruped).
         #[arg(long, default_value = "cartpole")]
         task: String,
         /// Policy file(s) written by `diffosi train`; repeat for several.

@@ -28,7 +28,7 @@ use crate::model::PyModel;
 /// `model(mu)` is the task's model with mu applied (a `diffosi.Model`);
 /// `mu_params(mu)` the physical parameters mu sets; `episodes(n, seed)` the
 /// seeded (mu, initial state) pairs that `diffosi eval --seed` meets;
-/// `observe`, `forces`, `terminated` and `metric` are the task's own.
+/// `observe`, `forces`, `inputs`, `terminated` and `metric` are the task's own.
 #[pyclass(name = "Task", module = "diffosi", frozen)]
 pub(crate) struct PyTask {
     pub(crate) task: Box<dyn Task>,
@@ -202,6 +202,17 @@ impl PyTask {
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let action = self.action(action)?;
         Ok(PyArray1::from_vec(py, self.task.forces(&action)))
+    }
+
+    /// The step's inputs (tau, ctrl) for an action, held over the control
+    /// step: ctrl is empty unless the task's actions drive actuators.
+    fn inputs<'py>(
+        &self,
+        py: Python<'py>,
+        action: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        let u = self.task.inputs(&self.action(action)?);
+        PyTuple::new(py, [u.tau, u.ctrl].map(|a| PyArray1::from_vec(py, a)))
     }
 
     /// Whether an episode ends at (q, v).

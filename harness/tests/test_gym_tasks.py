@@ -1,5 +1,6 @@
-"""The half cheetah's and the wiping arm's gymnasium environments (harness/gym_env.py): the
-env checker, seeding, the task's own dynamics and reward, mu, and their vectorised variants."""
+"""The half cheetah's, the wiping arm's and the quadruped's gymnasium environments
+(harness/gym_env.py): the env checker, seeding, the task's own dynamics and reward, mu, and their
+vectorised variants."""
 
 import warnings
 
@@ -11,7 +12,7 @@ from gymnasium.utils.env_checker import check_env
 import diffosi
 from harness import gym_env
 
-IDS = [gym_env.HALF_CHEETAH_ID, gym_env.WIPING_ID]
+IDS = [gym_env.HALF_CHEETAH_ID, gym_env.WIPING_ID, gym_env.QUADRUPED_ID]
 
 
 def make(env_id, **kwargs):
@@ -72,6 +73,44 @@ def test_the_cheetah_is_truncated_after_its_horizon():
         steps += 1
         assert not terminated
     assert steps == diffosi.Task("half_cheetah").horizon
+
+
+def test_the_quadruped_steps_the_task_through_its_servos():
+    mu = np.array([6.0, -0.08])
+    env = make(gym_env.QUADRUPED_ID, mu=mu)
+    observation, info = env.reset(seed=2)
+    task = diffosi.Task("quadruped")
+    model = task.model(mu)
+    np.testing.assert_array_equal(info["mu"], mu)
+    assert model.get_param("body/payload/mass")[0] == 6.0
+    q, v = env._q, env._v
+    np.testing.assert_array_equal(observation, task.observe(q, v))
+    action = np.linspace(-1, 1, 12)
+    tau, ctrl = task.inputs(action)
+    np.testing.assert_array_equal(tau, np.zeros(18))
+    np.testing.assert_allclose(ctrl - task.inputs(np.zeros(12))[1], 0.5 * action, rtol=0, atol=1e-15)
+    observation, reward, terminated, truncated, info = env.step(action)
+    q1, v1 = q, v
+    for _ in range(task.substeps):
+        q1, v1 = model.step(q1, v1, tau, ctrl=ctrl)
+    np.testing.assert_array_equal(observation, task.observe(q1, v1))
+    assert reward == task.metric(q, v, action, q1, v1) and not terminated and not info["fell"]
+    with pytest.raises(ValueError, match="payload mass"):
+        make(gym_env.QUADRUPED_ID, mu=[9.0, 0.0])
+    with pytest.raises(ValueError, match="does not render"):
+        gym_env.QuadrupedEnv(render_mode="rgb_array")
+
+
+def test_a_quadruped_that_falls_is_terminated():
+    """Full-range actions alternating every 5 steps throw the Go1 over within its horizon."""
+    env = make(gym_env.QUADRUPED_ID, mu=[8.0, 0.1])
+    env.reset(seed=0)
+    for k in range(env.task.horizon):
+        sign = 1.0 if (k // 5) % 2 else -1.0
+        _, _, terminated, truncated, info = env.step(sign * np.ones(12))
+        if terminated:
+            break
+    assert terminated and info["fell"] and not truncated and k < env.task.horizon - 1
 
 
 def test_wiping_with_the_canonical_gains_is_the_tasks_episode():

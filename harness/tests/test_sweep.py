@@ -116,6 +116,21 @@ def test_a_failing_unit_is_retried_then_reported_with_its_dependents(tmp_path):
     assert "FAILED train-cartpole-uc-seed0: ValueError: steps must be at least 1" in run.stdout
 
 
+def test_quadruped_training_units_are_pure_functions_of_their_parameters():
+    """sweeps/quadruped-seeds.toml trains uc and dr over seeds; one PPO iteration of a unit run
+    twice gives the same policy and curve."""
+    from harness import sweep as sw
+
+    name, units = sw.load_spec(REPO / "sweeps" / "quadruped-seeds.toml")
+    assert name == "quadruped-seeds" and {u.p["task"] for u in units} == {"quadruped"}
+    assert sorted(u.name for u in units) == sorted(
+        f"train-quadruped-{k}-seed{s}" for k in ("uc", "dr") for s in (0, 1, 2))
+    one = sw.unit("train", task="quadruped", policy="uc", seed=1, steps=4096)
+    first, again = sw.execute(one)["result"], sw.execute(one)["result"]
+    assert first == again and len(first["curve"]) == 1
+    assert first["policy"]["task"] == "quadruped"
+
+
 @pytest.mark.parametrize("text, words", [
     ("name = 'x'\n[train]\ntask = ['cartpole']\n", "does not take ['task']"),
     ("name = 'x'\n[transfer]\ntasks = ['pendulum']\n", "task 'pendulum'"),

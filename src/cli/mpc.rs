@@ -145,6 +145,12 @@ fn uc_side(
 pub fn mpc(request: Request) -> Result<(), String> {
     let task = tasks::by_name(request.task)?;
     let task = task.as_ref();
+    if task.model().nq() != task.model().nv() {
+        return Err(format!(
+            "--task {}: the iLQR planner needs nq = nv, and this task's model has a free joint",
+            request.task
+        ));
+    }
     let mut options = MpcOptions::for_task(request.task);
     options.horizon = request.horizon.unwrap_or(options.horizon);
     options.replan = request.replan.unwrap_or(options.replan);

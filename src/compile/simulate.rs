@@ -29,6 +29,34 @@ impl Model {
         tau
     }
 
+    /// The generalized forces that, given as tau with zero controls, make
+    /// the step from `x` under `u`: u.tau plus the actuators' forces at
+    /// u.ctrl minus theirs at zero controls, both read at x (a step without
+    /// ctrl still applies the latter, e.g. a servo's bias). Exact where the
+    /// actuators' forces are explicit in the step (Euler).
+    pub fn held_forces(&self, x: &State, u: &Inputs) -> Vec<f64> {
+        let mut force = u.tau.clone();
+        force.resize(self.nv(), 0.0);
+        let at_ctrl = self.actuator_forces_at(x, &u.ctrl);
+        let at_zero = self.actuator_forces_at(x, &[]);
+        for (f, (c, z)) in force.iter_mut().zip(at_ctrl.iter().zip(&at_zero)) {
+            *f += c - z;
+        }
+        force
+    }
+
+    /// The actuators' generalized forces (nv) at x under ctrl.
+    fn actuator_forces_at(&self, x: &State, ctrl: &[f64]) -> Vec<f64> {
+        use dynamics::actuation::{act_rates, add_actuator_forces};
+        let actuators = &self.tree.actuators;
+        let mut rates = vec![0.0; x.act.len()];
+        act_rates(actuators, (ctrl, &x.act), &mut rates);
+        let mut force = vec![0.0; self.nv()];
+        let (h, state) = (self.opt.timestep, (&x.q[..], &x.v[..]));
+        add_actuator_forces(actuators, h, state, (ctrl, &x.act, &rates), &mut force);
+        force
+    }
+
     /// A workspace for this model's dynamics.
     pub fn data(&self) -> Data<f64> {
         Data::new(&self.tree)

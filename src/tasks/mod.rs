@@ -5,7 +5,8 @@
 //! - The state is the model's (q, v), SI units ([`State`]).
 //! - An action has [`Task::act_dim`] components, each meaningful in [-1, 1]
 //!   (the task clamps); [`Task::forces`] maps it to generalized forces on the
-//!   model's dofs (N on slides, N m on hinges).
+//!   model's dofs (N on slides, N m on hinges), or [`Task::inputs`] to the
+//!   actuators' controls (servo targets) where the task says so.
 //! - mu, the task's environment parameters, sets physical parameters of the
 //!   model through the task's affine [`ParamMap`]; experiments draw mu
 //!   uniformly in the box [`Task::mu_range`].
@@ -17,10 +18,12 @@
 
 mod cartpole;
 mod half_cheetah;
+pub mod quadruped;
 pub mod wiping;
 
 pub use cartpole::Cartpole;
 pub use half_cheetah::{Contact, HalfCheetah};
+pub use quadruped::Quadruped;
 pub use wiping::{tool_down_at, Wiping};
 
 use rand::rngs::StdRng;
@@ -53,6 +56,12 @@ pub trait Task: Send + Sync {
     fn observe(&self, state: &State, out: &mut Vec<f64>);
     /// Generalized forces (length nv) for an action.
     fn forces(&self, action: &[f64]) -> Vec<f64>;
+    /// The step's inputs for an action, held over the control step: by
+    /// default [`Task::forces`] as tau and no controls; a task whose actions
+    /// drive the model's actuators (servo targets) sets ctrl here.
+    fn inputs(&self, action: &[f64]) -> Inputs {
+        Inputs::tau(&self.forces(action))
+    }
     /// The training reward of one control step, in an episode with parameters mu.
     fn reward(&self, mu: &[f64], state: &State, action: &[f64], next: &State) -> f64;
     /// The cost of one control step that a trajectory optimiser minimises
@@ -78,8 +87,9 @@ pub fn by_name(name: &str) -> Result<Box<dyn Task>, String> {
         "cartpole" => Ok(Box::new(Cartpole::new())),
         "half_cheetah" => Ok(Box::new(HalfCheetah::new())),
         "half_cheetah_contact" => Ok(Box::new(HalfCheetah::contact())),
+        "quadruped" => Ok(Box::new(Quadruped::new())),
         _ => Err(format!(
-            "unknown task '{name}' (known: cartpole, half_cheetah, half_cheetah_contact)"
+            "unknown task '{name}' (known: cartpole, half_cheetah, half_cheetah_contact, quadruped)"
         )),
     }
 }
@@ -144,7 +154,8 @@ pub struct Env<'a> {
     mu: Vec<f64>,
     state: State,
     t: usize,
-    /// The last physics step: its start state and the forces held.
+    /// The last physics step: its start state and the generalized forces
+    /// it applied ([`Model::held_forces`]).
     last: Option<(State, Vec<f64>)>,
 }
 
@@ -208,7 +219,10 @@ impl<'a> Env<'a> {
     /// The last physics step of the last control step, as the identifiers see
     /// it: (q, v) before it, the forces held, (q, v) after it (the current
     /// state). With one substep it is the whole control step. None before the
-    /// first step of an episode.
+    /// first step of an episode. Under controls (a servo task) the forces
+    /// are the actuators' at its start state plus tau: the step under them
+    /// as tau alone is the same step where actuator forces are explicit
+    /// (Euler).
     pub fn last_transition(&self) -> Option<Transition> {
         let (start, tau) = self.last.clone()?;
         Some(Transition {
@@ -220,9 +234,8 @@ impl<'a> Env<'a> {
 
     /// Applies an action for one control step.
     pub fn step(&mut self, action: &[f64]) -> Result<Outcome, EnvError> {
-        let tau = self.task.forces(action);
+        let u = self.task.inputs(action);
         let model = &self.model;
-        let u = Inputs::tau(&tau);
         let step = |data: &mut Data<f64>, x: &State| {
             let State { q, v, .. } = model.step(data, x, &u)?;
             Ok::<_, StepError>(State::new(q, v))
@@ -233,6 +246,11 @@ impl<'a> Env<'a> {
             start = next;
             next = step(&mut self.data, &start)?;
         }
+        let tau = if u.ctrl.is_empty() {
+            u.tau
+        } else {
+            model.held_forces(&start, &u)
+        };
         self.last = Some((start, tau));
         let reward = self.task.reward(&self.mu, &self.state, action, &next);
         let metric = self.task.metric(&self.state, action, &next);
