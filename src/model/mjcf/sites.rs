@@ -1,14 +1,17 @@
 //! `<site>`: a frame on a body (see [`crate::model::Site`]). Its pose comes
 //! from `pos` and an orientation, or from `fromto` as a geom's does (for
-//! capsule, cylinder, box and ellipsoid sites); type, size, material, rgba,
-//! group and user data are visual and not kept. Sites take `<default>`
+//! capsule, cylinder, box and ellipsoid sites); its type and size make the
+//! zone a touch sensor reads; material, rgba, group and user data are
+//! visual and not kept. Sites take `<default>`
 //! classes as geoms do.
 
 use super::frames::Member;
 use super::schema::{check_attributes, SITE_ATTRS};
 use super::tree::{Kind, Tree};
 use super::{Reader, Result};
-use crate::model::Site;
+use nalgebra::Vector3;
+
+use crate::model::{Shape, Site};
 
 impl<'a> Reader<'a> {
     /// The sites among `members`, attached to `body`, in document order.
@@ -46,12 +49,34 @@ impl<'a> Reader<'a> {
             Some(ft) => self.fromto_frame(node, kind, ft, &mut pos, &mut size)?,
             None => self.orientation(&a)?,
         };
+        tree.site_zones.push(zone(kind, size));
         Ok(Site {
             name: tree.claim(self.file, node, Kind::Site, &m.suffix)?,
             body,
             pos: m.frame.point(&pos),
             rot: m.frame.rot * rot,
         })
+    }
+}
+
+/// A site's volume: its MJCF type and size as MuJoCo reads them.
+fn zone(kind: &str, s: [f64; 3]) -> Shape {
+    match kind {
+        "sphere" => Shape::Sphere { radius: s[0] },
+        "capsule" => Shape::Capsule {
+            radius: s[0],
+            half_length: s[1],
+        },
+        "cylinder" => Shape::Cylinder {
+            radius: s[0],
+            half_length: s[1],
+        },
+        "box" => Shape::Box {
+            half: Vector3::from(s),
+        },
+        _ => Shape::Ellipsoid {
+            radii: Vector3::from(s),
+        },
     }
 }
 
