@@ -7,15 +7,18 @@
 //! hit is the smallest x >= 0 on the surface, with the outward unit normal
 //! there (world coordinates); a ray starting inside a solid hits it from
 //! within. A plane is hit only on its front (+z) face, within its rendered
-//! half-extents (0: unbounded).
+//! half-extents (0: unbounded). A mesh is hit on any of its triangles
+//! (not its hull), from either side, the normal that of the triangle's
+//! winding.
 
 use nalgebra::{Matrix3, Vector3};
 
+use crate::model::mesh::Mesh;
 use crate::model::{Shape, MINVAL};
 
 /// Where the ray (p, d) first meets `shape` placed at (pos, rot): the
-/// distance and the normal; None for a miss (and for meshes and height
-/// fields, which no caller casts at).
+/// distance and the normal; None for a miss (and for meshes, see
+/// [`ray_mesh`], and height fields, which no caller casts at).
 pub fn ray_shape(
     shape: &Shape,
     plane: [f64; 2],
@@ -49,6 +52,68 @@ pub fn ray_shape(
         Shape::Mesh { .. } | Shape::HField { .. } => None,
     };
     local.map(|(x, n)| (x, rot * n))
+}
+
+/// Where the ray (p, d) first meets a triangle of `mesh` placed at (pos,
+/// rot) (its mesh frame): the distance and the triangle's unit normal.
+pub fn ray_mesh(
+    mesh: &Mesh,
+    (pos, rot): (&Vector3<f64>, &Matrix3<f64>),
+    (p, d): (&Vector3<f64>, &Vector3<f64>),
+) -> Option<(f64, Vector3<f64>)> {
+    let (lp, ld) = (rot.tr_mul(&(p - pos)), rot.tr_mul(d));
+    let basis = across(&ld);
+    let mut best: Option<(f64, Vector3<f64>)> = None;
+    for face in &mesh.faces {
+        let v = face.map(|i| mesh.vertices[i]);
+        if let Some((x, n)) = triangle(&v, &lp, &ld, &basis) {
+            best = nearer(best, x, n);
+        }
+    }
+    best.map(|(x, n)| (x, rot * n))
+}
+
+/// Two unit vectors spanning the plane across direction d.
+fn across(d: &Vector3<f64>) -> [Vector3<f64>; 2] {
+    let k = d.iamin();
+    let mut e = Vector3::repeat(1.0);
+    e[k] = 0.0;
+    let b1 = (e - d * (d.dot(&e) / d.dot(d))).normalize();
+    [b1.cross(d).normalize(), b1]
+}
+
+/// The ray against one triangle: whether the ray's line passes through
+/// it (the triangle projected across the ray contains the origin), then
+/// the distance to its plane.
+fn triangle(
+    v: &[Vector3<f64>; 3],
+    lp: &Vector3<f64>,
+    ld: &Vector3<f64>,
+    [b0, b1]: &[Vector3<f64>; 2],
+) -> Option<(f64, Vector3<f64>)> {
+    let planar = v.map(|v| {
+        let r = v - lp;
+        (r.dot(b0), r.dot(b1))
+    });
+    let (p0, p1, p2) = (planar[0], planar[1], planar[2]);
+    // The origin as p2 + t0 (p0 - p2) + t1 (p1 - p2).
+    let (a00, a01, a10, a11) = (p0.0 - p2.0, p1.0 - p2.0, p0.1 - p2.1, p1.1 - p2.1);
+    let det = a00 * a11 - a01 * a10;
+    if det.abs() < MINVAL {
+        return None;
+    }
+    let t0 = (-p2.0 * a11 + p2.1 * a01) / det;
+    let t1 = (-p2.1 * a00 + p2.0 * a10) / det;
+    if t0 < 0.0 || t1 < 0.0 || t0 + t1 > 1.0 {
+        return None;
+    }
+    let normal = (v[0] - v[2]).cross(&(v[1] - v[2]));
+    let denom = ld.dot(&normal);
+    if denom.abs() < MINVAL {
+        return None;
+    }
+    let x = -(lp - v[2]).dot(&normal) / denom;
+    (x >= 0.0).then(|| (x, normal.normalize()))
 }
 
 /// The roots of a x^2 + 2 b x + c = 0, ascending, when its discriminant

@@ -14,7 +14,7 @@
 
 use nalgebra::{DVector, Matrix3, Quaternion, UnitQuaternion, Vector3};
 
-use super::ray::ray_shape;
+use super::ray::{ray_mesh, ray_shape};
 use super::Model;
 use crate::dynamics::constraint::{contact_forces, ConstraintKind, Origin};
 use crate::dynamics::{
@@ -255,7 +255,10 @@ impl Model {
         for &(g, plane) in targets {
             let geom = self.frame(b, FrameObject::Geom(g));
             let placed = (&geom.pos, &geom.rot);
-            let hit = ray_shape(&self.geoms[g].shape, plane, placed, (&origin, &dir));
+            let hit = match self.geoms[g].shape {
+                Shape::Mesh { mesh } => ray_mesh(&self.meshes[mesh], placed, (&origin, &dir)),
+                ref shape => ray_shape(shape, plane, placed, (&origin, &dir)),
+            };
             if let Some((x, normal)) = hit.filter(|h| nearest.is_none_or(|n| h.0 < n.0)) {
                 nearest = Some((x, normal));
             }

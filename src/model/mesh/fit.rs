@@ -3,9 +3,9 @@
 //!
 //! The fitted geom sits in the mesh frame (see [`super`]): by default the
 //! primitive matches the mesh's inertia box ([`Mesh::inertia_box`]); with
-//! `fitaabb` it encloses the vertices' bounding box, centred at the box's
-//! centre. Sizes are MuJoCo's (radius, half-length, half-sizes), times
-//! `fitscale`.
+//! `fitaabb` it is the smallest whose bounding box contains the vertices'
+//! ([`Mesh::aabb`]), centred at that box's centre. Sizes are MuJoCo's
+//! (radius, half-length, half-sizes), times `fitscale`.
 
 use nalgebra::Vector3;
 
@@ -45,31 +45,18 @@ fn inertia_fit(b: &Vector3<f64>, kind: Fitted) -> [f64; 3] {
     }
 }
 
-/// The primitive about the bounding box's centre that encloses the
-/// vertices (a box or ellipsoid: the bounding box's half-sizes).
+/// The smallest primitive about the bounding box's centre whose own
+/// bounding box contains it (a capsule's half-length its box's less the
+/// radius).
 fn enclosing(mesh: &Mesh, kind: Fitted) -> ([f64; 3], Vector3<f64>) {
     let [lo, hi] = mesh.aabb;
     let centre = (lo + hi) / 2.0;
-    let offsets = mesh.vertices.iter().map(|v| v - centre);
-    let radial = |d: &Vector3<f64>| (d.x * d.x + d.y * d.y).sqrt();
-    let max = |xs: &mut dyn Iterator<Item = f64>| xs.fold(0.0, f64::max);
+    let h = hi - centre;
     let size = match kind {
-        Fitted::Sphere => [max(&mut offsets.map(|d| d.norm())), 0.0, 0.0],
-        Fitted::Cylinder => {
-            let radius = max(&mut offsets.clone().map(|d| radial(&d)));
-            [radius, max(&mut offsets.map(|d| d.z.abs())), 0.0]
-        }
-        Fitted::Capsule => {
-            let radius = max(&mut offsets.clone().map(|d| radial(&d)));
-            // Each vertex's height above the cap's sphere at its distance
-            // from the axis.
-            let above = |d: Vector3<f64>| {
-                let cap = radius * (radial(&d) / radius).acos().sin();
-                d.z.abs() - cap
-            };
-            [radius, max(&mut offsets.map(above)), 0.0]
-        }
-        Fitted::Ellipsoid | Fitted::Box => (hi - centre).into(),
+        Fitted::Sphere => [h.max(), 0.0, 0.0],
+        Fitted::Cylinder => [h.x.max(h.y), h.z, 0.0],
+        Fitted::Capsule => [h.x.max(h.y), h.z - h.x.max(h.y), 0.0],
+        Fitted::Ellipsoid | Fitted::Box => h.into(),
     };
     (size, centre)
 }

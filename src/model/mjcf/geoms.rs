@@ -172,8 +172,9 @@ impl<'a> Reader<'a> {
         };
         let scale = a.number("fitscale")?.unwrap_or(1.0);
         let (size, centre) = fit(m, fitted, self.compiler.fit_aabb, scale);
-        *pos += *rot * (m.pos + centre);
-        *rot *= crate::model::mesh::rotation(&m.quat);
+        let mesh_rot = crate::model::mesh::rotation(&m.quat);
+        *pos += *rot * (m.pos + mesh_rot * centre);
+        *rot *= mesh_rot;
         Ok(size)
     }
 
@@ -245,23 +246,29 @@ impl<'a> Reader<'a> {
             );
             return Err(self.error(node, msg));
         }
-        Ok(match kind {
-            "sphere" => Shape::Sphere { radius: s[0] },
-            "capsule" => Shape::Capsule {
-                radius: s[0],
-                half_length: s[1],
-            },
-            "cylinder" => Shape::Cylinder {
-                radius: s[0],
-                half_length: s[1],
-            },
-            "box" => Shape::Box {
-                half: Vector3::from(s),
-            },
-            _ => Shape::Ellipsoid {
-                radii: Vector3::from(s),
-            },
-        })
+        Ok(primitive(kind, s))
+    }
+}
+
+/// The primitive solid of MJCF type `kind` (sphere, capsule, cylinder,
+/// box; else ellipsoid) and `size`, as MuJoCo reads the size.
+pub(super) fn primitive(kind: &str, s: [f64; 3]) -> Shape {
+    match kind {
+        "sphere" => Shape::Sphere { radius: s[0] },
+        "capsule" => Shape::Capsule {
+            radius: s[0],
+            half_length: s[1],
+        },
+        "cylinder" => Shape::Cylinder {
+            radius: s[0],
+            half_length: s[1],
+        },
+        "box" => Shape::Box {
+            half: Vector3::from(s),
+        },
+        _ => Shape::Ellipsoid {
+            radii: Vector3::from(s),
+        },
     }
 }
 

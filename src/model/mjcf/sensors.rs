@@ -1,17 +1,18 @@
 //! `<sensor>`: every MuJoCo sensor element is read, checked as MuJoCo's
 //! compiler checks it (known objects of the right kind, non-negative cutoff
 //! and noise) and laid out with MuJoCo's size. Those [`crate::model::sensor`]
-//! computes become their [`SensorKind`]; the others (touch, rangefinder,
-//! tendon, tendon actuator force, tendon limit, contact, distance, energy,
-//! clock (the state has no time), user sensors,
-//! frame sensors on cameras, and any sensor whose readings are delayed or
-//! sampled at an interval) are kept as [`SensorKind::Unsupported`], so that
-//! a model using them loads and only evaluating its sensors fails, naming
-//! the sensor (a sensor never changes the dynamics); so are all sensors of a
-//! model that disables them (`<flag sensor="disable"/>`, where MuJoCo leaves
-//! sensordata unset). Tactile and plugin
-//! sensors are refused: their size depends on meshes and plugins, which are
-//! not read.
+//! computes become their [`SensorKind`]; the others (camera rangefinders,
+//! rangefinders that may meet a height field, tendon actuator force,
+//! contact, distance, normal, fromto, insidesite, camprojection, clock (the
+//! state has no time), user sensors, the potential energy of a model with
+//! springs on ball or free joints, frame sensors on cameras, and any sensor
+//! whose readings are delayed or sampled at an interval) are kept as
+//! [`SensorKind::Unsupported`], so that a model using them loads and only
+//! evaluating its sensors fails, naming the sensor (a sensor never changes
+//! the dynamics); so are all sensors of a model that disables them
+//! (`<flag sensor="disable"/>`, where MuJoCo leaves sensordata unset).
+//! Tactile and plugin sensors are refused: their size depends on meshes and
+//! plugins, which are not read.
 
 use std::collections::HashSet;
 
@@ -322,8 +323,8 @@ impl<'a> Reader<'a> {
     }
 
     /// A rangefinder on a site: its fields, and the geoms its ray may hit
-    /// (see [`SensorKind::Rangefinder`]); a ray that may meet a mesh or
-    /// height field is not computed.
+    /// (see [`SensorKind::Rangefinder`]); a ray that may meet a height
+    /// field is not computed.
     fn rangefinder(&self, tree: &Tree<'a>, root: Node<'a>, node: Node<'a>) -> Result<SensorKind> {
         check_attributes(self.file, node, &[SENSOR_ATTRS, &["site", "data"]].concat())?;
         let site = self.named(tree, node, "site", "site")?;
@@ -342,8 +343,8 @@ impl<'a> Reader<'a> {
             if geom.body == body || alpha == 0.0 {
                 continue;
             }
-            if matches!(geom.shape, Shape::Mesh { .. } | Shape::HField { .. }) {
-                let why = "rays against meshes and height fields are not computed";
+            if matches!(geom.shape, Shape::HField { .. }) {
+                let why = "rays against height fields are not computed";
                 return Ok(other("rangefinder", why));
             }
             targets.push((g, looks.plane));
@@ -571,8 +572,11 @@ mod tests {
             reference: None,
         };
         assert_eq!(m.sensors[2].kind, quat);
+        assert!(matches!(m.sensors[3].kind, SensorKind::Touch { site: 0, .. }));
+        assert!(matches!(m.sensors[4].kind, SensorKind::Rangefinder { site: 0, .. }));
+        assert_eq!(m.sensors[8].kind, SensorKind::SubtreeAngMom(1));
         // Read but not computed: other types, a full tensor's axes, history.
-        for i in [3, 4, 5, 6, 7, 8, 9, 10, 11, 13] {
+        for i in [5, 6, 7, 9, 10, 11, 13] {
             let kind = &m.sensors[i].kind;
             assert!(
                 matches!(kind, SensorKind::Unsupported { .. }),
@@ -608,6 +612,13 @@ mod tests {
         ];
         for (list, expected) in cases {
             assert_rejects(&sensors(list), expected);
+        }
+        let tendon = r#"<tendon><fixed name="t"><joint joint="j" coef="1"/></fixed></tendon>"#;
+        for (list, expected) in [
+            (r#"<tendonpos tendon="u"/>"#, "unknown tendon 'u'"),
+            (r#"<tendonlimitfrc tendon="t"/>"#, "tendon must be limited in sensor"),
+        ] {
+            assert_rejects(&model("", BODIES, &format!("{tendon}<sensor>{list}</sensor>")), expected);
         }
         let head = r#"<option><flag sensor="disable"/></option>"#;
         let tail = r#"<sensor><jointpos joint="j"/></sensor>"#;

@@ -9,9 +9,8 @@ use super::frames::Member;
 use super::schema::{check_attributes, SITE_ATTRS};
 use super::tree::{Kind, Tree};
 use super::{Reader, Result};
-use nalgebra::Vector3;
-
-use crate::model::{Shape, Site};
+use super::geoms::primitive;
+use crate::model::Site;
 
 impl<'a> Reader<'a> {
     /// The sites among `members`, attached to `body`, in document order.
@@ -49,34 +48,13 @@ impl<'a> Reader<'a> {
             Some(ft) => self.fromto_frame(node, kind, ft, &mut pos, &mut size)?,
             None => self.orientation(&a)?,
         };
-        tree.site_zones.push(zone(kind, size));
+        tree.site_zones.push(primitive(kind, size));
         Ok(Site {
             name: tree.claim(self.file, node, Kind::Site, &m.suffix)?,
             body,
             pos: m.frame.point(&pos),
             rot: m.frame.rot * rot,
         })
-    }
-}
-
-/// A site's volume: its MJCF type and size as MuJoCo reads them.
-fn zone(kind: &str, s: [f64; 3]) -> Shape {
-    match kind {
-        "sphere" => Shape::Sphere { radius: s[0] },
-        "capsule" => Shape::Capsule {
-            radius: s[0],
-            half_length: s[1],
-        },
-        "cylinder" => Shape::Cylinder {
-            radius: s[0],
-            half_length: s[1],
-        },
-        "box" => Shape::Box {
-            half: Vector3::from(s),
-        },
-        _ => Shape::Ellipsoid {
-            radii: Vector3::from(s),
-        },
     }
 }
 
