@@ -572,8 +572,14 @@ mod tests {
             reference: None,
         };
         assert_eq!(m.sensors[2].kind, quat);
-        assert!(matches!(m.sensors[3].kind, SensorKind::Touch { site: 0, .. }));
-        assert!(matches!(m.sensors[4].kind, SensorKind::Rangefinder { site: 0, .. }));
+        assert!(matches!(
+            m.sensors[3].kind,
+            SensorKind::Touch { site: 0, .. }
+        ));
+        assert!(matches!(
+            m.sensors[4].kind,
+            SensorKind::Rangefinder { site: 0, .. }
+        ));
         assert_eq!(m.sensors[8].kind, SensorKind::SubtreeAngMom(1));
         // Read but not computed: other types, a full tensor's axes, history.
         for i in [5, 6, 7, 9, 10, 11, 13] {
@@ -616,9 +622,15 @@ mod tests {
         let tendon = r#"<tendon><fixed name="t"><joint joint="j" coef="1"/></fixed></tendon>"#;
         for (list, expected) in [
             (r#"<tendonpos tendon="u"/>"#, "unknown tendon 'u'"),
-            (r#"<tendonlimitfrc tendon="t"/>"#, "tendon must be limited in sensor"),
+            (
+                r#"<tendonlimitfrc tendon="t"/>"#,
+                "tendon must be limited in sensor",
+            ),
         ] {
-            assert_rejects(&model("", BODIES, &format!("{tendon}<sensor>{list}</sensor>")), expected);
+            assert_rejects(
+                &model("", BODIES, &format!("{tendon}<sensor>{list}</sensor>")),
+                expected,
+            );
         }
         let head = r#"<option><flag sensor="disable"/></option>"#;
         let tail = r#"<sensor><jointpos joint="j"/></sensor>"#;

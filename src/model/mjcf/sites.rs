@@ -6,10 +6,10 @@
 //! classes as geoms do.
 
 use super::frames::Member;
+use super::geoms::primitive;
 use super::schema::{check_attributes, SITE_ATTRS};
 use super::tree::{Kind, Tree};
 use super::{Reader, Result};
-use super::geoms::primitive;
 use crate::model::Site;
 
 impl<'a> Reader<'a> {
