@@ -46,8 +46,8 @@
 //!   adhesion, PID and DC motors; tendon, site, body, ball and free-joint
 //!   transmissions; actuator damping's polynomial terms and delay);
 //! - what builds the model from elsewhere: composite, flexcomp, attach,
-//!   plugins, builtin meshes, primitives fitted to meshes, PNG height
-//!   fields, SDFs, shell inertia of geoms, fusestatic, global coordinates;
+//!   plugins, builtin meshes, PNG height fields, SDFs, shell inertia of
+//!   geoms, fusestatic, global coordinates;
 //! - what MuJoCo rejects: unknown elements and attributes, malformed or
 //!   miscounted numbers, unknown classes, joints, geoms and bodies, repeated
 //!   names, zero axes and quaternions, bad ranges, non-physical inertias,
