@@ -301,14 +301,14 @@ mod tests {
             (Shape::Plane, 2.0),
         ];
         for (shape, x) in cases {
-            let (hit, normal) = cast(shape.clone(), [0.0, 0.0, 2.0], down).expect("a hit");
+            let (hit, normal) = cast(shape, [0.0, 0.0, 2.0], down).expect("a hit");
             assert!((hit - x).abs() < 1e-15, "{shape:?}: {hit}");
             assert!(
                 (normal - Vector3::z()).norm() < 1e-15,
                 "{shape:?}: {normal}"
             );
             // Away from the shape, or at a plane's back face: a miss.
-            assert_eq!(cast(shape.clone(), [0.0, 0.0, 2.0], [0.0, 0.0, 1.0]), None);
+            assert_eq!(cast(shape, [0.0, 0.0, 2.0], [0.0, 0.0, 1.0]), None);
         }
         // A capsule's side: the normal is radial.
         let capsule = Shape::Capsule {

@@ -246,7 +246,9 @@ impl Model {
     fn rangefinder(
         &self,
         b: &Bodies,
-        (site, fields, targets): (usize, &[RayField], &[(usize, [f64; 2])]),
+        site: usize,
+        fields: &[RayField],
+        targets: &[(usize, [f64; 2])],
         out: &mut Vec<f64>,
     ) {
         let frame = self.frame(b, FrameObject::Site(site));
@@ -367,7 +369,7 @@ impl Model {
                 site,
                 fields,
                 targets,
-            } => self.rangefinder(b, (*site, fields, targets), out),
+            } => self.rangefinder(b, *site, fields, targets, out),
             SensorKind::Unsupported { .. } => unreachable!("refused before evaluating"),
         }
     }

@@ -306,7 +306,7 @@ impl<'a> Reader<'a> {
         if element == "touch" {
             check_attributes(self.file, node, &attrs(&["site"]))?;
             let site = self.named(tree, node, "site", "site")?;
-            let zone = tree.site_zones[site].clone();
+            let zone = tree.site_zones[site];
             return Ok(Some(SensorKind::Touch { site, zone }));
         }
         if element == "rangefinder" && value(node, "camera").is_none() {
