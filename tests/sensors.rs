@@ -76,8 +76,8 @@ fn sensors_of_a_box_resting_on_a_plane_match_mujoco() {
 #[test]
 fn sensors_not_computed_fail_by_name() {
     let xml = r#"<mujoco><worldbody><body><joint/><geom size="0.1"/><site name="s"/></body>
-        </worldbody><sensor><gyro site="s"/><touch name="foot" site="s"/></sensor></mujoco>"#;
-    let model = Model::from_mjcf(xml, "touch.xml").unwrap();
+        </worldbody><sensor><gyro site="s"/><clock name="foot"/></sensor></mujoco>"#;
+    let model = Model::from_mjcf(xml, "clock.xml").unwrap();
     let err = model
         .sensor_readings(
             &mut model.data(),
@@ -88,7 +88,7 @@ fn sensors_not_computed_fail_by_name() {
     assert!(matches!(err, StepError::SensorNotComputed { .. }));
     let message = err.to_string();
     assert!(
-        message.contains("'foot'") && message.contains("<touch>"),
+        message.contains("'foot'") && message.contains("<clock>"),
         "{message}"
     );
 }

@@ -48,12 +48,12 @@ def test_sensors_match_mujoco_forward(name):
 
 
 def test_sensors_not_computed_raise_value_error(tmp_path):
-    path = tmp_path / "touch.xml"
+    path = tmp_path / "clock.xml"
     path.write_text('<mujoco><worldbody><body><joint/><geom size="0.1"/><site name="s"/></body>'
-                    '</worldbody><sensor><touch name="foot" site="s"/></sensor></mujoco>')
+                    '</worldbody><sensor><clock name="foot"/></sensor></mujoco>')
     m = diffosi.Model.load(str(path))
     assert m.sensor_names == ["foot"] and list(m.sensor_dim) == [1]
-    with pytest.raises(ValueError, match="'foot'.*<touch>"):
+    with pytest.raises(ValueError, match="'foot'.*<clock>"):
         m.sensors(np.zeros(1), np.zeros(1), np.zeros(1))
     with pytest.raises(ValueError, match="tau"):
         m.sensors(np.zeros(1), np.zeros(1), np.zeros(2))
@@ -100,3 +100,164 @@ def test_magnetometer_and_actuator_sensors_match_mujoco_forward(tmp_path):
         theirs = mujoco_sensordata(mm, q, v, tau, ctrl, act)
         assert np.abs(theirs - mujoco_sensordata(mm, q, v, tau)).max() > 1e-3  # the inputs act
         np.testing.assert_array_less(np.abs(ours - theirs) / np.maximum(1, np.abs(theirs)), 1e-12)
+
+
+def assert_sensors_match(path, states, tol=1e-12):
+    """Our readings against mj_forward's sensordata at each (q, v, tau), relative error with a
+    floor of 1 below tol; returns MuJoCo's readings."""
+    m, mm = diffosi.Model.load(str(path)), mujoco.MjModel.from_xml_path(str(path))
+    assert list(m.sensor_dim) == mm.sensor_dim.tolist()
+    readings = []
+    for q, v, tau in states:
+        ours, theirs = m.sensors(q, v, tau), mujoco_sensordata(mm, q, v, tau)
+        np.testing.assert_array_less(np.abs(ours - theirs) / np.maximum(1, np.abs(theirs)), tol)
+        readings.append(theirs)
+    return np.array(readings)
+
+
+TENDONS = """<mujoco><compiler autolimits="true"/><worldbody>
+  <body name="upper" pos="0 0 1" euler="0 15 0">
+    <joint name="shoulder" axis="0 1 0" stiffness="3" springref="0.2" armature="0.05"/>
+    <geom type="capsule" fromto="0 0 0 0 0 -0.4" size="0.05"/>
+    <body name="lower" pos="0 0 -0.4">
+      <joint name="elbow" axis="1 0.5 0" stiffness="2"/>
+      <joint name="slider" type="slide" axis="0 0 1" stiffness="10" springref="-0.02"/>
+      <geom type="box" size="0.03 0.04 0.2" pos="0 0 -0.2" euler="5 0 0"/>
+      <body name="ball_link" pos="0 0.1 -0.3"><joint type="ball"/>
+        <geom type="capsule" size="0.02 0.05" pos="0.05 0 0" euler="0 80 10"/></body>
+    </body></body></worldbody>
+  <tendon>
+    <fixed name="sum" stiffness="4" springlength="0.1 0.3" range="-0.3 0.4">
+      <joint joint="shoulder" coef="1"/><joint joint="elbow" coef="-0.5"/></fixed>
+    <fixed name="plain"><joint joint="slider" coef="2"/></fixed>
+  </tendon>
+  <sensor>
+    <tendonpos tendon="sum"/><tendonvel tendon="sum"/><tendonpos tendon="plain"/>
+    <tendonvel tendon="plain" cutoff="0.1"/>
+    <tendonlimitpos tendon="sum"/><tendonlimitvel tendon="sum"/><tendonlimitfrc tendon="sum"/>
+    <subtreeangmom body="upper"/><subtreeangmom body="lower"/><subtreeangmom body="ball_link"/>
+    <e_potential/><e_kinetic/><e_kinetic cutoff="0.01"/><e_potential cutoff="0.5"/>
+  </sensor></mujoco>"""
+
+
+def test_tendon_momentum_and_energy_sensors_match_mujoco_forward(tmp_path):
+    """Fixed tendons (a spring with a deadband, a limit entered or not), subtree angular momenta
+    and the energies (gravity, joint and tendon springs; armature in the kinetic), cutoffs."""
+    path = tmp_path / "tendons.xml"
+    path.write_text(TENDONS)
+    rng = np.random.default_rng(3)
+    qpos0 = np.array([0, 0, 0, 1, 0, 0, 0])
+    states = [(qpos0 + 0.4 * rng.standard_normal(7), rng.standard_normal(6), rng.standard_normal(6))
+              for _ in range(6)]
+    theirs = assert_sensors_match(path, states)
+    assert (theirs[:, 6] != 0).sum() >= 2 and (theirs[:, 6] == 0).sum() >= 2  # limit in and out
+    assert (theirs[:, 3] == 0.1).any() and (theirs[:, -2] == 0.01).all()  # cutoffs clip
+
+
+RAYS = """<mujoco>
+  <asset><material name="clear" rgba="1 1 1 0"/><material name="red" rgba="1 0 0 1"/></asset>
+  <worldbody>
+    <geom type="plane" size="3 2 0.1"/>
+    <geom pos="1 0 0.5" size="0.2"/>
+    <geom type="capsule" pos="-1 0 0.5" size="0.1 0.3" euler="30 40 0"/>
+    <geom type="cylinder" pos="0 1 0.5" size="0.2 0.1" euler="10 70 0" material="red"/>
+    <geom type="box" pos="0 -1 0.5" size="0.2 0.1 0.3" euler="0 20 50"/>
+    <geom type="ellipsoid" pos="1 1 0.7" size="0.2 0.3 0.1" euler="0 20 50"/>
+    <geom pos="0.5 0.5 0.5" size="0.3" rgba="1 1 1 0"/>
+    <geom pos="-0.5 0.5 0.5" size="0.3" material="clear"/>
+    <body name="box" pos="0 0 0.1"><freejoint/><geom type="box" size="0.1 0.1 0.1"/>
+      <site name="bottom" type="box" pos="0 0 -0.1" size="0.12 0.12 0.03"/>
+      <site name="half" type="box" pos="0.05 0 -0.1" size="0.06 0.12 0.03"/>
+      <site name="top" pos="0 0 0.1" size="0.05"/>
+      <site name="corner" type="capsule" pos="0.1 0.1 -0.1" size="0.02 0.05"/>
+      <site name="eye" pos="0 0 0.1"/></body>
+    <body name="scanner" pos="0 0 1.5">
+      <joint axis="0 0 1"/><joint axis="0 1 0"/><joint axis="1 0 0"/><geom size="0.05"/>
+      <site name="s0" euler="180 0 0"/><site name="s1" euler="150 30 0"/>
+      <site name="s2" euler="120 -20 10"/><site name="s3" euler="100 60 -40"/>
+      <site name="s4" euler="90 0 0"/></body>
+  </worldbody>
+  <sensor>
+    <touch site="bottom"/><touch site="half"/><touch site="top"/><touch site="corner" cutoff="1"/>
+    <rangefinder site="eye"/>
+    <rangefinder site="s0" data="dist dir origin point normal depth"/>
+    <rangefinder site="s1" data="dist dir origin point normal depth"/>
+    <rangefinder site="s2" data="dist point normal"/>
+    <rangefinder site="s3" data="dist origin normal depth" cutoff="1.2"/>
+    <rangefinder site="s4" data="dist normal"/>
+  </sensor></mujoco>"""
+
+
+def test_touch_and_rangefinders_match_mujoco_forward(tmp_path):
+    """A box resting on a plane under touch zones (all, half or none of its contacts), and
+    rangefinders on a turning body that hit or miss a finite plane, each primitive, invisible geoms
+    (rgba and material alpha 0) seen through, every data field, a cutoff."""
+    path = tmp_path / "rays.xml"
+    path.write_text(RAYS)
+    mm = mujoco.MjModel.from_xml_path(str(path))
+    rng = np.random.default_rng(5)
+    states, hit = [], set()
+    for _ in range(200):
+        quat = np.array([1.0, *(0.05 * rng.standard_normal(3))])
+        q = np.concatenate([0.1 * rng.standard_normal(2), [0.098 + 0.01 * rng.standard_normal()],
+                            quat / np.linalg.norm(quat), rng.uniform(-np.pi, np.pi, 3)])
+        states.append((q, rng.standard_normal(mm.nv), rng.standard_normal(mm.nv)))
+        d = mujoco.MjData(mm)
+        d.qpos[:] = q
+        mujoco.mj_forward(mm, d)
+        for s in range(5, 10):
+            geom = np.array([-1], dtype=np.int32)
+            z = d.site_xmat[s].reshape(3, 3)[:, 2]
+            mujoco.mj_ray(mm, d, d.site_xpos[s], z, None, 1, mm.site_bodyid[s], geom, None)
+            hit.add(int(geom[0]))
+    assert hit >= {-1, 0, 1, 2, 3, 4, 5}  # misses, the plane and every primitive
+    theirs = assert_sensors_match(path, states)
+    touch = theirs[:, :4]
+    assert (touch[:, 0] > touch[:, 1]).any() and (touch[:, 1] > 0).any() and (touch[:, 2] == 0).all()
+
+
+BLOB = [(-0.239632, -0.195351, 0.009913), (-0.289095, -0.192839, 0.213391), (-0.266109, 0.197434, 0.010937),
+        (-0.241176, 0.180853, 0.216401), (0.327906, -0.224887, -0.014464), (0.367965, -0.218808, 0.191226),
+        (0.326543, 0.172284, 0.000244), (0.341732, 0.218822, 0.230202)]
+BLOB_FACES = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1), (2, 3, 7), (2, 7, 6),
+              (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]
+FITTED = """<mujoco><compiler fitaabb="{aabb}"/><asset><mesh name="blob" file="blob.obj"/></asset>
+  <worldbody>
+    <body name="b0" pos="0 0 1"><joint/><geom name="g0" type="sphere" mesh="blob"/></body>
+    <body name="b1" pos="1 0 1"><joint/><geom name="g1" type="capsule" mesh="blob" euler="10 20 30"/></body>
+    <body name="b2" pos="2 0 1"><joint/><geom name="g2" type="cylinder" mesh="blob" pos="0.1 0 0"/></body>
+    <body name="b3" pos="3 0 1"><joint/><geom name="g3" type="ellipsoid" mesh="blob" fitscale="1.3"/></body>
+    <body name="b4" pos="4 0 1"><joint/><geom name="g4" type="box" mesh="blob"/></body>
+    <body name="b5" pos="5 0 1"><joint/><geom name="g5" type="mesh" mesh="blob"/></body>
+    <body name="eyes" pos="0 -2 1"><joint axis="1 0 0"/><geom size="0.01"/>
+      {sites}</body>
+  </worldbody>
+  <sensor>{sensors}</sensor></mujoco>"""
+
+
+@pytest.mark.parametrize("aabb", ["false", "true"])
+def test_primitives_fitted_to_a_mesh_are_mujocos(tmp_path, aabb):
+    """Sphere, capsule, cylinder, ellipsoid (fitscale) and box fitted to an irregular mesh, to its
+    inertia box or (fitaabb) its bounding box: each body's mass and inertia (so the sizes), each
+    geom's pose (framepos, framexaxis, framezaxis) and rays from the side onto each (its extent) as MuJoCo's;
+    also rays onto the mesh itself (its triangles)."""
+    (tmp_path / "blob.obj").write_text("".join(f"v {x} {y} {z}\n" for x, y, z in BLOB) +
+                                       "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in BLOB_FACES))
+    sites = "".join(f'<site name="e{i}{k}" pos="{i} 0 {0.1 * k}" euler="-90 0 0"/>'
+                    for i in range(6) for k in range(-3, 4))
+    # The axes, not framequat: a mesh frame's quaternion keeps the sign MuJoCo's eigensolver gave it.
+    sensors = "".join(f'<framepos objtype="geom" objname="g{i}"/><framexaxis objtype="geom" objname="g{i}"/>'
+                      f'<framezaxis objtype="geom" objname="g{i}"/>' for i in range(5))
+    sensors += "".join(f'<rangefinder site="e{i}{k}" data="dist normal"/>'
+                       for i in range(6) for k in range(-3, 4))
+    path = tmp_path / "fitted.xml"
+    path.write_text(FITTED.format(aabb=aabb, sites=sites, sensors=sensors))
+    m, mm = diffosi.Model.load(str(path)), mujoco.MjModel.from_xml_path(str(path))
+    for ours, mass, inertia in zip(m.compiled()["bodies"][1:], mm.body_mass[1:], mm.body_inertia[1:]):
+        assert abs(ours["mass"] - mass) <= 1e-12 * mass
+        moments = np.linalg.eigvalsh(ours["inertia"])
+        np.testing.assert_allclose(moments, np.sort(inertia), rtol=1e-10)
+    # 1e-11: the mesh frame's principal axes are our eigensolver's, MuJoCo's to about 5e-12.
+    zero = (np.zeros(mm.nq), np.zeros(mm.nv), np.zeros(mm.nv))
+    theirs = assert_sensors_match(path, [zero], tol=1e-11)
+    assert (theirs[0, 45::4].reshape(6, 7) > 0).any(axis=1).all()  # each geom is hit

@@ -15,6 +15,7 @@ mod gravcomp;
 mod invweight;
 mod mixing;
 mod pairs;
+mod ray;
 mod sensors;
 mod simulate;
 mod tendon;

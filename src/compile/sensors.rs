@@ -12,18 +12,19 @@
 //! contact forces (the ones [`Model::contacts`] lists), so force and torque
 //! sensors read what the penalty forces transmit.
 
-use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
+use nalgebra::{DVector, Matrix3, Quaternion, UnitQuaternion, Vector3};
 
+use super::ray::{ray_mesh, ray_shape};
 use super::Model;
 use crate::dynamics::constraint::{contact_forces, ConstraintKind, Origin};
 use crate::dynamics::{
-    acceleration, check_actuation, check_colliders, rnea_with_transforms, world_frames,
+    acceleration, check_actuation, check_colliders, crba, rnea_with_transforms, world_frames,
     Constrained, Contact, Data, StepError,
 };
 use crate::model::MINVAL;
 use crate::model::{
     ActuatorQuantity, ContactModel, FrameObject, FrameQuantity, Inputs, JointKind, JointQuantity,
-    PassiveMode, Sensor, SensorKind, SiteQuantity, State,
+    PassiveMode, RayField, Sensor, SensorKind, Shape, SiteQuantity, State, TendonQuantity,
 };
 use crate::spatial::{Force, Inertia, Motion, Transform};
 
@@ -70,6 +71,11 @@ impl Model {
                 SensorKind::Joint(
                     JointQuantity::LimitPos | JointQuantity::LimitVel | JointQuantity::LimitForce,
                     _
+                ) | SensorKind::Tendon(
+                    TendonQuantity::LimitPos
+                        | TendonQuantity::LimitVel
+                        | TendonQuantity::LimitForce,
+                    _
                 )
             )
         };
@@ -77,7 +83,7 @@ impl Model {
         if let Some(s) = self.sensors.iter().find(limit).filter(|_| smooth) {
             return Err(StepError::SensorNotComputed {
                 name: s.name.clone(),
-                element: "jointlimit*".into(),
+                element: "jointlimit*, tendonlimit*".into(),
                 why: "the smooth contact model has no limit rows (MuJoCo's efc)".into(),
             });
         }
@@ -104,6 +110,7 @@ impl Model {
         let mut unused = vec![0.0; self.nv()];
         rnea_with_transforms(tree, data, v, &qdd, &mut unused);
         let bodies = Bodies::new(self, data, q, &contacts);
+        let kinetic = self.kinetic_energy(data, q, v);
         let mut out = Vec::with_capacity(self.sensors.iter().map(|s| s.dim).sum());
         for s in &self.sensors {
             let start = out.len();
@@ -111,11 +118,13 @@ impl Model {
                 bodies: &bodies,
                 constrained: data.constrained.as_ref(),
                 actuator_force: &actuator_force,
+                contacts: &contacts,
+                kinetic,
             };
             self.read(&inputs, (q, v), &s.kind, &mut out);
-            if s.cutoff > 0.0 && s.kind.clipped() {
+            if s.cutoff > 0.0 {
                 for x in &mut out[start..] {
-                    *x = x.clamp(-s.cutoff, s.cutoff);
+                    *x = s.kind.clip(*x, s.cutoff);
                 }
             }
         }
@@ -134,6 +143,138 @@ impl Model {
                 a.scalar_force(h, at, (entry(&u.ctrl, Some(i)), entry(&x.act, a.act)))
             })
             .collect()
+    }
+
+    /// 1/2 v' M v (M with armature) when a sensor reads it, else 0.
+    fn kinetic_energy(&self, data: &mut Data<f64>, q: &[f64], v: &[f64]) -> f64 {
+        let kinetic = SensorKind::Energy { potential: false };
+        if !self.sensors.iter().any(|s| s.kind == kinetic) {
+            return 0.0;
+        }
+        crba(self.tree(), data, q);
+        let v = DVector::from_column_slice(v);
+        0.5 * v.dot(&(&data.mass_matrix * &v))
+    }
+
+    /// The potential energy at the state `b` holds: gravity's, the hinge
+    /// and slide springs' and the tendon springs'.
+    fn potential_energy(&self, b: &Bodies, q: &[f64]) -> f64 {
+        let gravity: f64 = (self.bodies.iter().enumerate().skip(1))
+            .map(|(i, body)| -body.mass * self.opt.gravity.dot(&b.com(self, i)))
+            .sum();
+        let joints: f64 = (self.joints.iter().enumerate())
+            .filter(|(_, j)| j.stiffness != 0.0 && j.kind.nv() == 1)
+            .map(|(i, j)| {
+                let stretch = q[self.joint_address(i).0] - j.springref;
+                0.5 * j.stiffness * stretch * stretch
+            })
+            .sum();
+        let tendons: f64 = (self.tree().tendons.iter().zip(&b.tendon))
+            .filter(|(t, _)| t.stiffness != 0.0)
+            .map(|(t, &(l, _))| {
+                let [lo, hi] = t.lengthspring;
+                let stretch = if l > hi {
+                    l - hi
+                } else if l < lo {
+                    l - lo
+                } else {
+                    0.0
+                };
+                0.5 * t.stiffness * stretch * stretch
+            })
+            .sum();
+        gravity + joints + tendons
+    }
+
+    /// A tendon sensor's reading (see [`TendonQuantity`]).
+    fn read_tendon(
+        &self,
+        (b, constrained): (&Bodies, Option<&Constrained<f64>>),
+        quantity: TendonQuantity,
+        t: usize,
+    ) -> f64 {
+        let (l, rate) = b.tendon[t];
+        let origin = Origin {
+            kind: ConstraintKind::TendonLimit,
+            id: t,
+        };
+        let row = constrained.and_then(|c| {
+            let r = c.rows.origin.iter().position(|o| *o == origin)?;
+            Some(c.solution.force[r])
+        });
+        let spec = &self.tendons[t];
+        let [lo, hi] = spec.range.unwrap_or_default();
+        // The first row is the lower side's when that side is active.
+        let lower = l - lo < spec.margin;
+        match (quantity, row) {
+            (TendonQuantity::Pos, _) => l,
+            (TendonQuantity::Vel, _) => rate,
+            (_, None) => 0.0,
+            (TendonQuantity::LimitPos, _) if lower => l - lo - spec.margin,
+            (TendonQuantity::LimitPos, _) => hi - l - spec.margin,
+            (TendonQuantity::LimitVel, _) if lower => rate,
+            (TendonQuantity::LimitVel, _) => -rate,
+            (TendonQuantity::LimitForce, Some(f)) => f,
+        }
+    }
+
+    /// The normal forces on the site's body of the contacts whose ray,
+    /// from the contact point along the normal into that body, hits the
+    /// site's `zone` (MuJoCo's touch sensor).
+    fn touch(&self, b: &Bodies, contacts: &[Contact<f64>], site: usize, zone: &Shape) -> f64 {
+        let frame = self.frame(b, FrameObject::Site(site));
+        let on_body = contacts.iter().filter(|c| c.bodies.contains(&frame.body));
+        let pressing = on_body.filter(|c| c.normal_force > 0.0);
+        pressing
+            .filter(|c| {
+                let into = if c.bodies[1] == frame.body {
+                    -c.normal
+                } else {
+                    c.normal
+                };
+                let placed = (&frame.pos, &frame.rot);
+                ray_shape(zone, [0.0; 2], placed, (&c.pos, &into)).is_some()
+            })
+            .map(|c| c.normal_force)
+            .sum()
+    }
+
+    /// A rangefinder's readings (see [`RayField`]): the ray from the site
+    /// along its z axis against the nearest of `targets`.
+    fn rangefinder(
+        &self,
+        b: &Bodies,
+        site: usize,
+        fields: &[RayField],
+        targets: &[(usize, [f64; 2])],
+        out: &mut Vec<f64>,
+    ) {
+        let frame = self.frame(b, FrameObject::Site(site));
+        let (origin, dir) = (frame.pos, frame.rot.column(2).into_owned());
+        let mut nearest: Option<(f64, Vector3<f64>)> = None;
+        for &(g, plane) in targets {
+            let geom = self.frame(b, FrameObject::Geom(g));
+            let placed = (&geom.pos, &geom.rot);
+            let hit = match self.geoms[g].shape {
+                Shape::Mesh { mesh } => ray_mesh(&self.meshes[mesh], placed, (&origin, &dir)),
+                ref shape => ray_shape(shape, plane, placed, (&origin, &dir)),
+            };
+            if let Some((x, normal)) = hit.filter(|h| nearest.is_none_or(|n| h.0 < n.0)) {
+                nearest = Some((x, normal));
+            }
+        }
+        for field in fields {
+            let zero = Vector3::zeros();
+            match (field, nearest) {
+                (RayField::Dist | RayField::Depth, None) => out.push(-1.0),
+                (RayField::Dist | RayField::Depth, Some((x, _))) => out.push(x),
+                (RayField::Origin, _) => out.extend(origin.iter()),
+                (_, None) => out.extend(zero.iter()),
+                (RayField::Dir, Some(_)) => out.extend(dir.iter()),
+                (RayField::Point, Some((x, _))) => out.extend((origin + dir * x).iter()),
+                (RayField::Normal, Some((_, n))) => out.extend(n.iter()),
+            }
+        }
     }
 
     /// Appends one sensor's readings.
@@ -213,6 +354,20 @@ impl Model {
             }
             SensorKind::SubtreeCom(body) => out.extend(b.subtree(self, *body).0.iter()),
             SensorKind::SubtreeLinVel(body) => out.extend(b.subtree(self, *body).1.iter()),
+            SensorKind::SubtreeAngMom(body) => out.extend(b.angular_momentum(self, *body).iter()),
+            SensorKind::Tendon(quantity, t) => {
+                out.push(self.read_tendon((b, constrained), *quantity, *t))
+            }
+            SensorKind::Energy { potential: true } => out.push(self.potential_energy(b, q)),
+            SensorKind::Energy { potential: false } => out.push(inputs.kinetic),
+            SensorKind::Touch { site, zone } => {
+                out.push(self.touch(b, inputs.contacts, *site, zone))
+            }
+            SensorKind::Rangefinder {
+                site,
+                fields,
+                targets,
+            } => self.rangefinder(b, *site, fields, targets, out),
             SensorKind::Unsupported { .. } => unreachable!("refused before evaluating"),
         }
     }
@@ -292,12 +447,15 @@ impl Model {
 }
 
 /// What the readings are taken from besides the state: the bodies' motion,
-/// the constraint model's rows and forces (none without rows), and the
-/// actuators' scalar forces.
+/// the constraint model's rows and forces (none without rows), the
+/// actuators' scalar forces, the contacts with their forces and the
+/// kinetic energy (0 when no sensor reads it).
 struct Readings<'a> {
     bodies: &'a Bodies,
     constrained: Option<&'a Constrained<f64>>,
     actuator_force: &'a [f64],
+    contacts: &'a [Contact<f64>],
+    kinetic: f64,
 }
 
 /// An object's frame in world coordinates: its body, origin, axes (columns)
@@ -325,6 +483,8 @@ struct Bodies {
     /// The force each body receives from its parent (world coordinates,
     /// about the world origin).
     interaction: Vec<Force<f64>>,
+    /// Each tendon's length and velocity ([`Data::tendon`]).
+    tendon: Vec<(f64, f64)>,
 }
 
 impl Bodies {
@@ -339,6 +499,7 @@ impl Bodies {
             vel: Vec::with_capacity(n),
             acc: Vec::with_capacity(n),
             interaction: Vec::with_capacity(n),
+            tendon: data.tendon.iter().map(|t| (t.length, t.velocity)).collect(),
         };
         for frame in &tree.body {
             let (pose, vel, acc) = match frame.node {
@@ -399,28 +560,56 @@ impl Bodies {
         Motion::new(a.ang, a.lin + a.ang.cross(p) + v.ang.cross(&v.lin))
     }
 
-    /// The centre of mass of `root`'s subtree and its linear velocity
-    /// (momentum over mass); a massless subtree's centre is the root's COM.
-    fn subtree(&self, model: &Model, root: usize) -> (Vector3<f64>, Vector3<f64>) {
-        let (mut mass, mut moment, mut momentum) = (0.0, Vector3::zeros(), Vector3::zeros());
-        let com = |i: usize| self.pose[i].trans + self.pose[i].axes() * model.bodies[i].com;
-        for (i, body) in model.bodies.iter().enumerate() {
+    /// Body i's centre of mass (world coordinates).
+    fn com(&self, model: &Model, i: usize) -> Vector3<f64> {
+        self.pose[i].trans + self.pose[i].axes() * model.bodies[i].com
+    }
+
+    /// The bodies of `root`'s subtree, `root` included.
+    fn members(model: &Model, root: usize) -> impl Iterator<Item = usize> + '_ {
+        (0..model.bodies.len()).filter(move |&i| {
             let mut k = i;
             while k != root && k != 0 {
                 k = model.bodies[k].parent;
             }
-            if k == root {
-                mass += body.mass;
-                moment += com(i) * body.mass;
-                momentum += self.velocity(i, &com(i)).lin * body.mass;
-            }
+            k == root
+        })
+    }
+
+    /// The centre of mass of `root`'s subtree and its linear velocity
+    /// (momentum over mass); a massless subtree's centre is the root's COM.
+    fn subtree(&self, model: &Model, root: usize) -> (Vector3<f64>, Vector3<f64>) {
+        let (mut mass, mut moment, mut momentum) = (0.0, Vector3::zeros(), Vector3::zeros());
+        for i in Self::members(model, root) {
+            let (m, com) = (model.bodies[i].mass, self.com(model, i));
+            mass += m;
+            moment += com * m;
+            momentum += self.velocity(i, &com).lin * m;
         }
         let centre = if mass < MINVAL {
-            com(root)
+            self.com(model, root)
         } else {
             moment / mass
         };
         (centre, momentum / mass.max(MINVAL))
+    }
+
+    /// The angular momentum of `root`'s subtree about its centre of mass
+    /// (world coordinates): each body's spin I w plus its momentum's moment
+    /// relative to the subtree's centre and motion.
+    fn angular_momentum(&self, model: &Model, root: usize) -> Vector3<f64> {
+        let (centre, velocity) = self.subtree(model, root);
+        let mut total = Vector3::zeros();
+        for i in Self::members(model, root) {
+            let body = &model.bodies[i];
+            let com = self.com(model, i);
+            let axes = self.pose[i].axes();
+            let inertia = axes * body.inertia * axes.transpose();
+            let motion = self.velocity(i, &com);
+            let relative = (motion.lin - velocity) * body.mass;
+            total += inertia * motion.ang + (com - centre).cross(&relative);
+        }
+        total
     }
 }
 

@@ -52,7 +52,8 @@ pub use equality::{Equality, EqualityKind, Objects};
 pub use keyframe::Keyframe;
 pub use params::{MapEntry, Param, ParamError, ParamMap};
 pub use sensor::{
-    ActuatorQuantity, FrameObject, FrameQuantity, JointQuantity, Sensor, SensorKind, SiteQuantity,
+    ActuatorQuantity, FrameObject, FrameQuantity, JointQuantity, RayField, Sensor, SensorKind,
+    SiteQuantity, TendonQuantity,
 };
 pub use state::{Inputs, State};
 pub use tendon::{Tendon, Wrap};

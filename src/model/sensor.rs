@@ -28,11 +28,24 @@
 //!   site's body receives from its parent, in the site's axes: everything
 //!   that moves the body's subtree (inertia and gravity) less the contact
 //!   forces acting on it (MuJoCo's cfrc_int);
+//! - tendonpos and tendonvel read a tendon's length and its rate; the
+//!   tendon limit sensors read its first active limit row as the joint
+//!   limit sensors do;
+//! - subtreeangmom reads the angular momentum of a body's subtree about
+//!   its centre of mass (world coordinates);
+//! - e_potential reads the potential energy (gravity, -sum m g . com, and
+//!   the joint and tendon springs), e_kinetic 1/2 v' M v (armature
+//!   included);
+//! - touch sums the normal forces of the contacts on the site's body whose
+//!   ray from the contact point along the normal (pointing into the body)
+//!   hits the site's volume ([`SensorKind::Touch`]);
+//! - rangefinder casts a ray from the site along its z axis and reads the
+//!   nearest geom it hits ([`SensorKind::Rangefinder`]); -1 for no hit;
 //! - `cutoff` > 0 clips each real-valued reading to [-cutoff, cutoff]
-//!   (quaternions and axes are not clipped); `noise` is never applied
-//!   (mj_forward does not).
+//!   (quaternions and axes are not clipped; touch, positive, only above);
+//!   `noise` is never applied (mj_forward does not).
 
-use super::{JointKind, Spec};
+use super::{JointKind, Shape, Spec};
 
 /// A frame a frame sensor can read (MJCF objtype and reftype).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -92,6 +105,43 @@ pub enum SiteQuantity {
     Torque,
 }
 
+/// What a tendon sensor reads (1 each): its length and rate, and its
+/// first active limit row under the constraint model (the lower side
+/// first; 0 without one): distance less the margin, velocity J v, force.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TendonQuantity {
+    Pos,
+    Vel,
+    LimitPos,
+    LimitVel,
+    LimitForce,
+}
+
+/// A field of a rangefinder's readings, in MuJoCo's order (MJCF `data`):
+/// the distance along the ray (-1: no hit), the ray's direction and
+/// origin, the point hit, the surface normal there, the depth (the
+/// distance for a site's ray); all world coordinates, zeros without a hit
+/// (but the origin, and depth -1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RayField {
+    Dist,
+    Dir,
+    Origin,
+    Point,
+    Normal,
+    Depth,
+}
+
+impl RayField {
+    /// Its number of entries.
+    pub fn dim(self) -> usize {
+        match self {
+            RayField::Dist | RayField::Depth => 1,
+            _ => 3,
+        }
+    }
+}
+
 /// What an actuator sensor reads (1 each).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ActuatorQuantity {
@@ -116,6 +166,30 @@ pub enum SensorKind {
     /// (total momentum over total mass, 3).
     SubtreeCom(usize),
     SubtreeLinVel(usize),
+    /// The angular momentum of a body's subtree about its centre of mass (3).
+    SubtreeAngMom(usize),
+    Tendon(TendonQuantity, usize),
+    /// The potential (true) or kinetic energy (1).
+    Energy {
+        potential: bool,
+    },
+    /// The normal forces on the site's body from the contacts whose ray
+    /// hits `zone`: the site's volume (its MJCF type and size, in the
+    /// site's frame) (1).
+    Touch {
+        site: usize,
+        zone: Shape,
+    },
+    /// A ray from the site's origin along its z axis against `targets`:
+    /// the geoms it may hit (MuJoCo's mj_ray: not on the site's body, not
+    /// invisible by rgba alpha 0), each with the half-extents of a plane's
+    /// rendered rectangle (0: unbounded; unused by other shapes). Reads
+    /// `fields` in order.
+    Rangefinder {
+        site: usize,
+        fields: Vec<RayField>,
+        targets: Vec<(usize, [f64; 2])>,
+    },
     /// A sensor that is read and laid out but not computed: its MJCF
     /// element and why.
     Unsupported {
@@ -148,7 +222,11 @@ impl SensorKind {
                 _,
             )
             | SensorKind::Actuator(..)
+            | SensorKind::Tendon(..)
+            | SensorKind::Energy { .. }
+            | SensorKind::Touch { .. }
             | SensorKind::JointActuatorForce(_) => 1,
+            SensorKind::Rangefinder { fields, .. } => fields.iter().map(|f| f.dim()).sum(),
             SensorKind::Joint(JointQuantity::BallQuat, _) => 4,
             SensorKind::Frame {
                 quantity: FrameQuantity::Quat,
@@ -159,17 +237,19 @@ impl SensorKind {
         })
     }
 
-    /// Whether `cutoff` clips its readings (MuJoCo's real-valued data, not
-    /// quaternions and axes).
-    pub fn clipped(&self) -> bool {
-        !matches!(
-            self,
+    /// A reading `x` clipped by `cutoff` > 0 as MuJoCo clips it: real
+    /// values to [-cutoff, cutoff], positive ones (touch, kinetic energy)
+    /// from above; quaternions and axes are not clipped.
+    pub fn clip(&self, x: f64, cutoff: f64) -> f64 {
+        match self {
             SensorKind::Joint(JointQuantity::BallQuat, _)
-                | SensorKind::Frame {
-                    quantity: FrameQuantity::Quat | FrameQuantity::Axis(_),
-                    ..
-                }
-        )
+            | SensorKind::Frame {
+                quantity: FrameQuantity::Quat | FrameQuantity::Axis(_),
+                ..
+            } => x,
+            SensorKind::Touch { .. } | SensorKind::Energy { potential: false } => x.min(cutoff),
+            _ => x.clamp(-cutoff, cutoff),
+        }
     }
 }
 
@@ -207,7 +287,17 @@ impl Sensor {
             SensorKind::JointActuatorForce(j) => {
                 spec.joints.get(*j).is_some_and(|j| j.kind.nv() == 1)
             }
-            SensorKind::SubtreeCom(b) | SensorKind::SubtreeLinVel(b) => *b < spec.bodies.len(),
+            SensorKind::SubtreeCom(b)
+            | SensorKind::SubtreeLinVel(b)
+            | SensorKind::SubtreeAngMom(b) => *b < spec.bodies.len(),
+            SensorKind::Tendon(quantity, t) => spec.tendons.get(*t).is_some_and(|t| {
+                matches!(quantity, TendonQuantity::Pos | TendonQuantity::Vel) || t.range.is_some()
+            }),
+            SensorKind::Energy { .. } => true,
+            SensorKind::Touch { site, .. } => *site < spec.sites.len(),
+            SensorKind::Rangefinder { site, targets, .. } => {
+                *site < spec.sites.len() && targets.iter().all(|(g, _)| *g < spec.geoms.len())
+            }
             SensorKind::Unsupported { .. } => true,
         };
         if !ok {

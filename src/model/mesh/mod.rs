@@ -18,6 +18,7 @@
 mod collada;
 mod compile;
 mod eig3;
+pub mod fit;
 pub mod hull;
 mod inertia;
 mod msh;

@@ -34,6 +34,9 @@ pub struct Compiler {
     /// (`meshdir`, else `assetdir`); `strippath` drops a file's directories.
     pub meshdir: String,
     pub strippath: bool,
+    /// `fitaabb`: primitives fitted to a mesh enclose its bounding box
+    /// (else they match its inertia box).
+    pub fit_aabb: bool,
 }
 
 impl Default for Compiler {
@@ -51,6 +54,7 @@ impl Default for Compiler {
             balanceinertia: false,
             meshdir: String::new(),
             strippath: false,
+            fit_aabb: false,
         }
     }
 }
@@ -104,7 +108,8 @@ impl Compiler {
         Ok(())
     }
 
-    /// `assetdir`, then `meshdir` over it (MuJoCo's order), and `strippath`.
+    /// `assetdir`, then `meshdir` over it (MuJoCo's order), `strippath` and
+    /// `fitaabb` (how meshes are read and fitted).
     fn read_paths(&mut self, a: &Attrs) -> Result<()> {
         for dir in ["assetdir", "meshdir"] {
             if let Some(d) = a.text(dir) {
@@ -112,6 +117,7 @@ impl Compiler {
             }
         }
         self.strippath = a.flag("strippath")?.unwrap_or(self.strippath);
+        self.fit_aabb = a.flag("fitaabb")?.unwrap_or(self.fit_aabb);
         Ok(())
     }
 

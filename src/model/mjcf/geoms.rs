@@ -10,9 +10,10 @@ use super::frames::Member;
 use super::inertial::Principal;
 use super::orientation::{unit, z_to};
 use super::schema::{check_attributes, GEOM_ATTRS};
-use super::tree::{Kind, Tree};
+use super::tree::{Kind, Looks, Tree};
 use super::{Node, Reader, Result};
 use crate::model::geom_inertia::{self, MJ_EPS};
+use crate::model::mesh::fit::{fit, Fitted};
 use crate::model::{Geom, GeomContact, Shape};
 
 impl<'a> Reader<'a> {
@@ -50,11 +51,19 @@ impl<'a> Reader<'a> {
         let a = self.attrs(node, m.class, |c| &c.geom)?;
         let kind = geom_type(&a)?;
         let mut size = a.leading::<3>("size", [0.0; 3])?;
+        tree.geom_looks.push(Looks {
+            alpha: a.leading::<4>("rgba", [0.5, 0.5, 0.5, 1.0])?[3],
+            material: a.text("material"),
+            plane: [size[0], size[1]],
+        });
         let mut pos = a.vector("pos")?.unwrap_or_default();
         let mut rot = match a.exact::<6>("fromto")? {
             Some(ft) => self.fromto_frame(node, kind, ft, &mut pos, &mut size)?,
             None => self.orientation(&a)?,
         };
+        if kind != "mesh" && a.text("mesh").is_some() {
+            size = self.fitted_size(&a, kind, &mut pos, &mut rot)?;
+        }
         let shape = match kind {
             "mesh" => self.mesh_shape(&a, &mut pos, &mut rot)?,
             "hfield" => self.hfield_shape(&a)?,
@@ -134,6 +143,41 @@ impl<'a> Reader<'a> {
         Ok(Shape::Mesh { mesh })
     }
 
+    /// A primitive fitted to its mesh (see [`crate::model::mesh::fit`]):
+    /// its size, its pose moved to the fitted primitive's frame (the mesh
+    /// frame, shifted to the bounding box's centre under `fitaabb`).
+    fn fitted_size(
+        &self,
+        a: &Attrs,
+        kind: &str,
+        pos: &mut Vector3<f64>,
+        rot: &mut Rotation3<f64>,
+    ) -> Result<[f64; 3]> {
+        let node = a.element;
+        if a.text("fromto").is_some() {
+            return Err(self.error(node, "fromto cannot be used with mesh geom"));
+        }
+        let name = a.text("mesh").unwrap_or_default();
+        let mesh = self
+            .meshes
+            .find(name)
+            .ok_or_else(|| self.error(node, format!("unknown mesh '{name}'")))?;
+        let m = &self.meshes.compiled[mesh];
+        let fitted = match kind {
+            "sphere" => Fitted::Sphere,
+            "capsule" => Fitted::Capsule,
+            "cylinder" => Fitted::Cylinder,
+            "ellipsoid" => Fitted::Ellipsoid,
+            _ => Fitted::Box,
+        };
+        let scale = a.number("fitscale")?.unwrap_or(1.0);
+        let (size, centre) = fit(m, fitted, self.compiler.fit_aabb, scale);
+        let mesh_rot = crate::model::mesh::rotation(&m.quat);
+        *pos += *rot * (m.pos + mesh_rot * centre);
+        *rot *= mesh_rot;
+        Ok(size)
+    }
+
     /// A height-field geom: its field (its size is the field's, MuJoCo's
     /// geom_size).
     fn hfield_shape(&self, a: &Attrs) -> Result<Shape> {
@@ -202,28 +246,34 @@ impl<'a> Reader<'a> {
             );
             return Err(self.error(node, msg));
         }
-        Ok(match kind {
-            "sphere" => Shape::Sphere { radius: s[0] },
-            "capsule" => Shape::Capsule {
-                radius: s[0],
-                half_length: s[1],
-            },
-            "cylinder" => Shape::Cylinder {
-                radius: s[0],
-                half_length: s[1],
-            },
-            "box" => Shape::Box {
-                half: Vector3::from(s),
-            },
-            _ => Shape::Ellipsoid {
-                radii: Vector3::from(s),
-            },
-        })
+        Ok(primitive(kind, s))
+    }
+}
+
+/// The primitive solid of MJCF type `kind` (sphere, capsule, cylinder,
+/// box; else ellipsoid) and `size`, as MuJoCo reads the size.
+pub(super) fn primitive(kind: &str, s: [f64; 3]) -> Shape {
+    match kind {
+        "sphere" => Shape::Sphere { radius: s[0] },
+        "capsule" => Shape::Capsule {
+            radius: s[0],
+            half_length: s[1],
+        },
+        "cylinder" => Shape::Cylinder {
+            radius: s[0],
+            half_length: s[1],
+        },
+        "box" => Shape::Box {
+            half: Vector3::from(s),
+        },
+        _ => Shape::Ellipsoid {
+            radii: Vector3::from(s),
+        },
     }
 }
 
 /// The geom type (sphere by default); rejects what is not a primitive solid
-/// or a mesh, a primitive fitted to a mesh, and fluid forces.
+/// or a mesh, a plane or height field fitted to a mesh, and fluid forces.
 fn geom_type(a: &Attrs) -> Result<&'static str> {
     #[rustfmt::skip]
     let types = [
@@ -237,9 +287,8 @@ fn geom_type(a: &Attrs) -> Result<&'static str> {
         let msg = format!("a {kind} geom cannot name a height field (hfield=)");
         return Err(a.error(a.element, msg));
     }
-    if kind != "mesh" && a.text("mesh").is_some() {
-        let msg =
-            format!("a {kind} fitted to a mesh (type=\"{kind}\" with mesh=) is not supported");
+    if ["plane", "hfield"].contains(&kind) && a.text("mesh").is_some() {
+        let msg = format!("a {kind} cannot be fitted to a mesh (mesh=)");
         return Err(a.error(a.element, msg));
     }
     if a.flag("shellinertia")? == Some(true) {

@@ -394,10 +394,10 @@ mod tests {
         assert_rejects(flat_colliding, "coplanar vertices");
         let fitted = model(
             r#"<asset><mesh name="t" vertex="0 0 0 1 0 0 0 1 0 0 0 1"/></asset>"#,
-            r#"<geom type="box" mesh="t"/>"#,
+            r#"<geom type="plane" size="1 1 1" mesh="t"/>"#,
             "",
         );
-        assert_rejects(&fitted, "fitted to a mesh");
+        assert_rejects(&fitted, "a plane cannot be fitted to a mesh");
     }
 
     #[test]

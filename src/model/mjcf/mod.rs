@@ -46,8 +46,8 @@
 //!   adhesion, PID and DC motors; tendon, site, body, ball and free-joint
 //!   transmissions; actuator damping's polynomial terms and delay);
 //! - what builds the model from elsewhere: composite, flexcomp, attach,
-//!   plugins, builtin meshes, primitives fitted to meshes, PNG height
-//!   fields, SDFs, shell inertia of geoms, fusestatic, global coordinates;
+//!   plugins, builtin meshes, PNG height fields, SDFs, shell inertia of
+//!   geoms, fusestatic, global coordinates;
 //! - what MuJoCo rejects: unknown elements and attributes, malformed or
 //!   miscounted numbers, unknown classes, joints, geoms and bodies, repeated
 //!   names, zero axes and quaternions, bad ranges, non-physical inertias,
@@ -136,13 +136,20 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
     reader.read_world(&mut tree, &children(root, "worldbody"))?;
     check_unsupported_sections(file, root)?;
     let mut tendons = reader.read_tendons(&tree, root)?;
+    let tendon_names: Vec<String> = tendons.iter().map(|t| t.name.clone()).collect();
+    let limited: Vec<bool> = tendons.iter().map(|t| t.range.is_some()).collect();
     tree::fill_names(&mut tendons, "tendon", |t| &mut t.name);
     reader.check_moving_bodies(&tree)?;
     reader.scale_total_mass(&mut tree);
     let mut actuators = reader.read_actuators(&tree, root)?;
     let written: Vec<String> = actuators.iter().map(|a| a.name.clone()).collect();
     tree::fill_names(&mut actuators, "actuator", |a| &mut a.name);
-    let mut sensors = reader.read_sensors(&tree, &written, root)?;
+    let named = sensors::Named {
+        actuators: &written,
+        tendons: &tendon_names,
+        limited: &limited,
+    };
+    let mut sensors = reader.read_sensors(&tree, &named, root)?;
     tree::fill_names(&mut sensors, "sensor", |s| &mut s.name);
     let (bodies, joints, geoms, sites) = tree.finish();
     let body_names: Vec<&str> = bodies.iter().map(|b| b.name.as_str()).collect();

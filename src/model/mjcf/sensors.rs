@@ -1,17 +1,18 @@
 //! `<sensor>`: every MuJoCo sensor element is read, checked as MuJoCo's
 //! compiler checks it (known objects of the right kind, non-negative cutoff
 //! and noise) and laid out with MuJoCo's size. Those [`crate::model::sensor`]
-//! computes become their [`SensorKind`]; the others (touch, rangefinder,
-//! tendon, tendon actuator force, tendon limit, contact, distance, energy,
-//! clock (the state has no time), user sensors,
-//! frame sensors on cameras, and any sensor whose readings are delayed or
-//! sampled at an interval) are kept as [`SensorKind::Unsupported`], so that
-//! a model using them loads and only evaluating its sensors fails, naming
-//! the sensor (a sensor never changes the dynamics); so are all sensors of a
-//! model that disables them (`<flag sensor="disable"/>`, where MuJoCo leaves
-//! sensordata unset). Tactile and plugin
-//! sensors are refused: their size depends on meshes and plugins, which are
-//! not read.
+//! computes become their [`SensorKind`]; the others (camera rangefinders,
+//! rangefinders that may meet a height field, tendon actuator force,
+//! contact, distance, normal, fromto, insidesite, camprojection, clock (the
+//! state has no time), user sensors, the potential energy of a model with
+//! springs on ball or free joints, frame sensors on cameras, and any sensor
+//! whose readings are delayed or sampled at an interval) are kept as
+//! [`SensorKind::Unsupported`], so that a model using them loads and only
+//! evaluating its sensors fails, naming the sensor (a sensor never changes
+//! the dynamics); so are all sensors of a model that disables them
+//! (`<flag sensor="disable"/>`, where MuJoCo leaves sensordata unset).
+//! Tactile and plugin sensors are refused: their size depends on meshes and
+//! plugins, which are not read.
 
 use std::collections::HashSet;
 
@@ -21,28 +22,24 @@ use super::schema::{check_attributes, SENSOR_ATTRS};
 use super::tree::Tree;
 use super::{children, elements, tag, unrecognized, unsupported, Node, Reader, Result};
 use crate::model::{
-    ActuatorQuantity, FrameObject, FrameQuantity, JointKind, JointQuantity, Sensor, SensorKind,
-    SiteQuantity,
+    ActuatorQuantity, FrameObject, FrameQuantity, JointKind, JointQuantity, RayField, Sensor,
+    SensorKind, Shape, SiteQuantity, TendonQuantity,
 };
 
 /// The sensors MuJoCo computes that are not computed here, with their own
 /// attributes and sizes (0: the size depends on attributes).
 #[rustfmt::skip]
 const OTHERS: &[(&str, &[&str], usize)] = &[
-    ("touch", &["site"], 1),
     ("camprojection", &["site", "camera"], 2),
     ("rangefinder", &["site", "camera", "data"], 0),
-    ("tendonpos", &["tendon"], 1), ("tendonvel", &["tendon"], 1),
     ("tendonactuatorfrc", &["tendon"], 1),
-    ("tendonlimitpos", &["tendon"], 1),
-    ("tendonlimitvel", &["tendon"], 1), ("tendonlimitfrc", &["tendon"], 1),
-    ("subtreeangmom", &["body"], 3), ("insidesite", &["site", "objtype", "objname"], 1),
+    ("insidesite", &["site", "objtype", "objname"], 1),
     ("distance", &["body1", "geom1", "body2", "geom2"], 1),
     ("normal", &["body1", "geom1", "body2", "geom2"], 3),
     ("fromto", &["body1", "geom1", "body2", "geom2"], 6),
     ("contact", &["site", "body1", "subtree1", "geom1", "body2", "subtree2", "geom2", "num",
                   "data", "reduce"], 0),
-    ("e_potential", &[], 1), ("e_kinetic", &[], 1), ("clock", &[], 1),
+    ("clock", &[], 1),
     ("user", &["objtype", "objname", "datatype", "needstage", "dim"], 0),
 ];
 
@@ -74,6 +71,14 @@ const ACTUATORS: [(&str, ActuatorQuantity); 3] = [
     ("actuatorfrc", ActuatorQuantity::Force),
 ];
 
+const TENDONS: [(&str, TendonQuantity); 5] = [
+    ("tendonpos", TendonQuantity::Pos),
+    ("tendonvel", TendonQuantity::Vel),
+    ("tendonlimitpos", TendonQuantity::LimitPos),
+    ("tendonlimitvel", TendonQuantity::LimitVel),
+    ("tendonlimitfrc", TendonQuantity::LimitForce),
+];
+
 const JOINTS: [(&str, JointQuantity); 7] = [
     ("jointpos", JointQuantity::Pos),
     ("jointvel", JointQuantity::Vel),
@@ -95,22 +100,30 @@ const CONTACT_DATA: [(&str, usize); 7] = [
     ("normal", 3),
     ("tangent", 3),
 ];
-const RAY_DATA: [(&str, usize); 6] = [
-    ("dist", 1),
-    ("dir", 3),
-    ("origin", 3),
-    ("point", 3),
-    ("normal", 3),
-    ("depth", 1),
+const RAY_DATA: [(&str, RayField); 6] = [
+    ("dist", RayField::Dist),
+    ("dir", RayField::Dir),
+    ("origin", RayField::Origin),
+    ("point", RayField::Point),
+    ("normal", RayField::Normal),
+    ("depth", RayField::Depth),
 ];
+
+/// The objects sensors name, as the file names them (unnamed ones
+/// cannot be named).
+pub(super) struct Named<'n> {
+    pub actuators: &'n [String],
+    pub tendons: &'n [String],
+    /// Whether each tendon is limited.
+    pub limited: &'n [bool],
+}
 
 impl<'a> Reader<'a> {
     /// Every sensor in document order; explicit names must differ.
-    /// `actuators` are the actuators' names as the file gives them.
     pub(super) fn read_sensors(
         &self,
         tree: &Tree<'a>,
-        actuators: &[String],
+        named: &Named,
         root: Node<'a>,
     ) -> Result<Vec<Sensor>> {
         let mut names = HashSet::new();
@@ -122,7 +135,7 @@ impl<'a> Reader<'a> {
         for section in children(root, "sensor") {
             check_attributes(self.file, section, &[])?;
             for node in elements(section) {
-                let mut sensor = self.read_sensor(tree, actuators, node)?;
+                let mut sensor = self.read_sensor(tree, named, root, node)?;
                 if disabled {
                     let why = "sensors are disabled (<flag sensor=\"disable\"/>)";
                     sensor.kind = other(tag(node), why);
@@ -136,10 +149,16 @@ impl<'a> Reader<'a> {
         Ok(sensors)
     }
 
-    fn read_sensor(&self, tree: &Tree<'a>, actuators: &[String], node: Node<'a>) -> Result<Sensor> {
+    fn read_sensor(
+        &self,
+        tree: &Tree<'a>,
+        named: &Named,
+        root: Node<'a>,
+        node: Node<'a>,
+    ) -> Result<Sensor> {
         let a = Attrs::of(self.file, node);
         let element = tag(node);
-        let kind = match self.computed_kind(tree, actuators, node)? {
+        let kind = match self.computed_kind(tree, named, root, node)? {
             Some(kind) => kind,
             None => self.other_kind(tree, node)?,
         };
@@ -174,11 +193,13 @@ impl<'a> Reader<'a> {
     fn computed_kind(
         &self,
         tree: &Tree<'a>,
-        actuators: &[String],
+        named: &Named,
+        root: Node<'a>,
         node: Node<'a>,
     ) -> Result<Option<SensorKind>> {
         let element = tag(node);
         let attrs = |own: &[&'static str]| [SENSOR_ATTRS, own].concat();
+        let actuators = named.actuators;
         if let Some((_, quantity)) = ACTUATORS.iter().find(|(t, _)| *t == element) {
             check_attributes(self.file, node, &attrs(&["actuator"]))?;
             let name = value(node, "actuator").filter(|n| !n.is_empty());
@@ -254,13 +275,111 @@ impl<'a> Reader<'a> {
                 reference,
             }));
         }
+        if let Some((_, quantity)) = TENDONS.iter().find(|(t, _)| *t == element) {
+            check_attributes(self.file, node, &attrs(&["tendon"]))?;
+            let name = value(node, "tendon").filter(|n| !n.is_empty());
+            let Some(name) = name else {
+                return Err(self.error(node, "the sensor needs 'tendon'"));
+            };
+            let Some(t) = named.tendons.iter().position(|t| t == name) else {
+                return Err(self.error(node, format!("unknown tendon '{name}'")));
+            };
+            let limit = !matches!(quantity, TendonQuantity::Pos | TendonQuantity::Vel);
+            if limit && !named.limited[t] {
+                return Err(self.error(node, "tendon must be limited in sensor"));
+            }
+            return Ok(Some(SensorKind::Tendon(*quantity, t)));
+        }
+        if let Some(potential) = match element {
+            "e_potential" => Some(true),
+            "e_kinetic" => Some(false),
+            _ => None,
+        } {
+            check_attributes(self.file, node, SENSOR_ATTRS)?;
+            let sprung = |j: &&crate::model::Joint| j.stiffness != 0.0 && j.kind.nv() != 1;
+            if potential && tree.joints.iter().any(|j| sprung(&j)) {
+                let why = "the spring energy of a ball or free joint is not computed";
+                return Ok(Some(other(element, why)));
+            }
+            return Ok(Some(SensorKind::Energy { potential }));
+        }
+        if element == "touch" {
+            check_attributes(self.file, node, &attrs(&["site"]))?;
+            let site = self.named(tree, node, "site", "site")?;
+            let zone = tree.site_zones[site];
+            return Ok(Some(SensorKind::Touch { site, zone }));
+        }
+        if element == "rangefinder" && value(node, "camera").is_none() {
+            return self.rangefinder(tree, root, node).map(Some);
+        }
         let subtree = match element {
             "subtreecom" => SensorKind::SubtreeCom,
             "subtreelinvel" => SensorKind::SubtreeLinVel,
+            "subtreeangmom" => SensorKind::SubtreeAngMom,
             _ => return Ok(None),
         };
         check_attributes(self.file, node, &attrs(&["body"]))?;
         Ok(Some(subtree(self.named(tree, node, "body", "body")?)))
+    }
+
+    /// A rangefinder on a site: its fields, and the geoms its ray may hit
+    /// (see [`SensorKind::Rangefinder`]); a ray that may meet a height
+    /// field is not computed.
+    fn rangefinder(&self, tree: &Tree<'a>, root: Node<'a>, node: Node<'a>) -> Result<SensorKind> {
+        check_attributes(self.file, node, &[SENSOR_ATTRS, &["site", "data"]].concat())?;
+        let site = self.named(tree, node, "site", "site")?;
+        let fields = self.data_fields(node, &RAY_DATA, "dist")?;
+        let body = tree.sites[site].body;
+        let mut targets = vec![];
+        for (g, (geom, looks)) in tree.geoms.iter().zip(&tree.geom_looks).enumerate() {
+            let alpha = match looks.material {
+                Some(name) => material_alpha(root, name),
+                None => Some(looks.alpha),
+            };
+            let Some(alpha) = alpha else {
+                let why = format!("the alpha of geom {g}'s material is set by a default class");
+                return Ok(other("rangefinder", &why));
+            };
+            if geom.body == body || alpha == 0.0 {
+                continue;
+            }
+            if matches!(geom.shape, Shape::HField { .. }) {
+                let why = "rays against height fields are not computed";
+                return Ok(other("rangefinder", why));
+            }
+            targets.push((g, looks.plane));
+        }
+        Ok(SensorKind::Rangefinder {
+            site,
+            fields,
+            targets,
+        })
+    }
+
+    /// The fields a `data` attribute lists (`default` without one), each
+    /// known and in the table's order.
+    fn data_fields<F: Copy>(
+        &self,
+        node: Node<'a>,
+        table: &[(&str, F)],
+        default: &str,
+    ) -> Result<Vec<F>> {
+        let text = value(node, "data").unwrap_or(default);
+        let mut last = None;
+        let mut out = vec![];
+        for word in text.split_whitespace() {
+            let Some(i) = table.iter().position(|(k, _)| *k == word) else {
+                return Err(self.error(node, format!("unknown data field '{word}'")));
+            };
+            if last.is_some_and(|l| i <= l) {
+                let order: Vec<&str> = table.iter().map(|(k, _)| *k).collect();
+                let msg = format!("data attributes must be in order: {}", order.join(", "));
+                return Err(self.error(node, msg));
+            }
+            last = Some(i);
+            out.push(table[i].1);
+        }
+        Ok(out)
     }
 
     /// A frame sensor's object (or reference) given by the attributes
@@ -357,23 +476,9 @@ impl<'a> Reader<'a> {
             return Ok(if element == "framequat" { 4 } else { 3 });
         }
         let a = Attrs::of(self.file, node);
-        let fields = |table: &[(&str, usize)], default: &str| -> Result<usize> {
-            let text = a.text("data").unwrap_or(default);
-            let mut last = None;
-            let mut size = 0;
-            for word in text.split_whitespace() {
-                let Some(i) = table.iter().position(|(k, _)| *k == word) else {
-                    return Err(self.error(node, format!("unknown data field '{word}'")));
-                };
-                if last.is_some_and(|l| i <= l) {
-                    let order: Vec<&str> = table.iter().map(|(k, _)| *k).collect();
-                    let msg = format!("data attributes must be in order: {}", order.join(", "));
-                    return Err(self.error(node, msg));
-                }
-                last = Some(i);
-                size += table[i].1;
-            }
-            Ok(size)
+        let rays = || -> Result<usize> {
+            let fields = self.data_fields(node, &RAY_DATA, "dist")?;
+            Ok(fields.iter().map(|f| f.dim()).sum())
         };
         match element {
             "rangefinder" if value(node, "site").is_none() => Err(unsupported(
@@ -381,13 +486,14 @@ impl<'a> Reader<'a> {
                 node,
                 "a camera rangefinder's size depends on the camera, which is not read",
             )),
-            "rangefinder" => fields(&RAY_DATA, "dist"),
+            "rangefinder" => rays(),
             "contact" => {
                 let num = a.int("num")?.unwrap_or(1);
                 if num <= 0 {
                     return Err(self.error(node, "'num' must be positive in sensor"));
                 }
-                Ok(num as usize * fields(&CONTACT_DATA, "found")?)
+                let fields = self.data_fields(node, &CONTACT_DATA, "found")?;
+                Ok(num as usize * fields.iter().sum::<usize>())
             }
             "user" => {
                 let dim = a.int("dim")?.unwrap_or(0);
@@ -399,6 +505,27 @@ impl<'a> Reader<'a> {
                 .find(|(t, ..)| *t == element)
                 .map_or(0, |(.., dim)| *dim)),
         }
+    }
+}
+
+/// The alpha of material `name` (its `rgba`, else the default 1); None
+/// where a default class may set it (a `<default>` giving materials an
+/// rgba), which is not followed.
+fn material_alpha(root: Node, name: &str) -> Option<f64> {
+    let classes = root.descendants().filter(|n| n.has_tag_name("default"));
+    let class_rgba = classes
+        .flat_map(|d| children(d, "material"))
+        .any(|m| value(m, "rgba").is_some());
+    let materials = children(root, "asset")
+        .into_iter()
+        .flat_map(|a| children(a, "material"));
+    let found = materials
+        .filter(|m| value(*m, "name") == Some(name))
+        .find_map(|m| value(m, "rgba"));
+    match found {
+        Some(rgba) => rgba.split_whitespace().nth(3)?.parse().ok(),
+        None if class_rgba => None,
+        None => Some(1.0),
     }
 }
 
@@ -445,8 +572,17 @@ mod tests {
             reference: None,
         };
         assert_eq!(m.sensors[2].kind, quat);
+        assert!(matches!(
+            m.sensors[3].kind,
+            SensorKind::Touch { site: 0, .. }
+        ));
+        assert!(matches!(
+            m.sensors[4].kind,
+            SensorKind::Rangefinder { site: 0, .. }
+        ));
+        assert_eq!(m.sensors[8].kind, SensorKind::SubtreeAngMom(1));
         // Read but not computed: other types, a full tensor's axes, history.
-        for i in [3, 4, 5, 6, 7, 8, 9, 10, 11, 13] {
+        for i in [5, 6, 7, 9, 10, 11, 13] {
             let kind = &m.sensors[i].kind;
             assert!(
                 matches!(kind, SensorKind::Unsupported { .. }),
@@ -482,6 +618,19 @@ mod tests {
         ];
         for (list, expected) in cases {
             assert_rejects(&sensors(list), expected);
+        }
+        let tendon = r#"<tendon><fixed name="t"><joint joint="j" coef="1"/></fixed></tendon>"#;
+        for (list, expected) in [
+            (r#"<tendonpos tendon="u"/>"#, "unknown tendon 'u'"),
+            (
+                r#"<tendonlimitfrc tendon="t"/>"#,
+                "tendon must be limited in sensor",
+            ),
+        ] {
+            assert_rejects(
+                &model("", BODIES, &format!("{tendon}<sensor>{list}</sensor>")),
+                expected,
+            );
         }
         let head = r#"<option><flag sensor="disable"/></option>"#;
         let tail = r#"<sensor><jointpos joint="j"/></sensor>"#;

@@ -1,10 +1,12 @@
 //! `<site>`: a frame on a body (see [`crate::model::Site`]). Its pose comes
 //! from `pos` and an orientation, or from `fromto` as a geom's does (for
-//! capsule, cylinder, box and ellipsoid sites); type, size, material, rgba,
-//! group and user data are visual and not kept. Sites take `<default>`
+//! capsule, cylinder, box and ellipsoid sites); its type and size make the
+//! zone a touch sensor reads; material, rgba, group and user data are
+//! visual and not kept. Sites take `<default>`
 //! classes as geoms do.
 
 use super::frames::Member;
+use super::geoms::primitive;
 use super::schema::{check_attributes, SITE_ATTRS};
 use super::tree::{Kind, Tree};
 use super::{Reader, Result};
@@ -46,6 +48,7 @@ impl<'a> Reader<'a> {
             Some(ft) => self.fromto_frame(node, kind, ft, &mut pos, &mut size)?,
             None => self.orientation(&a)?,
         };
+        tree.site_zones.push(primitive(kind, size));
         Ok(Site {
             name: tree.claim(self.file, node, Kind::Site, &m.suffix)?,
             body,

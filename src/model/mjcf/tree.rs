@@ -14,7 +14,7 @@ use std::collections::HashSet;
 
 use super::inertial::Principal;
 use super::{xml, Node, Result};
-use crate::model::{Body, Geom, Joint, Site};
+use crate::model::{Body, Geom, Joint, Shape, Site};
 
 pub struct Tree<'a> {
     pub bodies: Vec<Body>,
@@ -25,8 +25,23 @@ pub struct Tree<'a> {
     pub joints: Vec<Joint>,
     pub geoms: Vec<Geom>,
     pub sites: Vec<Site>,
+    /// Per site: its volume (MJCF type and size in the site's frame), the
+    /// zone a touch sensor reads.
+    pub site_zones: Vec<Shape>,
+    /// Per geom: what a rangefinder's ray sees of it.
+    pub geom_looks: Vec<Looks<'a>>,
     /// Explicit names taken, per [`Kind`].
     names: [HashSet<String>; 4],
+}
+
+/// How a geom looks to MuJoCo's mj_ray: its rgba alpha and its material
+/// (whose alpha, when it names one, replaces its own), and a plane's
+/// rendered half-extents (`size`, 0: unbounded).
+#[derive(Clone, Copy, Debug)]
+pub struct Looks<'a> {
+    pub alpha: f64,
+    pub material: Option<&'a str>,
+    pub plane: [f64; 2],
 }
 
 /// The kinds of object whose names must differ.
@@ -48,6 +63,8 @@ impl<'a> Tree<'a> {
             joints: vec![],
             geoms: vec![],
             sites: vec![],
+            site_zones: vec![],
+            geom_looks: vec![],
             names: [
                 HashSet::from(["world".to_string()]),
                 HashSet::new(),

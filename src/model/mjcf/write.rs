@@ -44,7 +44,7 @@ use crate::model::{
     ActDynamics, Actuator, ActuatorQuantity, Bias, Body, Cone, ContactModel, EqualityKind,
     FrameObject, FrameQuantity, Gain, Geom, Integrator, Joint, JointKind, JointQuantity,
     ModelError, Objects, Options, PassiveMode, SensorKind, Shape, SiteQuantity, SoftOptions,
-    SolParams, Spec, Wrap, CCD_ITERATIONS, CCD_TOLERANCE,
+    SolParams, Spec, TendonQuantity, Wrap, CCD_ITERATIONS, CCD_TOLERANCE,
 };
 
 /// Writes `spec` as an MJCF document, checked by reading and validating it.
@@ -403,6 +403,29 @@ fn write_sensors(doc: &mut Document, spec: &Spec) -> Result<(), ModelError> {
             SensorKind::SubtreeCom(b) => Tag::new("subtreecom").text("body", &spec.bodies[*b].name),
             SensorKind::SubtreeLinVel(b) => {
                 Tag::new("subtreelinvel").text("body", &spec.bodies[*b].name)
+            }
+            SensorKind::SubtreeAngMom(b) => {
+                Tag::new("subtreeangmom").text("body", &spec.bodies[*b].name)
+            }
+            SensorKind::Tendon(quantity, t) => {
+                let element = match quantity {
+                    TendonQuantity::Pos => "tendonpos",
+                    TendonQuantity::Vel => "tendonvel",
+                    TendonQuantity::LimitPos => "tendonlimitpos",
+                    TendonQuantity::LimitVel => "tendonlimitvel",
+                    TendonQuantity::LimitForce => "tendonlimitfrc",
+                };
+                Tag::new(element).text("tendon", &spec.tendons[*t].name)
+            }
+            SensorKind::Energy { potential: true } => Tag::new("e_potential"),
+            SensorKind::Energy { potential: false } => Tag::new("e_kinetic"),
+            SensorKind::Touch { .. } | SensorKind::Rangefinder { .. } => {
+                let why = format!(
+                    "sensor '{}' reads a site's shape or geoms' colours, which are not kept \
+                     to be written",
+                    sensor.name
+                );
+                return Err(unwritable(&why));
             }
             SensorKind::Unsupported { element, .. } => {
                 let why = format!(
