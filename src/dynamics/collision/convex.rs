@@ -33,7 +33,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::epa::penetration;
 use super::gjk::gjk;
-use super::{normalize, Placed, Pre};
+use super::{normalize, Assets, Placed, Pre};
 use crate::model::{Shape, CCD_ITERATIONS, CCD_TOLERANCE};
 use crate::spatial::{lift, Real};
 
@@ -151,6 +151,7 @@ impl<'a, T: Real> Body<'a, T> {
 
 /// The collider of the table: see the module documentation.
 pub(super) fn convex<T: Real>(
+    _: &Assets,
     (s1, p1): (&Shape, &Placed<T>),
     (s2, p2): (&Shape, &Placed<T>),
     margin: T,
@@ -214,7 +215,13 @@ mod tests {
             mat: Matrix3::identity(),
         };
         let mut out = vec![];
-        convex((&s1, &place(pos1)), (&s2, &place(pos2)), margin, &mut out);
+        convex(
+            &Assets::default(),
+            (&s1, &place(pos1)),
+            (&s2, &place(pos2)),
+            margin,
+            &mut out,
+        );
         out
     }
 
