@@ -95,6 +95,7 @@ mod epa;
 mod geom;
 mod gjk;
 mod hfield;
+mod mesh;
 mod plane;
 mod record;
 mod shape;
@@ -212,7 +213,7 @@ impl<T: Real> Colliders<T> {
     #[rustfmt::skip]
     pub const TABLE: [[Option<Entry<T>>; NTYPES]; NTYPES] = [
         // plane, hfield, sphere, capsule, ellipsoid, cylinder, box, mesh
-        [None, None, exact(plane::sphere), exact(plane::capsule), exact(plane::ellipsoid), exact(plane::cylinder), exact(plane::cuboid), None],
+        [None, None, exact(plane::sphere), exact(plane::capsule), exact(plane::ellipsoid), exact(plane::cylinder), exact(plane::cuboid), exact(mesh::plane)],
         [None, None, ccd_bare(hfield::hfield), ccd_bare(hfield::hfield), ccd_bare(hfield::hfield), ccd_bare(hfield::hfield), None, None],
         [None, None, exact(sphere::sphere), exact(sphere::capsule), ccd(convex::convex), exact(sphere::cylinder), exact(sphere::cuboid), None],
         [None, None, None, exact(capsule::capsule), ccd(convex::convex), None, exact(capsule::cuboid), None],
