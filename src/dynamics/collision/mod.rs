@@ -3,7 +3,7 @@
 //! [`crate::compile::collision_pairs`]), the broad phase ([`Sweep`], then
 //! [`apart`]), and the contacts of a pair at a state: one table of
 //! colliders indexed by the two geoms' types, one file per collider family
-//! (plane.rs, sphere.rs, capsule.rs, box_box.rs). The smooth model
+//! (plane.rs, sphere.rs, capsule.rs, box_box.rs, mesh.rs). The smooth model
 //! ([`super::contact`]) shares the placed geoms, the broad phase and the
 //! candidate pairs; its contact geometry is part of its force law.
 //!
@@ -34,12 +34,13 @@
 //! ([`crate::compile::candidates`]).
 //!
 //! Supported pairs are those with an entry in [`Colliders::TABLE`]: plane
-//! against sphere, capsule, ellipsoid, cylinder and box; sphere against sphere,
+//! against sphere, capsule, ellipsoid, cylinder, box and mesh (mesh.rs); sphere against sphere,
 //! capsule, cylinder and box; capsule against capsule and box; box against
 //! box; an ellipsoid against the other primitives (GJK and EPA, convex.rs;
 //! the plane by its support point, plane.rs); a height field against a
 //! sphere, capsule, ellipsoid or cylinder (hfield.rs). A model may hold
-//! other pairs (cylinders with capsules, cylinders or boxes, meshes): a step
+//! other pairs (cylinders with capsules, cylinders or boxes, meshes with
+//! anything but a plane): a step
 //! refuses to run while one of them is within reach
 //! ([`super::StepError::NoCollider`]). Each [`Entry`] states what it takes:
 //! the general convex collider runs MuJoCo's default settings only (under
@@ -383,7 +384,7 @@ mod tests {
             .flat_map(|&a| types.iter().map(move |&b| (a, b)))
             .filter(|&(a, b)| a <= b && supported(a, b, &Ccd::default(), 0.0))
             .count();
-        assert_eq!(count, 21);
+        assert_eq!(count, 22);
         let (h, ccd) = (GeomType::Hfield, Ccd::default());
         assert!(supported(GeomType::Capsule, h, &ccd, 0.0));
         assert!(!supported(h, GeomType::Capsule, &ccd, 0.01));
@@ -413,7 +414,7 @@ mod tests {
             &Ccd::default(),
             0.0
         ));
-        assert!(!supported(
+        assert!(supported(
             GeomType::Plane,
             GeomType::Mesh,
             &Ccd::default(),
