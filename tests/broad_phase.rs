@@ -52,7 +52,12 @@ fn sweeping_finds_the_contacts_that_testing_every_pair_finds() {
         let reach = pair.params.margin + pair.params.gap;
         if pair.supported && !apart(geoms[0], geoms[1], &data, reach) {
             let poses = geoms.map(|g| g.pose(&data));
-            collide((pairs, index), geoms, poses, (&mut every, &mut pre));
+            collide(
+                (&tree.constraint, index),
+                geoms,
+                poses,
+                (&mut every, &mut pre),
+            );
         }
     }
     assert_eq!(swept, every);

@@ -51,7 +51,7 @@ KNOWN_FAILURES = {
     "example-robot-data:b1_description/urdf/b1.urdf":
         "rest: rollout step 0: geoms 2 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:baxter_description/urdf/baxter.urdf":
-        "rest: rollout step 0: geoms 3 and 2 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
+        "rest: rollout step 0: geoms 6 and 2 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:bolt_description/robots/bolt.urdf":
         "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:borinot_description/urdf/borinot_flying_arm_2.urdf":
@@ -123,7 +123,7 @@ KNOWN_FAILURES = {
     "example-robot-data:tiago_description/robots/tiago.urdf":
         "rest: rollout step 0: geoms 3 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:tiago_description/robots/tiago_dual.urdf":
-        "one_step: PyBullet: getJointState failed. | rest: rollout step 0: geoms 3 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
+        "one_step: PyBullet: getJointState failed. | rest: rollout step 0: geoms 0 and 11 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:tiago_description/robots/tiago_no_hand.urdf":
         "rest: rollout step 0: geoms 3 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:tiago_pro_description/robots/tiago_pro.urdf":

@@ -17,13 +17,13 @@ use super::invweight::invweight0;
 use super::pairs::{collision_pairs, contact_pairs, lawless_pairs};
 use super::tendon::tendon_consts;
 use crate::dynamics::actuation::ActuatorTerm;
-use crate::dynamics::collision::{CollisionPair, GeomFrame, Sweep};
+use crate::dynamics::collision::{Assets, CollisionPair, GeomFrame, Sweep};
 use crate::dynamics::configuration::Coordinates;
 use crate::dynamics::constraint::Limit;
 use crate::dynamics::contact::{Pair, Soft};
 use crate::dynamics::{BodyFrame, NodeJoint, Tree};
 use crate::model::params::inertia_to_six;
-use crate::model::{Body, ContactModel, Joint, JointKind, Param, Shape, Spec};
+use crate::model::{Body, ContactModel, Joint, JointKind, Param, Spec};
 use crate::spatial::{lift, lift_vector, Inertia, Real, Transform};
 
 impl<T: Real> Tree<T> {
@@ -159,6 +159,10 @@ impl<T: Real> Tree<T> {
                 (if on { value } else { T::zero() }, sol)
             })
             .collect();
+        self.constraint.assets = Arc::new(Assets {
+            meshes: model.meshes.clone(),
+            hfields: model.hfields.clone(),
+        });
         for (geoms, params, supported) in collision_pairs(model, lift_param) {
             let geoms = geoms.map(|g| self.geom_frame(model, g));
             self.constraint.pairs.push(CollisionPair {
@@ -185,15 +189,11 @@ impl<T: Real> Tree<T> {
         let geom = &model.geoms[g];
         let frame = self.body[geom.body];
         let offset = Transform::from_pose_f64(&geom.rot, &geom.pos).compose(&frame.offset);
-        let mut placed = GeomFrame::new(
+        self.geoms.push(GeomFrame::new(
             (g, geom.body, &frame),
             offset,
             (geom.shape, model.rbound(&geom.shape)),
-        );
-        if let Shape::HField { hfield, .. } = geom.shape {
-            placed.field = Some(Arc::new(model.hfields[hfield].clone()));
-        }
-        self.geoms.push(placed);
+        ));
         self.geoms.len() - 1
     }
 

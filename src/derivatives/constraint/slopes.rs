@@ -72,7 +72,7 @@ pub(super) fn find_slopes(
                 .iter()
                 .take_while(|c| c.pair == index)
                 .count();
-        let pair = &tree.constraint.pairs[index];
+        let (pair, assets) = (&tree.constraint.pairs[index], &*tree.constraint.assets);
         let geoms = pair.geoms.map(|g| &tree.geoms[g]);
         let poses = geoms.map(|g| g.pose(data));
         let shapes = geoms.map(|g| &g.shape);
@@ -96,9 +96,8 @@ pub(super) fn find_slopes(
             }
             for (t, u) in basis[..len].iter().enumerate() {
                 let dual = std::array::from_fn(|s| perturbed(&poses[s], (s == side).then_some(u)));
-                let touches =
-                    contact_geometry((shapes, geoms[0].field.as_deref()), dual, reach, pre)
-                        .filter(|(_, _, dist)| dist.re < pair.params.margin);
+                let touches = contact_geometry((assets, shapes), dual, reach, pre)
+                    .filter(|(_, _, dist)| dist.re < pair.params.margin);
                 for (moves, (p, e, dist)) in out[start..end].iter_mut().zip(touches) {
                     if let Moves::Basis { slopes, .. } = &mut moves[side] {
                         slopes[t] = Slope {

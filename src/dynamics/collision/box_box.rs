@@ -11,7 +11,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::{clip, normalize, Placed, Pre, MINVAL};
+use super::{clip, normalize, Assets, Placed, Pre, MINVAL};
 use crate::model::Shape;
 use crate::spatial::{lift, Real};
 
@@ -30,6 +30,7 @@ const MAX_VERT: usize = 12;
 
 /// The contacts of box 1 against box 2 within `margin`, appended to `out`.
 pub(super) fn cuboid<T: Real>(
+    _: &Assets,
     (b1, p1): (&Shape, &Placed<T>),
     (b2, p2): (&Shape, &Placed<T>),
     margin: T,
@@ -369,7 +370,13 @@ mod tests {
                 mat: *rot2.matrix(),
             },
         );
-        cuboid((&cube, &b1), (&cube, &b2), 0.0, &mut out);
+        cuboid(
+            &Assets::default(),
+            (&cube, &b1),
+            (&cube, &b2),
+            0.0,
+            &mut out,
+        );
         out
     }
 

@@ -17,12 +17,13 @@
 use nalgebra::Vector3;
 
 use super::sphere::{ball_box, balls};
-use super::{clip, Placed, Pre, MINVAL};
+use super::{clip, Assets, Placed, Pre, MINVAL};
 use crate::model::Shape;
 use crate::spatial::{lift, Real};
 
 /// MuJoCo's capsule-capsule (see the module documentation).
 pub(super) fn capsule<T: Real>(
+    _: &Assets,
     (s1, p1): (&Shape, &Placed<T>),
     (s2, p2): (&Shape, &Placed<T>),
     margin: T,
@@ -94,6 +95,7 @@ struct Closest<T: Real> {
 
 /// MuJoCo's capsule-box (see the module documentation).
 pub(super) fn cuboid<T: Real>(
+    _: &Assets,
     (s1, capsule): (&Shape, &Placed<T>),
     (s2, cube): (&Shape, &Placed<T>),
     margin: T,
@@ -375,7 +377,13 @@ mod tests {
                 half: Vector3::new(0.3, 0.3, 0.1),
             },
         );
-        cuboid((&shapes.0, &capsule), (&shapes.1, &cube), 0.0, &mut out);
+        cuboid(
+            &Assets::default(),
+            (&shapes.0, &capsule),
+            (&shapes.1, &cube),
+            0.0,
+            &mut out,
+        );
         assert_eq!(out.len(), 2);
         for c in &out {
             assert!((c.dist + 0.001).abs() < 1e-15, "{}", c.dist);
@@ -399,7 +407,13 @@ mod tests {
             half_length: 0.2,
         };
         let mut out: Vec<Pre<f64>> = vec![];
-        capsule((&shape, &a), (&shape, &b), 0.0, &mut out);
+        capsule(
+            &Assets::default(),
+            (&shape, &a),
+            (&shape, &b),
+            0.0,
+            &mut out,
+        );
         assert_eq!(out.len(), 2);
         for c in &out {
             assert!((c.dist + 0.01).abs() < 1e-15 && (c.normal - Vector3::z()).norm() < 1e-15);

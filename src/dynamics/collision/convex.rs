@@ -1,8 +1,9 @@
 //! MuJoCo's general convex collider (`mjc_Convex` with its native CCD:
 //! engine_collision_convex.c and `mjc_ccd` of engine_collision_gjk.c, as
-//! MuJoCo 4.0.0 runs them), for the ellipsoid pairs MuJoCo routes to it: an
-//! ellipsoid against a sphere, a capsule, an ellipsoid, a cylinder or a box.
-//! These pairs take one contact in MuJoCo (no multiccd for ellipsoids).
+//! MuJoCo 4.0.0 runs them), for the pairs MuJoCo routes to it with one
+//! contact: an ellipsoid against a sphere, a capsule, an ellipsoid, a
+//! cylinder, a box or a mesh, and a sphere against a mesh (no multiccd for
+//! spheres and ellipsoids). A mesh is its hull ([`Mesh::support`]).
 //!
 //! Each geom is a [`Body`]: its shape at its world pose, grown by half the
 //! pair margin (so the bodies overlap exactly when the geoms are within the
@@ -33,7 +34,8 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::epa::penetration;
 use super::gjk::gjk;
-use super::{normalize, Placed, Pre};
+use super::{normalize, Assets, Placed, Pre};
+use crate::model::mesh::Mesh;
 use crate::model::{Shape, CCD_ITERATIONS, CCD_TOLERANCE};
 use crate::spatial::{lift, Real};
 
@@ -58,6 +60,8 @@ pub(super) struct Body<'a, T: Real> {
     /// A height field's prism instead of the shape (hfield.rs): its six
     /// vertices in the working frame (pos and mat unused).
     prism: Option<&'a [Vector3<T>; 6]>,
+    /// A mesh shape's mesh, whose hull is the body.
+    mesh: Option<&'a Mesh>,
 }
 
 impl<'a, T: Real> Body<'a, T> {
@@ -70,7 +74,17 @@ impl<'a, T: Real> Body<'a, T> {
             margin,
             core: Core::Whole,
             prism: None,
+            mesh: None,
         }
+    }
+
+    /// The body with its mesh from `assets`, when its shape is a mesh.
+    pub fn with_assets(self, assets: &'a Assets) -> Self {
+        let mesh = match *self.shape {
+            Shape::Mesh { mesh } => Some(&assets.meshes[mesh]),
+            _ => None,
+        };
+        Body { mesh, ..self }
     }
 
     /// A height field's prism (`shape` the field's), as hfield.rs makes it.
@@ -111,7 +125,10 @@ impl<'a, T: Real> Body<'a, T> {
                     dir * lift::<T>(*radius) + self.pos
                 } else {
                     let local = self.mat.tr_mul(dir);
-                    let s = self.shape.support(&local).unwrap_or_else(Vector3::zeros);
+                    let s = match self.mesh {
+                        Some(mesh) => mesh.support(&local),
+                        None => self.shape.support(&local).unwrap_or_else(Vector3::zeros),
+                    };
                     self.mat * s + self.pos
                 };
                 if self.margin > T::zero() {
@@ -151,12 +168,14 @@ impl<'a, T: Real> Body<'a, T> {
 
 /// The collider of the table: see the module documentation.
 pub(super) fn convex<T: Real>(
+    assets: &Assets,
     (s1, p1): (&Shape, &Placed<T>),
     (s2, p2): (&Shape, &Placed<T>),
     margin: T,
     out: &mut Vec<Pre<T>>,
 ) {
-    let body = |shape, p: &Placed<T>| Body::placed(shape, (p.pos, p.mat), margin);
+    let body =
+        |shape, p: &Placed<T>| Body::placed(shape, (p.pos, p.mat), margin).with_assets(assets);
     let (a, b) = (body(s1, p1), body(s2, p2));
     out.extend(contact(&a, &b, margin));
 }
@@ -214,7 +233,13 @@ mod tests {
             mat: Matrix3::identity(),
         };
         let mut out = vec![];
-        convex((&s1, &place(pos1)), (&s2, &place(pos2)), margin, &mut out);
+        convex(
+            &Assets::default(),
+            (&s1, &place(pos1)),
+            (&s2, &place(pos2)),
+            margin,
+            &mut out,
+        );
         out
     }
 

@@ -1,12 +1,9 @@
 //! The geoms of a tree's pairs, placed on their nodes, and the broad phase:
 //! whether two geoms' bounding spheres are apart.
 
-use std::sync::Arc;
-
 use nalgebra::Vector3;
 
 use crate::dynamics::{BodyFrame, Data};
-use crate::model::hfield::HField;
 use crate::model::Shape;
 use crate::spatial::{lift, Real, Transform};
 
@@ -25,9 +22,6 @@ pub struct GeomFrame<T: Real> {
     pub shape: Shape,
     /// The shape's bounding radius ([`Spec::rbound`](crate::model::Spec::rbound)), computed once.
     pub rbound: f64,
-    /// The height field of a `Shape::HField`, whose colliders read its
-    /// elevations (set by the tree's compiler).
-    pub field: Option<Arc<HField>>,
 }
 
 impl<T: Real> GeomFrame<T> {
@@ -46,7 +40,6 @@ impl<T: Real> GeomFrame<T> {
             offset,
             shape,
             rbound,
-            field: None,
         }
     }
 

@@ -3,7 +3,7 @@
 //! triangular prisms and each prism near the geom meets it through the
 //! general convex collider ([`super::convex`]), one contact per prism.
 //!
-//! Everything runs in the field's frame (see [`HField`] for its grid):
+//! Everything runs in the field's frame (see [`HField`](crate::model::hfield::HField) for its grid):
 //! - the geom's extent along the field's axes (its support points, without
 //!   margin) culls the pair when it is off the field's box, and bounds the
 //!   sub-grid of cells: columns floor((xmin + sx) / 2sx (ncol - 1)) to
@@ -20,7 +20,8 @@
 //!
 //! The margin's part is MuJoCo's published source; MuJoCo 4.0.0's binary
 //! differs (it reports the bare shapes' contacts up to the margin), so
-//! pairs with a margin are refused ([`collides_with`]) and run with zero.
+//! pairs with a margin are refused (the table's entry, [`super::Entry`])
+//! and run with zero.
 //!
 //! Contacts are transformed back to the world; the normal points from the
 //! field into the geom. A zero-size cell gives a flat prism, which GJK
@@ -29,35 +30,33 @@
 use nalgebra::{convert_ref_unchecked, Matrix3, Vector3};
 
 use super::convex::{contact, Body};
-use super::{GeomType, Placed, Pre};
-use crate::model::hfield::HField;
+use super::{Assets, Placed, Pre};
 use crate::model::Shape;
 use crate::spatial::{lift, Real};
 
 /// MuJoCo's mjMAXCONPAIR: the most contacts of one geom pair.
 pub const MAXCONPAIR: usize = 50;
 
-/// Whether a height field collides here with geoms of this type, within
-/// `margin` (the pair's margin plus gap). Refused: a box and a mesh, which
-/// MuJoCo 4.0.0 meets with its discrete GJK and EPA (vertex indices end
-/// EPA early, depths differ from the exact ones by up to half) that
-/// convex.rs does not have yet; a pair with a margin, which MuJoCo 4.0.0
-/// measures other than its published source (no raised prism, no grown
-/// geom: the contacts of the bare shapes); a plane or another height
-/// field, as in MuJoCo.
-pub fn collides_with(other: GeomType, margin: f64) -> bool {
-    use GeomType::*;
-    margin == 0.0 && matches!(other, Sphere | Capsule | Ellipsoid | Cylinder)
-}
-
-/// The contacts of the height field `field` (geom 1, shape `s1` at `p1`)
-/// with the geom `s2` at `p2` within `margin`; see the module documentation.
+/// The contacts of the height field geom `s1` at `p1` (its field in
+/// `assets`) with the geom `s2` at `p2` within `margin`; see the module
+/// documentation. The table takes it for a sphere, capsule, ellipsoid or
+/// cylinder without margin. Not for a box or a mesh, which MuJoCo 4.0.0
+/// meets with its discrete GJK and EPA (vertex indices end EPA early,
+/// depths differ from the exact ones by up to half) that convex.rs does not
+/// have yet; not with a margin, which MuJoCo 4.0.0 measures other than its
+/// published source (no raised prism, no grown geom: the contacts of the
+/// bare shapes); not for a plane or another height field, as in MuJoCo.
 pub(super) fn hfield<T: Real>(
-    (field, s1, p1): (&HField, &Shape, &Placed<T>),
+    assets: &Assets,
+    (s1, p1): (&Shape, &Placed<T>),
     (s2, p2): (&Shape, &Placed<T>),
     margin: T,
     out: &mut Vec<Pre<T>>,
 ) {
+    let Shape::HField { hfield, .. } = *s1 else {
+        return;
+    };
+    let field = &assets.hfields[hfield];
     let pos = p1.mat.tr_mul(&(p2.pos - p1.pos));
     let mat = p1.mat.tr_mul(&p2.mat);
     let Some(bounds) = extent(s2, &pos, &mat) else {
@@ -171,6 +170,7 @@ pub(super) fn centroid<T: Real>(prism: &[Vector3<T>; 6]) -> Vector3<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::hfield::HField;
 
     /// A 3 x 3 grid over [-1, 1]^2, elevations `data` (row-major from y = -1) scaled by 0.5, base 0.2.
     fn field(data: [f32; 9]) -> (HField, Shape) {
@@ -187,8 +187,13 @@ mod tests {
         };
         let mut out = vec![];
         let s2 = Shape::Sphere { radius };
+        let assets = Assets {
+            hfields: vec![h],
+            ..Assets::default()
+        };
         hfield(
-            (&h, &s1, &at(Vector3::zeros())),
+            &assets,
+            (&s1, &at(Vector3::zeros())),
             (&s2, &at(ball)),
             0.0,
             &mut out,

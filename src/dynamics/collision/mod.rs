@@ -3,7 +3,7 @@
 //! [`crate::compile::collision_pairs`]), the broad phase ([`Sweep`], then
 //! [`apart`]), and the contacts of a pair at a state: one table of
 //! colliders indexed by the two geoms' types, one file per collider family
-//! (plane.rs, sphere.rs, capsule.rs, box_box.rs). The smooth model
+//! (plane.rs, sphere.rs, capsule.rs, box_box.rs, mesh.rs). The smooth model
 //! ([`super::contact`]) shares the placed geoms, the broad phase and the
 //! candidate pairs; its contact geometry is part of its force law.
 //!
@@ -34,29 +34,36 @@
 //! ([`crate::compile::candidates`]).
 //!
 //! Supported pairs are those with an entry in [`Colliders::TABLE`]: plane
-//! against sphere, capsule, ellipsoid, cylinder and box; sphere against sphere,
+//! against sphere, capsule, ellipsoid, cylinder, box and mesh (mesh.rs); sphere against sphere,
 //! capsule, cylinder and box; capsule against capsule and box; box against
 //! box; an ellipsoid against the other primitives (GJK and EPA, convex.rs;
-//! the plane by its support point, plane.rs). A model may hold other pairs
-//! (cylinders with capsules, cylinders or boxes, meshes): a step refuses to
-//! run while one of them is within reach ([`super::StepError::NoCollider`]).
-//! The general convex collider runs MuJoCo's default settings only: under
+//! the plane by its support point, plane.rs); a height field against a
+//! sphere, capsule, ellipsoid or cylinder (hfield.rs). A model may hold
+//! other pairs (cylinders with capsules, cylinders or boxes, meshes with
+//! anything but a plane): a step
+//! refuses to run while one of them is within reach
+//! ([`super::StepError::NoCollider`]). Each [`Entry`] states what it takes:
+//! the general convex collider runs MuJoCo's default settings only (under
 //! other `ccd_iterations`, `ccd_tolerance` or with `nativeccd` disabled its
-//! pairs count as having no collider ([`supported`]).
+//! pairs count as having no collider), and a height field's pairs only
+//! without margin ([`supported`]).
 //!
 //! # Adding a collider
 //!
 //! A collider is a function of the [`Collider`] signature in the file of its
-//! family: geoms 1 and 2 (shape and world pose, geom 1's type first in
-//! [`GeomType`] order), the margin, and the contacts to push to. Write it,
-//! then add it to [`Colliders::TABLE`] at row type 1, column type 2 (the
-//! upper triangle). Nothing else: [`supported`] reads the table, so the
+//! family: the model's [`Assets`] (meshes and height fields), geoms 1 and 2
+//! (shape and world pose, geom 1's type first in [`GeomType`] order), the
+//! margin, and the contacts to push to. Write it, then add its [`Entry`]
+//! to [`Colliders::TABLE`] at row type 1, column type 2 (the upper
+//! triangle): `exact(f)` for an analytic collider, `ccd(f)` for one through
+//! GJK and EPA. Nothing else: [`supported`] reads the table, so the
 //! pair builder marks the pair supported and the step runs it (and its
 //! derivatives, through dual numbers). For example, MuJoCo's
 //! cylinder-cylinder would be, in a new `cylinder.rs`:
 //!
 //! ```ignore
 //! pub(super) fn cylinder<T: Real>(
+//!     _: &Assets,
 //!     (s1, p1): (&Shape, &Placed<T>),
 //!     (s2, p2): (&Shape, &Placed<T>),
 //!     margin: T,
@@ -68,15 +75,17 @@
 //! ```
 //!
 //! and, in the table's cylinder row, the cylinder column becomes
-//! `Some(cylinder::cylinder)`. The general convex collider (convex.rs,
+//! `exact(cylinder::cylinder)`. The general convex collider (convex.rs,
 //! GJK in gjk.rs and EPA in epa.rs) reads the shapes through
-//! [`Shape::support`]; an entry becomes `Some(convex::convex)` once its
+//! [`Shape::support`]; an entry becomes `ccd(convex::convex)` once its
 //! pair's contacts are MuJoCo's (cylinder pairs wait for MuJoCo 4's
 //! multi-contact of cylinder caps, mesh pairs for a mesh body).
 
 use nalgebra::{Matrix3, Vector3};
 
+use super::constraint::ConstraintConsts;
 use crate::model::hfield::HField;
+use crate::model::mesh::Mesh;
 use crate::model::{Ccd, PairParams, Shape};
 use crate::spatial::{lift, Real, Transform};
 
@@ -87,6 +96,7 @@ mod epa;
 mod geom;
 mod gjk;
 mod hfield;
+mod mesh;
 mod plane;
 mod record;
 mod shape;
@@ -126,9 +136,7 @@ pub struct ConstraintContact<T: Real> {
 }
 
 /// MuJoCo's geom types (mjtGeom), in its order: a pair's geom 1 is the one
-/// of lower type. Meshes have no colliders yet; their rows and columns of
-/// the table wait for them. A height field's pairs run hfield.rs (they
-/// need its elevations) rather than the table.
+/// of lower type.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum GeomType {
     Plane,
@@ -144,9 +152,58 @@ pub enum GeomType {
 /// The number of geom types.
 pub const NTYPES: usize = 8;
 
+/// The model's asset tables that colliders read: its meshes (with their
+/// convex hulls) and height fields, indexed by [`Shape::Mesh`] and
+/// [`Shape::HField`]. One per model, shared by its trees.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Assets {
+    pub meshes: Vec<Mesh>,
+    pub hfields: Vec<HField>,
+}
+
 /// A collider: the contacts of geom 1 against geom 2 (shape and world
-/// pose; geom 1's type first) within `margin`, pushed to the last argument.
-pub type Collider<T> = fn((&Shape, &Placed<T>), (&Shape, &Placed<T>), T, &mut Vec<Pre<T>>);
+/// pose; geom 1's type first) within `margin`, pushed to the last argument;
+/// a mesh's or height field's shape is read from the assets.
+pub type Collider<T> = fn(&Assets, (&Shape, &Placed<T>), (&Shape, &Placed<T>), T, &mut Vec<Pre<T>>);
+
+/// An entry of the collision table: the collider and the pairs it takes.
+#[derive(Clone, Copy)]
+pub struct Entry<T: Real> {
+    pub collide: Collider<T>,
+    /// Whether it runs MuJoCo's convex collision (GJK and EPA), which
+    /// ours runs under MuJoCo's default settings only ([`Ccd::is_default`]).
+    pub ccd: bool,
+    /// Whether it takes a pair with a margin or gap (else only margin +
+    /// gap = 0: see `hfield::hfield`).
+    pub margin: bool,
+}
+
+/// An analytic collider, for any margin and convex-collision settings.
+const fn exact<T: Real>(collide: Collider<T>) -> Option<Entry<T>> {
+    Some(Entry {
+        collide,
+        ccd: false,
+        margin: true,
+    })
+}
+
+/// A collider through the convex collision, for any margin.
+const fn ccd<T: Real>(collide: Collider<T>) -> Option<Entry<T>> {
+    Some(Entry {
+        collide,
+        ccd: true,
+        margin: true,
+    })
+}
+
+/// A collider through the convex collision, only without margin or gap.
+const fn ccd_bare<T: Real>(collide: Collider<T>) -> Option<Entry<T>> {
+    Some(Entry {
+        collide,
+        ccd: true,
+        margin: false,
+    })
+}
 
 /// MuJoCo's collision function table (mjCOLLISIONFUNC), in the scalar T.
 pub struct Colliders<T>(std::marker::PhantomData<T>);
@@ -155,40 +212,32 @@ impl<T: Real> Colliders<T> {
     /// Row: geom 1's type; column: geom 2's (the upper triangle, as
     /// [`GeomType`] orders them); None where no collider exists.
     #[rustfmt::skip]
-    pub const TABLE: [[Option<Collider<T>>; NTYPES]; NTYPES] = [
+    pub const TABLE: [[Option<Entry<T>>; NTYPES]; NTYPES] = [
         // plane, hfield, sphere, capsule, ellipsoid, cylinder, box, mesh
-        [None, None, Some(plane::sphere), Some(plane::capsule), Some(plane::ellipsoid), Some(plane::cylinder), Some(plane::cuboid), None],
-        [None; NTYPES], // hfield
-        [None, None, Some(sphere::sphere), Some(sphere::capsule), Some(convex::convex), Some(sphere::cylinder), Some(sphere::cuboid), None],
-        [None, None, None, Some(capsule::capsule), Some(convex::convex), None, Some(capsule::cuboid), None],
-        [None, None, None, None, Some(convex::convex), Some(convex::convex), Some(convex::convex), None],
+        [None, None, exact(plane::sphere), exact(plane::capsule), exact(plane::ellipsoid), exact(plane::cylinder), exact(plane::cuboid), exact(mesh::plane)],
+        [None, None, ccd_bare(hfield::hfield), ccd_bare(hfield::hfield), ccd_bare(hfield::hfield), ccd_bare(hfield::hfield), None, None],
+        [None, None, exact(sphere::sphere), exact(sphere::capsule), ccd(convex::convex), exact(sphere::cylinder), exact(sphere::cuboid), ccd(convex::convex)],
+        [None, None, None, exact(capsule::capsule), ccd(convex::convex), None, exact(capsule::cuboid), None],
+        [None, None, None, None, ccd(convex::convex), ccd(convex::convex), ccd(convex::convex), ccd(convex::convex)],
         [None; NTYPES], // cylinder
-        [None, None, None, None, None, None, Some(box_box::cuboid), None],
+        [None, None, None, None, None, None, exact(box_box::cuboid), None],
         [None; NTYPES], // mesh
     ];
 }
 
-/// The collider of geoms of types a <= b, if any.
-pub fn collider<T: Real>(a: GeomType, b: GeomType) -> Option<Collider<T>> {
+/// The table's entry for geoms of types a <= b, if any.
+pub fn entry<T: Real>(a: GeomType, b: GeomType) -> Option<Entry<T>> {
     Colliders::<T>::TABLE[a as usize][b as usize]
 }
 
 /// Whether a collider exists for geoms of types a and b (either order)
 /// under the convex-collision settings `ccd` and within `margin` (margin
-/// plus gap): a pair of the general convex collider only under the
-/// settings it runs (MuJoCo's defaults); other settings would give other
-/// contacts, so its pairs then have no collider. A height field's pairs:
-/// see `hfield::collides_with`.
+/// plus gap): an entry of the convex collision only under the settings it
+/// runs (MuJoCo's defaults; others would give other contacts), and one
+/// without margin only for a pair without one.
 pub fn supported(a: GeomType, b: GeomType, ccd: &Ccd, margin: f64) -> bool {
-    if a.min(b) == GeomType::Hfield {
-        return ccd.is_default() && hfield::collides_with(a.max(b), margin);
-    }
-    match collider::<f64>(a.min(b), a.max(b)) {
-        Some(f) => {
-            ccd.is_default() || !std::ptr::fn_addr_eq(f, convex::convex::<f64> as Collider<f64>)
-        }
-        None => false,
-    }
+    entry::<f64>(a.min(b), a.max(b))
+        .is_some_and(|e| (ccd.is_default() || !e.ccd) && (margin == 0.0 || e.margin))
 }
 
 /// A geom at its world pose: centre and axes (columns), MuJoCo's geom_xpos
@@ -220,18 +269,18 @@ pub struct Pre<T: Real> {
     pub tangent: Vector3<T>,
 }
 
-/// Appends the contacts of pair `index` of `pairs` at the geoms' world poses
-/// to `out` (`pre`: [`contact_geometry`]'s scratch).
+/// Appends the contacts of pair `index` of the constraint model's at the
+/// geoms' world poses to `out` (`pre`: [`contact_geometry`]'s scratch).
 pub fn collide<T: Real>(
-    (pairs, index): (&[CollisionPair<T>], usize),
+    (consts, index): (&ConstraintConsts<T>, usize),
     geoms: [&GeomFrame<T>; 2],
     poses: [Transform<T>; 2],
     (out, pre): (&mut Vec<ConstraintContact<T>>, &mut Vec<Pre<T>>),
 ) {
-    let pair = &pairs[index];
+    let pair = &consts.pairs[index];
     let [g1, g2] = geoms;
     let reach = pair.params.margin + pair.params.gap;
-    let shapes = ([&g1.shape, &g2.shape], g1.field.as_deref());
+    let shapes = (&*consts.assets, [&g1.shape, &g2.shape]);
     for (pos, frame, dist) in contact_geometry(shapes, poses, reach, pre) {
         out.push(ConstraintContact {
             geoms: [g1.geom, g2.geom],
@@ -246,20 +295,19 @@ pub fn collide<T: Real>(
 }
 
 /// The point, frame and distance (see [`ConstraintContact`]) of each contact
-/// of two rank-ordered shapes at their world poses, within `reach` (with
-/// geom 1's height field when it is one); `pre` is scratch, kept by the
-/// caller so that repeated calls do not allocate.
+/// of two rank-ordered shapes (meshes and height fields in `assets`) at
+/// their world poses, within `reach`; `pre` is scratch, kept by the caller
+/// so that repeated calls do not allocate.
 pub fn contact_geometry<'a, T: Real>(
-    (shapes, field): ([&Shape; 2], Option<&HField>),
+    (assets, shapes): (&Assets, [&Shape; 2]),
     poses: [Transform<T>; 2],
     reach: f64,
     pre: &'a mut Vec<Pre<T>>,
 ) -> impl Iterator<Item = (Vector3<T>, Matrix3<T>, T)> + 'a {
     let (p1, p2) = (Placed::of(&poses[0]), Placed::of(&poses[1]));
     pre.clear();
-    match field {
-        Some(f) => hfield::hfield((f, shapes[0], &p1), (shapes[1], &p2), lift(reach), pre),
-        None => narrow((shapes[0], &p1), (shapes[1], &p2), lift(reach), pre),
+    if let Some(e) = entry(shapes[0].kind(), shapes[1].kind()) {
+        (e.collide)(assets, (shapes[0], &p1), (shapes[1], &p2), lift(reach), pre);
     }
     pre.drain(..)
         .map(|c| (c.pos, make_frame(c.normal, c.tangent), c.dist))
@@ -305,18 +353,6 @@ pub(super) fn clip<T: Real>(x: T, lo: T, hi: T) -> T {
     }
 }
 
-/// Runs the collider of the two shapes (type-ordered), if any.
-fn narrow<T: Real>(
-    (s1, p1): (&Shape, &Placed<T>),
-    (s2, p2): (&Shape, &Placed<T>),
-    margin: T,
-    out: &mut Vec<Pre<T>>,
-) {
-    if let Some(collide) = collider(s1.kind(), s2.kind()) {
-        collide((s1, p1), (s2, p2), margin, out);
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -336,7 +372,7 @@ mod tests {
         for (i, &a) in types.iter().enumerate() {
             assert_eq!(a as usize, i);
             for &b in &types[..i] {
-                assert!(collider::<f64>(a, b).is_none(), "{a:?} {b:?}");
+                assert!(entry::<f64>(a, b).is_none(), "{a:?} {b:?}");
                 assert_eq!(
                     supported(a, b, &Ccd::default(), 0.0),
                     supported(b, a, &Ccd::default(), 0.0)
@@ -348,7 +384,7 @@ mod tests {
             .flat_map(|&a| types.iter().map(move |&b| (a, b)))
             .filter(|&(a, b)| a <= b && supported(a, b, &Ccd::default(), 0.0))
             .count();
-        assert_eq!(count, 21);
+        assert_eq!(count, 24);
         let (h, ccd) = (GeomType::Hfield, Ccd::default());
         assert!(supported(GeomType::Capsule, h, &ccd, 0.0));
         assert!(!supported(h, GeomType::Capsule, &ccd, 0.01));
@@ -378,7 +414,7 @@ mod tests {
             &Ccd::default(),
             0.0
         ));
-        assert!(!supported(
+        assert!(supported(
             GeomType::Plane,
             GeomType::Mesh,
             &Ccd::default(),

@@ -4,12 +4,13 @@
 
 use nalgebra::Vector3;
 
-use super::{collider, normalize, GeomType, Placed, Pre, MINVAL};
+use super::{entry, normalize, Assets, GeomType, Placed, Pre, MINVAL};
 use crate::model::Shape;
 use crate::spatial::{lift, Real, Transform};
 
 /// A plane against a sphere.
 pub(super) fn sphere<T: Real>(
+    _: &Assets,
     (_, plane): (&Shape, &Placed<T>),
     (s, sphere): (&Shape, &Placed<T>),
     margin: T,
@@ -45,6 +46,7 @@ pub(super) fn ball<T: Real>(
 
 /// Both end spheres of the capsule; their frames' tangent is the capsule axis.
 pub(super) fn capsule<T: Real>(
+    _: &Assets,
     (_, plane): (&Shape, &Placed<T>),
     (s, capsule): (&Shape, &Placed<T>),
     margin: T,
@@ -64,6 +66,7 @@ pub(super) fn capsule<T: Real>(
 /// closer to it, the matching point of the other end, and two more points of
 /// the closer end's rim (a triangle with the first) when it is within margin.
 pub(super) fn cylinder<T: Real>(
+    _: &Assets,
     (_, plane): (&Shape, &Placed<T>),
     (s, cylinder): (&Shape, &Placed<T>),
     margin: T,
@@ -123,6 +126,7 @@ pub(super) fn cylinder<T: Real>(
 /// normal, in its libccd support arithmetic (the direction scaled by the
 /// radii, normalised, scaled again).
 pub(super) fn ellipsoid<T: Real>(
+    _: &Assets,
     (_, plane): (&Shape, &Placed<T>),
     (s, egg): (&Shape, &Placed<T>),
     margin: T,
@@ -155,6 +159,7 @@ pub(super) fn ellipsoid<T: Real>(
 
 /// The box corners below the plane's margin that point towards it, at most four.
 pub(super) fn cuboid<T: Real>(
+    _: &Assets,
     (_, plane): (&Shape, &Placed<T>),
     (s, cube): (&Shape, &Placed<T>),
     margin: T,
@@ -195,7 +200,7 @@ pub(super) fn cuboid<T: Real>(
 /// plane collider, and for one whose plane contacts are no such sphere's (a
 /// cylinder's rim points). The derivatives move such contacts in closed form.
 pub fn fixed_sphere(shape: &Shape, pose: &Transform<f64>) -> Option<(f64, Vector3<f64>)> {
-    collider::<f64>(GeomType::Plane, shape.kind())?;
+    entry::<f64>(GeomType::Plane, shape.kind())?;
     let [radius, ..] = shape.size();
     match shape.kind() {
         GeomType::Sphere => Some((radius, Vector3::zeros())),
@@ -230,7 +235,13 @@ mod tests {
         };
         let mut out: Vec<Pre<f64>> = vec![];
         let collide = |cube: &Placed<f64>, margin: f64, out: &mut Vec<Pre<f64>>| {
-            cuboid((&Shape::Plane, &plane), (&shape, cube), margin, out);
+            cuboid(
+                &Assets::default(),
+                (&Shape::Plane, &plane),
+                (&shape, cube),
+                margin,
+                out,
+            );
         };
         collide(&cube, 0.0, &mut out);
         assert_eq!(out.len(), 4);
@@ -278,23 +289,31 @@ mod tests {
             },
         ];
         let plane_row = Colliders::<f64>::TABLE[GeomType::Plane as usize];
-        let with_collider = plane_row.iter().filter(|c| c.is_some()).count();
+        // The primitives' columns (a mesh's collider reads its assets: mesh.rs).
+        let primitives = &plane_row[..GeomType::Mesh as usize];
+        let with_collider = primitives.iter().filter(|c| c.is_some()).count();
         assert_eq!(
             shapes
                 .iter()
-                .filter(|s| collider::<f64>(GeomType::Plane, s.kind()).is_some())
+                .filter(|s| entry::<f64>(GeomType::Plane, s.kind()).is_some())
                 .count(),
             with_collider
         );
         for shape in shapes {
-            let Some(pair) = collider::<f64>(GeomType::Plane, shape.kind()) else {
+            let Some(pair) = entry::<f64>(GeomType::Plane, shape.kind()) else {
                 assert_eq!(fixed_sphere(&shape, &pose), None, "{shape:?}");
                 continue;
             };
             let mut placed = Placed::of(&pose);
             placed.pos.z = 0.05 - 0.01;
             let mut out = vec![];
-            pair((&Shape::Plane, &floor()), (&shape, &placed), 0.0, &mut out);
+            (pair.collide)(
+                &Assets::default(),
+                (&Shape::Plane, &floor()),
+                (&shape, &placed),
+                0.0,
+                &mut out,
+            );
             assert!(!out.is_empty());
             let Some((r, hint)) = fixed_sphere(&shape, &pose) else {
                 assert!(matches!(

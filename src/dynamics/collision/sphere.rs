@@ -3,12 +3,13 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::{clip, normalize, plane, Placed, Pre, MINVAL};
+use super::{clip, normalize, plane, Assets, Placed, Pre, MINVAL};
 use crate::model::Shape;
 use crate::spatial::{lift, Real};
 
 /// Two spheres.
 pub(super) fn sphere<T: Real>(
+    _: &Assets,
     (s1, p1): (&Shape, &Placed<T>),
     (s2, p2): (&Shape, &Placed<T>),
     margin: T,
@@ -52,6 +53,7 @@ pub(super) fn balls<T: Real>(
 /// A sphere against the capsule's sphere at the point of its segment
 /// nearest the sphere's centre.
 pub(super) fn capsule<T: Real>(
+    _: &Assets,
     (s1, p1): (&Shape, &Placed<T>),
     (s2, p2): (&Shape, &Placed<T>),
     margin: T,
@@ -73,6 +75,7 @@ pub(super) fn capsule<T: Real>(
 /// MuJoCo's sphere-cylinder: against the side (a sphere on the axis), a cap
 /// (a plane) or the rim (a point), whichever the sphere's centre faces.
 pub(super) fn cylinder<T: Real>(
+    _: &Assets,
     (s1, sphere): (&Shape, &Placed<T>),
     (s2, cylinder): (&Shape, &Placed<T>),
     margin: T,
@@ -127,6 +130,7 @@ pub(super) fn cylinder<T: Real>(
 
 /// A sphere against a box.
 pub(super) fn cuboid<T: Real>(
+    _: &Assets,
     (s1, sphere): (&Shape, &Placed<T>),
     (s2, cube): (&Shape, &Placed<T>),
     margin: T,

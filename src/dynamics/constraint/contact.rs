@@ -30,11 +30,11 @@ pub fn contacts<T: Real>(
     (out, pre): (&mut Vec<ConstraintContact<T>>, &mut Vec<Pre<T>>),
 ) {
     out.clear();
-    let pairs = &tree.constraint.pairs;
+    let consts = &tree.constraint;
     for index in within_reach(tree, data, |p| p.supported) {
-        let geoms = pairs[index].geoms.map(|g| &tree.geoms[g]);
+        let geoms = consts.pairs[index].geoms.map(|g| &tree.geoms[g]);
         let poses = geoms.map(|g| g.pose(data));
-        collide((pairs, index), geoms, poses, (&mut *out, &mut *pre));
+        collide((consts, index), geoms, poses, (&mut *out, &mut *pre));
     }
 }
 

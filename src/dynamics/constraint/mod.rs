@@ -45,8 +45,9 @@
 //!    wrench on each of its bodies, as a contact's).
 
 use std::ops::Range;
+use std::sync::Arc;
 
-use super::collision::{CollisionPair, ConstraintContact, Pre, Sweep};
+use super::collision::{Assets, CollisionPair, ConstraintContact, Pre, Sweep};
 use super::{Data, Tree};
 use crate::model::SolParams;
 use crate::spatial::{lift, Real};
@@ -68,6 +69,8 @@ pub use limit::Limit;
 #[derive(Clone, Debug, PartialEq)]
 pub struct ConstraintConsts<T: Real> {
     pub pairs: Vec<CollisionPair<T>>,
+    /// The meshes and height fields the pairs' colliders read.
+    pub assets: Arc<Assets>,
     /// The pairs' sweep-and-prune index (pair reach margin + gap).
     pub sweep: Sweep,
     /// Per model body: MuJoCo's body_invweight0 (translation, rotation).
@@ -86,6 +89,7 @@ impl<T: Real> ConstraintConsts<T> {
     pub fn empty() -> Self {
         ConstraintConsts {
             pairs: vec![],
+            assets: Arc::default(),
             sweep: Sweep::default(),
             body_invweight: vec![],
             dof_invweight: vec![],

@@ -7,6 +7,7 @@ use nalgebra::Vector3;
 use super::eig3::{eig3, mul_mat_t_vec, mul_mat_vec, normalize, quat_to_mat};
 use super::hull::{check_spread, hull};
 use super::inertia;
+use super::polygon::{self, Polygon};
 use super::{Mesh, MeshInertia, MeshSettings, RawMesh};
 use crate::model::MINVAL;
 
@@ -27,6 +28,9 @@ pub fn compile(name: &str, raw: &RawMesh, settings: &MeshSettings) -> Result<Mes
     if faces.is_empty() {
         faces.clone_from(&hull.as_ref().expect("built without faces").faces);
     }
+    let sides = hull
+        .as_ref()
+        .map_or_else(Vec::new, |h| polygon::sides(&p, &h.faces));
     let s = settings.scale;
     if s[0] * s[1] * s[2] <= 0.0 {
         faces.iter_mut().for_each(|f| f.swap(1, 2));
@@ -66,12 +70,20 @@ pub fn compile(name: &str, raw: &RawMesh, settings: &MeshSettings) -> Result<Mes
         half(e[0], e[1], e[2]),
     );
     let inverse = quat_to_mat(&[quat[0], -quat[1], -quat[2], -quat[3]]);
-    let vertices: Vec<Vector3<f64>> = p
+    let exact: Vec<Vector3<f64>> = p
         .iter()
-        .map(|x| {
-            let v = mul_mat_vec(&inverse, &(x - com).into());
-            Vector3::from(v.map(|c| f64::from(c as f32)))
+        .map(|x| Vector3::from(mul_mat_vec(&inverse, &(x - com).into())))
+        .collect();
+    let polygons = sides
+        .into_iter()
+        .map(|vertices| Polygon {
+            normal: polygon::normal(&exact, &vertices),
+            vertices,
         })
+        .collect();
+    let vertices: Vec<Vector3<f64>> = exact
+        .iter()
+        .map(|v| v.map(|c| f64::from(c as f32)))
         .collect();
     let aabb = aabb(&p, &com, &inverse);
     Ok(Mesh {
@@ -79,6 +91,7 @@ pub fn compile(name: &str, raw: &RawMesh, settings: &MeshSettings) -> Result<Mes
         vertices,
         faces,
         hull,
+        polygons,
         inertia: mode,
         volume,
         pos: com,

@@ -23,6 +23,7 @@ pub mod hull;
 mod inertia;
 mod msh;
 mod obj;
+pub mod polygon;
 mod stl;
 
 use std::path::Path;
@@ -33,6 +34,7 @@ use crate::spatial::{lift_vector, Real};
 
 pub use compile::compile;
 pub use hull::Hull;
+pub use polygon::Polygon;
 
 /// The largest mesh file read (bytes): larger ones are refused before
 /// reading, so no file can exhaust memory.
@@ -102,8 +104,10 @@ pub struct Mesh {
     /// Vertices in the mesh frame, at single precision as MuJoCo keeps them.
     pub vertices: Vec<Vector3<f64>>,
     pub faces: Vec<[usize; 3]>,
-    /// The convex hull, when one was needed.
+    /// The convex hull, when one was needed, and its flat sides (empty
+    /// without a hull).
     pub hull: Option<Hull>,
+    pub polygons: Vec<Polygon>,
     pub inertia: MeshInertia,
     /// Volume (area for a shell).
     pub volume: f64,
