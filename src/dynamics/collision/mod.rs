@@ -36,13 +36,16 @@
 //! Supported pairs are those with an entry in [`Colliders::TABLE`]: plane
 //! against sphere, capsule, ellipsoid, cylinder and box; sphere against sphere,
 //! capsule, cylinder and box; capsule against capsule and box; box against
-//! box; an ellipsoid against the other primitives (GJK and EPA, convex.rs;
-//! the plane by its support point, plane.rs). A model may hold other pairs
-//! (cylinders with capsules, cylinders or boxes, meshes): a step refuses to
-//! run while one of them is within reach ([`super::StepError::NoCollider`]).
-//! The general convex collider runs MuJoCo's default settings only: under
-//! other `ccd_iterations`, `ccd_tolerance` or with `nativeccd` disabled its
-//! pairs count as having no collider ([`supported`]).
+//! box; an ellipsoid against the other primitives, and a cylinder against a
+//! capsule, a cylinder or a box (GJK and EPA, convex.rs, with MuJoCo's
+//! multi-contact for the cylinder pairs, multiccd.rs; the plane-ellipsoid
+//! pair by its support point, plane.rs). A model may hold other pairs
+//! (meshes): a step refuses to run while one of them is within reach
+//! ([`super::StepError::NoCollider`]). The general convex collider runs
+//! MuJoCo's default settings only: under other `ccd_iterations`,
+//! `ccd_tolerance`, with `nativeccd` disabled, or (for the pairs it
+//! applies to) with `multiccd` disabled, its pairs count as having no
+//! collider ([`supported`]).
 //!
 //! # Adding a collider
 //!
@@ -71,8 +74,8 @@
 //! `Some(cylinder::cylinder)`. The general convex collider (convex.rs,
 //! GJK in gjk.rs and EPA in epa.rs) reads the shapes through
 //! [`Shape::support`]; an entry becomes `Some(convex::convex)` once its
-//! pair's contacts are MuJoCo's (cylinder pairs wait for MuJoCo 4's
-//! multi-contact of cylinder caps, mesh pairs for a mesh body).
+//! pair's contacts are MuJoCo's (mesh pairs wait for a mesh body and its
+//! polygons in multiccd.rs).
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -87,6 +90,7 @@ mod epa;
 mod geom;
 mod gjk;
 mod hfield;
+mod multiccd;
 mod plane;
 mod record;
 mod shape;
@@ -160,9 +164,9 @@ impl<T: Real> Colliders<T> {
         [None, None, Some(plane::sphere), Some(plane::capsule), Some(plane::ellipsoid), Some(plane::cylinder), Some(plane::cuboid), None],
         [None; NTYPES], // hfield
         [None, None, Some(sphere::sphere), Some(sphere::capsule), Some(convex::convex), Some(sphere::cylinder), Some(sphere::cuboid), None],
-        [None, None, None, Some(capsule::capsule), Some(convex::convex), None, Some(capsule::cuboid), None],
+        [None, None, None, Some(capsule::capsule), Some(convex::convex), Some(convex::convex), Some(capsule::cuboid), None],
         [None, None, None, None, Some(convex::convex), Some(convex::convex), Some(convex::convex), None],
-        [None; NTYPES], // cylinder
+        [None, None, None, None, None, Some(convex::convex), Some(convex::convex), None], // cylinder
         [None, None, None, None, None, None, Some(box_box::cuboid), None],
         [None; NTYPES], // mesh
     ];
@@ -176,17 +180,25 @@ pub fn collider<T: Real>(a: GeomType, b: GeomType) -> Option<Collider<T>> {
 /// Whether a collider exists for geoms of types a and b (either order)
 /// under the convex-collision settings `ccd` and within `margin` (margin
 /// plus gap): a pair of the general convex collider only under the
-/// settings it runs (MuJoCo's defaults); other settings would give other
-/// contacts, so its pairs then have no collider. A height field's pairs:
+/// settings it runs (MuJoCo's defaults, `multiccd` only where it applies);
+/// other settings would give other contacts, so its pairs then have no
+/// collider. A height field's pairs:
 /// see `hfield::collides_with`.
 pub fn supported(a: GeomType, b: GeomType, ccd: &Ccd, margin: f64) -> bool {
     if a.min(b) == GeomType::Hfield {
         return ccd.is_default() && hfield::collides_with(a.max(b), margin);
     }
     match collider::<f64>(a.min(b), a.max(b)) {
-        Some(f) => {
-            ccd.is_default() || !std::ptr::fn_addr_eq(f, convex::convex::<f64> as Collider<f64>)
+        Some(f) if std::ptr::fn_addr_eq(f, convex::convex::<f64> as Collider<f64>) => {
+            let multi = multiccd::pairs(a, b);
+            Ccd {
+                multi: true,
+                ..*ccd
+            }
+            .is_default()
+                && (ccd.multi || !multi)
         }
+        Some(_) => true,
         None => false,
     }
 }
@@ -348,7 +360,7 @@ mod tests {
             .flat_map(|&a| types.iter().map(move |&b| (a, b)))
             .filter(|&(a, b)| a <= b && supported(a, b, &Ccd::default(), 0.0))
             .count();
-        assert_eq!(count, 21);
+        assert_eq!(count, 24);
         let (h, ccd) = (GeomType::Hfield, Ccd::default());
         assert!(supported(GeomType::Capsule, h, &ccd, 0.0));
         assert!(!supported(h, GeomType::Capsule, &ccd, 0.01));
@@ -366,7 +378,7 @@ mod tests {
             &Ccd::default(),
             0.0
         ));
-        assert!(!supported(
+        assert!(supported(
             GeomType::Cylinder,
             GeomType::Capsule,
             &Ccd::default(),
@@ -427,5 +439,13 @@ mod tests {
             assert!(!supported(e, c, &other, 0.0), "{other:?}");
             assert!(supported(b, c, &other, 0.0), "{other:?}");
         }
+        // multiccd matters to the pairs with faces or edges only.
+        let single = Ccd {
+            multi: false,
+            ..Ccd::default()
+        };
+        assert!(supported(e, c, &single, 0.0));
+        assert!(!supported(GeomType::Cylinder, b, &single, 0.0));
+        assert!(!supported(GeomType::Cylinder, c, &single, 0.0));
     }
 }
