@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 import diffosi
+from harness.tests.test_convex import forward, scene, unit
 
 # The pairs, the worst difference allowed (about twice the one measured: 0.12, 0.25, 0.27; a
 # pair of clipped contacts listed in the other order differs by the distance between them),
@@ -30,27 +31,6 @@ PAIRS = [
 ]
 STATES = 40
 DEEPEST = 0.03
-
-
-def scene(pair, quat, margin):
-    t1, s1, t2, s2 = pair
-    return f"""<mujoco><option gravity="0 0 0"/><worldbody>
-<geom name="a" type="{t1}" size="{s1}" quat="{quat}" margin="{margin}"/>
-<body name="b" pos="0 0 1"><freejoint/><geom name="b" type="{t2}" size="{s2}" margin="{margin}"/></body>
-</worldbody></mujoco>"""
-
-
-def unit(rng, n):
-    x = rng.normal(size=n)
-    return x / np.linalg.norm(x)
-
-
-def forward(xml, q):
-    m = mujoco.MjModel.from_xml_string(xml)
-    d = mujoco.MjData(m)
-    d.qpos[:] = q
-    mujoco.mj_forward(m, d)
-    return m, d
 
 
 def near_touch(pair, rng, aligned):

@@ -241,7 +241,7 @@ fn face_normals<T: Real>(g: &Body<T>, f: &Feature<T>, dir: &Vector3<T>) -> Vec<N
 /// The normal of box face k (0 +x, 1 -x, 2 +y, 3 -y, 4 +z, 5 -z) in the world.
 fn box_normal<T: Real>(g: &Body<T>, k: usize) -> Vector3<T> {
     let axis = g.mat.column(k / 2).into_owned();
-    if k % 2 == 0 {
+    if k.is_multiple_of(2) {
         axis
     } else {
         -axis
@@ -278,7 +278,7 @@ fn box_normals<T: Real>(g: &Body<T>, f: &Feature<T>, dir: &Vector3<T>) -> Vec<No
     (0..6)
         .find(|&k| {
             let v = local[k / 2];
-            (if k % 2 == 0 { v } else { -v }) > cos
+            (if k.is_multiple_of(2) { v } else { -v }) > cos
         })
         .map(|k| vec![(box_normal(g, k), k)])
         .unwrap_or_default()
