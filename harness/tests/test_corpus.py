@@ -32,8 +32,6 @@ KNOWN_FAILURES = {
         "load: <general>: actuators on a tendon are not supported: only on joints",
     "dm_control:stacker.xml":
         "load: <motor>: actuators on a tendon are not supported: only on joints",
-    "example-robot-data:a1_description/urdf/a1.urdf":
-        "rest: rollout step 0: geoms 2 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:alex_description/urdf/alex_nub_hands.urdf":
         "load: <mesh>: mesh file '<example-robot-data>/alex_description/meshes/cycloidal_arm/nub.obj': mesh volume is too small: nub . Try setting inertia to shell",
     "example-robot-data:alex_description/urdf/alex_psyonic_hands.urdf":
@@ -41,15 +39,9 @@ KNOWN_FAILURES = {
     "example-robot-data:alex_description/urdf/alex_sake_hands.urdf":
         "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:anymal_b_simple_description/robots/anymal-kinova.urdf":
-        "rest: rollout step 0: geoms 8 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:anymal_b_simple_description/robots/anymal.urdf":
-        "rest: rollout step 0: geoms 8 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:anymal_c_simple_description/urdf/anymal.urdf":
-        "rest: rollout step 0: geoms 13 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
+        "rest: rollout step 0: geoms 0 and 44 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:b1_description/urdf/b1-z1.urdf":
-        "rest: rollout step 0: geoms 2 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:b1_description/urdf/b1.urdf":
-        "rest: rollout step 0: geoms 2 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
+        "rest: rollout step 0: geoms 30 and 38 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:baxter_description/urdf/baxter.urdf":
         "rest: rollout step 0: geoms 6 and 2 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:bolt_description/robots/bolt.urdf":
@@ -68,8 +60,6 @@ KNOWN_FAILURES = {
         "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf":
         "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:go1_description/urdf/go1.urdf":
-        "rest: rollout step 0: geoms 2 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:go2_description/urdf/go2.urdf":
         "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:hextilt_description/urdf/hextilt_flying_arm_5.urdf":
@@ -82,20 +72,12 @@ KNOWN_FAILURES = {
         "pinocchio: error 1.7e-12 > 1e-12 | rest: rollout step 0: geoms 0 and 2 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:icub_description/robots/icub_reduced.urdf":
         "rest: rollout step 0: geoms 0 and 2 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:iris_description/robots/iris.urdf":
-        "rest: rollout step 0: geoms 1 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:kinova_description/robots/kinova.urdf":
         "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:laikago_description/urdf/laikago.urdf":
-        "rest: rollout step 0: geoms 1 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:panda_description/urdf/panda.urdf":
         "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:panda_description/urdf/panda_collision.urdf":
-        "rest: rollout step 0: geoms 0 and 3 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:pr2_description/urdf/pr2.urdf":
         "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:quadruped_description/urdf/quadruped.urdf":
-        "rest: rollout step 0: geoms 1 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:romeo_description/urdf/romeo.urdf":
         "load: <link>: link 'RThumb3Link' moves (joint 'RThumb3') but neither it nor any link below it has mass or inertia, so that joint has no inertia (Pinocchio's ABA gives NaN, MuJoCo refuses it); give the link an <inertial>",
     "example-robot-data:romeo_description/urdf/romeo_small.urdf":
@@ -127,7 +109,7 @@ KNOWN_FAILURES = {
     "example-robot-data:tiago_description/robots/tiago_no_hand.urdf":
         "rest: rollout step 0: geoms 3 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:tiago_pro_description/robots/tiago_pro.urdf":
-        "rest: rollout step 0: geoms 9 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
+        "rest: rollout step 0: geoms 0 and 17 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:ur_description/urdf/ur10_joint_limited_robot.urdf":
         "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:ur_description/urdf/ur10_robot.urdf":
@@ -147,15 +129,7 @@ KNOWN_FAILURES = {
     "example-robot-data:xarm_description/urdf/xarm7.urdf":
         "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:z1_description/urdf/z1.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:TwoJointRobot_w_fixedJoints.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:TwoJointRobot_wo_fixedJoints.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:a1/a1.urdf":
-        "rest: rollout step 0: geoms 2 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:aliengo/aliengo.urdf":
-        "rest: rollout step 0: geoms 2 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
+        "rest: rollout step 0: geoms 0 and 8 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "pybullet_data:bicycle/bike.urdf":
         "load: <origin>: xyz: expected 3 finite numbers, got '0.07, 0, -0.69'",
     "pybullet_data:biped/biped2d_pybullet.urdf":
@@ -190,32 +164,8 @@ KNOWN_FAILURES = {
         "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "pybullet_data:quadruped/microtaur/microtaur.urdf":
         "load: <origin>: rpy: expected 3 finite numbers, got '0 1.57079 0 0'",
-    "pybullet_data:quadruped/minitaur.urdf":
-        "rest: rollout step 0: geoms 8 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:quadruped/minitaur_derpy.urdf":
-        "rest: rollout step 0: geoms 8 and 2 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:quadruped/minitaur_fixed_knees.urdf":
-        "rest: rollout step 0: geoms 8 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:quadruped/minitaur_rainbow_dash.urdf":
-        "rest: rollout step 0: geoms 6 and 2 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:quadruped/minitaur_rainbow_dash_v1.urdf":
-        "rest: rollout step 0: geoms 3 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:quadruped/minitaur_single_motor.urdf":
-        "rest: rollout step 0: geoms 5 and 3 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:quadruped/minitaur_v1.urdf":
-        "rest: rollout step 0: geoms 8 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:quadruped/quadruped.urdf":
-        "rest: rollout step 0: geoms 1 and 4 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:quadruped/spirit40.urdf":
-        "rest: rollout step 0: geoms 1 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:quadruped/spirit40newer.urdf":
-        "rest: rollout step 0: geoms 1 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:quadruped/vision60.urdf":
-        "rest: rollout step 0: geoms 3 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "pybullet_data:r2d2.urdf":
-        "rest: rollout step 0: geoms 0 and 3 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:racecar/racecar.urdf":
-        "rest: rollout step 0: geoms 2 and 4 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
+        "rest: rollout step 0: geoms 0 and 10 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "pybullet_data:racecar/racecar_differential.urdf":
         "load: <mesh>: scale: expected 3 finite numbers, got '1 1 1 1'",
     "pybullet_data:spherical_joint_limit.urdf":

@@ -246,7 +246,7 @@ pub struct SolverOptions {
     pub refsafe: bool,
     pub filterparent: bool,
     /// MuJoCo's convex-collision settings (`ccd_iterations`,
-    /// `ccd_tolerance`, the `nativeccd` flag). The convex collider runs
+    /// `ccd_tolerance`, the `nativeccd` and `multiccd` flags). The convex collider runs
     /// MuJoCo's defaults only; under any other setting its pairs have no
     /// collider ([`Ccd::is_default`]).
     pub ccd: Ccd,
@@ -259,6 +259,8 @@ pub struct Ccd {
     pub tolerance: f64,
     /// MuJoCo's own GJK and EPA (else libccd's).
     pub native: bool,
+    /// The `multiccd` flag: extra contacts of touching faces and edges.
+    pub multi: bool,
 }
 
 impl Default for Ccd {
@@ -267,6 +269,7 @@ impl Default for Ccd {
             iterations: CCD_ITERATIONS,
             tolerance: CCD_TOLERANCE,
             native: true,
+            multi: true,
         }
     }
 }

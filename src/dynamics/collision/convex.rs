@@ -1,9 +1,12 @@
 //! MuJoCo's general convex collider (`mjc_Convex` with its native CCD:
 //! engine_collision_convex.c and `mjc_ccd` of engine_collision_gjk.c, as
-//! MuJoCo 4.0.0 runs them), for the pairs MuJoCo routes to it with one
-//! contact: an ellipsoid against a sphere, a capsule, an ellipsoid, a
-//! cylinder, a box or a mesh, and a sphere against a mesh (no multiccd for
-//! spheres and ellipsoids). A mesh is its hull ([`Mesh::support`]).
+//! MuJoCo 4.0.0 runs them), for the pairs MuJoCo routes to it among the
+//! primitives and meshes: an ellipsoid against a sphere, a capsule, an
+//! ellipsoid, a cylinder, a box or a mesh, and a sphere against a mesh (one
+//! contact; a mesh is its hull, [`Mesh::support`]), and a cylinder against
+//! a capsule, a cylinder or a box, where touching faces or edges add
+//! MuJoCo's multiccd contacts (up to four, [`super::multiccd`]; all share
+//! the first one's frame).
 //!
 //! Each geom is a [`Body`]: its shape at its world pose, grown by half the
 //! pair margin (so the bodies overlap exactly when the geoms are within the
@@ -33,7 +36,8 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::epa::penetration;
-use super::gjk::gjk;
+use super::gjk::{gjk, Vertex};
+use super::multiccd;
 use super::{normalize, Assets, Placed, Pre};
 use crate::model::mesh::Mesh;
 use crate::model::{Shape, CCD_ITERATIONS, CCD_TOLERANCE};
@@ -52,10 +56,10 @@ enum Core {
 /// and the margin that grows it by half along every direction.
 #[derive(Clone, Copy)]
 pub(super) struct Body<'a, T: Real> {
-    shape: &'a Shape,
-    pos: Vector3<T>,
-    mat: Matrix3<T>,
-    margin: T,
+    pub shape: &'a Shape,
+    pub pos: Vector3<T>,
+    pub mat: Matrix3<T>,
+    pub margin: T,
     core: Core,
     /// A height field's prism instead of the shape (hfield.rs): its six
     /// vertices in the working frame (pos and mat unused).
@@ -139,6 +143,23 @@ impl<'a, T: Real> Body<'a, T> {
         }
     }
 
+    /// MuJoCo's vertex index of the support point along `dir` (see
+    /// [`Vertex`](super::gjk::Vertex)): a box corner's sign bits (x 1, y 2,
+    /// z 4, set on the + side), a cylinder's cap (0 top, 1 bottom); -1 for
+    /// other shapes, cores and prisms.
+    pub fn vertex_index(&self, dir: &Vector3<T>) -> i32 {
+        if self.prism.is_some() || self.core != Core::Whole {
+            return -1;
+        }
+        let local = self.mat.tr_mul(dir);
+        let plus = |x: T| x >= T::zero();
+        match self.shape {
+            Shape::Box { .. } => (0..3).filter(|&k| plus(local[k])).map(|k| 1 << k).sum(),
+            Shape::Cylinder { .. } => i32::from(!plus(local.z)),
+            _ => -1,
+        }
+    }
+
     /// The radius GJK's core leaves out: a sphere's or capsule's radius,
     /// and half the margin of every body.
     fn core_radius(&self) -> T {
@@ -177,24 +198,65 @@ pub(super) fn convex<T: Real>(
     let body =
         |shape, p: &Placed<T>| Body::placed(shape, (p.pos, p.mat), margin).with_assets(assets);
     let (a, b) = (body(s1, p1), body(s2, p2));
-    out.extend(contact(&a, &b, margin));
+    let Some(found) = witnesses(&a, &b) else {
+        return;
+    };
+    if found.dist >= T::zero() {
+        return;
+    }
+    let clipped = match found.face {
+        Some(face) if multiccd::pairs(s1.kind(), s2.kind()) => {
+            multiccd::contacts((&a, &b), &face, (found.x1, found.x2))
+        }
+        _ => vec![],
+    };
+    let Some(first) = clipped.first() else {
+        out.push(single(found.x1, found.x2, found.dist, margin));
+        return;
+    };
+    // MuJoCo's frame is the first clipped pair's; a lone clipped pair keeps
+    // the distance GJK or EPA found.
+    let normal = normalize(first.x1 - first.x2).0;
+    let alone = clipped.len() == 1;
+    out.extend(clipped.iter().map(|w| Pre {
+        dist: margin + if alone { found.dist } else { w.dist },
+        pos: (w.x1 + w.x2) * lift::<T>(0.5),
+        normal,
+        tangent: Vector3::zeros(),
+    }));
+}
+
+/// The contact of witness points x1, x2 at signed distance `dist`: midway,
+/// normal x1 - x2.
+fn single<T: Real>(x1: Vector3<T>, x2: Vector3<T>, dist: T, margin: T) -> Pre<T> {
+    Pre {
+        dist: margin + dist,
+        pos: (x1 + x2) * lift::<T>(0.5),
+        normal: normalize(x1 - x2).0,
+        tangent: Vector3::zeros(),
+    }
 }
 
 /// One contact of the bodies (MuJoCo's `mjc_penetration` over `mjc_ccd`),
 /// if they overlap.
 pub(super) fn contact<T: Real>(a: &Body<T>, b: &Body<T>, margin: T) -> Option<Pre<T>> {
-    let (x1, x2, dist) = witnesses(a, b)?;
-    (dist < T::zero()).then(|| Pre {
-        dist: margin + dist,
-        pos: (x1 + x2) * lift::<T>(0.5),
-        normal: normalize(x1 - x2).0,
-        tangent: Vector3::zeros(),
-    })
+    let Witnesses { x1, x2, dist, .. } = witnesses(a, b)?;
+    (dist < T::zero()).then(|| single(x1, x2, dist, margin))
+}
+
+/// What `mjc_ccd` recovers: the witness points on the bodies, their signed
+/// distance, and the simplex face they lie on (EPA's nearest face, or GJK's
+/// simplex of the cores when it measured the distance) for multiccd.
+struct Witnesses<T: Real> {
+    x1: Vector3<T>,
+    x2: Vector3<T>,
+    dist: T,
+    face: Option<[Vertex<T>; 3]>,
 }
 
 /// The witness points on the bodies and their signed distance, when GJK
 /// or EPA recover them (MuJoCo's `mjc_ccd` with no distance cutoff).
-fn witnesses<T: Real>(a: &Body<T>, b: &Body<T>) -> Option<(Vector3<T>, Vector3<T>, T)> {
+fn witnesses<T: Real>(a: &Body<T>, b: &Body<T>) -> Option<Witnesses<T>> {
     let (r1, r2) = (a.core_radius(), b.core_radius());
     if r1 > T::zero() || r2 > T::zero() {
         let shallow = gjk(
@@ -206,7 +268,12 @@ fn witnesses<T: Real>(a: &Body<T>, b: &Body<T>) -> Option<(Vector3<T>, Vector3<T
         if shallow.dist > lift(CCD_TOLERANCE) {
             let n = normalize(shallow.x2 - shallow.x1).0;
             let dist = shallow.dist - (r1 + r2);
-            return (dist <= T::zero()).then(|| (shallow.x1 + n * r1, shallow.x2 - n * r2, dist));
+            return (dist <= T::zero()).then(|| Witnesses {
+                x1: shallow.x1 + n * r1,
+                x2: shallow.x2 - n * r2,
+                dist,
+                face: simplex_face(&shallow.simplex),
+            });
         }
     }
     let found = gjk((a, b), T::zero(), CCD_TOLERANCE, CCD_ITERATIONS);
@@ -214,7 +281,19 @@ fn witnesses<T: Real>(a: &Body<T>, b: &Body<T>) -> Option<(Vector3<T>, Vector3<T
         return None;
     }
     let p = penetration(&found.simplex, (a, b), CCD_TOLERANCE, CCD_ITERATIONS)?;
-    Some((p.x1, p.x2, p.dist))
+    Some(Witnesses {
+        x1: p.x1,
+        x2: p.x2,
+        dist: p.dist,
+        face: Some(p.face),
+    })
+}
+
+/// GJK's simplex as a face (MuJoCo's `gjk_simplex_to_epa`): its first
+/// three vertices, the first repeated where there are fewer.
+fn simplex_face<T: Real>(s: &[Vertex<T>]) -> Option<[Vertex<T>; 3]> {
+    let at = |k: usize| s[if s.len() > k { k } else { 0 }];
+    (!s.is_empty()).then(|| [s[0], at(1), at(2)])
 }
 
 #[cfg(test)]

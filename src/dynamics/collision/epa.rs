@@ -42,11 +42,13 @@ struct Polytope<T: Real> {
     horizon: Vec<(usize, usize)>,
 }
 
-/// The outcome of EPA: witness points on A and B and their signed distance.
+/// The outcome of EPA: witness points on A and B, their signed distance,
+/// and the vertices of the polytope's nearest face (multiccd's features).
 pub(super) struct Penetration<T: Real> {
     pub x1: Vector3<T>,
     pub x2: Vector3<T>,
     pub dist: T,
+    pub face: [Vertex<T>; 3],
 }
 
 /// Builds the initial polytope from GJK's simplex (2 to 4 vertices) and
@@ -365,12 +367,13 @@ impl<T: Real> Polytope<T> {
     /// The witness points of face f and its signed distance.
     fn witness(&self, f: usize) -> Penetration<T> {
         let face = &self.faces[f];
-        let v = face.verts.map(|i| &self.verts[i]);
+        let v = face.verts.map(|i| self.verts[i]);
         let l = affine([&v[0].w, &v[1].w, &v[2].w], &face.v);
         Penetration {
             x1: combine(&l, v.iter().map(|x| x.p1)),
             x2: combine(&l, v.iter().map(|x| x.p2)),
             dist: -face.dist2.sqrt(),
+            face: v,
         }
     }
 

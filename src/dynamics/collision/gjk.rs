@@ -21,12 +21,16 @@ use crate::model::MINVAL;
 use crate::spatial::{lift, Real};
 
 /// A point of the Minkowski difference and the support points of A and B
-/// that make it: `w = p1 - p2`.
+/// that make it: `w = p1 - p2`; `i1`, `i2` name the shapes' vertices there
+/// (MuJoCo's vertex index: a box corner's sign bits, a cylinder's cap; -1
+/// for none), which multiccd reads.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Vertex<T: Real> {
     pub w: Vector3<T>,
     pub p1: Vector3<T>,
     pub p2: Vector3<T>,
+    pub i1: i32,
+    pub i2: i32,
 }
 
 impl<T: Real> Vertex<T> {
@@ -34,7 +38,13 @@ impl<T: Real> Vertex<T> {
     pub fn along(a: &Body<T>, b: &Body<T>, dir: &Vector3<T>) -> Self {
         let p1 = a.support(dir);
         let p2 = b.support(&-dir);
-        Vertex { w: p1 - p2, p1, p2 }
+        Vertex {
+            w: p1 - p2,
+            p1,
+            p2,
+            i1: a.vertex_index(dir),
+            i2: b.vertex_index(&-dir),
+        }
     }
 }
 

@@ -36,17 +36,20 @@
 //! Supported pairs are those with an entry in [`Colliders::TABLE`]: plane
 //! against sphere, capsule, ellipsoid, cylinder, box and mesh (mesh.rs); sphere against sphere,
 //! capsule, cylinder and box; capsule against capsule and box; box against
-//! box; an ellipsoid against the other primitives (GJK and EPA, convex.rs;
-//! the plane by its support point, plane.rs); a height field against a
-//! sphere, capsule, ellipsoid or cylinder (hfield.rs). A model may hold
-//! other pairs (cylinders with capsules, cylinders or boxes, meshes with
-//! anything but a plane): a step
-//! refuses to run while one of them is within reach
-//! ([`super::StepError::NoCollider`]). Each [`Entry`] states what it takes:
-//! the general convex collider runs MuJoCo's default settings only (under
-//! other `ccd_iterations`, `ccd_tolerance` or with `nativeccd` disabled its
-//! pairs count as having no collider), and a height field's pairs only
-//! without margin ([`supported`]).
+//! box; an ellipsoid against the other primitives, and a cylinder against a
+//! capsule, a cylinder or a box (GJK and EPA, convex.rs, with MuJoCo's
+//! multi-contact for the cylinder pairs, multiccd.rs; the plane-ellipsoid
+//! pair by its support point, plane.rs); a sphere or an ellipsoid against a
+//! mesh (convex.rs on the mesh's hull); a height field against a sphere,
+//! capsule, ellipsoid or cylinder (hfield.rs). A model may hold other pairs
+//! (capsules, cylinders, boxes or meshes against a mesh, a height field
+//! against a box or mesh): a step refuses to run while one of them is
+//! within reach ([`super::StepError::NoCollider`]). Each [`Entry`] states
+//! what it takes: the general convex collider runs MuJoCo's default
+//! settings only (under other `ccd_iterations`, `ccd_tolerance`, with
+//! `nativeccd` disabled, or, for the pairs it applies to, with `multiccd`
+//! disabled, its pairs count as having no collider), and a height field's
+//! pairs only without margin ([`supported`]).
 //!
 //! # Adding a collider
 //!
@@ -78,8 +81,8 @@
 //! `exact(cylinder::cylinder)`. The general convex collider (convex.rs,
 //! GJK in gjk.rs and EPA in epa.rs) reads the shapes through
 //! [`Shape::support`]; an entry becomes `ccd(convex::convex)` once its
-//! pair's contacts are MuJoCo's (cylinder pairs wait for MuJoCo 4's
-//! multi-contact of cylinder caps, mesh pairs for a mesh body).
+//! pair's contacts are MuJoCo's (mesh pairs beyond spheres and ellipsoids
+//! wait for mesh polygons in multiccd.rs).
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -97,6 +100,7 @@ mod geom;
 mod gjk;
 mod hfield;
 mod mesh;
+mod multiccd;
 mod plane;
 mod record;
 mod shape;
@@ -217,9 +221,9 @@ impl<T: Real> Colliders<T> {
         [None, None, exact(plane::sphere), exact(plane::capsule), exact(plane::ellipsoid), exact(plane::cylinder), exact(plane::cuboid), exact(mesh::plane)],
         [None, None, ccd_bare(hfield::hfield), ccd_bare(hfield::hfield), ccd_bare(hfield::hfield), ccd_bare(hfield::hfield), None, None],
         [None, None, exact(sphere::sphere), exact(sphere::capsule), ccd(convex::convex), exact(sphere::cylinder), exact(sphere::cuboid), ccd(convex::convex)],
-        [None, None, None, exact(capsule::capsule), ccd(convex::convex), None, exact(capsule::cuboid), None],
+        [None, None, None, exact(capsule::capsule), ccd(convex::convex), ccd(convex::convex), exact(capsule::cuboid), None],
         [None, None, None, None, ccd(convex::convex), ccd(convex::convex), ccd(convex::convex), ccd(convex::convex)],
-        [None; NTYPES], // cylinder
+        [None, None, None, None, None, ccd(convex::convex), ccd(convex::convex), None], // cylinder
         [None, None, None, None, None, None, exact(box_box::cuboid), None],
         [None; NTYPES], // mesh
     ];
@@ -233,11 +237,15 @@ pub fn entry<T: Real>(a: GeomType, b: GeomType) -> Option<Entry<T>> {
 /// Whether a collider exists for geoms of types a and b (either order)
 /// under the convex-collision settings `ccd` and within `margin` (margin
 /// plus gap): an entry of the convex collision only under the settings it
-/// runs (MuJoCo's defaults; others would give other contacts), and one
-/// without margin only for a pair without one.
+/// runs (MuJoCo's defaults, `multiccd` only for the pairs it applies to;
+/// others would give other contacts), and one without margin only for a
+/// pair without one.
 pub fn supported(a: GeomType, b: GeomType, ccd: &Ccd, margin: f64) -> bool {
-    entry::<f64>(a.min(b), a.max(b))
-        .is_some_and(|e| (ccd.is_default() || !e.ccd) && (margin == 0.0 || e.margin))
+    let runs = |e: &Entry<f64>| {
+        let settings = Ccd { multi: true, ..*ccd }.is_default();
+        !e.ccd || (settings && (ccd.multi || !multiccd::pairs(a, b)))
+    };
+    entry::<f64>(a.min(b), a.max(b)).is_some_and(|e| runs(&e) && (margin == 0.0 || e.margin))
 }
 
 /// A geom at its world pose: centre and axes (columns), MuJoCo's geom_xpos
@@ -402,7 +410,7 @@ mod tests {
             &Ccd::default(),
             0.0
         ));
-        assert!(!supported(
+        assert!(supported(
             GeomType::Cylinder,
             GeomType::Capsule,
             &Ccd::default(),
@@ -463,5 +471,13 @@ mod tests {
             assert!(!supported(e, c, &other, 0.0), "{other:?}");
             assert!(supported(b, c, &other, 0.0), "{other:?}");
         }
+        // multiccd matters to the pairs with faces or edges only.
+        let single = Ccd {
+            multi: false,
+            ..Ccd::default()
+        };
+        assert!(supported(e, c, &single, 0.0));
+        assert!(!supported(GeomType::Cylinder, b, &single, 0.0));
+        assert!(!supported(GeomType::Cylinder, c, &single, 0.0));
     }
 }

@@ -39,7 +39,7 @@ use crate::model::{
 /// Flags that only concern contacts, constraints, sensors or the solver.
 #[rustfmt::skip]
 const IGNORED_FLAGS: &[&str] = &[
-    "warmstart", "sensor", "midphase", "autoreset", "island", "multiccd",
+    "warmstart", "sensor", "midphase", "autoreset", "island",
     "energy", "fwdinv", "invdiscrete", "sleep", "diagexact",
 ];
 
@@ -66,6 +66,7 @@ struct Flags {
     refsafe: bool,
     filterparent: bool,
     nativeccd: bool,
+    multiccd: bool,
 }
 
 pub fn read(file: &str, root: Node) -> Result<Options> {
@@ -82,6 +83,7 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
         refsafe: true,
         filterparent: true,
         nativeccd: true,
+        multiccd: true,
     };
     for node in children(root, "option") {
         check_attributes(file, node, OPTION_ATTRS)?;
@@ -121,7 +123,7 @@ pub fn read(file: &str, root: Node) -> Result<Options> {
     opt.solver.frictionloss = flags.frictionloss && flags.constraint;
     opt.solver.equality = flags.equality && flags.constraint;
     (opt.solver.refsafe, opt.solver.filterparent) = (flags.refsafe, flags.filterparent);
-    opt.solver.ccd.native = flags.nativeccd;
+    (opt.solver.ccd.native, opt.solver.ccd.multi) = (flags.nativeccd, flags.multiccd);
     opt.contact_model = contact_model(file, root)?;
     opt.integrator = chosen;
     opt.passive = match integrator {
@@ -258,6 +260,7 @@ fn read_flags(file: &str, flag: Node, flags: &mut Flags) -> Result<()> {
             "refsafe" => flags.refsafe = enabled,
             "filterparent" => flags.filterparent = enabled,
             "nativeccd" => flags.nativeccd = enabled,
+            "multiccd" => flags.multiccd = enabled,
             name if REJECTED_ENABLED.contains(&name) => {
                 if enabled {
                     let msg = format!("flag {name}=\"enable\" is not supported");
@@ -348,7 +351,7 @@ mod tests {
         assert_eq!(m.opt.contact_model, ContactModel::Constraint);
         assert_eq!(m.opt.solver, SolverOptions::default());
         let xml = model(
-            r#"<option ccd_iterations="50" ccd_tolerance="1e-8"><flag nativeccd="disable"/></option>"#,
+            r#"<option ccd_iterations="50" ccd_tolerance="1e-8"><flag nativeccd="disable" multiccd="disable"/></option>"#,
             &body(""),
             "",
         );
@@ -356,6 +359,7 @@ mod tests {
             iterations: 50,
             tolerance: 1e-8,
             native: false,
+            multi: false,
         };
         assert_eq!(load(&xml).opt.solver.ccd, expected);
         // The writer keeps them.

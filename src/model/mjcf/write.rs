@@ -191,6 +191,7 @@ fn write_options(doc: &mut Document, opt: &Options) -> Result<(), ModelError> {
         ("refsafe", !opt.solver.refsafe),
         ("filterparent", !opt.solver.filterparent),
         ("nativeccd", !opt.solver.ccd.native),
+        ("multiccd", !opt.solver.ccd.multi),
     ];
     for (name, _) in disabled.into_iter().filter(|(_, off)| *off) {
         flag = flag.text(name, "disable");
