@@ -139,7 +139,7 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
     tree::fill_names(&mut tendons, "tendon", |t| &mut t.name);
     reader.check_moving_bodies(&tree)?;
     reader.scale_total_mass(&mut tree);
-    let mut actuators = reader.read_actuators(&tree, root)?;
+    let mut actuators = reader.read_actuators(&tree, &tendons, root)?;
     let written: Vec<String> = actuators.iter().map(|a| a.name.clone()).collect();
     tree::fill_names(&mut actuators, "actuator", |a| &mut a.name);
     let mut sensors = reader.read_sensors(&tree, &written, root)?;
