@@ -24,16 +24,6 @@ KNOWN_FAILURES = {
         "load: <spatial>: <spatial> is not supported: spatial tendons change the dynamics",
     "dm_control:dog.xml":
         "load: <option>: noslip_iterations is not supported",
-    "dm_control:fish.xml":
-        "load: <position>: actuators on a tendon are not supported: only on joints",
-    "dm_control:manipulator.xml":
-        "load: <motor>: actuators on a tendon are not supported: only on joints",
-    "dm_control:point_mass.xml":
-        "load: <motor>: actuators on a tendon are not supported: only on joints",
-    "dm_control:quadruped.xml":
-        "load: <general>: actuators on a tendon are not supported: only on joints",
-    "dm_control:stacker.xml":
-        "load: <motor>: actuators on a tendon are not supported: only on joints",
     "example-robot-data:a1_description/urdf/a1.urdf":
         "rest: rollout step 0: geoms 2 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:alex_description/urdf/alex_nub_hands.urdf":
