@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import diffosi
-from harness.tests.test_law_params import mj_step, random_state
+from harness.tests.test_law_params import assert_columns_match_central_differences, mj_step, random_state
 
 DATA = pathlib.Path(__file__).resolve().parents[2] / "tests" / "data"
 FILE = "tendon_fixed.xml"
@@ -73,26 +73,13 @@ def test_jacobians_match_central_differences(tmp_path, integrator):
     for _ in range(2):
         q, v, tau, _ = random_state(m, rng)
         q[0] = 0.4  # the spring tendon h1 - h2 / 2 past its deadband's upper end
-        J = ours.step_jacobians(q, v, tau, params=names)
+        J = assert_columns_match_central_differences(ours, (q, v, tau), names, {})
+        # Only one end of the deadband acts at a time: each parameter moves something.
         col = 0
         for name in names:
-            base = ours.get_param(name)
-            # Only one end of the deadband acts at a time: each parameter moves something.
-            assert np.abs(J["dv_dp"][:, col:col + len(base)]).max() > 0, f"{name} moves nothing"
-            for k in range(len(base)):
-                exact = np.concatenate([J["dq_dp"][:, col], J["dv_dp"][:, col]])
-                h = 1e-6 * max(1.0, abs(base[k]))
-                steps = []
-                for sign in (1, -1):
-                    moved = base.copy()
-                    moved[k] += sign * h
-                    ours.set_param(name, moved)
-                    steps.append(np.concatenate(ours.step(q, v, tau)))
-                ours.set_param(name, base)
-                fd = (steps[0] - steps[1]) / (2 * h)
-                scale = max(1.0, np.abs(fd).max())
-                assert np.abs(exact - fd).max() / scale < 1e-6, f"{name}[{k}]"
-                col += 1
+            size = len(ours.get_param(name))
+            assert np.abs(J["dv_dp"][:, col:col + size]).max() > 0, f"{name} moves nothing"
+            col += size
 
 
 def test_tendon_stiffness_identified_from_mujoco(tmp_path):
