@@ -365,7 +365,7 @@ mod tests {
             ("", r#"<joint actuatorgravcomp="true"/>"#, "", "actuatorgravcomp"),
             ("", r#"<body mocap="true"><geom size="1"/></body>"#, "", "mocap"),
             ("", r#"<joint name="j"/>"#, r#"<actuator><motor tendon="t"/></actuator>"#,
-             "on a tendon"),
+             "unknown tendon 't'"),
             ("", r#"<joint name="j"/>"#, r#"<actuator><motor site="s"/></actuator>"#,
              "on a site"),
             ("", r#"<joint name="j"/>"#,
