@@ -386,7 +386,7 @@ mod tests {
              "kp cannot be negative"),
             ("", r#"<joint name="j"/>"#,
              r#"<actuator><position joint="j" inheritrange="1"/></actuator>"#,
-             "inheritrange needs a joint with a range"),
+             "inheritrange needs a joint or tendon with a range"),
             ("", r#"<joint name="j"/>"#, r#"<actuator><damper joint="j" kv="1"/></actuator>"#,
              "invalid ctrlrange"),
             ("", r#"<joint name="j"/>"#,
