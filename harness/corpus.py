@@ -221,7 +221,7 @@ def mujoco_one_step(case: Case, ours, seed: int) -> tuple[float, dict]:
         mujoco.mj_resetData(m, d)
         d.qpos[:], d.qvel[:], d.qfrc_applied[:], d.ctrl[:] = q, v, tau, 0.0
         mujoco.mj_step(m, d)
-        worst = max(worst, step_error(*ours.step(q, v, tau), d.qpos, d.qvel))
+        worst = max(worst, step_error(*ours.step(q, v, tau)[:2], d.qpos, d.qvel))
     notes = {"engine": f"MuJoCo {mujoco.__version__}", "disabled": ["contact", "limit"],
              "integrator": mujoco.mjtIntegrator(m.opt.integrator).name}
     return worst, {**notes, "mujoco_output": printed} if printed else notes

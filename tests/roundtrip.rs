@@ -305,7 +305,7 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
     for (a, b) in actuators.iter().zip(&theirs.actuators) {
         let Actuator {
             name,
-            joint,
+            target,
             gear,
             ctrl_range,
             force_range,
@@ -318,10 +318,10 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
             armature,
         } = a;
         assert_eq!(
-            (name, joint, ctrl_range, force_range, act_range),
+            (name, target, ctrl_range, force_range, act_range),
             (
                 &b.name,
-                &b.joint,
+                &b.target,
                 &b.ctrl_range,
                 &b.force_range,
                 &b.act_range

@@ -22,16 +22,6 @@ SEED = 0
 KNOWN_FAILURES = {
     "dm_control:dog.xml":
         "load: <option>: noslip_iterations is not supported",
-    "dm_control:fish.xml":
-        "load: <position>: actuators on a tendon are not supported: only on joints",
-    "dm_control:manipulator.xml":
-        "load: <motor>: actuators on a tendon are not supported: only on joints",
-    "dm_control:point_mass.xml":
-        "load: <motor>: actuators on a tendon are not supported: only on joints",
-    "dm_control:quadruped.xml":
-        "load: <general>: actuators on a tendon are not supported: only on joints",
-    "dm_control:stacker.xml":
-        "load: <motor>: actuators on a tendon are not supported: only on joints",
     "example-robot-data:alex_description/urdf/alex_nub_hands.urdf":
         "load: <mesh>: mesh file '<example-robot-data>/alex_description/meshes/cycloidal_arm/nub.obj': mesh volume is too small: nub . Try setting inertia to shell",
     "example-robot-data:alex_description/urdf/alex_psyonic_hands.urdf":

@@ -6,9 +6,10 @@ use crate::model::{Bias, Gain, Spec};
 
 /// Turns each damping ratio held in an affine bias ([`Bias`]: biasprm[1]
 /// = -gainprm[0], biasprm[2] > 0) into the damping -kv it stands for, as
-/// MuJoCo's compiler does: kv = ratio 2 sqrt(kp m), m = M0 / gear^2 the
-/// mass the actuator sees, M0 the joint dof's diagonal of the mass matrix
-/// (armature included) at the reference configuration (its dof_M0).
+/// MuJoCo's compiler does: kv = ratio 2 sqrt(kp m), m = 1 / (r^T M^-1 r)
+/// the mass the actuator sees, r its moment and M the mass matrix (armature
+/// included) at the reference configuration (for a joint, r = gear on its
+/// dof).
 /// Returns whether any changed.
 pub(super) fn resolve_damp_ratios(spec: &mut Spec, tree: &Tree<f64>) -> bool {
     let has_ratio = |gain: Gain, bias: Bias| match (gain, bias) {
@@ -28,17 +29,15 @@ pub(super) fn resolve_damp_ratios(spec: &mut Spec, tree: &Tree<f64>) -> bool {
     crba(tree, &mut data, &spec.reference_q());
     let mut factor = data.mass_matrix.clone();
     ltdl_factor(tree, &mut factor);
-    let mut column = vec![0.0; tree.nv()];
     for i in 0..spec.actuators.len() {
         let a = &spec.actuators[i];
         let Some((kp, ratio)) = has_ratio(a.gain, a.bias) else {
             continue;
         };
-        let dof = spec.joint_address(a.joint).1;
-        column.fill(0.0);
-        column[dof] = 1.0;
+        let moment = tree.actuators[i].moment(&tree.tendons, tree.nv());
+        let mut column = moment.clone();
         ltdl_solve(tree, &factor, &mut column);
-        let seen = a.gear * a.gear * column[dof];
+        let seen: f64 = moment.iter().zip(&column).map(|(r, x)| r * x).sum();
         let mass = if seen > 0.0 { 1.0 / seen } else { 0.0 };
         if let Bias::Affine(prm) = &mut spec.actuators[i].bias {
             prm[2] = -(ratio * 2.0 * (kp * mass).sqrt());

@@ -18,7 +18,7 @@ use crate::model::constraint::check_friction;
 use crate::model::params::inertia_from_six;
 use crate::model::{
     check_inertial, check_passive, check_soft, Bias, ContactModel, Gain, Geom, Joint, ModelError,
-    Param, ParamError, ParamMap, SoftOptions, SolParams, Spec,
+    Param, ParamError, ParamMap, SoftOptions, SolParams, Spec, Tendon,
 };
 use crate::spatial::Inertia;
 
@@ -94,6 +94,12 @@ impl Param {
             Param::EqualitySolimp(e) => edit.equality(e).1.solimp.copy_from_slice(value),
             Param::ActuatorGain(a) => edit.actuator(a).gain.copy_from_slice(value),
             Param::ActuatorBias(a) => edit.actuator(a).bias.copy_from_slice(value),
+            Param::TendonStiffness(t) => edit.tendon(t).stiffness = value[0],
+            Param::TendonDamping(t) => edit.tendon(t).damping = value[0],
+            Param::TendonFrictionLoss(t) => edit.tendon(t).frictionloss = value[0],
+            Param::TendonSpringlength(t) => {
+                edit.tendon(t).springlength = Some([value[0], value[1]])
+            }
         }
     }
 }
@@ -126,6 +132,7 @@ impl Model {
             geoms: vec![],
             actuators: vec![],
             equalities: vec![],
+            tendons: vec![],
             contact: None,
         };
         for (p, v) in values {
@@ -137,6 +144,7 @@ impl Model {
             geoms,
             actuators,
             equalities,
+            tendons,
             contact,
             ..
         } = edit;
@@ -145,6 +153,11 @@ impl Model {
             None => Ok(()),
         };
         let checked = checked.and_then(|_| self.check_laws(&actuators, &equalities));
+        let checked = checked.and_then(|_| {
+            let joints = &self.spec.joints;
+            let bad = tendons.iter().find_map(|(_, t)| t.check(joints).err());
+            bad.map_or(Ok(()), |why| Err(ModelError::NotPhysical(why)))
+        });
         if let Err(source) = checked.and_then(|_| self.check_edit(&bodies, &joints, &geoms)) {
             return Err(not_physical(self, values, source));
         }
@@ -160,6 +173,12 @@ impl Model {
             (s.stiffness, s.damping, s.friction) = (soft.stiffness, soft.damping, soft.friction);
         }
         self.write_laws(&actuators, &equalities);
+        if !tendons.is_empty() {
+            for (t, tendon) in tendons {
+                self.spec.tendons[t] = tendon;
+            }
+            self.tree = Tree::build(&self.spec);
+        }
         self.restamp();
         Ok(())
     }
@@ -438,9 +457,10 @@ struct ActuatorEdit {
     bias: [f64; 3],
 }
 
-/// The bodies, joints, geoms, actuators and equalities (index, solver
-/// settings) an edit touches, each taken from the model on first touch, and
-/// the soft-contact constants if it touches them.
+/// The bodies, joints, geoms, actuators, equalities (index, solver
+/// settings) and tendons (index, edited copy) an edit touches, each taken
+/// from the model on first touch, and the soft-contact constants if it
+/// touches them.
 struct Edit<'a> {
     spec: &'a Spec,
     bodies: Vec<BodyEdit>,
@@ -448,6 +468,7 @@ struct Edit<'a> {
     geoms: Vec<GeomEdit>,
     actuators: Vec<ActuatorEdit>,
     equalities: Vec<(usize, SolParams)>,
+    tendons: Vec<(usize, Tendon)>,
     contact: Option<SoftOptions>,
 }
 
@@ -502,6 +523,11 @@ impl Edit<'_> {
     fn equality(&mut self, e: usize) -> &mut (usize, SolParams) {
         let sol = self.spec.equalities[e].sol;
         touched(&mut self.equalities, |x| x.0 == e, || (e, sol))
+    }
+
+    fn tendon(&mut self, t: usize) -> &mut Tendon {
+        let tendon = &self.spec.tendons[t];
+        &mut touched(&mut self.tendons, |x| x.0 == t, || (t, tendon.clone())).1
     }
 }
 

@@ -95,7 +95,7 @@ impl Model {
         let actuator_force = self.scalar_actuator_forces(x, u);
         let mut applied = tau.to_vec();
         for (a, f) in tree.actuators.iter().zip(&actuator_force) {
-            applied[a.dof] += a.law.gear * f;
+            a.add_moment(&tree.tendons, *f, &mut applied);
         }
         let mut qdd = vec![0.0; self.nv()];
         let mode = (PassiveMode::Explicit, self.opt.timestep);
@@ -136,10 +136,12 @@ impl Model {
     fn scalar_actuator_forces(&self, x: &State, u: &Inputs) -> Vec<f64> {
         let h = self.opt.timestep;
         let entry = |xs: &[f64], i: Option<usize>| i.and_then(|i| xs.get(i)).map_or(0.0, |&y| y);
-        let actuators = self.tree().actuators.iter().enumerate();
-        actuators
+        let tree = self.tree();
+        tree.actuators
+            .iter()
+            .enumerate()
             .map(|(i, a)| {
-                let at = (x.q[a.q_at], x.v[a.dof]);
+                let at = a.length(&tree.tendons, (&x.q, &x.v));
                 a.scalar_force(h, at, (entry(&u.ctrl, Some(i)), entry(&x.act, a.act)))
             })
             .collect()
@@ -340,17 +342,21 @@ impl Model {
             }
             SensorKind::Actuator(quantity, i) => {
                 let a = &self.tree().actuators[*i];
+                let (l, ld) = a.length(&self.tree().tendons, (q, v));
                 out.push(match quantity {
-                    ActuatorQuantity::Pos => a.law.gear * q[a.q_at],
-                    ActuatorQuantity::Vel => a.law.gear * v[a.dof],
+                    ActuatorQuantity::Pos => l,
+                    ActuatorQuantity::Vel => ld,
                     ActuatorQuantity::Force => inputs.actuator_force[*i],
                 });
             }
             SensorKind::JointActuatorForce(j) => {
                 let dof = self.joint_address(*j).1;
-                let actuators = self.tree().actuators.iter().zip(inputs.actuator_force);
-                let on_dof = actuators.filter(|(a, _)| a.dof == dof);
-                out.push(on_dof.map(|(a, f)| a.law.gear * f).sum());
+                let tree = self.tree();
+                let mut on_dof = vec![0.0; self.nv()];
+                for (a, f) in tree.actuators.iter().zip(inputs.actuator_force) {
+                    a.add_moment(&tree.tendons, *f, &mut on_dof);
+                }
+                out.push(on_dof[dof]);
             }
             SensorKind::SubtreeCom(body) => out.extend(b.subtree(self, *body).0.iter()),
             SensorKind::SubtreeLinVel(body) => out.extend(b.subtree(self, *body).1.iter()),

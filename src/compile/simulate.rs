@@ -4,7 +4,7 @@ use std::borrow::Borrow;
 
 use super::Model;
 use crate::dynamics::{self, Contact, Data, StepError};
-use crate::model::{ContactModel, Inputs, State};
+use crate::model::{ContactModel, Gain, Inputs, State};
 
 /// A rollout stopped at `step` (0-based) because that step failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -15,15 +15,16 @@ pub struct RolloutError {
 }
 
 impl Model {
-    /// Generalized forces from motor controls: tau = sum gear * gain * u on
-    /// each actuated joint's dof, for models whose actuators are all
+    /// Generalized forces from motor controls: tau = sum moment gain u
+    /// (moment = gear on a joint's dof), for models whose actuators are all
     /// motor-like ([`crate::model::Actuator::force_per_control`]; others add
     /// nothing here: step them with ctrl, [`Model::step`]).
     pub fn actuator_forces(&self, u: &[f64]) -> Vec<f64> {
         let mut tau = vec![0.0; self.nv()];
-        for (a, &ui) in self.actuators.iter().zip(u) {
-            if let Some(k) = a.force_per_control() {
-                tau[self.joint_address(a.joint).1] += k * ui;
+        let tree = self.tree();
+        for ((a, term), &ui) in self.actuators.iter().zip(&tree.actuators).zip(u) {
+            if let (Some(_), Gain::Fixed(g)) = (a.force_per_control(), a.gain) {
+                term.add_moment(&tree.tendons, g * ui, &mut tau);
             }
         }
         tau
@@ -53,7 +54,7 @@ impl Model {
         act_rates(actuators, (ctrl, &x.act), &mut rates);
         let mut force = vec![0.0; self.nv()];
         let (h, state) = (self.opt.timestep, (&x.q[..], &x.v[..]));
-        add_actuator_forces(actuators, h, state, (ctrl, &x.act, &rates), &mut force);
+        add_actuator_forces(&self.tree, h, state, (ctrl, &x.act, &rates), &mut force);
         force
     }
 

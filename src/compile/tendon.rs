@@ -11,17 +11,23 @@ use crate::dynamics::{
     crba, ltdl_factor, ltdl_solve, update_transforms, world_frames, Data, TendonConsts,
     TendonState, Tree,
 };
-use crate::model::{ContactModel, Shape, Spec, Tendon, Wrap};
+use crate::model::{ContactModel, Param, Shape, Spec, Tendon, Wrap};
 use crate::spatial::{lift, lift_matrix, lift_vector, Real};
 
-/// The tendons of `spec` on `tree` (its nodes built).
-pub fn tendon_consts<T: Real>(tree: &Tree<T>, spec: &Spec) -> Vec<TendonConsts<T>> {
+/// The tendons of `spec` on `tree` (its nodes built), their parameters
+/// lifted through `lift_param` ([`Tree::build_with`]).
+pub fn tendon_consts<T: Real>(
+    tree: &Tree<T>,
+    spec: &Spec,
+    lift_param: &impl Fn(Param, usize, f64) -> T,
+) -> Vec<TendonConsts<T>> {
     let q0: Vec<T> = spec.reference_q().into_iter().map(lift).collect();
     let rows = spec.opt.contact_model == ContactModel::Constraint;
     let mut out: Vec<TendonConsts<T>> = spec
         .tendons
         .iter()
-        .map(|t| {
+        .enumerate()
+        .map(|(i, t)| {
             let path = path(spec, t);
             let support = support(tree, &path);
             let on = rows && spec.opt.solver.frictionloss && t.frictionloss > 0.0;
@@ -29,8 +35,8 @@ pub fn tendon_consts<T: Real>(tree: &Tree<T>, spec: &Spec) -> Vec<TendonConsts<T
             let mut consts = TendonConsts {
                 path,
                 support,
-                stiffness: lift(t.stiffness),
-                damping: lift(t.damping),
+                stiffness: lift_param(Param::TendonStiffness(i), 0, t.stiffness),
+                damping: lift_param(Param::TendonDamping(i), 0, t.damping),
                 lengthspring: [T::zero(); 2],
                 length0: T::zero(),
                 invweight: T::zero(),
@@ -43,13 +49,20 @@ pub fn tendon_consts<T: Real>(tree: &Tree<T>, spec: &Spec) -> Vec<TendonConsts<T
                         sol: t.limit_sol.lift(|_, x| lift(x), |_, x| lift(x)),
                     }),
                 frictionloss: (
-                    if on { lift(t.frictionloss) } else { T::zero() },
+                    if on {
+                        lift_param(Param::TendonFrictionLoss(i), 0, t.frictionloss)
+                    } else {
+                        T::zero()
+                    },
                     friction_sol,
                 ),
             };
             consts.length0 = state_at(tree, &consts, &q0).length;
             consts.lengthspring = match t.springlength {
-                Some(ends) => ends.map(lift),
+                Some([lo, hi]) => [
+                    lift_param(Param::TendonSpringlength(i), 0, lo),
+                    lift_param(Param::TendonSpringlength(i), 1, hi),
+                ],
                 None => [state_at(tree, &consts, &tree.spring_q).length; 2],
             };
             consts

@@ -16,14 +16,14 @@ use super::gravcomp::gravcomp_bodies;
 use super::invweight::invweight0;
 use super::pairs::{collision_pairs, contact_pairs, lawless_pairs};
 use super::tendon::tendon_consts;
-use crate::dynamics::actuation::ActuatorTerm;
+use crate::dynamics::actuation::{ActuatorTerm, Target};
 use crate::dynamics::collision::{Assets, CollisionPair, GeomFrame, Sweep};
 use crate::dynamics::configuration::Coordinates;
 use crate::dynamics::constraint::Limit;
 use crate::dynamics::contact::{Pair, Soft};
 use crate::dynamics::{BodyFrame, NodeJoint, Tree};
 use crate::model::params::inertia_to_six;
-use crate::model::{Body, ContactModel, Joint, JointKind, Param, Spec};
+use crate::model::{Body, ContactModel, Joint, JointKind, Param, Spec, Transmission};
 use crate::spatial::{lift, lift_vector, Inertia, Real, Transform};
 
 impl<T: Real> Tree<T> {
@@ -118,7 +118,7 @@ impl<T: Real> Tree<T> {
             (Param::ContactFriction, soft.friction),
         ];
         tree.soft = Soft::new(soft, constants.map(|(p, x)| lift_param(p, 0, x)));
-        tree.tendons = tendon_consts(&tree, model);
+        tree.tendons = tendon_consts(&tree, model, &lift_param);
         match model.opt.contact_model {
             ContactModel::Smooth => tree.add_pairs(model),
             ContactModel::Constraint => tree.add_constraints(model, &lift_param),
@@ -305,23 +305,28 @@ pub fn mass_properties<T: Real>(
     (mass, com, Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz))
 }
 
-/// The actuators with their joints' addresses and their activations'
-/// indices (in actuator order).
+/// The actuators with their targets (a joint's addresses, a tendon's
+/// index) and their activations' indices (in actuator order).
 pub(super) fn actuator_terms(model: &Spec) -> Vec<ActuatorTerm> {
     let mut next_act = 0;
     model
         .actuators
         .iter()
         .map(|a| {
-            let (q_at, dof) = model.joint_address(a.joint);
+            let target = match a.target {
+                Transmission::Joint(j) => {
+                    let (q_at, dof) = model.joint_address(j);
+                    Target::Joint { q_at, dof }
+                }
+                Transmission::Tendon(t) => Target::Tendon(t),
+            };
             let act = a.has_act().then(|| {
                 next_act += 1;
                 next_act - 1
             });
             ActuatorTerm {
                 law: a.clone(),
-                q_at,
-                dof,
+                target,
                 act,
             }
         })

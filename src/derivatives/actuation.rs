@@ -8,9 +8,12 @@
 //! exact as [`super::step_jacobians`] computes them) and Euler's
 //! x' = Phi(q, v, tau + F), the chain rule is exact:
 //! dx'/d(q, v) = Phi_(q, v) + Phi_tau F_(q, v), dx'/d(ctrl, act) =
-//! Phi_tau F_(ctrl, act). F's partials and act' = next(ctrl, act)'s come
-//! from dual numbers through the generic actuation code (one actuator at a
-//! time: it reads its joint's q and v, its ctrl and its act). The same holds
+//! Phi_tau F_(ctrl, act). F = r f(l, l', ctrl, act) with r the actuator's
+//! moment, constant in q for joint and fixed-tendon transmissions, and
+//! (l, l') = (r q, r v) (in the tangent space), so F_q = r f_l r^T and F_v
+//! = r f_l' r^T. f's partials and act' = next(ctrl, act)'s come from dual
+//! numbers through the generic actuation code (one actuator at a time: it
+//! reads its length and velocity, its ctrl and its act). The same holds
 //! under RK4 when F is the same at every stage (no activation, no length
 //! or velocity terms), and under the implicit integrators then (F's velocity
 //! slope, which they take implicitly, is zero); with other actuators under
@@ -45,9 +48,10 @@ pub struct InputJacobians {
     pub dact_dctrl: DMatrix<f64>,
 }
 
-/// Per actuator: the partials of its generalized force and of its next
-/// activation in (joint coordinate, joint velocity, ctrl, act).
-type Partials = ([f64; 4], [f64; 4]);
+/// Per actuator: the partials of its scalar force and of its next
+/// activation in (length, velocity, ctrl, act), and Phi_tau r (2 nv) with
+/// r its moment.
+type Partials = ([f64; 4], [f64; 4], DVector<f64>);
 
 /// One step from the state (q, v, act) under the inputs (ctrl, tau), as
 /// [`crate::dynamics::step_actuated`] takes them (ctrl or act empty: zero),
@@ -93,24 +97,27 @@ pub fn input_jacobians(
     let h = model.opt.timestep;
     let mut total = tau.to_vec();
     let mut act_next = vec![0.0; na];
-    let mut partials: Vec<Partials> = Vec::with_capacity(nu);
+    let mut partials = Vec::with_capacity(nu);
     let mut law_slopes = Vec::with_capacity(nu);
+    let mut moments = Vec::with_capacity(nu);
     for (i, a) in tree.actuators.iter().enumerate() {
         let c = ctrl.get(i).copied().unwrap_or(0.0);
         let current = a.act.and_then(|k| act.get(k).copied()).unwrap_or(0.0);
-        let point = [q[a.q_at], v[a.dof], c, current];
+        let (l, ld) = a.length(&tree.tendons, (q, v));
+        let point = [l, ld, c, current];
         let seeded = |s: usize| {
             let x: [Dual64; 4] = std::array::from_fn(|j| Dual64::new(point[j], f64::from(j == s)));
             a.output(h, (x[0], x[1]), (x[2], x[3]))
         };
         let outputs: [(Dual64, Dual64); 4] = std::array::from_fn(seeded);
         let (force, next) = outputs[0];
-        total[a.dof] += force.re;
+        a.add_moment(&tree.tendons, force.re, &mut total);
         if let Some(k) = a.act {
             act_next[k] = next.re;
         }
         partials.push((outputs.map(|(f, _)| f.eps), outputs.map(|(_, x)| x.eps)));
-        law_slopes.push(a.law_slopes(h, (point[0], point[1]), (c, current)));
+        law_slopes.push(a.law_slopes(h, (l, ld), (c, current)));
+        moments.push(a.moment(&tree.tendons, n));
     }
     let inner = Wrt {
         control: true,
@@ -118,20 +125,26 @@ pub fn input_jacobians(
     };
     let mut step = applied_jacobians(model, ws, (q, v, &total), &inner)?;
     let b_tau = step.tau().clone_owned();
+    let partials: Vec<Partials> = partials
+        .into_iter()
+        .zip(&moments)
+        .map(|((df, dnext), r)| (df, dnext, &b_tau * DVector::from_column_slice(r)))
+        .collect();
     let mut dx_dact = DMatrix::zeros(2 * n, na);
     let mut dx_dctrl = DMatrix::zeros(2 * n, nu);
     let mut dact_dact = DMatrix::zeros(na, na);
     let mut dact_dctrl = DMatrix::zeros(na, nu);
-    for (i, (a, (df, dnext))) in tree.actuators.iter().zip(&partials).enumerate() {
-        let b = b_tau.column(a.dof);
-        for (k, slope) in [(a.dof, df[0]), (n + a.dof, df[1])] {
-            if let Some(col) = step.state_column(k) {
-                step.jacobian.column_mut(col).axpy(slope, &b, 1.0);
+    for (i, (a, (df, dnext, b))) in tree.actuators.iter().zip(&partials).enumerate() {
+        for (dof, &r) in moments[i].iter().enumerate().filter(|(_, r)| **r != 0.0) {
+            for (k, slope) in [(dof, df[0] * r), (n + dof, df[1] * r)] {
+                if let Some(col) = step.state_column(k) {
+                    step.jacobian.column_mut(col).axpy(slope, b, 1.0);
+                }
             }
         }
-        dx_dctrl.column_mut(i).axpy(df[2], &b, 1.0);
+        dx_dctrl.column_mut(i).axpy(df[2], b, 1.0);
         if let Some(k) = a.act {
-            dx_dact.column_mut(k).axpy(df[3], &b, 1.0);
+            dx_dact.column_mut(k).axpy(df[3], b, 1.0);
             dact_dact[(k, k)] = dnext[3];
             dact_dctrl[(k, i)] = dnext[2];
         }
@@ -141,10 +154,10 @@ pub fn input_jacobians(
     for p in wrt.params {
         if let Param::ActuatorGain(i) | Param::ActuatorBias(i) = *p {
             let slopes = law_slopes[i][usize::from(matches!(p, Param::ActuatorBias(_)))];
-            let b = b_tau.column(tree.actuators[i].dof);
+            let b = &partials[i].2;
             for (c, slope) in slopes.into_iter().enumerate() {
                 let col = step.param_column(k + c);
-                step.jacobian.column_mut(col).axpy(slope, &b, 1.0);
+                step.jacobian.column_mut(col).axpy(slope, b, 1.0);
             }
         }
         k += p.size();

@@ -312,6 +312,10 @@ pub fn eliminated_residuals_into(
 ) -> Result<(), WindowError> {
     let n = model.nv();
     super::one_dof_joints(model).map_err(|source| WindowError::Step { t: 0, source })?;
+    if map.targets.iter().any(|(p, ..)| p.is_tendon()) {
+        let source = crate::dynamics::StepError::NoTendonDerivatives;
+        return Err(WindowError::Step { t: 0, source });
+    }
     if !crate::dynamics::actuation::idle_without_inputs(&model.tree().actuators) {
         let source = crate::dynamics::StepError::NoActuatorDerivatives;
         return Err(WindowError::Step { t: 0, source });

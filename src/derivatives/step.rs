@@ -279,6 +279,7 @@ pub(super) fn applied_jacobians(
     let is_dual = |p: Param| {
         tree.has_constraints() && p.is_constraint()
             || turning && !matches!(p, Param::Mass(_) | Param::Com(_) | Param::Inertia(_))
+            || p.is_tendon()
     };
     let dual_params: Vec<Param> = wrt.params.iter().copied().filter(|p| is_dual(*p)).collect();
     let analytic_params: Vec<Param>;

@@ -167,14 +167,18 @@ pub fn window_residuals_into(
     ws.size_for(model);
     fit.size(2 * n * window.len(), if jacobian { map.nmu } else { 0 });
     // The contact parameters' columns need tau_soft's derivatives, the
-    // constraint model's rows its solver's, and ball and free joints and
-    // fluid forces dual numbers: those windows go through step_jacobians.
+    // constraint model's rows its solver's, and ball and free joints, fluid
+    // forces and tendon parameters dual numbers: those windows go through
+    // step_jacobians.
     let tree = model.tree();
     let euler = integrator::euler(&model.opt).is_some()
         && !tree.has_constraints()
         && idle_without_inputs(&tree.actuators)
         && !super::dual_only(model)
-        && !map.targets.iter().any(|(p, ..)| p.is_contact());
+        && !map
+            .targets
+            .iter()
+            .any(|(p, ..)| p.is_contact() || p.is_tendon());
     if jacobian && euler {
         directions(model, map, &mut ws.window.columns);
     }

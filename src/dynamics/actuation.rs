@@ -1,32 +1,75 @@
-//! Actuation as MuJoCo's mj_fwdActuation computes it, for actuators on one
-//! hinge or slide joint ([`crate::model::Actuator`] states the law and its
-//! conventions): controls clamped to their ranges, activation rates, the
-//! actuators' scalar forces clamped to their force ranges, and the
-//! generalized force gear f on each actuated dof (the moment of a joint
-//! transmission is its gear). The activation integrates as MuJoCo's
+//! Actuation as MuJoCo's mj_transmission and mj_fwdActuation compute it,
+//! for actuators on a hinge or slide joint or on a tendon
+//! ([`crate::model::Actuator`] states the law and its conventions): each
+//! actuator's length l, velocity l' and moment ([`ActuatorTerm::length`],
+//! [`ActuatorTerm::add_moment`], the one place they are computed), controls
+//! clamped to their ranges, activation rates, the actuators' scalar forces
+//! clamped to their force ranges, and the generalized force moment f. The
+//! activation integrates as MuJoCo's
 //! nextActivation: act + h act' (filterexact: act + act' tau (1 - e^(-h/tau)))
 //! clamped to the actuator's activation range.
 //!
 //! Inputs may be empty: an empty ctrl is zero controls, an empty act zero
 //! activations (so a step without them is MuJoCo's with ctrl = 0, act = 0).
 
+use nalgebra::DMatrix;
+
+use super::tendon::TendonConsts;
+use super::Tree;
 use crate::model::{ActDynamics, Actuator, Bias, Gain};
 use crate::spatial::{lift, Real};
 
 /// MuJoCo's mjMINVAL: the smallest filter time constant used.
 const MIN_TIME_CONSTANT: f64 = crate::model::MINVAL;
 
-/// One actuator in the compiled tree: where its joint's coordinate and dof
-/// are, and its activation's index if it has one.
+/// One actuator in the compiled tree: what it drives, and its
+/// activation's index if it has one.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ActuatorTerm {
     pub law: Actuator,
-    pub q_at: usize,
-    pub dof: usize,
+    pub target: Target,
     pub act: Option<usize>,
 }
 
+/// An actuator's transmission in the compiled tree: a joint's coordinate
+/// address and dof, or a tendon's index into [`Tree::tendons`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Target {
+    Joint { q_at: usize, dof: usize },
+    Tendon(usize),
+}
+
 impl ActuatorTerm {
+    /// Its length and velocity (l, l') = gear (x, x') at (q, v): x the
+    /// joint's coordinate or the tendon's length.
+    pub fn length<T: Real>(&self, tendons: &[TendonConsts<T>], (q, v): (&[T], &[T])) -> (T, T) {
+        let gear: T = lift(self.law.gear);
+        let (x, xd) = match self.target {
+            Target::Joint { q_at, dof } => (q[q_at], v[dof]),
+            // Actuators sit on fixed tendons only (Spec::check).
+            Target::Tendon(t) => tendons[t]
+                .fixed_length((q, v))
+                .unwrap_or((T::zero(), T::zero())),
+        };
+        (gear * x, gear * xd)
+    }
+
+    /// Adds s times its moment gear dx/dq (nv) to `out`.
+    pub fn add_moment<T: Real>(&self, tendons: &[TendonConsts<T>], s: T, out: &mut [T]) {
+        let gs = s * lift(self.law.gear);
+        match self.target {
+            Target::Joint { dof, .. } => out[dof] += gs,
+            Target::Tendon(t) => tendons[t].add_fixed_moment(gs, out),
+        }
+    }
+
+    /// Its moment as a vector (nv).
+    pub fn moment<T: Real>(&self, tendons: &[TendonConsts<T>], nv: usize) -> Vec<T> {
+        let mut m = vec![T::zero(); nv];
+        self.add_moment(tendons, T::one(), &mut m);
+        m
+    }
+
     /// The clamped control (0 for an empty ctrl).
     fn control<T: Real>(&self, ctrl: &[T], i: usize) -> T {
         let c = ctrl.get(i).copied().unwrap_or(T::zero());
@@ -55,11 +98,11 @@ impl ActuatorTerm {
         clamp(next, self.law.act_range)
     }
 
-    /// The scalar force at joint coordinate x, velocity xd, control c and
+    /// The scalar force at length l, velocity ld, control c and
     /// activation a (its rate `rate`), clamped to the force range.
-    fn force<T: Real>(&self, (x, xd): (T, T), (c, a, rate): (T, T, T), h: f64) -> T {
+    fn force<T: Real>(&self, (l, ld): (T, T), (c, a, rate): (T, T, T), h: f64) -> T {
         clamp(
-            self.raw_force((x, xd), (c, a, rate), h).0,
+            self.raw_force((l, ld), (c, a, rate), h).0,
             self.law.force_range,
         )
     }
@@ -74,11 +117,14 @@ impl ActuatorTerm {
         }
     }
 
-    /// The scalar force before clamping, and its derivative in the joint
-    /// velocity xd (the velocity terms of gain and bias, times gear).
-    fn raw_force<T: Real>(&self, (x, xd): (T, T), (c, a, rate): (T, T, T), h: f64) -> (T, T) {
-        let gear: T = lift(self.law.gear);
-        let (length, velocity) = (gear * x, gear * xd);
+    /// The scalar force before clamping at length and velocity (l, l'), and
+    /// its derivative in l' (the velocity terms of gain and bias).
+    fn raw_force<T: Real>(
+        &self,
+        (length, velocity): (T, T),
+        (c, a, rate): (T, T, T),
+        h: f64,
+    ) -> (T, T) {
         let affine =
             |p: [f64; 3]| lift::<T>(p[0]) + lift::<T>(p[1]) * length + lift::<T>(p[2]) * velocity;
         let gain = match self.law.gain {
@@ -94,7 +140,7 @@ impl ActuatorTerm {
             Gain::Fixed(_) => 0.0,
             Gain::Affine(p) => p[2],
         };
-        let slope = (lift::<T>(gain_v) * input + lift(bias_v)) * gear;
+        let slope = lift::<T>(gain_v) * input + lift(bias_v);
         (gain * input + bias, slope)
     }
 }
@@ -114,19 +160,19 @@ pub fn idle_without_inputs(actuators: &[ActuatorTerm]) -> bool {
 }
 
 impl ActuatorTerm {
-    /// Its scalar force (MuJoCo's actuator_force) at joint coordinate x,
-    /// velocity xd, control c (before clamping) and activation a.
-    pub fn scalar_force<T: Real>(&self, h: f64, (x, xd): (T, T), (c, a): (T, T)) -> T {
+    /// Its scalar force (MuJoCo's actuator_force) at length l, velocity
+    /// ld ([`Self::length`]), control c (before clamping) and activation a.
+    pub fn scalar_force<T: Real>(&self, h: f64, (l, ld): (T, T), (c, a): (T, T)) -> T {
         let c = clamp(c, self.law.ctrl_range);
-        self.force((x, xd), (c, a, self.rate(c, a)), h)
+        self.force((l, ld), (c, a, self.rate(c, a)), h)
     }
 
-    /// Its generalized force on its dof and its next activation after a step
-    /// h (a itself without dynamics) at joint coordinate x, velocity xd,
-    /// control c (before clamping) and activation a: one actuator of
-    /// [`add_actuator_forces`] and [`next_acts`] under Euler.
-    pub fn output<T: Real>(&self, h: f64, (x, xd): (T, T), (c, a): (T, T)) -> (T, T) {
-        let force = lift::<T>(self.law.gear) * self.scalar_force(h, (x, xd), (c, a));
+    /// Its scalar force and its next activation after a step h (a itself
+    /// without dynamics) at length l, velocity ld, control c (before
+    /// clamping) and activation a: one actuator of [`add_actuator_forces`]
+    /// (which applies moment f) and [`next_acts`] under Euler.
+    pub fn output<T: Real>(&self, h: f64, (l, ld): (T, T), (c, a): (T, T)) -> (T, T) {
+        let force = self.scalar_force(h, (l, ld), (c, a));
         let c = clamp(c, self.law.ctrl_range);
         let rate = self.rate(c, a);
         let next = if self.act.is_some() {
@@ -137,25 +183,23 @@ impl ActuatorTerm {
         (force, next)
     }
 
-    /// The derivatives of its generalized force on its dof in gainprm[0..3]
-    /// and in biasprm[0..3] (the parameters `actuator/<name>/gain` and
-    /// `bias`) at joint coordinate x, velocity xd, control c (before
-    /// clamping) and activation a: gear w (1, l, l') and gear (1, l, l'),
-    /// w what the gain multiplies, l = gear x, l' = gear xd. A fixed gain
+    /// The derivatives of its scalar force in gainprm[0..3] and in
+    /// biasprm[0..3] (the parameters `actuator/<name>/gain` and `bias`) at
+    /// length l, velocity ld, control c (before clamping) and activation a:
+    /// w (1, l, l') and (1, l, l'), w what the gain multiplies. A fixed gain
     /// reads gainprm\[0] alone, no bias reads nothing, and while the force
     /// range clamps the force both are zero.
-    pub fn law_slopes(&self, h: f64, (x, xd): (f64, f64), (c, a): (f64, f64)) -> [[f64; 3]; 2] {
+    pub fn law_slopes(&self, h: f64, (l, ld): (f64, f64), (c, a): (f64, f64)) -> [[f64; 3]; 2] {
         let c = clamp(c, self.law.ctrl_range);
         let rate = self.rate(c, a);
-        let force = self.raw_force((x, xd), (c, a, rate), h).0;
+        let force = self.raw_force((l, ld), (c, a, rate), h).0;
         if clamp(force, self.law.force_range) != force {
             return [[0.0; 3]; 2];
         }
-        let gear = self.law.gear;
-        let basis = [gear, gear * gear * x, gear * gear * xd];
+        let basis = [1.0, l, ld];
         let w = self.input((c, a, rate), h);
         let gain = match self.law.gain {
-            Gain::Fixed(_) => [gear * w, 0.0, 0.0],
+            Gain::Fixed(_) => [w, 0.0, 0.0],
             Gain::Affine(_) => basis.map(|b| b * w),
         };
         let bias = match self.law.bias {
@@ -182,24 +226,29 @@ impl ActuatorTerm {
 }
 
 /// Adds the derivative of the actuators' generalized forces in v at (q, v,
-/// ctrl, act) to `diagonal` (nv): a joint actuator's force moves with its
-/// own dof's velocity only, by gear^2 (gain_v w + bias_v) (gain_v, bias_v
-/// the velocity coefficients of an affine gain and bias, w its control or
-/// activation), and not at all while its force range clamps it. This is
-/// MuJoCo's actuator term of qDeriv (mjd_actuator_vel), which its implicit
-/// and implicitfast integrators take implicitly (Euler does not);
-/// `rates` as in [`add_actuator_forces`].
+/// ctrl, act) to `qderiv` (nv x nv): an actuator's adds moment^T moment
+/// (gain_v w + bias_v) (gain_v, bias_v the velocity coefficients of an
+/// affine gain and bias, w its control or activation), nothing while its
+/// force range clamps it. This is MuJoCo's actuator term of qDeriv
+/// (mjd_actuator_vel), which its implicit and implicitfast integrators take
+/// implicitly (Euler does not); `rates` as in [`add_actuator_forces`].
 pub fn add_force_velocity_derivatives<T: Real>(
-    actuators: &[ActuatorTerm],
+    tree: &Tree<T>,
     h: f64,
     (q, v): (&[T], &[T]),
     (ctrl, act, rates): (&[T], &[T], &[T]),
-    diagonal: &mut [T],
+    qderiv: &mut DMatrix<T>,
 ) {
-    for (a, inputs) in with_inputs(actuators, (ctrl, act, rates)) {
-        let (force, slope) = a.raw_force((q[a.q_at], v[a.dof]), inputs, h);
-        if clamp(force, a.law.force_range) == force {
-            diagonal[a.dof] += lift::<T>(a.law.gear) * slope;
+    for (a, inputs) in with_inputs(&tree.actuators, (ctrl, act, rates)) {
+        let (force, slope) = a.raw_force(a.length(&tree.tendons, (q, v)), inputs, h);
+        if clamp(force, a.law.force_range) == force && slope != T::zero() {
+            let m = a.moment(&tree.tendons, tree.nv());
+            let on: Vec<usize> = (0..m.len()).filter(|&i| m[i] != T::zero()).collect();
+            for &i in &on {
+                for &j in &on {
+                    qderiv[(i, j)] += slope * m[i] * m[j];
+                }
+            }
         }
     }
 }
@@ -238,18 +287,19 @@ pub fn act_rates<T: Real>(actuators: &[ActuatorTerm], (ctrl, act): (&[T], &[T]),
     }
 }
 
-/// Adds the actuators' generalized forces at (q, v, ctrl, act) to `force`
-/// (nv); `rates` are the activation rates at (ctrl, act) ([`act_rates`]),
-/// which actearly actuators read.
+/// Adds the actuators' generalized forces moment f at (q, v, ctrl, act)
+/// to `force` (nv); `rates` are the activation rates at (ctrl, act)
+/// ([`act_rates`]), which actearly actuators read.
 pub fn add_actuator_forces<T: Real>(
-    actuators: &[ActuatorTerm],
+    tree: &Tree<T>,
     h: f64,
     (q, v): (&[T], &[T]),
     (ctrl, act, rates): (&[T], &[T], &[T]),
     force: &mut [T],
 ) {
-    for (a, inputs) in with_inputs(actuators, (ctrl, act, rates)) {
-        force[a.dof] += lift::<T>(a.law.gear) * a.force((q[a.q_at], v[a.dof]), inputs, h);
+    for (a, inputs) in with_inputs(&tree.actuators, (ctrl, act, rates)) {
+        let f = a.force(a.length(&tree.tendons, (q, v)), inputs, h);
+        a.add_moment(&tree.tendons, f, force);
     }
 }
 
@@ -295,9 +345,12 @@ mod tests {
         let v = [0.7, -1.2];
         let mut rates = [0.0];
         act_rates(&tree.actuators, (&ctrl[..], &act[..]), &mut rates);
-        let mut diagonal = [0.0; 2];
+        let mut qderiv = DMatrix::zeros(2, 2);
         let inputs = (&ctrl[..], &act[..], &rates[..]);
-        add_force_velocity_derivatives(&tree.actuators, 0.01, (&q, &v), inputs, &mut diagonal);
+        add_force_velocity_derivatives(tree, 0.01, (&q, &v), inputs, &mut qderiv);
+        let diagonal = qderiv.diagonal();
+        let dual_tree = Tree::build_with(&model, |_, _, x| Dual64::from(x));
+        assert_eq!((qderiv[(0, 1)], qderiv[(1, 0)]), (0.0, 0.0));
         for dof in 0..2 {
             let lift = |x: &[f64]| x.iter().map(|&x| Dual64::from(x)).collect::<Vec<_>>();
             let mut vd = lift(&v);
@@ -305,7 +358,7 @@ mod tests {
             let (cd, ad, rd) = (lift(&ctrl), lift(&act), lift(&rates));
             let mut force = lift(&[0.0, 0.0]);
             add_actuator_forces(
-                &tree.actuators,
+                &dual_tree,
                 0.01,
                 (&lift(&q), &vd),
                 (&cd, &ad, &rd),

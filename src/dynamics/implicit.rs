@@ -12,6 +12,9 @@
 //! - under `implicit` only, the bias forces': -dc/dv (mjd_rne_vel), exact,
 //!   from the linearised Newton-Euler recursion (`add_bias_derivative`).
 //!
+//! D keeps M's sparsity (`keep_mass_sparsity`): MuJoCo drops the terms
+//! coupling dofs of different chains (a tendon's across two trees).
+//!
 //! `implicit` solves M - h D as it is, by LU. `implicitfast` drops the bias
 //! term and uses D's lower triangle mirrored (MuJoCo gathers qDeriv's lower
 //! triangle into its symmetric factor; D is symmetric for damping and
@@ -30,14 +33,14 @@ use crate::model::Integrator;
 use crate::spatial::{lift, Force, Motion, Real};
 
 /// The buffers of an implicit step, kept in [`Data`]: qDeriv and the
-/// matrix solved (nv x nv); the actuators' diagonal of qDeriv (nv, zero
+/// matrix solved (nv x nv); the actuators' term of qDeriv (nv x nv, zero
 /// unless a step with actuator inputs filled it); per node the velocity and the linearised
 /// recursion's velocity, acceleration and force; a unit direction (nv).
 #[derive(Clone, Debug)]
 pub struct Buffers<T: Real> {
     qderiv: DMatrix<T>,
     pub(super) matrix: DMatrix<T>,
-    actuators: Vec<T>,
+    actuators: DMatrix<T>,
     vel: Vec<Motion<T>>,
     dvel: Vec<Motion<T>>,
     dacc: Vec<Motion<T>>,
@@ -46,11 +49,11 @@ pub struct Buffers<T: Real> {
 }
 
 impl<T: Real> Buffers<T> {
-    /// The actuators' slot of qDeriv's diagonal (d tau_actuator / dv,
+    /// The actuators' slot of qDeriv (d tau_actuator / dv,
     /// [`super::actuation::add_force_velocity_derivatives`]), zeroed: a
     /// step with actuator inputs adds to it before it solves, and zeroes it
     /// again after.
-    pub(super) fn actuator_slope(&mut self) -> &mut [T] {
+    pub(super) fn actuator_slope(&mut self) -> &mut DMatrix<T> {
         self.actuators.fill(T::zero());
         &mut self.actuators
     }
@@ -59,7 +62,7 @@ impl<T: Real> Buffers<T> {
         Buffers {
             qderiv: DMatrix::zeros(nv, nv),
             matrix: DMatrix::zeros(nv, nv),
-            actuators: vec![T::zero(); nv],
+            actuators: DMatrix::zeros(nv, nv),
             vel: vec![Motion::zero(); nv],
             dvel: vec![Motion::zero(); nv],
             dacc: vec![Motion::zero(); nv],
@@ -122,11 +125,34 @@ fn velocity_derivative<T: Real>(
     add_damping_derivative(tree, &mut b.qderiv);
     add_tendon_damping_derivative(tree, data, &mut b.qderiv);
     add_fluid_derivative(tree, data, &mut b.qderiv);
-    for (i, slope) in b.actuators.iter().enumerate() {
-        b.qderiv[(i, i)] += *slope;
-    }
+    b.qderiv += &b.actuators;
     if bias {
         add_bias_derivative(tree, data, v, 0..tree.nv(), b);
+    }
+    keep_mass_sparsity(tree, &mut b.qderiv);
+}
+
+/// Drops qDeriv's entries outside the mass matrix's sparsity (dofs i, j
+/// neither of which is the other's ancestor), as MuJoCo stores qDeriv in
+/// M's pattern: a tendon's damper or actuator coupling two kinematic
+/// chains is taken explicitly across them.
+fn keep_mass_sparsity<T: Real>(tree: &Tree<T>, qderiv: &mut DMatrix<T>) {
+    let n = tree.nv();
+    let descends = |mut i: usize, j: usize| loop {
+        if i == j {
+            return true;
+        }
+        match tree.parent[i] {
+            Some(p) => i = p,
+            None => return false,
+        }
+    };
+    for i in 0..n {
+        for j in 0..n {
+            if qderiv[(i, j)] != T::zero() && !descends(i, j) && !descends(j, i) {
+                qderiv[(i, j)] = T::zero();
+            }
+        }
     }
 }
 

@@ -107,13 +107,8 @@ impl<T: Real> TendonConsts<T> {
         let mut moment = vec![T::zero(); tree.nv()];
         let (length, velocity) = match &self.path {
             Path::Fixed(terms) => {
-                for (_, dof, c) in terms {
-                    moment[*dof] += *c;
-                }
-                let sum = |x: &[T], at: fn(&(usize, usize, T)) -> usize| {
-                    terms.iter().fold(T::zero(), |s, t| s + t.2 * x[at(t)])
-                };
-                (sum(q, |t| t.0), sum(v, |t| t.1))
+                self.add_fixed_moment(T::one(), &mut moment);
+                fixed_length(terms, (q, v))
             }
             Path::Spatial(elements) => {
                 let length = spatial(tree, data, elements, &mut moment);
@@ -132,6 +127,24 @@ impl<T: Real> TendonConsts<T> {
         }
     }
 
+    /// A fixed tendon's length and velocity at (q, v), which need no
+    /// frames; None for a spatial tendon.
+    pub fn fixed_length(&self, (q, v): (&[T], &[T])) -> Option<(T, T)> {
+        match &self.path {
+            Path::Fixed(terms) => Some(fixed_length(terms, (q, v))),
+            Path::Spatial(_) => None,
+        }
+    }
+
+    /// Adds s J of a fixed tendon to `out` (nv); nothing for a spatial one.
+    pub fn add_fixed_moment(&self, s: T, out: &mut [T]) {
+        if let Path::Fixed(terms) = &self.path {
+            for (_, dof, c) in terms {
+                out[*dof] += s * *c;
+            }
+        }
+    }
+
     /// The force along it of its spring and damper at length l and rate ldot.
     fn passive_force(&self, l: T, ldot: T) -> T {
         let [lo, hi] = self.lengthspring;
@@ -144,6 +157,14 @@ impl<T: Real> TendonConsts<T> {
         };
         -self.stiffness * stretch - self.damping * ldot
     }
+}
+
+/// L = sum c q and L-dot = sum c v over a fixed path's terms.
+fn fixed_length<T: Real>(terms: &[(usize, usize, T)], (q, v): (&[T], &[T])) -> (T, T) {
+    let sum = |x: &[T], at: fn(&(usize, usize, T)) -> usize| {
+        terms.iter().fold(T::zero(), |s, t| s + t.2 * x[at(t)])
+    };
+    (sum(q, |t| t.0), sum(v, |t| t.1))
 }
 
 /// Every tendon's state into `data.tendon` (frames as [`TendonConsts::state`]).

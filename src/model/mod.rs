@@ -208,12 +208,6 @@ pub struct Joint {
     pub friction_sol: SolParams,
 }
 
-/// MuJoCo's actuator on one hinge or slide joint (transmission `joint`):
-/// its length is l = gear q and its velocity l' = gear v (q, v the joint's
-/// coordinate and velocity); its scalar force is
-/// f = gain(l, l') w + bias(l, l'), w = ctrl without activation dynamics,
-/// else the activation act, clamped to `force_range`; the generalized force
-/// on the joint's dof is gear f. ctrl is clamped to `ctrl_range` first.
 impl Joint {
     /// A free joint of `body` without damping, spring, armature, dry
     /// friction or limits (MJCF `<freejoint>`, a URDF floating base); its
@@ -239,11 +233,18 @@ impl Joint {
     }
 }
 
+/// MuJoCo's actuator on a hinge or slide joint or on a tendon
+/// ([`Transmission`]): its length is l = gear x and its velocity l' = gear
+/// x' (x the joint's coordinate or the tendon's length L(q), x' = dx/dt);
+/// its moment (the generalized force per unit force, nv) is gear dx/dq;
+/// its scalar force is f = gain(l, l') w + bias(l, l'), w = ctrl without
+/// activation dynamics, else the activation act, clamped to `force_range`;
+/// its generalized force is moment f. ctrl is clamped to `ctrl_range` first.
 /// Units: SI; f in N or N m per unit of gear.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Actuator {
     pub name: String,
-    pub joint: usize,
+    pub target: Transmission,
     pub gear: f64,
     pub ctrl_range: Option<(f64, f64)>,
     pub force_range: Option<(f64, f64)>,
@@ -259,6 +260,14 @@ pub struct Actuator {
     /// mj_actuatorArmature; [`Spec::actuator_passive`]).
     pub damping: f64,
     pub armature: f64,
+}
+
+/// What an actuator drives (MuJoCo's trntype and trnid): a hinge or slide
+/// joint, or a tendon ([`Spec::tendons`]), by index.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Transmission {
+    Joint(usize),
+    Tendon(usize),
 }
 
 /// MuJoCo's gain types: fixed `gainprm[0]`, or affine
@@ -296,7 +305,7 @@ impl Actuator {
     pub fn motor(name: String, joint: usize, gear: f64, ctrl_range: Option<(f64, f64)>) -> Self {
         Actuator {
             name,
-            joint,
+            target: Transmission::Joint(joint),
             gear,
             ctrl_range,
             force_range: None,
@@ -317,6 +326,14 @@ impl Actuator {
         match (self.gain, self.bias, self.dynamics, self.force_range) {
             (Gain::Fixed(g), Bias::None, ActDynamics::None, None) => Some(self.gear * g),
             _ => None,
+        }
+    }
+
+    /// The joint it drives, if its transmission is a joint.
+    pub fn joint(&self) -> Option<usize> {
+        match self.target {
+            Transmission::Joint(j) => Some(j),
+            Transmission::Tendon(_) => None,
         }
     }
 
@@ -703,7 +720,7 @@ impl Spec {
     /// order (zero without any), as MuJoCo adds them to dof_damping and
     /// dof_armature wherever those act.
     pub fn actuator_passive(&self, joint: usize) -> (f64, f64) {
-        let on = self.actuators.iter().filter(|a| a.joint == joint);
+        let on = self.actuators.iter().filter(|a| a.joint() == Some(joint));
         on.fold((0.0, 0.0), |(d, r), a| {
             let gear2 = a.gear * a.gear;
             (d + a.damping * gear2, r + a.armature * gear2)
@@ -941,21 +958,40 @@ impl Spec {
         }
 
         for a in &self.actuators {
-            if a.joint >= self.joints.len() || !a.gear.is_finite() {
-                return bad(format!("actuator '{}' has a bad joint or gear", a.name));
-            }
-            if let Err(why) = a.check() {
+            if let Err(why) = a.check().and_then(|()| self.check_transmission(a)) {
                 return bad(format!("actuator '{}': {why}", a.name));
-            }
-            if self.joints[a.joint].kind.nv() != 1 {
-                let j = &self.joints[a.joint].name;
-                return bad(format!(
-                    "actuator '{}': joint '{j}' is a ball or free joint; actuators drive hinges and slides",
-                    a.name
-                ));
             }
         }
         Ok(())
+    }
+}
+
+impl Spec {
+    /// An actuator's target exists: a hinge or slide joint, or a tendon
+    /// without actuator damping or armature (MuJoCo 4 adds those to the
+    /// tendon's, not reproduced here); a finite gear.
+    fn check_transmission(&self, a: &Actuator) -> Result<(), String> {
+        if !a.gear.is_finite() {
+            return Err("gear must be finite".into());
+        }
+        match a.target {
+            Transmission::Joint(j) => match self.joints.get(j) {
+                None => Err(format!("no joint {j}")),
+                Some(joint) if joint.kind.nv() != 1 => Err(format!(
+                    "joint '{}' is a ball or free joint; actuators drive hinges and slides",
+                    joint.name
+                )),
+                Some(_) => Ok(()),
+            },
+            Transmission::Tendon(t) if t >= self.tendons.len() => Err(format!("no tendon {t}")),
+            Transmission::Tendon(_) if a.damping != 0.0 || a.armature != 0.0 => {
+                Err("damping and armature of an actuator on a tendon are not supported".into())
+            }
+            Transmission::Tendon(t) if !self.tendons[t].spatial.is_empty() => {
+                Err("actuators on a spatial tendon are not supported yet: only on fixed ones".into())
+            }
+            Transmission::Tendon(_) => Ok(()),
+        }
     }
 }
 

@@ -31,9 +31,15 @@
 //!   and its kv is -bias\[2]; a velocity servo's kv is gain\[0] = -bias\[2]:
 //!   move kp or kv through a [`ParamMap`] that writes both entries.
 //!   MuJoCo's forces are linear in them, read at the actuator's length
-//!   and velocity (gear times the joint's).
+//!   and velocity (gear times the joint's or the tendon's).
+//! - `tendon/<name>/stiffness` (N/m), `damping` (N s/m), `frictionloss`
+//!   (N; constraint model) and `springlength` (2 values, m: the spring's
+//!   deadband lo, hi), MuJoCo's tendon_stiffness, tendon_damping,
+//!   tendon_frictionloss and tendon_lengthspring. A tendon whose
+//!   springlength is MuJoCo's -1 -1 (its length at qpos_spring) has no
+//!   `springlength` parameter: give the deadband explicitly.
 //!
-//! Equality and actuator parameters resolve by name but are not listed by
+//! Equality, actuator and tendon parameters resolve by name but are not listed by
 //! [`Param::all`] (its list feeds the gradient checks of every shipped model).
 
 use nalgebra::{DMatrix, DVector, Matrix3};
@@ -62,6 +68,10 @@ pub enum Param {
     EqualitySolimp(usize),
     ActuatorGain(usize),
     ActuatorBias(usize),
+    TendonStiffness(usize),
+    TendonDamping(usize),
+    TendonFrictionLoss(usize),
+    TendonSpringlength(usize),
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -121,7 +131,7 @@ impl Param {
         };
         let expected = " (expected body/<name>/<field>, joint/<name>/<field>, \
                         geom/<name>/<field>, equality/<name>/<field>, \
-                        actuator/<name>/<field> or contact/<field>)";
+                        actuator/<name>/<field>, tendon/<name>/<field> or contact/<field>)";
         if let Some(field) = name.strip_prefix("contact/") {
             return match field {
                 "stiffness" => Ok(Param::ContactStiffness),
@@ -205,6 +215,24 @@ impl Param {
                     _ => Err(unknown(": actuator fields are gain, bias".into())),
                 }
             }
+            "tendon" => {
+                let t = named(&mut spec.tendons.iter().map(|x| &x.name))?;
+                match field {
+                    "stiffness" => Ok(Param::TendonStiffness(t)),
+                    "damping" => Ok(Param::TendonDamping(t)),
+                    "frictionloss" => Ok(Param::TendonFrictionLoss(t)),
+                    "springlength" if spec.tendons[t].springlength.is_none() => {
+                        Err(unknown(format!(
+                            ": tendon '{object}' has springlength -1 -1 (its length at \
+                             qpos_spring); give the deadband explicitly to identify it"
+                        )))
+                    }
+                    "springlength" => Ok(Param::TendonSpringlength(t)),
+                    _ => Err(unknown(
+                        ": tendon fields are stiffness, damping, frictionloss, springlength".into(),
+                    )),
+                }
+            }
             _ => Err(unknown(expected.into())),
         }
     }
@@ -233,6 +261,18 @@ impl Param {
                 | Param::LimitSolimp(_)
                 | Param::EqualitySolref(_)
                 | Param::EqualitySolimp(_)
+                | Param::TendonFrictionLoss(_)
+        )
+    }
+
+    /// Whether it is a tendon's.
+    pub fn is_tendon(&self) -> bool {
+        matches!(
+            self,
+            Param::TendonStiffness(_)
+                | Param::TendonDamping(_)
+                | Param::TendonFrictionLoss(_)
+                | Param::TendonSpringlength(_)
         )
     }
 
@@ -247,6 +287,7 @@ impl Param {
         let geom = |g: usize| &spec.geoms[g].name;
         let equality = |e: usize| &spec.equalities[e].name;
         let actuator = |a: usize| &spec.actuators[a].name;
+        let tendon = |t: usize| &spec.tendons[t].name;
         match *self {
             Param::Mass(b) => format!("body/{}/mass", body(b)),
             Param::Com(b) => format!("body/{}/com", body(b)),
@@ -267,6 +308,10 @@ impl Param {
             Param::EqualitySolimp(e) => format!("equality/{}/solimp", equality(e)),
             Param::ActuatorGain(a) => format!("actuator/{}/gain", actuator(a)),
             Param::ActuatorBias(a) => format!("actuator/{}/bias", actuator(a)),
+            Param::TendonStiffness(t) => format!("tendon/{}/stiffness", tendon(t)),
+            Param::TendonDamping(t) => format!("tendon/{}/damping", tendon(t)),
+            Param::TendonFrictionLoss(t) => format!("tendon/{}/frictionloss", tendon(t)),
+            Param::TendonSpringlength(t) => format!("tendon/{}/springlength", tendon(t)),
         }
     }
 
@@ -277,6 +322,7 @@ impl Param {
             Param::ActuatorGain(_) | Param::ActuatorBias(_) => 3,
             Param::Inertia(_) => 6,
             Param::GeomSolref(_) | Param::LimitSolref(_) | Param::EqualitySolref(_) => 2,
+            Param::TendonSpringlength(_) => 2,
             Param::GeomSolimp(_) | Param::LimitSolimp(_) | Param::EqualitySolimp(_) => 5,
             _ => 1,
         }
@@ -309,6 +355,13 @@ impl Param {
                 Bias::None => vec![0.0; 3],
                 Bias::Affine(p) => p.to_vec(),
             },
+            Param::TendonStiffness(t) => vec![spec.tendons[t].stiffness],
+            Param::TendonDamping(t) => vec![spec.tendons[t].damping],
+            Param::TendonFrictionLoss(t) => vec![spec.tendons[t].frictionloss],
+            Param::TendonSpringlength(t) => {
+                let [lo, hi] = spec.tendons[t].springlength.unwrap_or([-1.0; 2]);
+                vec![lo, hi]
+            }
         }
     }
 

@@ -1,6 +1,7 @@
 //! `<actuator>`: `<motor>`, `<position>`, `<velocity>`, `<intvelocity>`,
-//! `<damper>` and `<general>` on hinge and slide joints, as MuJoCo 4's
-//! compiler sets their gain, bias and dynamics ([`Actuator`]).
+//! `<damper>` and `<general>` on hinge and slide joints and on tendons
+//! (`joint=`, `tendon=`), as MuJoCo 4's compiler sets their gain, bias and
+//! dynamics ([`Actuator`]). Site, body and crank transmissions are refused.
 //!
 //! Defaults: the attributes every kind shares (`gear`, `ctrlrange`,
 //! `forcerange`, ...) come from the class's actuator elements of any kind;
@@ -18,7 +19,7 @@ use super::attributes::{value, Attrs};
 use super::schema::{actuator_attributes, check_attributes, ACTUATOR_KINDS};
 use super::tree::Tree;
 use super::{children, elements, tag, unrecognized, unsupported, Node, Reader, Result};
-use crate::model::{ActDynamics, Actuator, Bias, Gain};
+use crate::model::{ActDynamics, Actuator, Bias, Gain, Tendon, Transmission};
 
 /// The attributes of `<general>` that set gain, bias or dynamics.
 const DYNAMICS_ATTRS: &[&str] = &[
@@ -48,11 +49,16 @@ impl Law {
 
 impl<'a> Reader<'a> {
     /// Every actuator in document order; explicit names must differ.
-    pub(super) fn read_actuators(&self, tree: &Tree<'a>, root: Node<'a>) -> Result<Vec<Actuator>> {
+    pub(super) fn read_actuators(
+        &self,
+        tree: &Tree<'a>,
+        tendons: &[Tendon],
+        root: Node<'a>,
+    ) -> Result<Vec<Actuator>> {
         let mut names = HashSet::new();
         let mut actuators = vec![];
         for node in children(root, "actuator").into_iter().flat_map(elements) {
-            let actuator = self.read_actuator(tree, node)?;
+            let actuator = self.read_actuator(tree, tendons, node)?;
             if !actuator.name.is_empty() && !names.insert(actuator.name.clone()) {
                 return Err(self.error(node, format!("repeated name '{}'", actuator.name)));
             }
@@ -61,10 +67,15 @@ impl<'a> Reader<'a> {
         Ok(actuators)
     }
 
-    fn read_actuator(&self, tree: &Tree<'a>, node: Node<'a>) -> Result<Actuator> {
+    fn read_actuator(
+        &self,
+        tree: &Tree<'a>,
+        tendons: &[Tendon],
+        node: Node<'a>,
+    ) -> Result<Actuator> {
         self.check_actuator_kind(node)?;
         let a = self.attrs(node, "main", |c| &c.actuator)?;
-        let joint = self.target_joint(tree, node)?;
+        let transmission = self.target(tree, tendons, node)?;
         let autolimits = self.compiler.autolimits;
         check_unsupported(&a)?;
         let law = self.law(&a)?;
@@ -91,8 +102,12 @@ impl<'a> Reader<'a> {
                 let msg = format!("{name} and inheritrange cannot both be defined");
                 return Err(self.error(node, msg));
             }
-            let Some((lo, hi)) = tree.joints[joint].range else {
-                let msg = "inheritrange needs a joint with a range";
+            let range = match transmission {
+                Transmission::Joint(j) => tree.joints[j].range,
+                Transmission::Tendon(t) => tendons[t].range.map(|[lo, hi]| (lo, hi)),
+            };
+            let Some((lo, hi)) = range else {
+                let msg = "inheritrange needs a joint or tendon with a range";
                 return Err(self.error(node, msg));
             };
             let (mid, half) = ((lo + hi) / 2.0, (hi - lo) / 2.0 * law.inherit_range);
@@ -105,7 +120,7 @@ impl<'a> Reader<'a> {
         }
         Ok(Actuator {
             name: value(node, "name").unwrap_or("").to_string(),
-            joint,
+            target: transmission,
             gear,
             ctrl_range,
             force_range: pair(a.limits("forcelimited", "forcerange", autolimits)?),
@@ -147,16 +162,38 @@ impl<'a> Reader<'a> {
         }
     }
 
-    /// The index of the joint the actuator drives.
-    fn target_joint(&self, tree: &Tree<'a>, node: Node<'a>) -> Result<usize> {
-        for target in ["tendon", "site", "body", "jointinparent", "cranksite"] {
+    /// What the actuator drives: exactly one of `joint` and `tendon`.
+    fn target(&self, tree: &Tree<'a>, tendons: &[Tendon], node: Node<'a>) -> Result<Transmission> {
+        for target in ["site", "body", "jointinparent", "cranksite"] {
             if value(node, target).is_some() {
-                let msg = format!("actuators on a {target} are not supported: only on joints");
+                let msg = format!(
+                    "actuators on a {target} are not supported: only on joints and tendons"
+                );
                 return Err(self.error(node, msg));
             }
         }
-        let joint_name = value(node, "joint")
-            .ok_or_else(|| self.error(node, "an actuator needs a joint to act on"))?;
+        match (value(node, "joint"), value(node, "tendon")) {
+            (Some(_), Some(_)) => Err(self.error(node, "an actuator has one transmission target")),
+            (None, Some(name)) => tendons
+                .iter()
+                .position(|t| t.name == name)
+                .map(Transmission::Tendon)
+                .ok_or_else(|| self.error(node, format!("unknown tendon '{name}'"))),
+            (joint, None) => self
+                .target_joint(tree, node, joint)
+                .map(Transmission::Joint),
+        }
+    }
+
+    /// The index of the joint named `joint_name`.
+    fn target_joint(
+        &self,
+        tree: &Tree<'a>,
+        node: Node<'a>,
+        joint_name: Option<&str>,
+    ) -> Result<usize> {
+        let joint_name = joint_name
+            .ok_or_else(|| self.error(node, "an actuator needs a joint or tendon to act on"))?;
         let joint = tree
             .joints
             .iter()

@@ -260,7 +260,7 @@ mod tests {
             bodies,
             r#"<actuator><motor joint="j-1"/></actuator>"#,
         ));
-        assert_eq!(m.actuators[0].joint, 1);
+        assert_eq!(m.actuators[0].joint(), Some(1));
         let names = |v: Vec<&str>| v.join(" ");
         assert_eq!(
             names(m.bodies.iter().map(|b| b.name.as_str()).collect()),

@@ -141,7 +141,7 @@ fn parse_expanded(text: &str, file: &str) -> Result<Spec> {
     tree::fill_names(&mut tendons, "tendon", |t| &mut t.name);
     reader.check_moving_bodies(&tree)?;
     reader.scale_total_mass(&mut tree);
-    let mut actuators = reader.read_actuators(&tree, root)?;
+    let mut actuators = reader.read_actuators(&tree, &tendons, root)?;
     let written: Vec<String> = actuators.iter().map(|a| a.name.clone()).collect();
     tree::fill_names(&mut actuators, "actuator", |a| &mut a.name);
     let named = sensors::Named {
@@ -377,7 +377,7 @@ mod tests {
             ("", r#"<joint actuatorgravcomp="true"/>"#, "", "actuatorgravcomp"),
             ("", r#"<body mocap="true"><geom size="1"/></body>"#, "", "mocap"),
             ("", r#"<joint name="j"/>"#, r#"<actuator><motor tendon="t"/></actuator>"#,
-             "on a tendon"),
+             "unknown tendon 't'"),
             ("", r#"<joint name="j"/>"#, r#"<actuator><motor site="s"/></actuator>"#,
              "on a site"),
             ("", r#"<joint name="j"/>"#,
@@ -398,7 +398,7 @@ mod tests {
              "kp cannot be negative"),
             ("", r#"<joint name="j"/>"#,
              r#"<actuator><position joint="j" inheritrange="1"/></actuator>"#,
-             "inheritrange needs a joint with a range"),
+             "inheritrange needs a joint or tendon with a range"),
             ("", r#"<joint name="j"/>"#, r#"<actuator><damper joint="j" kv="1"/></actuator>"#,
              "invalid ctrlrange"),
             ("", r#"<joint name="j"/>"#,

@@ -44,7 +44,7 @@ use crate::model::{
     ActDynamics, Actuator, ActuatorQuantity, Bias, Body, Cone, ContactModel, EqualityKind,
     FrameObject, FrameQuantity, Gain, Geom, Integrator, Joint, JointKind, JointQuantity,
     ModelError, Objects, Options, PassiveMode, SensorKind, Shape, SiteQuantity, SoftOptions,
-    SolParams, Spec, TendonQuantity, Wrap, CCD_ITERATIONS, CCD_TOLERANCE,
+    SolParams, Spec, TendonQuantity, Transmission, Wrap, CCD_ITERATIONS, CCD_TOLERANCE,
 };
 
 /// Writes `spec` as an MJCF document, checked by reading and validating it.
@@ -83,7 +83,11 @@ fn document(spec: &Spec) -> Result<String, ModelError> {
     write_equalities(&mut doc, spec);
     doc.open(1, Tag::new("actuator"));
     for a in &spec.actuators {
-        doc.empty(2, actuator(a, &spec.joints[a.joint].name));
+        let target = match a.target {
+            Transmission::Joint(j) => ("joint", spec.joints[j].name.as_str()),
+            Transmission::Tendon(t) => ("tendon", spec.tendons[t].name.as_str()),
+        };
+        doc.empty(2, actuator(a, target));
     }
     doc.close(1, "actuator");
     write_sensors(&mut doc, spec)?;
@@ -643,11 +647,11 @@ fn write_equalities(doc: &mut Document, spec: &Spec) {
 
 /// A motor as `<motor>`; any other actuator as the `<general>` with its
 /// gain, bias and dynamics.
-fn actuator(a: &Actuator, joint: &str) -> Tag {
+fn actuator(a: &Actuator, (kind, target): (&str, &str)) -> Tag {
     let general = a.force_per_control().is_none() || a.gain != Gain::Fixed(1.0);
     let tag = Tag::new(if general { "general" } else { "motor" })
         .text("name", &a.name)
-        .text("joint", joint)
+        .text(kind, target)
         .number("gear", a.gear)
         .limits("ctrllimited", "ctrlrange", a.ctrl_range)
         .limits("forcelimited", "forcerange", a.force_range);

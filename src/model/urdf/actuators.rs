@@ -135,9 +135,9 @@ mod tests {
         let actuators: Vec<_> = m
             .actuators
             .iter()
-            .map(|a| (a.name.as_str(), a.joint, a.gear))
+            .map(|a| (a.name.as_str(), a.joint(), a.gear))
             .collect();
-        assert_eq!(actuators, [("m_ok", 0, 20.0)]);
+        assert_eq!(actuators, [("m_ok", Some(0), 20.0)]);
         let why: Vec<&str> = m
             .warnings()
             .iter()

@@ -123,8 +123,8 @@ mod tests {
         assert_eq!(passive, (0.5, 0.2, 3.0, -0.1, 0.1));
         let a = &m.actuators[0];
         assert_eq!(
-            (a.name.as_str(), a.joint, a.gear, a.ctrl_range),
-            ("motor", 0, 50.0, Some((-2.0, 2.0)))
+            (a.name.as_str(), a.joint(), a.gear, a.ctrl_range),
+            ("motor", Some(0), 50.0, Some((-2.0, 2.0)))
         );
         let o = &m.opt;
         assert_eq!(

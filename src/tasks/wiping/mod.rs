@@ -341,12 +341,15 @@ impl Wiping {
         self.model
             .actuators
             .iter()
-            .map(|a| ArmJoint {
-                limit: a
-                    .ctrl_range
-                    .zip(a.force_per_control())
-                    .map_or(f64::INFINITY, |((_, hi), k)| hi * k.abs()),
-                inertia: data.mass_matrix[(a.joint, a.joint)],
+            .filter_map(|a| {
+                let j = a.joint()?;
+                Some(ArmJoint {
+                    limit: a
+                        .ctrl_range
+                        .zip(a.force_per_control())
+                        .map_or(f64::INFINITY, |((_, hi), k)| hi * k.abs()),
+                    inertia: data.mass_matrix[(j, j)],
+                })
             })
             .collect()
     }
