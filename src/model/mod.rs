@@ -987,9 +987,9 @@ impl Spec {
             Transmission::Tendon(_) if a.damping != 0.0 || a.armature != 0.0 => {
                 Err("damping and armature of an actuator on a tendon are not supported".into())
             }
-            Transmission::Tendon(t) if !self.tendons[t].spatial.is_empty() => {
-                Err("actuators on a spatial tendon are not supported yet: only on fixed ones".into())
-            }
+            Transmission::Tendon(t) if !self.tendons[t].spatial.is_empty() => Err(
+                "actuators on a spatial tendon are not supported yet: only on fixed ones".into(),
+            ),
             Transmission::Tendon(_) => Ok(()),
         }
     }

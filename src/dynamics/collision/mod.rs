@@ -242,7 +242,11 @@ pub fn entry<T: Real>(a: GeomType, b: GeomType) -> Option<Entry<T>> {
 /// pair without one.
 pub fn supported(a: GeomType, b: GeomType, ccd: &Ccd, margin: f64) -> bool {
     let runs = |e: &Entry<f64>| {
-        let settings = Ccd { multi: true, ..*ccd }.is_default();
+        let settings = Ccd {
+            multi: true,
+            ..*ccd
+        }
+        .is_default();
         !e.ccd || (settings && (ccd.multi || !multiccd::pairs(a, b)))
     };
     entry::<f64>(a.min(b), a.max(b)).is_some_and(|e| runs(&e) && (margin == 0.0 || e.margin))

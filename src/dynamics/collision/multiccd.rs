@@ -545,7 +545,7 @@ fn largest_quad<T: Real>(p: &[Vector3<T>]) -> [usize; 4] {
 mod tests {
     use nalgebra::Matrix3;
 
-    use super::super::{convex::convex, Placed, Pre};
+    use super::super::{convex::convex, Assets, Placed, Pre};
     use super::*;
 
     fn collide(s1: Shape, pos1: Vector3<f64>, s2: Shape, pos2: Vector3<f64>) -> Vec<Pre<f64>> {
@@ -554,7 +554,13 @@ mod tests {
             mat: Matrix3::identity(),
         };
         let mut out = vec![];
-        convex((&s1, &place(pos1)), (&s2, &place(pos2)), 0.0, &mut out);
+        convex(
+            &Assets::default(),
+            (&s1, &place(pos1)),
+            (&s2, &place(pos2)),
+            0.0,
+            &mut out,
+        );
         out
     }
 

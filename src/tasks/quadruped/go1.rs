@@ -93,7 +93,8 @@ fn floor() -> Geom {
 fn servos(spec: &mut Spec) {
     assert_eq!(spec.actuators.len(), 12, "{FILE} has 12 transmissions");
     for a in &mut spec.actuators {
-        let effort = effort_of(&spec.joints[a.joint().expect("the task's servos sit on joints")].name);
+        let effort =
+            effort_of(&spec.joints[a.joint().expect("the task's servos sit on joints")].name);
         a.gain = Gain::Fixed(KP);
         a.bias = Bias::Affine([0.0, -KP, -KD]);
         a.force_range = Some((-effort, effort));

@@ -99,7 +99,11 @@ impl Quadruped {
         let effort = model
             .actuators
             .iter()
-            .map(|a| go1::effort_of(&model.joints[a.joint().expect("the task's servos sit on joints")].name))
+            .map(|a| {
+                go1::effort_of(
+                    &model.joints[a.joint().expect("the task's servos sit on joints")].name,
+                )
+            })
             .collect();
         Quadruped { model, map, effort }
     }
