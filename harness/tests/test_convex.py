@@ -38,6 +38,14 @@ def scene(pair, quat, margin):
 </worldbody></mujoco>"""
 
 
+def contact_error(c, theirs):
+    """The largest difference between our contact `c` and MuJoCo's
+    `theirs` (a d.contact entry): point, frame and signed distance."""
+    return max(np.abs(c["point"] - theirs.pos).max(),
+               np.abs(c["frame"] - theirs.frame.reshape(3, 3)).max(),
+               abs(-c["depth"] - theirs.dist))
+
+
 def unit(rng, n):
     x = rng.normal(size=n)
     return x / np.linalg.norm(x)
@@ -80,9 +88,7 @@ def test_contacts_are_mujocos(pair, bound, matched, tmp_path):
         assert len(ours) == d.ncon == 1, (pair, q)
         theirs, c = d.contact[0], ours[0]
         assert set(c["geoms"]) == {"a", "b"}
-        err = max(np.abs(c["point"] - theirs.pos).max(),
-                  np.abs(c["frame"] - theirs.frame.reshape(3, 3)).max(),
-                  abs(-c["depth"] - theirs.dist))
+        err = contact_error(c, theirs)
         exact += err < 1e-9
         worst = max(worst, err)
     assert exact >= matched, (pair, exact)
@@ -165,8 +171,6 @@ def test_plane_ellipsoid_contacts_are_mujocos(tmp_path):
         ours = diffosi.Model.load(str(path)).contacts(q, np.zeros(m.nv))
         assert len(ours) == d.ncon, q
         for c, theirs in zip(ours, d.contact[:d.ncon]):
-            assert np.abs(c["point"] - theirs.pos).max() < 1e-14
-            assert np.abs(c["frame"] - theirs.frame.reshape(3, 3)).max() < 1e-14
-            assert abs(-c["depth"] - theirs.dist) < 1e-14
+            assert contact_error(c, theirs) < 1e-14
         seen += d.ncon
     assert 20 < seen < 40, seen

@@ -16,6 +16,7 @@ import pytest
 
 import diffosi
 from harness.gradcheck import fd_jacobian
+from harness.tests.test_convex import contact_error
 
 FIELD = """<asset><hfield name="h" nrow="4" ncol="5" size="0.6 0.5 0.2 0.1"
  elevation="0 1 2 1 0  1 3 2 0 1  2 1 0 1 2  0 2 3 1 0"/></asset>"""
@@ -77,9 +78,7 @@ def test_contacts_are_mujocos(geom, bound, exact_states, tmp_path):
         err = 0.0
         for c, theirs in zip(ours, d.contact[:d.ncon]):
             assert set(c["geoms"]) == {"a", "b"}
-            err = max(err, np.abs(c["point"] - theirs.pos).max(),
-                      np.abs(c["frame"] - theirs.frame.reshape(3, 3)).max(),
-                      abs(-c["depth"] - theirs.dist))
+            err = max(err, contact_error(c, theirs))
         exact += err < 1e-9
         worst = max(worst, err)
     assert several > 0, geom  # some states meet more than one prism
@@ -167,9 +166,7 @@ def test_the_quadruped_steps_on_its_height_field_as_in_mujoco(tmp_path):
     on_terrain = [t for t in d.contact[:d.ncon] if "terrain" in name(t)]
     assert len(contacts) == d.ncon and len(on_terrain) >= 4
     for c in contacts:
-        err = min(max(np.abs(c["point"] - t.pos).max(),
-                      np.abs(c["frame"] - t.frame.reshape(3, 3)).max(),
-                      abs(-c["depth"] - t.dist))
+        err = min(contact_error(c, t)
                   for t in d.contact[:d.ncon] if name(t) == frozenset(c["geoms"]))
         assert err < 1e-12, (c["geoms"], err)
     mujoco.mj_step(m, d)

@@ -16,7 +16,7 @@ import pytest
 
 import diffosi
 from harness import corpus
-from harness.tests.test_convex import free_body_jacobian_errors
+from harness.tests.test_convex import contact_error, free_body_jacobian_errors, unit
 
 STATES = 40
 
@@ -40,11 +40,6 @@ def scene(mesh, quat, margin):
 <geom name="a" type="plane" size="1 1 0.1" quat="{quat}" margin="{margin}"/>
 <body name="b" pos="0 0 1"><freejoint/><geom name="b" type="mesh" mesh="m" margin="{margin}"/></body>
 </worldbody></mujoco>"""
-
-
-def unit(rng, n):
-    x = rng.normal(size=n)
-    return x / np.linalg.norm(x)
 
 
 def state(mesh, rng):
@@ -78,9 +73,7 @@ def test_plane_mesh_contacts_are_mujocos(mesh, matched, tmp_path):
         err = 0.0
         for c in ours:
             assert set(c["geoms"]) == {"a", "b"}
-            err = max(err, min(max(np.abs(c["point"] - t.pos).max(),
-                                   np.abs(c["frame"] - t.frame.reshape(3, 3)).max(),
-                                   abs(-c["depth"] - t.dist)) for t in d.contact[:d.ncon]))
+            err = max(err, min(contact_error(c, t) for t in d.contact[:d.ncon]))
         exact += err < 1e-9
     assert exact >= matched, (mesh, exact)
 
@@ -196,9 +189,7 @@ def test_convex_mesh_contacts_are_mujocos(other, mesh, bound, matched, tmp_path)
         ours = diffosi.Model.load(str(path)).contacts(q, np.zeros(m.nv))
         assert len(ours) == d.ncon == 1, (other, mesh, q)
         theirs, c = d.contact[0], ours[0]
-        err = max(np.abs(c["point"] - theirs.pos).max(),
-                  np.abs(c["frame"] - theirs.frame.reshape(3, 3)).max(),
-                  abs(-c["depth"] - theirs.dist))
+        err = contact_error(c, theirs)
         exact += err < 1e-9
         worst = max(worst, err)
     assert exact >= matched, (other, mesh, exact)

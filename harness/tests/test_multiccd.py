@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import diffosi
-from harness.tests.test_convex import forward, scene, unit
+from harness.tests.test_convex import contact_error, forward, scene, unit
 
 # The pairs, the worst difference allowed (about twice the one measured: 0.12, 0.25, 0.27; a
 # pair of clipped contacts listed in the other order differs by the distance between them),
@@ -73,9 +73,7 @@ def test_contacts_are_mujocos(pair, bound, matched, miscounted, tmp_path):
             err = 0.0
             for c, theirs in zip(ours, d.contact[: d.ncon]):
                 assert set(c["geoms"]) == {"a", "b"}
-                err = max(err, np.abs(c["point"] - theirs.pos).max(),
-                          np.abs(c["frame"] - theirs.frame.reshape(3, 3)).max(),
-                          abs(-c["depth"] - theirs.dist))
+                err = max(err, contact_error(c, theirs))
             exact += err < 1e-9
             worst = max(worst, err)
         assert counts <= (0 if aligned else miscounted), (pair, aligned, counts)

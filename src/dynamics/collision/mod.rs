@@ -396,7 +396,7 @@ mod tests {
             .flat_map(|&a| types.iter().map(move |&b| (a, b)))
             .filter(|&(a, b)| a <= b && supported(a, b, &Ccd::default(), 0.0))
             .count();
-        assert_eq!(count, 24);
+        assert_eq!(count, 27);
         let (h, ccd) = (GeomType::Hfield, Ccd::default());
         assert!(supported(GeomType::Capsule, h, &ccd, 0.0));
         assert!(!supported(h, GeomType::Capsule, &ccd, 0.01));
