@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from harness.engines.base import MODELS, gym_assets_dir
+from harness.engines.mujoco import load_mjcf
 from harness.report import jsonable
 
 OUT_DIR = MODELS / "golden" / "free"
