@@ -420,6 +420,8 @@ class Wiping:
         seed: int = 0,
         method: Literal["lm", "cmaes"] = "lm",
         max_evaluations: int = 300,
+        loss: Literal["squared", "huber"] = "squared",
+        huber: float = 1.345,
     ) -> _WipingEstimate: ...
     def act(
         self, k: int, q: ArrayLike, v: ArrayLike, xi: float, force: float, gains: ArrayLike | None = None

@@ -28,6 +28,14 @@ every 1 ms step. Per run (true mu drawn uniformly in [1, 100]^2, seeded):
    stiffest soft contact MuJoCo allows (table solref 0.002 s), which asks how much of a hard
    contact's gap the contact's compliance alone makes.
 
+4. where UC-DiffOSI's gap to UC-Oracle comes from (issue 37): the UC fed the true mu with one
+   component replaced by DiffOSI's (the cost of the k_p error alone, of the k_d error alone);
+   DiffOSI on our own engine's canonical episode at the same mu (the identifier's error on data
+   our model explains); the same gains' cost in ours (the controller's sensitivity where the
+   model is exact); mu_hat along the episode (identified from its first 500, 1000, ... steps)
+   against the truth; and UC-DiffOSI-Huber, DiffOSI with the Huber loss (`Wiping.identify(...,
+   loss="huber")`), which bounds the pull of the steps our model cannot explain.
+
 Goal (issue 19): UC-DiffOSI's metric within 10% of UC-Oracle's in the target and of its own
 in ours. Writes <out>/transfer-wiping-<target>.{md,json} per target and, for several targets,
 transfer-wiping-summary.{md,json,png} (`targets.<engine>.diffosi_over_oracle` = UC-DiffOSI's
@@ -48,12 +56,15 @@ MODEL = REPO / "reference_models" / "wiping_arm.xml"
 URDF = REPO / "reference_models" / "wiping_arm.urdf"
 POLICIES = REPO / "policies" / "wiping"
 STEPS, CONTACT, F_GOAL = 3000, 0.03, 3.0
-METHODS = ("UC-Oracle", "UC-DiffOSI", "UC-Average", "DR")
+METHODS = ("UC-Oracle", "UC-DiffOSI", "UC-DiffOSI-Huber", "UC-Average", "DR")
 TARGETS = ("mujoco", "pybullet", "dart")
 NAMES = {"mujoco": "MuJoCo", "pybullet": "PyBullet", "dart": "DART", "ours": "ours"}
 GOAL = 1.10  # UC-DiffOSI's metric at most 10% above UC-Oracle's, and above its own in ours
 LANDING = 100  # steps (ms) after the first contact counted as the landing
 STIFF_SOLREF = [0.002, 1.0]  # MuJoCo's stiffest soft contact at 1 ms (timeconst >= 2 timesteps)
+HUBER = 1.345  # UC-DiffOSI-Huber's threshold, in units of the residual scale (1 um, 1 mm/s)
+PREFIXES = (250, 500, 1000, 1500, 2000, 2500, 3000)  # mu_hat along the episode: from its first steps
+SWAPS = {"k_p error only": 0, "k_d error only": 1}  # the UC fed the true mu but DiffOSI's component i
 
 
 def arm(target: str, mu):
@@ -176,6 +187,22 @@ def ours_episode(wiping, mu, gains) -> dict:
     return {"force": np.asarray(ep["force"]), "depth": np.array(depth)}
 
 
+def identify(wiping, ep: dict, seed: int, robust: bool = False, steps: int | None = None) -> dict:
+    """DiffOSI (`Wiping.identify`, the squared loss or with `robust` the Huber loss at `HUBER`) on
+    an episode's record, or its first `steps` steps; mu_hat clipped into the box."""
+    rows = slice(0, None if steps is None else steps + 1)
+    loss = {"loss": "huber", "huber": HUBER} if robust else {}
+    est = wiping.identify(*(np.asarray(ep[k])[rows] for k in ("q", "v", "xi", "force")), seed=seed, **loss)
+    return {**est, "mu": np.clip(est["mu"], *wiping.mu_range)}
+
+
+def trajectory(wiping, ep: dict, seed: int) -> dict:
+    """mu_hat from the first `PREFIXES` steps of an episode, per loss."""
+    return {"steps": list(PREFIXES),
+            **{name: [identify(wiping, ep, seed, robust, t)["mu"] for t in PREFIXES]
+               for name, robust in (("squared", False), ("huber", True))}}
+
+
 def target_report(target: str, runs: int, seed: int) -> dict:
     import diffosi
 
@@ -191,22 +218,31 @@ def target_report(target: str, runs: int, seed: int) -> dict:
         begin = time.perf_counter()
         mu = lo + (hi - lo) * rng.random(2)
         canonical = episode(target, wiping, mu, wiping.canonical_gains, start)
-        est = wiping.identify(canonical["q"], canonical["v"], canonical["xi"], canonical["force"], seed=seed + r)
-        mu_hat = np.clip(est["mu"], lo, hi)
+        est, robust = identify(wiping, canonical, seed + r), identify(wiping, canonical, seed + r, robust=True)
+        mu_hat = est["mu"]
+        own = identify(wiping, wiping.episode(mu), seed + r)  # from our engine's own episode at mu
         gains = {"UC-Oracle": wiping.uc_gains(uc, mu), "UC-DiffOSI": wiping.uc_gains(uc, mu_hat),
+                 "UC-DiffOSI-Huber": wiping.uc_gains(uc, robust["mu"]),
                  "UC-Average": wiping.uc_gains(uc, (lo + hi) / 2), "DR": (dr["k_tau"], dr["k_xi"])}
         tail = canonical["force"][-1000:]
         row = {"mu": mu, "mu_hat": mu_hat, "flags": est["flags"], "mu_abs_error": np.abs(mu_hat - mu),
                "canonical_last_second": {"mean_force": float(tail.mean()), "std_force": float(tail.std()),
                                          "in_contact": float((tail > CONTACT).mean())},
-               "methods": {}}
+               "canonical_dropouts": metric_parts(canonical["force"])["dropouts"],
+               "huber": {"mu_hat": robust["mu"], "flags": robust["flags"],
+                         "mu_abs_error": np.abs(robust["mu"] - mu)},
+               "ours_record": {"mu_hat": own["mu"], "flags": own["flags"], "mu_abs_error": np.abs(own["mu"] - mu)},
+               "trajectory": trajectory(wiping, canonical, seed + r), "methods": {}, "swaps": {}}
         for name in METHODS:
             g = gains[name]
             ep = episode(target, wiping, mu, g, start, depth=name == "UC-Oracle")
-            row["methods"][name] = {"gains": g, "target": metric(ep["force"]),
-                                    "ours": float(wiping.episode(mu, gains=g)["metric"])}
+            row["methods"][name] = scores(target, wiping, mu, g, start, ep)
             if name == "UC-Oracle":
                 row["why"] = {target: parts_of(ep), **source_parts(wiping, mu, g, start)}
+        for name, i in SWAPS.items():
+            fed = np.array(mu)
+            fed[i] = mu_hat[i]
+            row["swaps"][name] = scores(target, wiping, mu, wiping.uc_gains(uc, fed), start)
         out.append(row)
         print(f"  {target:8s} run {r + 1}/{runs}: mu {np.round(mu, 2)}, DiffOSI from {NAMES[target]} "
               f"{np.round(mu_hat, 2)} ({time.perf_counter() - begin:.1f} s)", flush=True)
@@ -221,6 +257,12 @@ def target_report(target: str, runs: int, seed: int) -> dict:
     doc["goal"] = GOAL
     doc["meets_goal"] = bool(doc["diffosi_over_oracle"] <= GOAL and abs(doc["target_over_ours"] - 1) <= GOAL - 1)
     return doc
+
+
+def scores(target: str, wiping, mu, gains, start, ep: dict | None = None) -> dict:
+    """The metric of `gains` at mu in the target (from `ep` if run already) and in ours."""
+    ep = episode(target, wiping, mu, gains, start) if ep is None else ep
+    return {"gains": gains, "target": metric(ep["force"]), "ours": float(wiping.episode(mu, gains=gains)["metric"])}
 
 
 def summary(runs: list) -> dict:
@@ -313,9 +355,131 @@ def why_markdown(doc: dict) -> list[str]:
     return lines + ["", why_finding(doc, w), ""]
 
 
+IDENTIFIED = {"target record, squared loss": ("mu_hat", "flags"), "target record, Huber loss": ("huber",),
+              "ours' record, squared loss": ("ours_record",)}
+
+
+def estimate_of(run: dict, keys: tuple) -> dict:
+    """A run's estimate (mu_hat, flags) under IDENTIFIED's keys."""
+    return {"mu_hat": run["mu_hat"], "flags": run["flags"]} if keys[0] == "mu_hat" else run[keys[0]]
+
+
+def gap_means(doc: dict) -> dict:
+    """UC-DiffOSI's gap to UC-Oracle taken apart, means over the runs: the metric per gains
+    (methods and `SWAPS`) in the target and in ours; per estimate (`IDENTIFIED`) the mean absolute
+    and signed error per component and the runs flagged; the mean |mu_hat - mu| per prefix."""
+    runs = doc["runs"]
+    fed = {**{n: "methods" for n in ("UC-Oracle", "UC-DiffOSI", "UC-DiffOSI-Huber")}, **{n: "swaps" for n in SWAPS}}
+    metrics = {where: {n: float(np.mean([r[k][n][where] for r in runs])) for n, k in fed.items()}
+               for where in ("target", "ours")}
+    errors = {}
+    for name, keys in IDENTIFIED.items():
+        est = [estimate_of(r, keys) for r in runs]
+        signed = np.array([np.asarray(e["mu_hat"]) - r["mu"] for e, r in zip(est, runs)])
+        errors[name] = {"abs": np.abs(signed).mean(0), "signed": signed.mean(0),
+                        "flagged": sum(bool(e["flags"]) for e in est)}
+    prefix = {loss: np.mean([np.abs(np.array(r["trajectory"][loss]) - r["mu"]) for r in runs], 0)
+              for loss in ("squared", "huber")}
+    return {"metric": metrics, "errors": errors, "prefix": prefix,
+            "dropouts": float(np.mean([r["canonical_dropouts"] for r in runs]))}
+
+
+def gap_finding(doc: dict, g: dict) -> str:
+    """What the decomposition says, in words, for this target (numbers from `gap_means`)."""
+    t, o, E = g["metric"]["target"], g["metric"]["ours"], NAMES[doc["target"]]
+    gap = t["UC-DiffOSI"] - t["UC-Oracle"]
+    if abs(gap) <= 1e-3 * t["UC-Oracle"]:
+        return f"DiffOSI finds mu from {E}'s episode as from ours: no gap to take apart."
+    share = {n: (t[n] - t["UC-Oracle"]) / gap for n in SWAPS}
+    e_t, e_h, e_o = (g["errors"][n] for n in IDENTIFIED)
+    sens_t, sens_o = t["UC-DiffOSI"] / t["UC-Oracle"], o["UC-DiffOSI"] / o["UC-Oracle"]
+    exact = bool(np.all(e_o["abs"] < 0.1 * e_t["abs"]))
+    alone = sum(share.values())
+    words = [f"UC-DiffOSI loses {gap:.3f} N^2 to UC-Oracle in {E} ({100 * (sens_t - 1):.0f}%). Fed the true mu "
+             f"with DiffOSI's k_p alone the UC loses {t['k_p error only'] - t['UC-Oracle']:.3f} N^2 "
+             f"({100 * share['k_p error only']:.0f}% of the gap), with its k_d alone "
+             f"{t['k_d error only'] - t['UC-Oracle']:.3f} N^2 ({100 * share['k_d error only']:.0f}%)"
+             + (f": alone they make {100 * alone:.0f}% of it, so the two errors compound through the UC's "
+                "gains, which depend on mu jointly." if abs(alone - 1) > 0.25 else "."),
+             f"DiffOSI's error from {E}'s canonical episode is k_p {e_t['abs'][0]:.2f} N/cm, k_d "
+             f"{e_t['abs'][1]:.2f} N s/m (signed mean {e_t['signed'][0]:+.2f}, {e_t['signed'][1]:+.2f}: "
+             f"{'biased' if np.any(np.abs(e_t['signed']) > 0.5 * e_t['abs']) else 'not biased'}); from our "
+             f"engine's episode at the same mu it is {e_o['abs'][0]:.2g} and {e_o['abs'][1]:.2g}"
+             + (": the identifier recovers mu from transitions our model explains, so its error is "
+                f"identification under model mismatch, {E}'s transitions not explained by our model at the "
+                "true mu." if exact else ": the identifier errs on our own data too."),
+             f"Controller sensitivity: the same gains cost {sens_o:.3f} x UC-Oracle in ours against {sens_t:.3f} "
+             f"x in {E}, so {E}'s loop is "
+             + ("about as sensitive to a mu error as ours" if abs(sens_t - sens_o) <= 0.1 * (sens_o - 1) + 0.02
+                else ("more" if sens_t > sens_o else "less") + " sensitive to a mu error than ours")
+             + "; the gap is the size of the mu error, not an unusually sensitive controller"
+             + ("." if sens_t <= 1.5 * sens_o else " alone.")]
+    h = t["UC-DiffOSI-Huber"]
+    words.append(f"With the Huber loss (threshold {HUBER} residual scales) the error is k_p {e_h['abs'][0]:.2f} "
+                 f"N/cm, k_d {e_h['abs'][1]:.2f} N s/m (flags on {e_h['flagged']} of {len(doc['runs'])} runs, "
+                 f"squared {e_t['flagged']}) and UC-DiffOSI-Huber scores {h:.3f} N^2, {h / t['UC-Oracle']:.3f} x "
+                 f"UC-Oracle (squared loss {sens_t:.3f} x; the Huber loss is below the squared one by "
+                 "construction, so its fewer misfit flags are no evidence of a better fit): "
+                 + ("it closes " + f"{100 * (t['UC-DiffOSI'] - h) / gap:.0f}% of the gap."
+                    if h < t["UC-DiffOSI"] else
+                    f"it does not help in {E} ({100 * (h - t['UC-DiffOSI']) / gap:.0f}% of the gap worse)."))
+    return " ".join(words)
+
+
+def gap_markdown(doc: dict) -> list[str]:
+    g, E = gap_means(doc), NAMES[doc["target"]]
+    t, o = g["metric"]["target"], g["metric"]["ours"]
+    lines = ["## Where UC-DiffOSI's gap comes from", "",
+             "The UC's metric (N^2, mean over the runs) fed the true mu, the true mu with one component "
+             "replaced by DiffOSI's, DiffOSI's mu_hat (squared loss) and DiffOSI-Huber's; in "
+             f"{E} and in ours.", ""]
+    lines += markdown_table(["UC fed", f"metric in {E}", "over UC-Oracle", "metric in ours", "over UC-Oracle"],
+                            [[n, f"{t[n]:.3f}", f"{t[n] / t['UC-Oracle']:.3f}", f"{o[n]:.3f}",
+                              f"{o[n] / o['UC-Oracle']:.3f}"] for n in t])
+    lines += ["", "DiffOSI's estimate from each record (mean over the runs; flags as `Wiping.identify` "
+              f"reports them; {E}'s canonical episodes drop contact {g['dropouts']:.1f} times each):", ""]
+    lines += markdown_table(["record, loss", "mean abs error k_p (N/cm)", "k_d (N s/m)", "mean signed error k_p",
+                             "k_d", "runs flagged"],
+                            [[n, f"{e['abs'][0]:.3g}", f"{e['abs'][1]:.3g}", f"{e['signed'][0]:+.3g}",
+                              f"{e['signed'][1]:+.3g}", str(e["flagged"])] for n, e in g["errors"].items()])
+    lines += ["", f"mu_hat along {E}'s canonical episode (identified from its first steps; mean abs error "
+              "over the runs, k_p N/cm / k_d N s/m):", ""]
+    lines += markdown_table(["first steps", "squared loss", "Huber loss"],
+                            [[str(n), f"{g['prefix']['squared'][i][0]:.2f} / {g['prefix']['squared'][i][1]:.2f}",
+                              f"{g['prefix']['huber'][i][0]:.2f} / {g['prefix']['huber'][i][1]:.2f}"]
+                             for i, n in enumerate(PREFIXES)])
+    return lines + ["", gap_finding(doc, g), "",
+                    f"![mu_hat along the episode](transfer-wiping-{doc['target']}.png)", ""]
+
+
+def trajectory_plot(path: Path, doc: dict) -> Path:
+    """mu_hat / mu along the canonical episode, per run and component, squared and Huber loss."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.6), dpi=110, sharey=True)
+    for i, (ax, label) in enumerate(zip(axes, ("tool k_p", "tool k_d"))):
+        for j, r in enumerate(doc["runs"]):
+            for loss, style in (("squared", "-"), ("huber", "--")):
+                ratio = np.array(r["trajectory"][loss])[:, i] / r["mu"][i]
+                ax.plot(PREFIXES, ratio, style, color=f"C{j}", marker=".",
+                        label=f"run {j + 1}, {loss}" if i == 0 else None)
+        ax.axhline(1.0, color="k", lw=0.8)
+        ax.set(title=f"{label}: mu_hat / mu", xlabel="identified from the first steps")
+        ax.grid(True, alpha=0.3)
+    axes[0].set_ylabel("mu_hat / true mu")
+    axes[0].legend(fontsize=6, ncol=2)
+    fig.suptitle(f"DiffOSI along {NAMES[doc['target']]}'s canonical episode (solid squared, dashed Huber)")
+    fig.tight_layout()
+    fig.savefig(path, metadata={"Software": None})
+    plt.close(fig)
+    return path
+
+
 def markdown(doc: dict) -> list[str]:
     s, E = doc["summary"], NAMES[doc["target"]]
-    err = np.array([r["mu_abs_error"] for r in doc["runs"]])
     ratio, own = doc["diffosi_over_oracle"], doc["target_over_ours"]
     verdict = "meets" if doc["meets_goal"] else "**misses**"
     lines = [f"# Wiping transfer: our controllers and identifier on {E}'s arm", "",
@@ -337,11 +501,14 @@ def markdown(doc: dict) -> list[str]:
               f"{100 * np.mean([x['in_contact'] for x in last]):.0f}% of the steps).", "",
               GAP_WORDS[doc["target"]], ""]
     lines += why_markdown(doc)
-    lines += [f"DiffOSI from {E}'s canonical-gain episode (in our engine): mean |mu_hat - mu| "
-              f"k_p {err[:, 0].mean():.3g} N/cm, k_d {err[:, 1].mean():.3g} N s/m; flags per run: "
-              + ", ".join(str(r["flags"] or "none") for r in doc["runs"]) + ".", "", "## Runs", ""]
-    lines += markdown_table(["mu", "DiffOSI mu_hat"] + [f"{n} ({E})" for n in METHODS],
-                            [[np.round(r["mu"], 2).tolist(), np.round(r["mu_hat"], 2).tolist()]
+    lines += gap_markdown(doc)
+    lines += ["## Runs", ""]
+    lines += markdown_table(["mu", "DiffOSI mu_hat (flags)", "DiffOSI-Huber mu_hat (flags)"]
+                            + [f"{n} ({E})" for n in METHODS],
+                            [[np.round(r["mu"], 2).tolist(),
+                              f"{np.round(r['mu_hat'], 2).tolist()} ({', '.join(r['flags']) or 'none'})",
+                              f"{np.round(r['huber']['mu_hat'], 2).tolist()} "
+                              f"({', '.join(r['huber']['flags']) or 'none'})"]
                              + [f"{r['methods'][n]['target']:.3f}" for n in METHODS] for r in doc["runs"]])
     lines += ["", f"{E} settings: " + "; ".join(f"{k} {v}" for k, v in doc["settings"].items())]
     return lines
@@ -389,7 +556,7 @@ def summary_plot(path: Path, doc: dict) -> Path:
     width = 0.8 / len(METHODS)
     for i, method in enumerate(METHODS):
         stats = [b[method]["score"] for b in blocks.values()]
-        ax.bar(np.arange(len(blocks)) + (i - 1.5) * width, [s[0] for s in stats], width,
+        ax.bar(np.arange(len(blocks)) + (i - (len(METHODS) - 1) / 2) * width, [s[0] for s in stats], width,
                yerr=[s[1] for s in stats], capsize=3, label=method)
     ax.set_xticks(range(len(blocks)), list(blocks))
     ax.set_yscale("log")
@@ -411,6 +578,7 @@ def run_targets(targets: list[str], runs: int, seed: int, out: Path, command: st
         doc = docs[target] = target_report(target, runs, seed)
         stem = out / f"transfer-wiping-{target}"
         write_json(stem.with_suffix(".json"), doc)
+        trajectory_plot(stem.with_suffix(".png"), doc)
         write_markdown(stem.with_suffix(".md"), markdown(doc))
         print(f"  UC-DiffOSI / UC-Oracle = {doc['diffosi_over_oracle']:.3f} (metric ratio); wrote {stem}.md, .json")
     summary_ = summary_doc(docs, command)

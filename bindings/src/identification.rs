@@ -84,7 +84,7 @@ pub(crate) fn robust_loss(loss: &str, threshold: f64, lm: bool) -> PyResult<Loss
     match loss {
         "squared" => Ok(Loss::Squared),
         "huber" if !lm => Err(PyValueError::new_err(
-            "loss='huber' needs method='lm' (Adam minimises the squared loss)",
+            "loss='huber' needs method='lm' (the other methods minimise the squared loss)",
         )),
         "huber" if !(threshold.is_finite() && threshold > 0.0) => {
             Err(PyValueError::new_err(format!(

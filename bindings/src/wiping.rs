@@ -9,7 +9,7 @@
 use engine::control::admittance::{Gains, F_GOAL};
 use engine::experiments::wiping::Uc;
 use engine::model::State;
-use engine::osi::{CmaEs, CmaEsOptions, Lm};
+use engine::osi::{CmaEs, CmaEsOptions, Lm, LmOptions, HUBER_THRESHOLD};
 use engine::tasks::wiping::{
     tip_target, Segments, Unknown, Wiping, CANONICAL, CONTACT_FORCE, GAINS_LOWER, GAINS_UPPER,
 };
@@ -23,7 +23,7 @@ use rand::SeedableRng;
 
 use crate::convert::{matrix, vector};
 use crate::errors::osi_error;
-use crate::identification::estimate_dict;
+use crate::identification::{estimate_dict, robust_loss};
 use crate::wiping_run::PyWipingRun;
 
 /// The wiping task: `Wiping(unknowns=2)` (2 to 6 unknowns: the tool's k_p and
@@ -34,11 +34,11 @@ use crate::wiping_run::PyWipingRun;
 /// torques the step from each row applies), `force` (sensed normal force,
 /// N), `xi` (admittance offset, m) and the float `metric` (N^2).
 /// `identify(q, v, xi, force, gains=None, segments=50, length=5, seed=0,
-/// method="lm", max_evaluations=300)` identifies mu from segments of a
-/// record made with `gains` (from our engine or any other; `force` is what
-/// the controller sensed at each row, the normal force over the step into
-/// it): a dict with `mu`, `std`, `loss`, `iterations`, `evaluations`,
-/// `flags`. `act(k, q, v, xi, force, gains=None)` is one step of the
+/// method="lm", max_evaluations=300, loss="squared", huber=1.345)`
+/// identifies mu from segments of a record made with `gains` (from our
+/// engine or any other; `force` is what the controller sensed at each row,
+/// the normal force over the step into it): a dict with `mu`, `std`,
+/// `loss`, `iterations`, `evaluations`, `flags`. `act(k, q, v, xi, force, gains=None)` is one step of the
 /// controller on a force sensed elsewhere (to run it on another engine),
 /// returning the torques and the next xi; `uc_gains(path, mu)` the
 /// Universal Controller's gains; `run(mu)` an episode driven step by step
@@ -160,9 +160,16 @@ impl PyWiping {
     /// Jacobians through the closed loop) or "cmaes" (at most
     /// `max_evaluations` episodes' worth of evaluations). Returns a dict:
     /// "mu", "std" (float64, length nmu), "loss", "iterations",
-    /// "evaluations", "flags" (as `DiffOsi.identify`'s).
+    /// "evaluations", "flags" (as `DiffOsi.identify`'s). `loss` "squared"
+    /// or, with "lm", "huber": the Huber loss of the scaled residuals with
+    /// threshold `huber` (in units of the task's residual scale, 1 um and
+    /// 1 mm/s), so steps our model cannot explain (another engine's contact
+    /// dropouts) pull mu with a bounded force; "loss" is then that loss.
     #[allow(clippy::too_many_arguments)]
-    #[pyo3(signature = (q, v, xi, force, gains = None, segments = 50, length = 5, seed = 0, method = "lm", max_evaluations = 300))]
+    #[pyo3(signature = (q, v, xi, force, gains = None, segments = 50, length = 5, seed = 0, method = "lm", max_evaluations = 300, loss = "squared", huber = HUBER_THRESHOLD))]
+    #[pyo3(
+        text_signature = "($self, q, v, xi, force, gains=None, segments=50, length=5, seed=0, method='lm', max_evaluations=300, loss='squared', huber=1.345)"
+    )]
     fn identify<'py>(
         &self,
         py: Python<'py>,
@@ -176,7 +183,10 @@ impl PyWiping {
         seed: u64,
         method: &str,
         max_evaluations: usize,
+        loss: &str,
+        huber: f64,
     ) -> PyResult<Bound<'py, PyDict>> {
+        let loss = robust_loss(loss, huber, method == "lm")?;
         let model = self.task.model();
         let q = matrix(q, "q", model.nq(), "nq")?;
         let v = matrix(v, "v", model.nv(), "nv")?;
@@ -209,7 +219,15 @@ impl PyWiping {
             },
         };
         let estimate = match method {
-            "lm" => py.detach(|| Lm::default().identify_on(&mut problem, &segments, &prior)),
+            "lm" => {
+                let mut lm = Lm {
+                    options: LmOptions {
+                        loss,
+                        ..LmOptions::default()
+                    },
+                };
+                py.detach(|| lm.identify_on(&mut problem, &segments, &prior))
+            }
             "cmaes" => py.detach(|| cmaes.identify_on(&mut problem, &segments, &prior)),
             other => {
                 return Err(PyValueError::new_err(format!(
