@@ -135,7 +135,7 @@ fn turning_costs_the_yaw_rate_term() {
     };
     let action = [0.0; 12];
     let w: f64 = 0.3;
-    for yaw in [0.0, 3.14] {
+    for yaw in [0.0, std::f64::consts::PI - 0.002] {
         let start = at(yaw);
         let straight = task.metric(&start, &action, &at(yaw));
         let turned = task.metric(&start, &action, &at(yaw + w * dt));
