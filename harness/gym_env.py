@@ -234,7 +234,7 @@ class QuadrupedEnv(TaskEnv):
     in base axes, base linear and angular velocity in base axes, joint offsets from the standing
     pose, joint rates; action twelve servo targets in [-1, 1] (clipped; target = standing pose +
     0.5 a rad), held for the task's 4 physics steps of 0.005 s (50 Hz); reward the task metric
-    (velocity tracking + uprightness - energy); terminated on a fall (info["fell"]), truncated
+    (velocity and yaw-rate tracking + uprightness - energy); terminated on a fall (info["fell"]), truncated
     after 1000 steps. mu = (payload mass in [0, 8] kg, its COM offset along the trunk's x in
     [-0.1, 0.1] m): fixed if given, else drawn uniformly at every reset; info["mu"] says which.
     reset(seed=...) seeds the mu draw and the task's reset noise. It does not render (its model

@@ -67,6 +67,16 @@ the UC-Oracle episodes, split by whether the target's physics step had constrain
 (MuJoCo: contacts or joint limits; PyBullet: contact points) or none
 (single_transition_estimates).
 
+The quadruped (--task quadruped, --target mujoco; issue 41): the Go1 carrying a payload, mu =
+(payload mass kg, COM offset m), in MuJoCo loading the same URDF through its importer
+(harness/engines/go1.py MujocoGo1: fusestatic off, the floor added, the servos as MuJoCo position
+actuators with the task's kp 20 and kd 0.5, mu set on the payload body by its named parameters).
+A control step holds its servo targets (ctrl) for the task's substeps; DiffOSI is pushed the last
+physics step with the forces task.held_forces gives at its start state (the servos' forces at the
+targets, as ours reads them), identifies both components, and the errors and plots read the mass,
+mu[0]. Not in --task all until its policies (policies/quadruped/{uc,dr}-seed<s>.json) ship.
+Episodes end at a fall; each method's summary gives the fraction that fell (`fall_fraction`).
+
 Writes <out>/transfer-<task>-<target>[-<unmodelled>].{md,json,png} per target and, for
 --target all, transfer-<task>-summary[-<unmodelled>].{md,json,png}.
 
@@ -121,6 +131,8 @@ class TaskSpec:
     # half_cheetah_contact: mu[1:] (leg armature, friction) are each environment's own
     # settings, not drawn; a reference engine is given the torso mass only.
     environment: dict | None = None
+    # the quadruped: mu[1:] (the payload's COM offset) identified and fed, not scored
+    scored_first: bool = False
 
 
 TASKS = {
@@ -137,7 +149,11 @@ TASKS = {
                                      ("DR", "UC-Average", JOINT, "UC-Oracle"),
                                      {"ours": (0.1, 0.4), "mujoco": (0.1, 0.4), "pybullet": (0.0, 0.4),
                                       "dart": (0.0, 0.4)}),
+    "quadruped": TaskSpec(("mujoco",), 10, "return", "payload mass (kg)", (-0.5, 8.5), False,
+                          {"mujoco": GOAL}, scored_first=True),
 }
+# --task all: the tasks with shipped policies (the quadruped's are to come, issue 41)
+ALL = ("cartpole", "half_cheetah", "half_cheetah_contact", "wiping")
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
@@ -170,7 +186,8 @@ class Setup:
     def __init__(self, args, unmodelled: list[str]):
         self.task = diffosi.Task(args.task)
         self.spec = TASKS[args.task]
-        assert self.task.nmu == 1 or self.spec.environment, "the errors and plots read mu[0] alone"
+        assert self.task.nmu == 1 or self.spec.environment or self.spec.scored_first, \
+            "the errors and plots read mu[0] alone"
         self.horizon = min(args.horizon or self.task.horizon, self.task.horizon)
         self.seeds = [int(s) for s in args.seeds.split(",") if s.strip()]
         self.mu, self.q0, self.v0 = self.task.episodes(args.episodes or self.spec.episodes, args.seed)
@@ -193,6 +210,10 @@ class Setup:
         """A fresh environment: a reference engine, or SOURCE (our engine, no gap)."""
         if name in (SOURCE, NO_ARMATURE):
             return Source(self.task, armature=name == SOURCE)
+        if self.task.name == "quadruped":
+            from harness.engines.go1 import MujocoGo1
+
+            return MujocoGo1()
         cheetah = self.task.name.startswith("half_cheetah")
         if cheetah and name in ("pybullet", "dart"):
             from harness.contact import CHEETAH_URDF, DartContact, PybulletContact
@@ -248,8 +269,8 @@ class Source:
     def get_state(self) -> tuple:
         return self.state
 
-    def step(self, tau) -> None:
-        self.state = self.model.step(*self.state, tau)
+    def step(self, tau, ctrl=None) -> None:
+        self.state = self.model.step(*self.state, tau, ctrl=ctrl)
 
     def __enter__(self):
         return self
@@ -260,15 +281,16 @@ class Source:
 
 def run_episode(setup: Setup, target: str, method: str, seed: int, k: int, keep_trace: bool,
                 transitions: list | None = None) -> dict:
-    """One episode of one method in a fresh target engine. A control step holds its force for
-    the task's substeps physics steps; DiffOSI sees the last of them, which is appended to
-    `transitions` (if given) as (q, v, tau, q', v', constrained): constrained whether the
+    """One episode of one method in a fresh target engine. A control step holds its force (and
+    a servo task's ctrl) for the task's substeps physics steps; DiffOSI sees the last of them,
+    under the forces it held (task.held_forces at its start for a servo task), which is appended
+    to `transitions` (if given) as (q, v, tau, q', v', constrained): constrained whether the
     target had constraint rows in it (an engine without the flag: None)."""
     task, mu = setup.task, setup.episode_mu(target, k)
     policy = setup.policies[("dr" if method == "DR" else "uc", seed)]
     osi = {"UC-DiffOSI": lambda: diffosi.OnlineOsi(task, window=setup.window, seed=seed),
            JOINT: lambda: JointOsi(setup.joint_window, seed, task.nmu > 1)}.get(method, lambda: None)()
-    fed_trace, score, flags = [], 0.0, 0
+    fed_trace, score, flags, fell = [], 0.0, 0, False
     with setup.target(target) as env:
         for name, value in task.mu_params(mu).items():
             if target == SOURCE or not setup.spec.environment or name == "body/torso/mass":
@@ -279,15 +301,18 @@ def run_episode(setup: Setup, target: str, method: str, seed: int, k: int, keep_
         for _ in range(setup.horizon):
             fed = osi.mu if osi else {"DR": None, "UC-Average": setup.prior, "UC-Oracle": mu}[method]
             action = policy.act(task, q, v, fed)
-            tau = task.forces(action)
+            tau, ctrl = task.inputs(action)
             applied = previous if setup.delay and target != SOURCE else tau
+            servo = (ctrl,) if ctrl.size else ()
             start = (q, v)
-            env.step(applied)
+            env.step(applied, *servo)
             for _ in range(task.substeps - 1):
                 start = env.get_state()
-                env.step(applied)
+                env.step(applied, *servo)
             previous = tau
             q1, v1 = env.get_state()
+            if servo:
+                tau = task.held_forces(*start, action)
             if osi is not None:
                 flags += "at_bound" in osi.push(*start, tau, q1, v1)["flags"]
             if transitions is not None:
@@ -296,9 +321,11 @@ def run_episode(setup: Setup, target: str, method: str, seed: int, k: int, keep_
                 fed_trace.append(float(fed[0]))
             score += task.metric(q, v, action, q1, v1)
             q, v, peak = q1, v1, np.maximum(peak, np.abs(q1))
-            if task.terminated(q, v):
+            fell = task.terminated(q, v)
+            if fell:
                 break
-    out = {"policy_seed": seed, "episode": k, "mu": float(mu[0]), "score": score, "peak_abs_q": peak}
+    out = {"policy_seed": seed, "episode": k, "mu": float(mu[0]), "score": score, "peak_abs_q": peak,
+           "fell": fell}
     if method != "DR":
         err = np.array(fed_trace) - mu[0]
         out.update(mae=float(np.abs(err).mean()), mare=float((np.abs(err) / abs(mu[0])).mean()),
@@ -316,7 +343,8 @@ def mean_std(x) -> list:
 
 
 def summarize(episodes: list[dict]) -> dict:
-    out = {"score": mean_std([e["score"] for e in episodes])}
+    out = {"score": mean_std([e["score"] for e in episodes]),
+           "fall_fraction": float(np.mean([e["fell"] for e in episodes]))}
     if "mae" in episodes[0]:
         out.update({k: mean_std([e[k] for e in episodes]) for k in ("mae", "mare", "bias")})
     out["per_seed_score"] = {str(s): mean_std([e["score"] for e in episodes if e["policy_seed"] == s])
@@ -872,7 +900,7 @@ def run(args) -> int:
     if args.task != "all":
         return run_task(args)
     status = 0
-    for task in (*TASKS, "wiping"):
+    for task in ALL:
         status = max(status, run_task(argparse.Namespace(**{**vars(args), "task": task})))
     return status
 

@@ -66,6 +66,14 @@ fn the_oracle_beats_random_guesses_on_the_same_episodes() {
     );
     assert_eq!(oracle.summary.mu_mae, Some((0.0, 0.0)));
     assert!(random.summary.mu_mae.unwrap().0 > 0.1);
+    // An episode fell when it ended before the horizon; random guesses topple some.
+    for m in [random, oracle] {
+        let short = |e: &experiments::EpisodeResult| e.trace.metric.len() < Cartpole::HORIZON;
+        assert!(m.episodes.iter().all(|e| e.trace.fell == short(e)));
+        let fell = m.episodes.iter().filter(|e| short(e)).count();
+        assert_eq!(m.summary.fall_fraction, fell as f64 / 12.0);
+    }
+    assert!(random.summary.fall_fraction > 0.0);
 }
 
 #[test]

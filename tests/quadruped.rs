@@ -1,6 +1,7 @@
 //! The quadruped task (src/tasks/quadruped): its model, its payload rule,
 //! its servo inputs and its episodes.
 
+use diffosi::control::{Source, Sources};
 use diffosi::model::params::{inertia_from_six, inertia_to_six};
 use diffosi::model::{Inputs, State};
 use diffosi::tasks::{Env, Quadruped, Task};
@@ -117,4 +118,58 @@ fn a_fall_ends_the_episode() {
     let half = 70f64.to_radians() / 2.0;
     state.q[3..7].copy_from_slice(&[half.cos(), half.sin(), 0.0, 0.0]);
     assert!(task.terminated(&state));
+}
+
+/// The reward's yaw-rate term: a heading that turns by w rad/s over the
+/// control step costs 0.5 (1 - exp(-w^2 / 0.05)), the same across the
+/// heading's wrap at +-pi.
+#[test]
+fn turning_costs_the_yaw_rate_term() {
+    let task = Quadruped::new();
+    let dt = task.control_dt();
+    let at = |yaw: f64| {
+        let mut s = task.reset(&mut StdRng::seed_from_u64(5));
+        let half = yaw / 2.0;
+        s.q[3..7].copy_from_slice(&[half.cos(), 0.0, 0.0, half.sin()]);
+        s
+    };
+    let action = [0.0; 12];
+    let w: f64 = 0.3;
+    for yaw in [0.0, std::f64::consts::PI - 0.002] {
+        let start = at(yaw);
+        let straight = task.metric(&start, &action, &at(yaw));
+        let turned = task.metric(&start, &action, &at(yaw + w * dt));
+        let cost = 0.5 * (1.0 - (-w * w / 0.05).exp());
+        assert!(
+            (straight - turned - cost).abs() < 1e-9,
+            "at yaw {yaw}: {straight} - {turned} != {cost}"
+        );
+    }
+}
+
+/// DiffOSI on the task's own transitions (the last physics step of each
+/// control step, window 4, Levenberg-Marquardt from the middle of the
+/// range): standing on its servos, the Go1 gives away its payload's mass
+/// and placement from the first transitions on.
+#[test]
+fn diffosi_identifies_the_payload_from_standing_transitions() {
+    let task = Quadruped::new();
+    let mut estimator = Sources::default()
+        .estimator(Source::DiffosiNoCd, &task, 0)
+        .unwrap();
+    let mut env = Env::new(&task);
+    let mu = [5.3, 0.06];
+    env.reset(&mu, &mut StdRng::seed_from_u64(6)).unwrap();
+    estimator.reset(&mu).unwrap();
+    let mut worst = [0.0f64; 2];
+    for _ in 0..40 {
+        env.step(&[0.0; 12]).unwrap();
+        estimator
+            .observe(env.last_transition().unwrap(), &mu)
+            .unwrap();
+        for (w, (hat, truth)) in worst.iter_mut().zip(estimator.mu().iter().zip(mu)) {
+            *w = w.max((hat - truth).abs());
+        }
+    }
+    assert!(worst[0] < 0.1 && worst[1] < 0.01, "worst errors {worst:?}");
 }

@@ -215,6 +215,25 @@ impl PyTask {
         PyTuple::new(py, [u.tau, u.ctrl].map(|a| PyArray1::from_vec(py, a)))
     }
 
+    /// The generalized forces an identifier is given for a physics step from
+    /// (q, v) under `action`: the inputs' tau plus the actuators' forces at
+    /// their ctrl minus theirs at zero ctrl, at (q, v); under them with zero
+    /// ctrl the step is the same (Model::held_forces).
+    fn held_forces<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        v: &Bound<'py, PyAny>,
+        action: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let state = self.state(q, v)?;
+        let u = self.task.inputs(&self.action(action)?);
+        Ok(PyArray1::from_vec(
+            py,
+            self.task.model().held_forces(&state, &u),
+        ))
+    }
+
     /// Whether an episode ends at (q, v).
     fn terminated(&self, q: &Bound<'_, PyAny>, v: &Bound<'_, PyAny>) -> PyResult<bool> {
         Ok(self.task.terminated(&self.state(q, v)?))

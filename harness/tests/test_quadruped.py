@@ -1,57 +1,28 @@
-"""The quadruped task's model (src/tasks/quadruped/) against MuJoCo: the same URDF through
-MuJoCo's importer, with the task's additions made the same way in an MjSpec (free base, floor,
-floor-only collisions, position servos, the base inertia MuJoCo accepts, the payload body), one
-mj_step against one step of ours under the same ctrl.
-
-MuJoCo's importer fuses the URDF's fixed links into their parents by default (compiler
-fusestatic); ours keeps them as welded bodies. Without contact that is the same model; in contact
-it is not: a contact's softness reads its bodies' invweight0, and a foot's own body is lighter to
-push than the fused calf (0.03 m/s apart after one step). So MuJoCo runs with fusestatic off
-here, as the harness's transfer must (issue 41)."""
+"""The quadruped task's model (src/tasks/quadruped/) against MuJoCo's (harness/engines/go1.py:
+the same URDF through MuJoCo's importer, fusestatic off, with the task's additions made the same
+way in an MjSpec), the one the transfer runs: one mj_step against one step of ours under the same
+ctrl, and the forces an identifier is given for it."""
 
 import mujoco
 import numpy as np
 import pytest
 
 import diffosi
-from harness.engines.base import MODELS
-
-URDF = MODELS / "go1" / "go1.urdf"
-KP, KD = 20.0, 0.5
-PAYLOAD_BOX = np.array([0.2, 0.1, 0.05])
-LEGS, PARTS = ("FR", "FL", "RR", "RL"), ("hip", "thigh", "calf")
+from harness.engines.go1 import MujocoGo1
 
 
-def mujoco_go1(mu):
-    """The task's model for mu = (payload mass, COM offset) built on MuJoCo's URDF import."""
-    spec = mujoco.MjSpec.from_file(str(URDF))
-    spec.compiler.fusestatic = False
-    base = spec.body("base")
-    base.fullinertia = [1e-6, 1e-6, 1e-6, 0.0, 0.0, 0.0]
-    base.add_freejoint()
-    spec.option.timestep = 0.005
-    for geom in spec.geoms:
-        geom.contype, geom.conaffinity = 1, 0
-    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 1], contype=0,
-                            conaffinity=1, friction=[1.0, 0.005, 0.0001])
-    a, b, c = PAYLOAD_BOX**2 / 12
-    spec.body("trunk").add_body(name="payload", mass=mu[0], ipos=[mu[1], 0.0, 0.082],
-                                inertia=mu[0] * np.array([b + c, a + c, a + b]))
-    for leg in LEGS:
-        for part in PARTS:
-            effort = 35.55 if part == "calf" else 23.7
-            spec.add_actuator(target=f"{leg}_{part}_joint", trntype=mujoco.mjtTrn.mjTRN_JOINT,
-                              gainprm=[KP] + [0.0] * 9, biastype=mujoco.mjtBias.mjBIAS_AFFINE,
-                              biasprm=[0.0, -KP, -KD] + [0.0] * 7, forcelimited=True,
-                              forcerange=[-effort, effort])
-    return spec.compile()
+def mujoco_go1(task, mu):
+    """MuJoCo's Go1 (harness/engines/go1.py) with the task's mu applied by its named parameters."""
+    engine = MujocoGo1()
+    for name, value in task.mu_params(list(mu)).items():
+        engine.set_param(name, value)
+    return engine
 
 
-def mj_step(m, q, v, ctrl):
-    d = mujoco.MjData(m)
-    d.qpos[:], d.qvel[:], d.ctrl[:] = q, v, ctrl
-    mujoco.mj_step(m, d)
-    return d.qpos.copy(), d.qvel.copy(), d.ncon
+def mj_step(engine, q, v, ctrl):
+    engine.set_state(q, v)
+    engine.step(np.zeros(len(v)), ctrl)
+    return (*engine.get_state(), engine.d.ncon)
 
 
 @pytest.fixture(scope="module")
@@ -71,8 +42,7 @@ def states(task, height, seed):
 
 @pytest.mark.parametrize("mu", [(0.0, 0.0), (5.0, 0.07), (8.0, -0.1)])
 def test_one_step_in_the_air_is_mujocos(task, mu):
-    ours, theirs = task.model(list(mu)), mujoco_go1(mu)
-    assert (theirs.nq, theirs.nv, theirs.nu) == (ours.nq, ours.nv, 12)
+    ours, theirs = task.model(list(mu)), mujoco_go1(task, mu)
     for q, v, action in states(task, 1.0, 1):
         ctrl = task.inputs(action)[1]
         q1, v1 = ours.step(q, v, np.zeros(18), ctrl=ctrl)
@@ -85,10 +55,29 @@ def test_one_step_in_the_air_is_mujocos(task, mu):
 def test_one_step_with_the_feet_in_the_floor_is_mujocos(task, mu):
     """Feet spheres pressed 0.5 to 2 cm into the plane (sphere-plane contacts), and where the
     joint noise brings them down, calf boxes (box-plane)."""
-    ours, theirs = task.model(list(mu)), mujoco_go1(mu)
+    ours, theirs = task.model(list(mu)), mujoco_go1(task, mu)
     for q, v, action in states(task, 0.305, 2):
         ctrl = task.inputs(action)[1]
         q1, v1 = ours.step(q, v, np.zeros(18), ctrl=ctrl)
         mq, mv, ncon = mj_step(theirs, q, v, ctrl)
         assert ncon >= 4
         assert np.max(np.abs(np.r_[q1 - mq, v1 - mv])) < 1e-10
+
+
+def test_the_forces_an_identifier_is_given_make_mujocos_servo_step(task):
+    """The transfer pushes DiffOSI the MuJoCo step's start state and task.held_forces there: under
+    them with zero ctrl ours makes MuJoCo's step under the servo targets, in contact too."""
+    mu = (6.0, -0.04)
+    ours, theirs = task.model(list(mu)), mujoco_go1(task, mu)
+    for q, v, action in states(task, 0.305, 3):
+        mq, mv, ncon = mj_step(theirs, q, v, task.inputs(action)[1])
+        held = task.held_forces(q, v, action)
+        assert ncon >= 4 and np.abs(held[6:]).max() > 1.0
+        q1, v1 = ours.step(q, v, held)
+        assert np.max(np.abs(np.r_[q1 - mq, v1 - mv])) < 1e-10
+    assert (theirs.m.nq, theirs.m.nv, theirs.m.nu) == (ours.nq, ours.nv, 12)
+
+
+def test_the_mujoco_go1_refuses_a_parameter_it_does_not_have():
+    with pytest.raises(ValueError, match="no parameter 'body/trunk/mass'"):
+        MujocoGo1().set_param("body/trunk/mass", 1.0)

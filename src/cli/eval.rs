@@ -127,6 +127,9 @@ pub fn eval(request: Request) -> Result<(), String> {
                     "mean": result.summary.task.0,
                     "std": result.summary.task.1,
                     "mu_mae": result.summary.mu_mae.map(|s| s.0),
+                    "mu_mae_by_component": result.summary.mu_mae_by_component,
+                    "fall_fraction": result.summary.fall_fraction,
+                    "fell": episodes.iter().map(|e| e.trace.fell).collect::<Vec<_>>(),
                     "by_mu": result.summary.by_mu,
                     "metrics": episodes.iter().map(|e| e.score).collect::<Vec<_>>(),
                     "mu_true": episodes.iter().map(|e| &e.episode.mu).collect::<Vec<_>>(),
@@ -141,6 +144,7 @@ pub fn eval(request: Request) -> Result<(), String> {
             "seed": request.seed,
             "mean": mean,
             "std": std,
+            "fall_fraction": experiments::fall_fraction(&all),
             "by_mu": experiments::by_mu(task.as_ref(), &all),
             "policies": policies,
         });
@@ -163,10 +167,26 @@ pub fn eval(request: Request) -> Result<(), String> {
             .summary
             .mu_mae
             .map_or(String::new(), |(e, _)| format!("  mean |mu error| {e:.3e}"));
-        println!("  {:<40} {kind:?}  {m:.2} +- {s:.2}{error}", path.display());
+        let by_component = result
+            .summary
+            .mu_mae_by_component
+            .as_ref()
+            .map_or(String::new(), |e| {
+                let each: Vec<String> = e.iter().map(|x| format!("{x:.3e}")).collect();
+                format!(" (per component {})", each.join(", "))
+            });
+        println!(
+            "  {:<40} {kind:?}  {m:.2} +- {s:.2}  fall fraction {:.3}{error}{by_component}",
+            path.display(),
+            result.summary.fall_fraction
+        );
         println!("    {}", bins_line(&result.summary.by_mu));
     }
-    println!("all {} episodes: {mean:.2} +- {std:.2}", pooled.len());
+    println!(
+        "all {} episodes: {mean:.2} +- {std:.2}, fall fraction {:.3}",
+        pooled.len(),
+        experiments::fall_fraction(&all)
+    );
     println!("  {}", bins_line(&experiments::by_mu(task.as_ref(), &all)));
     if !errors.is_empty() {
         println!("mean |mu error| {:.3e}", mean_std(&errors).0);

@@ -384,6 +384,9 @@ pub struct Trace {
     /// The mu fed to the controller (empty for a domain-randomised policy).
     pub mu_hat: Vec<Vec<f64>>,
     pub metric: Vec<f64>,
+    /// Whether the task's termination ended the episode (a fall), rather
+    /// than its horizon.
+    pub fell: bool,
 }
 
 impl Trace {
@@ -425,6 +428,7 @@ pub fn run_episode(
             trace.mu_hat.push(fed);
         }
         if out.terminated || out.truncated {
+            trace.fell = out.terminated;
             return Ok(trace);
         }
         if let Some((at, mu)) = &episode.change {

@@ -17,20 +17,24 @@
 //! - `mu_mare`: mean over t of |mu_hat_t - mu_t| / max(|mu_t|, floor), floor
 //!   a tenth of the half-width of the range (0.06 m on the cartpole, 2.45 kg
 //!   on the half cheetah), so a true mu near zero does not divide by zero;
-//! - `score`: the task metric summed over the episode.
+//! - `score`: the task metric summed over the episode;
+//! - `fell`: whether the task's termination ended it (a fall), its horizon
+//!   not reached.
 //!
 //! The table reports mean +- population standard deviation of each over all
 //! models' episodes pooled, and each method's task performance as a fraction
-//! of UC-Oracle's.
+//! of UC-Oracle's; the results JSON also the fraction of episodes that fell.
 //!
 //! Results JSON (`results_json`): `experiment`, `task`, `seed`, `models`
 //! (file names), `episodes_per_model`, `change_at`, and `methods`, each with
 //! `label`, `policy` ("uc"/"dr"), `source` (null for DR), `summary`
 //! (`mu_mae`, `mu_mare`, `task`: [mean, std], null for DR's mu errors;
+//! `mu_mae_by_component`, the mean of the episodes'; `fall_fraction`;
 //! `by_mu`: [`MuBin`]s with `lo`, `hi`, `episodes`, `mean`;
 //! `fraction_of_oracle`), `paper` (the paper's row as printed, or null) and
 //! `episodes`: per episode `model`, `mu`, `change` ([t, mu'] or null),
-//! `score`, `mu_mae`, `mu_mare`, and per step `metric` and `mu_error`
+//! `score`, `mu_mae`, `mu_mae_by_component` (per component of mu, the mean
+//! over t of |mu_hat_t - mu_t|), `mu_mare`, `fell`, and per step `metric` and `mu_error`
 //! (mu_hat_t - mu_t, 4 significant digits; empty for DR).
 //!
 //! Window study JSON (`window_json`): `task`, `seed`, `models`,
@@ -228,6 +232,9 @@ pub struct EpisodeResult {
     pub score: f64,
     /// None for a domain-randomised policy.
     pub mu_mae: Option<f64>,
+    /// Per component of mu, the mean over t of |mu_hat_t - mu_t| (`mu_mae`
+    /// is their mean); None for a domain-randomised policy.
+    pub mu_mae_by_component: Option<Vec<f64>>,
     pub mu_mare: Option<f64>,
 }
 
@@ -235,8 +242,12 @@ pub struct EpisodeResult {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Summary {
     pub mu_mae: Option<(f64, f64)>,
+    /// The episodes' mean of [`EpisodeResult::mu_mae_by_component`].
+    pub mu_mae_by_component: Option<Vec<f64>>,
     pub mu_mare: Option<(f64, f64)>,
     pub task: (f64, f64),
+    /// The fraction of episodes that fell ([`Trace::fell`]).
+    pub fall_fraction: f64,
     /// Task performance against the true mu ([`by_mu`]).
     pub by_mu: Vec<MuBin>,
 }
@@ -434,20 +445,24 @@ fn relative_floor(task: &dyn Task) -> Vec<f64> {
 
 fn score_episode(task: &dyn Task, model: usize, episode: Episode, trace: Trace) -> EpisodeResult {
     let score = trace.score();
-    let (mu_mae, mu_mare) = if trace.mu_hat.is_empty() {
-        (None, None)
+    let (mu_mae, mu_mae_by_component, mu_mare) = if trace.mu_hat.is_empty() {
+        (None, None, None)
     } else {
         let floor = relative_floor(task);
-        let (mut abs, mut rel, mut n) = (0.0, 0.0, 0.0);
+        let mut abs = vec![0.0; floor.len()];
+        let (mut rel, mut n) = (0.0, 0.0);
         for (hat, truth) in trace.mu_hat.iter().zip(&trace.mu_true) {
             for i in 0..hat.len() {
                 let e = (hat[i] - truth[i]).abs();
-                abs += e;
+                abs[i] += e;
                 rel += e / truth[i].abs().max(floor[i]);
                 n += 1.0;
             }
         }
-        (Some(abs / n), Some(rel / n))
+        let mae = abs.iter().sum::<f64>() / n;
+        let steps = trace.mu_hat.len() as f64;
+        let by_component = abs.into_iter().map(|a| a / steps).collect();
+        (Some(mae), Some(by_component), Some(rel / n))
     };
     EpisodeResult {
         model,
@@ -455,8 +470,31 @@ fn score_episode(task: &dyn Task, model: usize, episode: Episode, trace: Trace) 
         trace,
         score,
         mu_mae,
+        mu_mae_by_component,
         mu_mare,
     }
+}
+
+/// The mean over `episodes` of their per-component mu errors (None for
+/// none or a domain-randomised policy).
+fn mean_by_component(episodes: &[EpisodeResult]) -> Option<Vec<f64>> {
+    let each: Option<Vec<&Vec<f64>>> = episodes
+        .iter()
+        .map(|e| e.mu_mae_by_component.as_ref())
+        .collect();
+    let each = each.filter(|v| !v.is_empty())?;
+    let n = each.len() as f64;
+    Some(
+        (0..each[0].len())
+            .map(|i| each.iter().map(|e| e[i]).sum::<f64>() / n)
+            .collect(),
+    )
+}
+
+/// The fraction of `episodes` that fell (0 for none).
+pub fn fall_fraction(episodes: &[EpisodeResult]) -> f64 {
+    let fell = episodes.iter().filter(|e| e.trace.fell).count();
+    fell as f64 / episodes.len().max(1) as f64
 }
 
 fn summarise(task: &dyn Task, episodes: &[EpisodeResult]) -> Summary {
@@ -467,8 +505,10 @@ fn summarise(task: &dyn Task, episodes: &[EpisodeResult]) -> Summary {
     let scores: Vec<f64> = episodes.iter().map(|e| e.score).collect();
     Summary {
         mu_mae: stat(&|e| e.mu_mae),
+        mu_mae_by_component: mean_by_component(episodes),
         mu_mare: stat(&|e| e.mu_mare),
         task: mean_std(&scores),
+        fall_fraction: fall_fraction(episodes),
         by_mu: by_mu(task, episodes),
     }
 }

@@ -90,7 +90,9 @@ fn method_json(results: &Results, m: &MethodResult) -> Value {
                 "change": e.episode.change,
                 "score": e.score,
                 "mu_mae": e.mu_mae,
+                "mu_mae_by_component": e.mu_mae_by_component,
                 "mu_mare": e.mu_mare,
+                "fell": e.trace.fell,
                 "metric": e.trace.metric,
                 "mu_error": errors,
             })
@@ -102,8 +104,10 @@ fn method_json(results: &Results, m: &MethodResult) -> Value {
         "source": m.method.source,
         "summary": {
             "mu_mae": pair(m.summary.mu_mae),
+            "mu_mae_by_component": m.summary.mu_mae_by_component,
             "mu_mare": pair(m.summary.mu_mare),
             "task": [m.summary.task.0, m.summary.task.1],
+            "fall_fraction": m.summary.fall_fraction,
             "by_mu": m.summary.by_mu,
             "fraction_of_oracle": results.fraction_of_oracle(m),
         },
