@@ -224,7 +224,7 @@ mod tests {
             Transform::identity(),
             (Shape::Plane, f64::INFINITY),
         )];
-        let fixed = |g: usize| g % 5 == 0;
+        let fixed = |g: usize| g.is_multiple_of(5);
         for g in 1..=150 {
             let shape = shapes[g % 3];
             let (node, at) = if fixed(g) {
