@@ -47,6 +47,14 @@ both from MuJoCo's state after HUMANOID_FALL steps without forces from the refer
 (lying on the floor), put back before every call (MuJoCo's warm start with it), so that both
 engines step the same stretch of motion: the humanoid settling on the floor.
 
+Convex scenes (target: at least as fast as MuJoCo), each settled by MuJoCo from its initial state
+and then stepped by both engines from MuJoCo's state (put back before every call, with MuJoCo's warm
+start), zero forces: dm_control's quadruped standing on its height field made bumpy (`quadruped_on_bumps`,
+tendons, actuators and sensors removed), a pile of mixed convex shapes on a floor (`pile`), and a
+few shapes resting on a field of several hundred static geoms (`rubble`: thousands of candidate
+pairs, so our broad phase sweeps and prunes). A scene whose step we refuse (a pair without a
+collider) reads "refused" with the reason.
+
 Ratio = their time / ours: > 1 means we are faster. An OSI table from
 benches/osi.rs follows (criterion only): one DiffOSI identification (LM from
 the prior until a tolerance stops it), the warm-started online update, and one
@@ -56,6 +64,10 @@ measured (ratio Nimble / ours).
 """
 
 import json
+import os
+import re
+import struct
+import tempfile
 import time
 from pathlib import Path
 
@@ -232,12 +244,117 @@ def humanoid_jobs():
     }
 
 
+def quadruped_on_bumps(directory: Path) -> Path:
+    """dm_control's quadruped over its terrain field, made bumpy (smooth bumps up to 0.15,
+    fixed seed, MuJoCo's binary format); its tendons, tendon equalities, actuators and
+    sensors removed. The MJCF file's path, written in `directory`."""
+    import dm_control
+
+    suite = os.path.join(os.path.dirname(dm_control.__file__), "suite")
+    xml = open(os.path.join(suite, "quadruped.xml")).read()
+    for tag in ["tendon", "actuator", "sensor", "equality"]:
+        xml = re.sub(rf"<{tag}>.*?</{tag}>", "", xml, flags=re.S)
+    xml = xml.replace('file="./', f'file="{suite}/')
+    n, rng = 201, np.random.default_rng(3)
+    x, y = np.meshgrid(np.linspace(-1, 1, n), np.linspace(-1, 1, n))
+    h = sum(rng.uniform(0.2, 1) * np.exp(-((x - rng.uniform(-.05, .05)) ** 2
+                                          + (y - rng.uniform(-.05, .05)) ** 2)
+                                         / rng.uniform(1e-4, 1e-3)) for _ in range(20))
+    terrain = directory / "terrain.bin"
+    terrain.write_bytes(struct.pack("<ii", n, n) + h.astype("<f4").tobytes())
+    field = '<hfield name="terrain" ncol="201" nrow="201" size="30 30 5 .1"/>'
+    assert field in xml
+    xml = xml.replace(field, f'<hfield name="terrain" file="{terrain}" size="30 30 .15 .1"/>')
+    path = directory / "quadruped.xml"
+    path.write_text(xml)
+    return path
+
+
+SHAPES = ['type="sphere" size="0.05"', 'type="capsule" size="0.03 0.05"',
+          'type="ellipsoid" size="0.06 0.04 0.03"', 'type="cylinder" size="0.04 0.04"',
+          'type="box" size="0.05 0.04 0.03"']
+
+
+def pile(directory: Path, count=20) -> Path:
+    """`count` free bodies of the SHAPES in turn, dropped in a column over a floor (they fall
+    into a pile)."""
+    rng = np.random.default_rng(5)
+    bodies = "".join(
+        f'<body pos="{rng.uniform(-0.05, 0.05):.3f} {rng.uniform(-0.05, 0.05):.3f} {0.1 + 0.12 * k:.2f}" '
+        f'euler="{" ".join(f"{a:.0f}" for a in rng.uniform(0, 180, 3))}"><freejoint/>'
+        f'<geom {SHAPES[k % len(SHAPES)]}/></body>' for k in range(count))
+    path = directory / "pile.xml"
+    path.write_text(f'<mujoco><worldbody><geom type="plane" size="2 2 0.1"/>{bodies}</worldbody></mujoco>')
+    return path
+
+
+def rubble(directory: Path, side=18, count=6) -> Path:
+    """A side x side grid of static geoms (the SHAPES in turn, turned), with `count` free
+    shapes dropped onto it."""
+    rng = np.random.default_rng(6)
+    spacing = 0.1
+    fixed = "".join(
+        f'<geom pos="{spacing * (i - side / 2):.2f} {spacing * (j - side / 2):.2f} 0" '
+        f'euler="{" ".join(f"{a:.0f}" for a in rng.uniform(0, 180, 3))}" {SHAPES[(i + j) % len(SHAPES)]}/>'
+        for i in range(side) for j in range(side))
+    bodies = "".join(
+        f'<body pos="{rng.uniform(-0.5, 0.5):.3f} {rng.uniform(-0.5, 0.5):.3f} 0.3"><freejoint/>'
+        f'<geom {SHAPES[k % len(SHAPES)]}/></body>' for k in range(count))
+    path = directory / "rubble.xml"
+    path.write_text(f'<mujoco><worldbody>{fixed}{bodies}</worldbody></mujoco>')
+    return path
+
+
+# The convex scenes: name -> (MJCF writer, initial qpos changes {index: value}, settling steps).
+CONVEX = {
+    "quadruped (dm_control) on its height field": (quadruped_on_bumps, {2: 0.8}, 600),
+    "pile of 20 mixed convex shapes on a floor": (pile, {}, 800),
+    "6 shapes on 324 static geoms (broad phase)": (rubble, {}, 400),
+}
+
+
+def settled_jobs(path: Path, start: dict, settle: int):
+    """{(library, what): job} of the scene `path`, settled by MuJoCo for `settle` steps from
+    qpos0 changed at `start`, then stepped from there by both engines; or the refusal's
+    message when our step refuses the scene."""
+    model = load_mjcf(path)
+    data = mujoco.MjData(model)
+    for k, x in start.items():
+        data.qpos[k] = x
+    mujoco.mj_step(model, data, settle)
+    q, v, warm = data.qpos.copy(), data.qvel.copy(), data.qacc_warmstart.copy()
+    m = diffosi.Model.load(str(path))
+    rest = np.zeros((NATIVE_STEPS, m.nv))
+    try:
+        m.step(q, v, rest[0])
+    except ValueError as e:
+        return str(e)
+
+    def step_from_rest(nstep=1):
+        data.qpos[:], data.qvel[:], data.qacc_warmstart[:] = q, v, warm
+        mujoco.mj_step(model, data, nstep)
+
+    return {
+        ("diffosi", "step"): (m.step, (q, v, rest[0]), 1),
+        ("diffosi", "loop"): (m.rollout, (q, v, rest), NATIVE_STEPS),
+        ("MuJoCo", "step"): (step_from_rest, (), 1),
+        ("MuJoCo", "loop"): (step_from_rest, (NATIVE_STEPS,), NATIVE_STEPS),
+    }
+
+
+def convex_jobs(directory: Path):
+    """{scene: jobs or refusal} of the CONVEX scenes, their files written in `directory`."""
+    return {name: settled_jobs(write(directory), start, settle)
+            for name, (write, start, settle) in CONVEX.items()}
+
+
 LIBRARIES = {"diffosi": ours_jobs, "MuJoCo": mujoco_jobs, "Pinocchio": pinocchio_jobs}
 
 
 def measure():
     """{model: {library: {what: seconds}}} for every job of every library on every model,
-    and the contact jobs under CONTACT."""
+    the contact jobs under CONTACT and HUMANOID, and the CONVEX scenes' (a refused one's
+    message instead of its times)."""
     jobs = {}
     for name in MODELS:
         for library, make_jobs in LIBRARIES.items():
@@ -245,6 +362,13 @@ def measure():
     jobs.update({(CONTACT, library, what): job for (library, what), job in contact_jobs().items()})
     jobs.update({(HUMANOID, library, what): job for (library, what), job in humanoid_jobs().items()})
     result = {}
+    with tempfile.TemporaryDirectory() as directory:  # read when the models load
+        scenes = convex_jobs(Path(directory))
+    for scene, scene_jobs in scenes.items():
+        if isinstance(scene_jobs, str):
+            result[scene] = scene_jobs
+        else:
+            jobs.update({(scene, library, what): job for (library, what), job in scene_jobs.items()})
     for (name, library, what), seconds in medians(jobs).items():
         result.setdefault(name, {}).setdefault(library, {})[what] = seconds
     return result
@@ -317,6 +441,8 @@ def speed_table():
                       (f"step, loop of {NATIVE_STEPS} in native code, as the file runs it", "loop")]:
         cells = [what, HUMANOID, us(ours_h[key]), "—", versus(mj_h[key], ours_h[key]), "—"]
         lines.append("| " + " | ".join(cells) + " |")
+    for scene in CONVEX:
+        lines += convex_rows(scene, times[scene])
     param, step = (criterion(f"constraint_{b}_half_cheetah") for b in ("jacobian_param", "step"))
     param_steps = "—" if None in (param, step) else (
         f"{us(param)} µs, {param / step:.1f} steps of {us(step)} µs")
@@ -327,6 +453,16 @@ def speed_table():
               f"{us(mj['jacobian'])} µs, {mj['jacobian'] / ours['jacobian']:.1f}x; the torso mass's "
               f"Jacobian alone (target: at most 3 steps; criterion, native) {param_steps}")
     return "\n".join(lines), "\n".join(overheads), target
+
+
+def convex_rows(scene, times):
+    """The table rows of a CONVEX scene: its step and native loop against MuJoCo's, or the refusal."""
+    if isinstance(times, str):
+        return [f"| step (refused: {' '.join(times.split())}) | {scene} | — | — | — | — |"]
+    ours, mj = times["diffosi"], times["MuJoCo"]
+    return ["| " + " | ".join([what, scene, us(ours[key]), "—", versus(mj[key], ours[key]), "—"]) + " |"
+            for what, key in [("step, one Python call, settled", "step"),
+                              (f"step, loop of {NATIVE_STEPS} in native code, settled", "loop")]]
 
 
 def osi_table():

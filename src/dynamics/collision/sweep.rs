@@ -10,6 +10,9 @@
 //! O(n log n + k), k the pairs overlapping on that axis, of which those
 //! whose cubes overlap are kept. Pairs with an unbounded geom (a plane) are
 //! always kept. The axis is the one along which the centres spread most.
+//! Two static geoms (on the world, not on a mocap body) are never tested
+//! against each other unless a pair joins them: a field of static geoms
+//! costs its sort, not its overlaps.
 //!
 //! The result is a superset of the pairs within reach, as indices into the
 //! pair list, ascending: callers still test [`apart`](super::apart) on each,
@@ -36,6 +39,10 @@ pub struct Sweep {
     bound: Vec<f64>,
     /// The geoms with a finite bound that take part in a pair.
     finite: Vec<usize>,
+    /// Per entry of `finite`: whether it moves (on a node or a mocap body)
+    /// or is paired with a static geom; two geoms that are neither are
+    /// never tested.
+    tested: Vec<bool>,
     /// Per geom: (other geom, pair index), sorted, for the pairs in which
     /// it is the lower-indexed geom of two bounded ones.
     partners: Vec<Vec<(usize, usize)>>,
@@ -65,17 +72,27 @@ impl Sweep {
             }
             partners[a.min(b)].push((a.max(b), index));
         }
-        for p in &mut partners {
+        let fixed = |g: usize| geoms[g].node.is_none() && geoms[g].mocap.is_none();
+        let mut tested: Vec<bool> = (0..n).map(|g| !fixed(g)).collect();
+        for (a, p) in partners.iter_mut().enumerate() {
             p.sort_unstable();
+            for &(b, _) in p.iter() {
+                if fixed(a) && fixed(b) {
+                    tested[a] = true;
+                    tested[b] = true;
+                }
+            }
         }
         let bound = geoms
             .iter()
             .zip(&reach)
             .map(|(g, r)| (g.rbound + r) * (1.0 + SLACK) + SLACK)
             .collect();
+        let finite: Vec<usize> = (0..n).filter(|&g| used[g]).collect();
         Sweep {
             bound,
-            finite: (0..n).filter(|&g| used[g]).collect(),
+            tested: finite.iter().map(|&g| tested[g]).collect(),
+            finite,
             partners,
             always,
         }
@@ -106,11 +123,16 @@ impl Sweep {
             .collect();
         let mut order: Vec<usize> = (0..centres.len()).collect();
         let lo = |k: usize| centres[k][axis] - half[k];
-        order.sort_by(|&a, &b| lo(a).partial_cmp(&lo(b)).expect("finite").then(a.cmp(&b)));
-        let mut active: Vec<usize> = vec![];
+        order.sort_unstable_by(|&a, &b| lo(a).partial_cmp(&lo(b)).expect("finite").then(a.cmp(&b)));
+        // The cubes open at the sweep's position: [untested, tested] geoms.
+        let mut active: [Vec<usize>; 2] = [vec![], vec![]];
         for &k in &order {
-            active.retain(|&j| centres[j][axis] + half[j] >= lo(k));
-            for &j in &active {
+            for list in &mut active {
+                list.retain(|&j| centres[j][axis] + half[j] >= lo(k));
+            }
+            let tested = self.tested[k];
+            let others = if tested { &active[..] } else { &active[1..] };
+            for &j in others.iter().flatten() {
                 let reach = half[j] + half[k];
                 if (centres[j] - centres[k]).amax() > reach {
                     continue;
@@ -122,7 +144,7 @@ impl Sweep {
                 let same = list[start..].iter().take_while(|&&(o, _)| o == b);
                 out.extend(same.map(|&(_, i)| i));
             }
-            active.push(k);
+            active[usize::from(tested)].push(k);
         }
         out.sort_unstable();
     }
@@ -195,25 +217,37 @@ mod tests {
                 half: Vector3::new(0.03, 0.05, 0.08),
             },
         ];
-        // A plane (static) and 150 geoms on their own nodes, some sharing a spot.
+        // A plane (static) and 150 geoms on their own nodes, some sharing a
+        // spot, but every fifth static at a spot of its own.
         let mut geoms = vec![GeomFrame::<f64>::new(
             (0, 0, &on(None)),
             Transform::identity(),
             (Shape::Plane, f64::INFINITY),
         )];
+        let fixed = |g: usize| g.is_multiple_of(5);
         for g in 1..=150 {
             let shape = shapes[g % 3];
-            let node = Some(g - 1);
+            let (node, at) = if fixed(g) {
+                let mut x = || 2.0 * (uniform(&mut seed) - 0.5);
+                (None, Vector3::new(x(), x(), x()))
+            } else {
+                (Some(g - 1), Vector3::zeros())
+            };
             geoms.push(GeomFrame::new(
                 (g, g, &on(node)),
-                Transform::identity(),
+                Transform::from_pose_f64(&Rotation3::identity(), &at),
                 (shape, shape.rbound()),
             ));
         }
+        // Static geoms are paired with each other only in a few pairs.
         let mut pairs = vec![];
         for a in 0..geoms.len() {
             for b in a + 1..geoms.len() {
-                if uniform(&mut seed) < 0.7 {
+                let both_fixed = a > 0 && fixed(a) && fixed(b);
+                if both_fixed && ![(5, 10), (10, 15), (5, 140)].contains(&(a, b)) {
+                    continue;
+                }
+                if both_fixed || uniform(&mut seed) < 0.7 {
                     pairs.push(([a, b], [0.0, 0.01, 0.2][(a + b) % 3]));
                 }
             }

@@ -133,12 +133,20 @@ impl Mesh {
     /// vertices when no hull was built): a hull vertex farthest along `dir`
     /// (mesh frame; ties to the lowest index).
     pub fn support<T: Real>(&self, dir: &Vector3<T>) -> Vector3<T> {
-        let on_hull: Box<dyn Iterator<Item = usize>> = match &self.hull {
-            Some(h) => Box::new(h.vertices.iter().copied()),
-            None => Box::new(0..self.vertices.len()),
-        };
+        match &self.hull {
+            Some(h) => self.farthest(h.vertices.iter().copied(), dir),
+            None => self.farthest(0..self.vertices.len(), dir),
+        }
+    }
+
+    /// The first of the vertices `indices` farthest along `dir` (zero for none).
+    fn farthest<T: Real>(
+        &self,
+        indices: impl Iterator<Item = usize>,
+        dir: &Vector3<T>,
+    ) -> Vector3<T> {
         let mut best: Option<(T, Vector3<T>)> = None;
-        for i in on_hull {
+        for i in indices {
             let v = lift_vector::<T>(&self.vertices[i]);
             let reach = dir.dot(&v);
             if best.as_ref().is_none_or(|(r, _)| reach > *r) {
