@@ -221,11 +221,11 @@ impl<T: Real> Colliders<T> {
         [None, None, exact(plane::sphere), exact(plane::capsule), exact(plane::ellipsoid), exact(plane::cylinder), exact(plane::cuboid), exact(mesh::plane)],
         [None, None, ccd_bare(hfield::hfield), ccd_bare(hfield::hfield), ccd_bare(hfield::hfield), ccd_bare(hfield::hfield), None, None],
         [None, None, exact(sphere::sphere), exact(sphere::capsule), ccd(convex::convex), exact(sphere::cylinder), exact(sphere::cuboid), ccd(convex::convex)],
-        [None, None, None, exact(capsule::capsule), ccd(convex::convex), ccd(convex::convex), exact(capsule::cuboid), None],
+        [None, None, None, exact(capsule::capsule), ccd(convex::convex), ccd(convex::convex), exact(capsule::cuboid), ccd(convex::convex)],
         [None, None, None, None, ccd(convex::convex), ccd(convex::convex), ccd(convex::convex), ccd(convex::convex)],
-        [None, None, None, None, None, ccd(convex::convex), ccd(convex::convex), None], // cylinder
-        [None, None, None, None, None, None, exact(box_box::cuboid), None],
-        [None; NTYPES], // mesh
+        [None, None, None, None, None, ccd(convex::convex), ccd(convex::convex), ccd(convex::convex)], // cylinder
+        [None, None, None, None, None, None, exact(box_box::cuboid), ccd(convex::convex)],
+        [None, None, None, None, None, None, None, ccd(convex::convex)], // mesh
     ];
 }
 
@@ -396,7 +396,7 @@ mod tests {
             .flat_map(|&a| types.iter().map(move |&b| (a, b)))
             .filter(|&(a, b)| a <= b && supported(a, b, &Ccd::default(), 0.0))
             .count();
-        assert_eq!(count, 27);
+        assert_eq!(count, 31);
         let (h, ccd) = (GeomType::Hfield, Ccd::default());
         assert!(supported(GeomType::Capsule, h, &ccd, 0.0));
         assert!(!supported(h, GeomType::Capsule, &ccd, 0.01));

@@ -133,19 +133,25 @@ impl Mesh {
     /// vertices when no hull was built): a hull vertex farthest along `dir`
     /// (mesh frame; ties to the lowest index).
     pub fn support<T: Real>(&self, dir: &Vector3<T>) -> Vector3<T> {
+        self.support_vertex(dir)
+            .map_or_else(Vector3::zeros, |i| lift_vector(&self.vertices[i]))
+    }
+
+    /// The index of [`Mesh::support`]'s vertex (None for a mesh without
+    /// vertices).
+    pub fn support_vertex<T: Real>(&self, dir: &Vector3<T>) -> Option<usize> {
         let on_hull: Box<dyn Iterator<Item = usize>> = match &self.hull {
             Some(h) => Box::new(h.vertices.iter().copied()),
             None => Box::new(0..self.vertices.len()),
         };
-        let mut best: Option<(T, Vector3<T>)> = None;
+        let mut best: Option<(T, usize)> = None;
         for i in on_hull {
-            let v = lift_vector::<T>(&self.vertices[i]);
-            let reach = dir.dot(&v);
+            let reach = dir.dot(&lift_vector::<T>(&self.vertices[i]));
             if best.as_ref().is_none_or(|(r, _)| reach > *r) {
-                best = Some((reach, v));
+                best = Some((reach, i));
             }
         }
-        best.map_or_else(Vector3::zeros, |(_, v)| v)
+        best.map(|(_, i)| i)
     }
 
     /// Principal moments of inertia of the mesh with mass `mass`, along the
