@@ -4,9 +4,12 @@
 //! primitives and meshes: an ellipsoid against a sphere, a capsule, an
 //! ellipsoid, a cylinder, a box or a mesh, and a sphere against a mesh (one
 //! contact; a mesh is its hull, [`Mesh::support`]), and a cylinder against
-//! a capsule, a cylinder or a box, where touching faces or edges add
-//! MuJoCo's multiccd contacts (up to four, [`super::multiccd`]; all share
-//! the first one's frame).
+//! a capsule, a cylinder or a box and a capsule, cylinder, box or mesh
+//! against a mesh, where touching faces or edges add MuJoCo's multiccd
+//! contacts (up to four, [`super::multiccd`]; all share the first one's
+//! frame). Between boxes and meshes without margin (MuJoCo's discrete
+//! pairs, [`Body::discrete`]) GJK runs without tolerance and EPA until a
+//! support vertex repeats.
 //!
 //! Each geom is a [`Body`]: its shape at its world pose, grown by half the
 //! pair margin (so the bodies overlap exactly when the geoms are within the

@@ -1,8 +1,9 @@
 //! MuJoCo 4's multi-contact of convex pairs (`mjc_multicontact` of
 //! engine_collision_gjk.c, the `multiccd` flag, on by default): when the
 //! face that GJK or EPA ends on touches a face of each geom (box faces,
-//! cylinder caps) or a face of one and an edge of the other (box or
-//! cylinder side edges, a capsule's segment), the contact becomes the
+//! cylinder caps, the flat sides of a mesh's hull) or a face of one and an
+//! edge of the other (box, mesh or cylinder side edges, a capsule's
+//! segment), the contact becomes the
 //! polygon where the two features overlap, clipped as MuJoCo clips it, with
 //! up to four points.
 //!
@@ -11,7 +12,10 @@
 //! when they overlap). A face is the list of its corners in the world frame;
 //! a feature is the set of distinct shape vertices (indices, see
 //! [`Vertex`]) that the final simplex face holds on one geom: one vertex, an
-//! edge or a face. Cylinder caps are MuJoCo's 16-gons. Tolerances are
+//! edge or a face. A mesh's faces are its hull's sides
+//! ([`Mesh::polygons`]), walked in reverse as MuJoCo's `mesh_face` does; a
+//! side's cycle may start at another vertex than qhull's, so a polygon
+//! reduced to four corners may keep others than MuJoCo. Cylinder caps are MuJoCo's 16-gons. Tolerances are
 //! MuJoCo's: faces are aligned within 0.0889 rad, an edge lies in a face
 //! within the same angle.
 
