@@ -15,8 +15,9 @@
 //! edge or a face. A mesh's faces are its hull's sides
 //! ([`Mesh::polygons`]), walked in reverse as MuJoCo's `mesh_face` does; a
 //! side's cycle may start at another vertex than qhull's, so a polygon
-//! reduced to four corners may keep others than MuJoCo. Cylinder caps are MuJoCo's 16-gons. Tolerances are
-//! MuJoCo's: faces are aligned within 0.0889 rad, an edge lies in a face
+//! reduced to four corners may keep others than MuJoCo. Cylinder caps are
+//! MuJoCo's 16-gons. Tolerances are MuJoCo's: faces are aligned within
+//! 0.0889 rad, an edge lies in a face
 //! within the same angle.
 
 use nalgebra::Vector3;
@@ -730,14 +731,15 @@ mod tests {
             radius: 0.05,
             half_length: 0.08,
         };
-        let along_x = [0.7071067811865476, 0.0, 0.7071067811865476, 0.0];
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let along_x = [h, 0.0, h, 0.0];
         let c = on_mesh_box(capsule, Vector3::new(0.0, 0.05, 0.345), along_x);
         assert_mujocos(&c, &[[-0.08, 0.05], [0.08, 0.05]], level);
         let cylinder = Shape::Cylinder {
             radius: 0.05,
             half_length: 0.08,
         };
-        let along_y = [0.7071067811865476, 0.7071067811865476, 0.0, 0.0];
+        let along_y = [h, h, 0.0, 0.0];
         let c = on_mesh_box(cylinder, Vector3::new(0.01, -0.02, 0.345), along_y);
         let x = 0.00999479005396101;
         assert_mujocos(
