@@ -24,148 +24,34 @@ KNOWN_FAILURES = {
         "load: <option>: noslip_iterations is not supported",
     "example-robot-data:alex_description/urdf/alex_nub_hands.urdf":
         "load: <mesh>: mesh file '<example-robot-data>/alex_description/meshes/cycloidal_arm/nub.obj': mesh volume is too small: nub . Try setting inertia to shell",
-    "example-robot-data:alex_description/urdf/alex_psyonic_hands.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:alex_description/urdf/alex_sake_hands.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:anymal_b_simple_description/robots/anymal-kinova.urdf":
-        "rest: rollout step 0: geoms 0 and 44 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:b1_description/urdf/b1-z1.urdf":
-        "rest: rollout step 0: geoms 30 and 38 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:baxter_description/urdf/baxter.urdf":
-        "rest: rollout step 0: geoms 6 and 2 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:bolt_description/robots/bolt.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:borinot_description/urdf/borinot_flying_arm_2.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:centauro_description/urdf/centauro.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:double_pendulum_description/urdf/double_pendulum.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:double_pendulum_description/urdf/double_pendulum_continuous.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:finger_edu_description/robots/finger_edu.urdf":
-        "rest: rollout step 0: geoms 0 and 4 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:g1_description/urdf/g1_29dof_rev_1_0.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:go2_description/urdf/go2.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:hextilt_description/urdf/hextilt_flying_arm_5.urdf":
-        "rest: rollout step 0: geoms 0 and 2 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:human_description/robots/human.urdf":
         "rest: rollout step 707: the step diverged: the next state is not finite; fastest: dof 23 of joint 'right_shoulder_Z' (|v| = 1.456e266; a joint too light or too stiff for the timestep?), at q = -2.9110e263 beyond its range",
-    "example-robot-data:hyq_description/robots/hyq_no_sensors.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:icub_description/robots/icub.urdf":
-        "pinocchio: error 1.7e-12 > 1e-12 | rest: rollout step 0: geoms 0 and 2 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
+        "pinocchio: error 1.7e-12 > 1e-12 | rest: rollout step 10: the step diverged: the next state is not finite; fastest: dof 29 of joint 'r_wrist_prosup' (|v| = 6.637e161; a joint too light or too stiff for the timestep?), at q = -1.3274e159 beyond its range; 66 contacts, the deepest between geoms 22 '' and 27 '' at distance -1.060e-1",
     "example-robot-data:icub_description/robots/icub_reduced.urdf":
-        "rest: rollout step 0: geoms 0 and 2 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:kinova_description/robots/kinova.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:panda_description/urdf/panda.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:pr2_description/urdf/pr2.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
+        "rest: rollout step 11: the step diverged: the next state is not finite; fastest: dof 28 of joint 'r_wrist_yaw' (|v| = 1.696e257; a joint too light or too stiff for the timestep?), at q = 3.3925e254 beyond its range; 58 contacts, the deepest between geoms 13 '' and 14 '' at distance -9.048e-2",
     "example-robot-data:romeo_description/urdf/romeo.urdf":
         "load: <link>: link 'RThumb3Link' moves (joint 'RThumb3') but neither it nor any link below it has mass or inertia, so that joint has no inertia (Pinocchio's ABA gives NaN, MuJoCo refuses it); give the link an <inertial>",
-    "example-robot-data:romeo_description/urdf/romeo_small.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:so_arm_description/urdf/so100.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "example-robot-data:so_arm_description/urdf/so101.urdf":
-        "rest: rollout step 0: geoms 0 and 4 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:solo_description/robots/solo.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:solo_description/robots/solo12.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:talos_data/robots/talos_full_v2.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:talos_data/robots/talos_full_v2_box.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:talos_data/robots/talos_left_arm.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:talos_data/robots/talos_reduced.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:talos_data/robots/talos_reduced_box.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:talos_data/robots/talos_reduced_corrected.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:tiago_description/robots/tiago.urdf":
-        "rest: rollout step 0: geoms 3 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
+        "rest: rollout step 64: the step diverged: the next state is not finite; fastest: dof 2 of joint 'elbow_flex' (|v| = 7.809e303; a joint too light or too stiff for the timestep?), at q = 1.5619e301 beyond its range; 12 contacts, the deepest between geoms 1 '' and 6 '' at distance -2.918e-2",
     "example-robot-data:tiago_description/robots/tiago_dual.urdf":
-        "one_step: PyBullet: getJointState failed. | rest: rollout step 0: geoms 0 and 11 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:tiago_description/robots/tiago_no_hand.urdf":
-        "rest: rollout step 0: geoms 3 and 0 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:tiago_pro_description/robots/tiago_pro.urdf":
-        "rest: rollout step 0: geoms 0 and 17 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:ur_description/urdf/ur10_joint_limited_robot.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:ur_description/urdf/ur10_robot.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:ur_description/urdf/ur3_gripper.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:ur_description/urdf/ur3_joint_limited_robot.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:ur_description/urdf/ur3_robot.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:ur_description/urdf/ur5_gripper.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:ur_description/urdf/ur5_joint_limited_robot.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:ur_description/urdf/ur5_robot.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:xarm_description/urdf/xarm7.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "example-robot-data:z1_description/urdf/z1.urdf":
-        "rest: rollout step 0: geoms 0 and 8 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
+        "one_step: PyBullet: getJointState failed.",
     "pybullet_data:bicycle/bike.urdf":
         "load: <origin>: xyz: expected 3 finite numbers, got '0.07, 0, -0.69'",
     "pybullet_data:biped/biped2d_pybullet.urdf":
         "load: XML syntax error: unexpected XML declaration at 4:1",
     "pybullet_data:differential/diff_ring.urdf":
         "load: XML syntax error: unexpected XML declaration at 2:1",
-    "pybullet_data:franka_panda/panda.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "pybullet_data:humanoid/humanoid.urdf":
         "load: XML syntax error: unknown token at 288:1",
     "pybullet_data:husky/husky.urdf":
         "load: <origin>: xyz: expected 3 finite numbers, got '$(optenv HUSKY_IMU_XYZ 0.19 0 0.149)'",
-    "pybullet_data:kuka_iiwa/model.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:kuka_iiwa/model_free_base.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:kuka_iiwa/model_vr_limits.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:laikago/laikago.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:laikago/laikago_toes.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:laikago/laikago_toes_limits.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:laikago/laikago_toes_zup.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:laikago/laikago_toes_zup_lores.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:mini_cheetah/mini_cheetah.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:pr2_gripper.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "pybullet_data:quadruped/microtaur/microtaur.urdf":
         "load: <origin>: rpy: expected 3 finite numbers, got '0 1.57079 0 0'",
-    "pybullet_data:r2d2.urdf":
-        "rest: rollout step 0: geoms 0 and 10 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
     "pybullet_data:racecar/racecar_differential.urdf":
         "load: <mesh>: scale: expected 3 finite numbers, got '1 1 1 1'",
     "pybullet_data:spherical_joint_limit.urdf":
         "load: <joint>: unknown joint type 'spherical'",
-    "pybullet_data:xarm/xarm6_robot.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:xarm/xarm6_robot_white.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
-    "pybullet_data:xarm/xarm6_with_gripper.urdf":
-        "rest: rollout step 0: geoms 0 and 1 (model geom indices) are within reach and the constraint model has no collider for their shapes yet (see diffosi::dynamics::collision); switch their contacts off (contype/conaffinity, <exclude>) or use the smooth contact model",
 }
 
 CASES = corpus.discover()

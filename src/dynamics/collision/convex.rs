@@ -4,9 +4,12 @@
 //! primitives and meshes: an ellipsoid against a sphere, a capsule, an
 //! ellipsoid, a cylinder, a box or a mesh, and a sphere against a mesh (one
 //! contact; a mesh is its hull, [`Mesh::support`]), and a cylinder against
-//! a capsule, a cylinder or a box, where touching faces or edges add
-//! MuJoCo's multiccd contacts (up to four, [`super::multiccd`]; all share
-//! the first one's frame).
+//! a capsule, a cylinder or a box and a capsule, cylinder, box or mesh
+//! against a mesh, where touching faces or edges add MuJoCo's multiccd
+//! contacts (up to four, [`super::multiccd`]; all share the first one's
+//! frame). Between boxes and meshes without margin (MuJoCo's discrete
+//! pairs, [`Body::discrete`]) GJK runs without tolerance and EPA until a
+//! support vertex repeats.
 //!
 //! Each geom is a [`Body`]: its shape at its world pose, grown by half the
 //! pair margin (so the bodies overlap exactly when the geoms are within the
@@ -41,7 +44,7 @@ use super::multiccd;
 use super::{normalize, Assets, Placed, Pre};
 use crate::model::mesh::Mesh;
 use crate::model::{Shape, CCD_ITERATIONS, CCD_TOLERANCE};
-use crate::spatial::{lift, Real};
+use crate::spatial::{lift, lift_vector, Real};
 
 /// How GJK sees a geom: whole, or a sphere as its centre and a capsule as
 /// its segment (their radii added back to the distance).
@@ -65,7 +68,7 @@ pub(super) struct Body<'a, T: Real> {
     /// vertices in the working frame (pos and mat unused).
     prism: Option<&'a [Vector3<T>; 6]>,
     /// A mesh shape's mesh, whose hull is the body.
-    mesh: Option<&'a Mesh>,
+    pub mesh: Option<&'a Mesh>,
 }
 
 impl<'a, T: Real> Body<'a, T> {
@@ -107,14 +110,18 @@ impl<'a, T: Real> Body<'a, T> {
         }
     }
 
-    /// The point farthest along the unit world direction `dir`.
-    pub fn support(&self, dir: &Vector3<T>) -> Vector3<T> {
+    /// The point farthest along the unit world direction `dir`, and
+    /// MuJoCo's index of the shape vertex there (see
+    /// [`Vertex`](super::gjk::Vertex)): a box corner's sign bits (x 1, y 2,
+    /// z 4, set on the + side), a cylinder's cap (0 top, 1 bottom), a mesh
+    /// vertex's index; -1 for other shapes, cores and prisms.
+    pub fn support(&self, dir: &Vector3<T>) -> (Vector3<T>, i32) {
         if let Some(p) = self.prism {
-            return super::hfield::prism_support(p, dir);
+            return (super::hfield::prism_support(p, dir), -1);
         }
         let [_, half_length, _] = self.shape.size();
         match self.core {
-            Core::Point => self.pos,
+            Core::Point => (self.pos, -1),
             Core::Segment => {
                 let axis = self.mat.column(2).into_owned();
                 let h = if axis.dot(dir) >= T::zero() {
@@ -122,42 +129,50 @@ impl<'a, T: Real> Body<'a, T> {
                 } else {
                     -half_length
                 };
-                self.pos + axis * lift::<T>(h)
+                (self.pos + axis * lift::<T>(h), -1)
             }
             Core::Whole => {
-                let mut p = if let Shape::Sphere { radius } = self.shape {
-                    dir * lift::<T>(*radius) + self.pos
+                let (mut p, index) = if let Shape::Sphere { radius } = self.shape {
+                    (dir * lift::<T>(*radius) + self.pos, -1)
                 } else {
                     let local = self.mat.tr_mul(dir);
-                    let s = match self.mesh {
-                        Some(mesh) => mesh.support(&local),
-                        None => self.shape.support(&local).unwrap_or_else(Vector3::zeros),
-                    };
-                    self.mat * s + self.pos
+                    let (s, index) = self.local_support(&local);
+                    (self.mat * s + self.pos, index)
                 };
                 if self.margin > T::zero() {
                     p += dir * (lift::<T>(0.5) * self.margin);
                 }
-                p
+                (p, index)
             }
         }
     }
 
-    /// MuJoCo's vertex index of the support point along `dir` (see
-    /// [`Vertex`](super::gjk::Vertex)): a box corner's sign bits (x 1, y 2,
-    /// z 4, set on the + side), a cylinder's cap (0 top, 1 bottom); -1 for
-    /// other shapes, cores and prisms.
-    pub fn vertex_index(&self, dir: &Vector3<T>) -> i32 {
-        if self.prism.is_some() || self.core != Core::Whole {
-            return -1;
+    /// The whole shape's support point and vertex index along the geom-frame
+    /// direction `local`.
+    fn local_support(&self, local: &Vector3<T>) -> (Vector3<T>, i32) {
+        if let Some(mesh) = self.mesh {
+            return match mesh.support_vertex(local) {
+                Some(i) => (lift_vector(&mesh.vertices[i]), i as i32),
+                None => (Vector3::zeros(), -1),
+            };
         }
-        let local = self.mat.tr_mul(dir);
+        let s = self.shape.support(local).unwrap_or_else(Vector3::zeros);
         let plus = |x: T| x >= T::zero();
-        match self.shape {
+        let index = match self.shape {
             Shape::Box { .. } => (0..3).filter(|&k| plus(local[k])).map(|k| 1 << k).sum(),
             Shape::Cylinder { .. } => i32::from(!plus(local.z)),
             _ => -1,
-        }
+        };
+        (s, index)
+    }
+
+    /// Whether MuJoCo counts the body discrete (`discreteGeoms`): a box, a
+    /// mesh or a height-field prism without margin, whose GJK and EPA run
+    /// to exact convergence.
+    pub fn discrete(&self) -> bool {
+        self.margin == T::zero()
+            && (self.prism.is_some()
+                || matches!(self.shape, Shape::Box { .. } | Shape::Mesh { .. }))
     }
 
     /// The radius GJK's core leaves out: a sphere's or capsule's radius,

@@ -9,8 +9,9 @@
 //! out of the polytope (its normal scaled by its distance). The result is
 //! the nearest face's witness points on A and B (the same affine
 //! combination of its vertices' support points) and the penetration depth,
-//! negative. Only smooth pairs come here (a box or mesh against a box or
-//! mesh, MuJoCo's "discrete" pairs, have colliders of their own).
+//! negative. Between discrete bodies (boxes and meshes without margin,
+//! [`Body::discrete`]) the loop ends at a repeated support vertex, its
+//! tolerance MuJoCo's minimum (mjMINEPATOL, mjMINVAL in double precision).
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -377,6 +378,14 @@ impl<T: Real> Polytope<T> {
         }
     }
 
+    /// Whether vertex `wi` repeats the shape vertices of an earlier one.
+    fn repeated(&self, wi: usize) -> bool {
+        let w = &self.verts[wi];
+        self.verts[..wi]
+            .iter()
+            .any(|v| v.i1 == w.i1 && v.i2 == w.i2)
+    }
+
     /// MuJoCo's `epa` loop.
     fn expand(
         &mut self,
@@ -386,7 +395,10 @@ impl<T: Real> Polytope<T> {
     ) -> Option<Penetration<T>> {
         let far = lift::<T>(f64::MAX);
         let (mut upper, mut upper2) = (far, far);
-        let tolerance = lift::<T>(tolerance);
+        // Discrete bodies end in finitely many steps; a small tolerance keeps
+        // the bounds from vanishing.
+        let discrete = bodies.0.discrete() && bodies.1.discrete();
+        let tolerance = lift::<T>(if discrete { MINVAL } else { tolerance });
         let mut face: Option<usize> = None;
         for k in 0..max_iterations {
             let previous = face;
@@ -417,6 +429,9 @@ impl<T: Real> Polytope<T> {
                 if k == 0 && upper < lower - lift(1e-10) {
                     face = None;
                 }
+                break;
+            }
+            if discrete && self.repeated(wi) {
                 break;
             }
             self.horizon.clear();

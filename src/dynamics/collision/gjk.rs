@@ -36,14 +36,14 @@ pub(super) struct Vertex<T: Real> {
 impl<T: Real> Vertex<T> {
     /// The support vertex of A - B along the unit direction `dir`.
     pub fn along(a: &Body<T>, b: &Body<T>, dir: &Vector3<T>) -> Self {
-        let p1 = a.support(dir);
-        let p2 = b.support(&-dir);
+        let (p1, i1) = a.support(dir);
+        let (p2, i2) = b.support(&-dir);
         Vertex {
             w: p1 - p2,
             p1,
             p2,
-            i1: a.vertex_index(dir),
-            i2: b.vertex_index(&-dir),
+            i1,
+            i2,
         }
     }
 }
@@ -73,8 +73,13 @@ pub(super) fn gjk<T: Real>(
     let mut simplex: Vec<Vertex<T>> = Vec::with_capacity(4);
     let mut lambda = [T::zero(); 4];
     let (mut x1, mut x2) = (a.centre(), b.centre());
-    let epsilon: T = lift(0.5 * tolerance * tolerance);
-    let min_norm: T = lift(tolerance);
+    // Discrete bodies converge in finitely many steps: no tolerance.
+    let discrete = a.discrete() && b.discrete();
+    let (epsilon, min_norm): (T, T) = if discrete {
+        (T::zero(), lift(MINVAL))
+    } else {
+        (lift(0.5 * tolerance * tolerance), lift(tolerance))
+    };
     let mut x = x1 - x2;
     let (mut x_norm, mut x_norm_prev) = (x.norm(), T::zero());
     let apart = || Gjk {

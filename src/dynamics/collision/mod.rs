@@ -38,12 +38,12 @@
 //! capsule, cylinder and box; capsule against capsule and box; box against
 //! box; an ellipsoid against the other primitives, and a cylinder against a
 //! capsule, a cylinder or a box (GJK and EPA, convex.rs, with MuJoCo's
-//! multi-contact for the cylinder pairs, multiccd.rs; the plane-ellipsoid
-//! pair by its support point, plane.rs); a sphere or an ellipsoid against a
-//! mesh (convex.rs on the mesh's hull); a height field against a sphere,
-//! capsule, ellipsoid or cylinder (hfield.rs). A model may hold other pairs
-//! (capsules, cylinders, boxes or meshes against a mesh, a height field
-//! against a box or mesh): a step refuses to run while one of them is
+//! multi-contact for the pairs with faces or edges, multiccd.rs; the
+//! plane-ellipsoid pair by its support point, plane.rs); a sphere, capsule,
+//! ellipsoid, cylinder, box or mesh against a mesh (convex.rs on the mesh's
+//! hull, multiccd on its sides); a height field against a sphere, capsule,
+//! ellipsoid or cylinder (hfield.rs). A model may hold other pairs (a
+//! height field against a box or mesh): a step refuses to run while one is
 //! within reach ([`super::StepError::NoCollider`]). Each [`Entry`] states
 //! what it takes: the general convex collider runs MuJoCo's default
 //! settings only (under other `ccd_iterations`, `ccd_tolerance`, with
@@ -81,8 +81,7 @@
 //! `exact(cylinder::cylinder)`. The general convex collider (convex.rs,
 //! GJK in gjk.rs and EPA in epa.rs) reads the shapes through
 //! [`Shape::support`]; an entry becomes `ccd(convex::convex)` once its
-//! pair's contacts are MuJoCo's (mesh pairs beyond spheres and ellipsoids
-//! wait for mesh polygons in multiccd.rs).
+//! pair's contacts are MuJoCo's.
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -221,11 +220,11 @@ impl<T: Real> Colliders<T> {
         [None, None, exact(plane::sphere), exact(plane::capsule), exact(plane::ellipsoid), exact(plane::cylinder), exact(plane::cuboid), exact(mesh::plane)],
         [None, None, ccd_bare(hfield::hfield), ccd_bare(hfield::hfield), ccd_bare(hfield::hfield), ccd_bare(hfield::hfield), None, None],
         [None, None, exact(sphere::sphere), exact(sphere::capsule), ccd(convex::convex), exact(sphere::cylinder), exact(sphere::cuboid), ccd(convex::convex)],
-        [None, None, None, exact(capsule::capsule), ccd(convex::convex), ccd(convex::convex), exact(capsule::cuboid), None],
+        [None, None, None, exact(capsule::capsule), ccd(convex::convex), ccd(convex::convex), exact(capsule::cuboid), ccd(convex::convex)],
         [None, None, None, None, ccd(convex::convex), ccd(convex::convex), ccd(convex::convex), ccd(convex::convex)],
-        [None, None, None, None, None, ccd(convex::convex), ccd(convex::convex), None], // cylinder
-        [None, None, None, None, None, None, exact(box_box::cuboid), None],
-        [None; NTYPES], // mesh
+        [None, None, None, None, None, ccd(convex::convex), ccd(convex::convex), ccd(convex::convex)], // cylinder
+        [None, None, None, None, None, None, exact(box_box::cuboid), ccd(convex::convex)],
+        [None, None, None, None, None, None, None, ccd(convex::convex)], // mesh
     ];
 }
 
@@ -396,7 +395,7 @@ mod tests {
             .flat_map(|&a| types.iter().map(move |&b| (a, b)))
             .filter(|&(a, b)| a <= b && supported(a, b, &Ccd::default(), 0.0))
             .count();
-        assert_eq!(count, 27);
+        assert_eq!(count, 31);
         let (h, ccd) = (GeomType::Hfield, Ccd::default());
         assert!(supported(GeomType::Capsule, h, &ccd, 0.0));
         assert!(!supported(h, GeomType::Capsule, &ccd, 0.01));

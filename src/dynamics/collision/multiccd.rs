@@ -1,8 +1,9 @@
 //! MuJoCo 4's multi-contact of convex pairs (`mjc_multicontact` of
 //! engine_collision_gjk.c, the `multiccd` flag, on by default): when the
 //! face that GJK or EPA ends on touches a face of each geom (box faces,
-//! cylinder caps) or a face of one and an edge of the other (box or
-//! cylinder side edges, a capsule's segment), the contact becomes the
+//! cylinder caps, the flat sides of a mesh's hull) or a face of one and an
+//! edge of the other (box, mesh or cylinder side edges, a capsule's
+//! segment), the contact becomes the
 //! polygon where the two features overlap, clipped as MuJoCo clips it, with
 //! up to four points.
 //!
@@ -11,8 +12,12 @@
 //! when they overlap). A face is the list of its corners in the world frame;
 //! a feature is the set of distinct shape vertices (indices, see
 //! [`Vertex`]) that the final simplex face holds on one geom: one vertex, an
-//! edge or a face. Cylinder caps are MuJoCo's 16-gons. Tolerances are
-//! MuJoCo's: faces are aligned within 0.0889 rad, an edge lies in a face
+//! edge or a face. A mesh's faces are its hull's sides
+//! ([`Mesh::polygons`]), walked in reverse as MuJoCo's `mesh_face` does; a
+//! side's cycle may start at another vertex than qhull's, so a polygon
+//! reduced to four corners may keep others than MuJoCo. Cylinder caps are
+//! MuJoCo's 16-gons. Tolerances are MuJoCo's: faces are aligned within
+//! 0.0889 rad, an edge lies in a face
 //! within the same angle.
 
 use nalgebra::Vector3;
@@ -20,8 +25,9 @@ use nalgebra::Vector3;
 use super::convex::Body;
 use super::gjk::Vertex;
 use super::{normalize, GeomType};
+use crate::model::mesh::Mesh;
 use crate::model::{Shape, MINVAL};
-use crate::spatial::{lift, Real};
+use crate::spatial::{lift, lift_vector, Real};
 
 /// The angle within which faces count as aligned (MuJoCo's FACE_TOL is its
 /// cosine, EDGE_TOL its sine).
@@ -234,8 +240,44 @@ fn face_normals<T: Real>(g: &Body<T>, f: &Feature<T>, dir: &Vector3<T>) -> Vec<N
             let axis = g.mat.column(2).into_owned();
             vec![(if top { axis } else { -axis }, f.index[0] as usize)]
         }
+        Shape::Mesh { .. } => mesh_normals(g, f),
         _ => vec![],
     }
+}
+
+/// The sides of a mesh that hold vertex v, in side order (MuJoCo's
+/// `mesh_polymap`).
+fn sides_at(mesh: &Mesh, v: i32) -> impl Iterator<Item = usize> + '_ {
+    let v = usize::try_from(v).ok();
+    mesh.polygons
+        .iter()
+        .enumerate()
+        .filter(move |(_, p)| v.is_some_and(|v| p.vertices.contains(&v)))
+        .map(|(k, _)| k)
+}
+
+/// MuJoCo's `mesh_normals`: the sides that hold every vertex of the
+/// feature (the first two sides an edge's ends share, the first side of a
+/// face's three vertices, every side at a single vertex).
+fn mesh_normals<T: Real>(g: &Body<T>, f: &Feature<T>) -> Vec<Normal<T>> {
+    let Some(mesh) = g.mesh else {
+        return vec![];
+    };
+    let corners = &f.index[..f.dim];
+    let common = sides_at(mesh, corners[0])
+        .filter(|&k| {
+            corners[1..]
+                .iter()
+                .all(|&c| usize::try_from(c).is_ok_and(|c| mesh.polygons[k].vertices.contains(&c)))
+        })
+        .take(match f.dim {
+            1 => usize::MAX,
+            2 => 2,
+            _ => 1,
+        });
+    common
+        .map(|k| (g.mat * lift_vector::<T>(&mesh.polygons[k].normal), k))
+        .collect()
 }
 
 /// The normal of box face k (0 +x, 1 -x, 2 +y, 3 -y, 4 +z, 5 -z) in the world.
@@ -341,6 +383,7 @@ fn edges<T: Real>(g: &Body<T>, f: &Feature<T>, w: Vector3<T>) -> Option<Edges<T>
             }
             Some(line(v, axis * sign, lift(2.0 * half)))
         }
+        Shape::Mesh { .. } => mesh_edges(g, f),
         Shape::Capsule { .. } => {
             let along = (w - g.pos).dot(&axis);
             let h = lift::<T>(half);
@@ -348,6 +391,32 @@ fn edges<T: Real>(g: &Body<T>, f: &Feature<T>, w: Vector3<T>) -> Option<Edges<T>
         }
         _ => None,
     }
+}
+
+/// MuJoCo's `mesh_edge_normals`: a mesh's edge between the feature's two
+/// vertices, or at a single vertex the edge to its predecessor on each side
+/// that holds it.
+fn mesh_edges<T: Real>(g: &Body<T>, f: &Feature<T>) -> Option<Edges<T>> {
+    let mesh = g.mesh?;
+    let vertex = |i: usize| g.mat * lift_vector::<T>(&mesh.vertices[i]) + g.pos;
+    let first = usize::try_from(f.index[0]).ok()?;
+    let start = vertex(first);
+    let ends: Vec<Vector3<T>> = match f.dim {
+        2 => vec![vertex(usize::try_from(f.index[1]).ok()?)],
+        1 => sides_at(mesh, f.index[0])
+            .filter_map(|k| {
+                let cycle = &mesh.polygons[k].vertices;
+                let j = cycle.iter().position(|&v| v == first)?;
+                Some(vertex(cycle[(j + cycle.len() - 1) % cycle.len()]))
+            })
+            .collect(),
+        _ => return None,
+    };
+    let ends = ends
+        .into_iter()
+        .map(|e| (normalize(e - start).0, e))
+        .collect();
+    Some(Edges { start, ends })
 }
 
 /// The corners of face k of a geom (MuJoCo's `box_face`, `cylinder_face`).
@@ -385,6 +454,15 @@ fn face_of<T: Real>(g: &Body<T>, k: usize) -> Vec<Vector3<T>> {
                 })
                 .collect()
         }
+        // A mesh side's vertices in reverse order (MuJoCo's `mesh_face`).
+        Shape::Mesh { .. } => g.mesh.map_or_else(Vec::new, |mesh| {
+            mesh.polygons[k]
+                .vertices
+                .iter()
+                .rev()
+                .map(|&v| g.mat * lift_vector::<T>(&mesh.vertices[v]) + g.pos)
+                .collect()
+        }),
         _ => vec![],
     }
 }
@@ -562,6 +640,113 @@ mod tests {
             &mut out,
         );
         out
+    }
+
+    /// A mesh box of half-sizes 0.1, 0.2, 0.3 (its mesh frame the geom's, as
+    /// MuJoCo compiles it) and a geom of `other` at `pos`, rotated by `quat`
+    /// (w, x, y, z), against it.
+    fn on_mesh_box(other: Shape, pos: Vector3<f64>, quat: [f64; 4]) -> Vec<Pre<f64>> {
+        use crate::model::mesh::{compile, MeshSettings, RawMesh};
+        // Corner i: bit k of i sets the + side along axis k.
+        let vertices = (0..8)
+            .map(|i: usize| {
+                let side = |k: usize| if i >> k & 1 == 1 { 1.0f32 } else { -1.0 };
+                [0.1 * side(0), 0.2 * side(1), 0.3 * side(2)]
+            })
+            .collect();
+        let raw = RawMesh {
+            vertices,
+            faces: vec![],
+        };
+        let settings = MeshSettings {
+            needs_hull: true,
+            ..Default::default()
+        };
+        let assets = Assets {
+            meshes: vec![compile("box", &raw, &settings).unwrap()],
+            hfields: vec![],
+        };
+        let [w, x, y, z] = quat;
+        let rotation =
+            nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z));
+        let (a, b) = (
+            Placed {
+                pos,
+                mat: rotation.to_rotation_matrix().into_inner(),
+            },
+            Placed {
+                pos: Vector3::zeros(),
+                mat: Matrix3::identity(),
+            },
+        );
+        let mut out = vec![];
+        convex(
+            &assets,
+            (&other, &a),
+            (&Shape::Mesh { mesh: 0 }, &b),
+            0.0,
+            &mut out,
+        );
+        out
+    }
+
+    /// Each contact equals one of MuJoCo's points (x, y; z = 0.2975, midway
+    /// into the mesh top, a single-precision vertex at 0.3), all at depth
+    /// `depth` with the normal -z.
+    fn assert_mujocos(c: &[Pre<f64>], mujoco: &[[f64; 2]], (z, depth): (f64, f64)) {
+        assert_eq!(c.len(), mujoco.len());
+        for c in c {
+            let near = mujoco
+                .iter()
+                .map(|[x, y]| (c.pos - Vector3::new(*x, *y, z)).norm())
+                .fold(f64::INFINITY, f64::min);
+            assert!(near < 1e-12, "{}", c.pos);
+            assert!((c.dist + depth).abs() < 1e-12, "{}", c.dist);
+            assert!((c.normal + Vector3::z()).norm() < 1e-12, "{}", c.normal);
+        }
+    }
+
+    #[test]
+    fn geoms_resting_on_a_mesh_face_take_mujocos_clipped_contacts() {
+        // mj_forward (MuJoCo 4.0.0) on each geom 5 mm into the mesh box's top face:
+        // a box turned 0.2 rad about z (four corners), a capsule along x and a
+        // cylinder along y (their side lines' ends).
+        let cube = Shape::Box {
+            half: Vector3::new(0.05, 0.05, 0.05),
+        };
+        let turned = [0.9950041652780258, 0.0, 0.0, 0.09983341664682815];
+        let c = on_mesh_box(cube, Vector3::new(0.02, 0.01, 0.345), turned);
+        let level = (0.29750000596046444, 0.005000011920928971);
+        assert_mujocos(
+            &c,
+            &[
+                [-0.03893679543181514, 0.049069862352309],
+                [0.05906986235230904, 0.06893679543181513],
+                [0.07893679543181514, -0.02906986235230902],
+                [-0.01906986235230903, -0.04893679543181512],
+            ],
+            level,
+        );
+        let capsule = Shape::Capsule {
+            radius: 0.05,
+            half_length: 0.08,
+        };
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let along_x = [h, 0.0, h, 0.0];
+        let c = on_mesh_box(capsule, Vector3::new(0.0, 0.05, 0.345), along_x);
+        assert_mujocos(&c, &[[-0.08, 0.05], [0.08, 0.05]], level);
+        let cylinder = Shape::Cylinder {
+            radius: 0.05,
+            half_length: 0.08,
+        };
+        let along_y = [h, h, 0.0, 0.0];
+        let c = on_mesh_box(cylinder, Vector3::new(0.01, -0.02, 0.345), along_y);
+        let x = 0.00999479005396101;
+        assert_mujocos(
+            &c,
+            &[[x, 0.06], [x, -0.1]],
+            (0.29750000609618216, 0.0050000116494935964),
+        );
     }
 
     #[test]

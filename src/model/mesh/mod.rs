@@ -133,27 +133,33 @@ impl Mesh {
     /// vertices when no hull was built): a hull vertex farthest along `dir`
     /// (mesh frame; ties to the lowest index).
     pub fn support<T: Real>(&self, dir: &Vector3<T>) -> Vector3<T> {
+        self.support_vertex(dir)
+            .map_or_else(Vector3::zeros, |i| lift_vector(&self.vertices[i]))
+    }
+
+    /// The index of [`Mesh::support`]'s vertex (None for a mesh without
+    /// vertices).
+    pub fn support_vertex<T: Real>(&self, dir: &Vector3<T>) -> Option<usize> {
         match &self.hull {
             Some(h) => self.farthest(h.vertices.iter().copied(), dir),
             None => self.farthest(0..self.vertices.len(), dir),
         }
     }
 
-    /// The first of the vertices `indices` farthest along `dir` (zero for none).
+    /// The first of the vertices `indices` farthest along `dir`.
     fn farthest<T: Real>(
         &self,
         indices: impl Iterator<Item = usize>,
         dir: &Vector3<T>,
-    ) -> Vector3<T> {
-        let mut best: Option<(T, Vector3<T>)> = None;
+    ) -> Option<usize> {
+        let mut best: Option<(T, usize)> = None;
         for i in indices {
-            let v = lift_vector::<T>(&self.vertices[i]);
-            let reach = dir.dot(&v);
+            let reach = dir.dot(&lift_vector::<T>(&self.vertices[i]));
             if best.as_ref().is_none_or(|(r, _)| reach > *r) {
-                best = Some((reach, v));
+                best = Some((reach, i));
             }
         }
-        best.map_or_else(Vector3::zeros, |(_, v)| v)
+        best.map(|(_, i)| i)
     }
 
     /// Principal moments of inertia of the mesh with mass `mass`, along the
