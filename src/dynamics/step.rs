@@ -199,10 +199,10 @@ pub fn step_actuated<T: Real>(
             act_rates(&tree.actuators, (ctrl, act), &mut rate);
             total.copy_from_slice(tau);
             let inputs = (ctrl, act, &rate[..]);
-            add_actuator_forces(tree, h, (q, v), inputs, &mut total);
+            add_actuator_forces(tree, h, data, (q, v), inputs, &mut total);
             if opt.integrator.is_implicit() {
                 let slope = data.implicit.actuator_slope();
-                add_force_velocity_derivatives(tree, h, (q, v), inputs, slope);
+                add_force_velocity_derivatives(tree, h, &data.actuator, inputs, slope);
                 implicit_step(tree, data, (q, v, &total), next);
                 data.implicit.actuator_slope();
             } else {
