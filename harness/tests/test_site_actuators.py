@@ -136,3 +136,11 @@ def test_bad_site_targets_name_the_line(tmp_path, actuator, message):
                     '</actuator></mujoco>')
     with pytest.raises(ValueError, match=message):
         diffosi.Model.load(str(path))
+
+
+def test_gain_derivatives_are_refused_by_name(tmp_path):
+    """The dual path does not carry an actuator's gain and bias yet: asking for them says so."""
+    m, ours = models(tmp_path, "site_actuators")
+    q, v, act, ctrl, tau = sample(m, np.random.default_rng(5))
+    with pytest.raises(ValueError, match="nor with actuators on sites or spatial tendons"):
+        ours.step_jacobians(q, v, tau, params=["actuator/reach/gain"], ctrl=ctrl, act=act)

@@ -1,8 +1,8 @@
 //! Actuation as MuJoCo's mj_transmission and mj_fwdActuation compute it,
-//! for actuators on a hinge or slide joint or on a tendon
+//! for actuators on a hinge or slide joint, a tendon or a site
 //! ([`crate::model::Actuator`] states the law and its conventions): each
-//! actuator's length l, velocity l' and moment ([`ActuatorTerm::length`],
-//! [`ActuatorTerm::add_moment`], the one place they are computed), controls
+//! actuator's length l, velocity l' and moment ([`transmissions`], the one
+//! place they are computed, into [`Data::actuator`]), controls
 //! clamped to their ranges, activation rates, the actuators' scalar forces
 //! clamped to their force ranges, and the generalized force moment f. The
 //! activation integrates as MuJoCo's
@@ -543,5 +543,37 @@ mod tests {
         assert!((diagonal[0] + 2.0 * 1.5 * 1.5).abs() < 1e-14);
         let early = 0.25 + 0.01 * (0.9 - 0.25) / 0.2;
         assert!((diagonal[1] - (-0.7 * early - 0.3)).abs() < 1e-14);
+    }
+
+    /// A site transmission relative to a reference site on an ancestor: its
+    /// moment is dl/dq (the dofs both share cleared, where l is constant),
+    /// its velocity moment v; a Cartesian motor's length is 0.
+    #[test]
+    fn site_moment_is_the_lengths_slope() {
+        let xml = r#"<mujoco><worldbody><body><joint axis="0 0 1"/><geom size="0.1"/>
+          <site name="r" pos="0.1 0 0.05" euler="0.3 -0.2 0.5"/>
+          <body pos="0.2 0 0"><joint axis="0 1 0"/><geom size="0.1"/>
+            <body pos="0.3 0 0"><joint axis="1 0 0"/><geom size="0.1"/>
+              <site name="s" pos="0.1 0.05 0" euler="-0.4 0.1 0.2"/></body></body></body>
+          </worldbody><actuator>
+            <motor site="s" refsite="r" gear="0.6 -0.8 0.3 0.4 0.2 -0.5"/>
+            <motor site="s" gear="1 2 3 4 5 6"/></actuator></mujoco>"#;
+        let model = Model::from_mjcf(xml, "t.xml").unwrap();
+        let dual_tree = Tree::build_with(&model, |_, _, x| Dual64::from(x));
+        let mut data = Data::new(&dual_tree);
+        let (q, v) = ([0.4, -0.7, 1.1], [0.3, -0.5, 0.9]);
+        let lift = |x: &[f64]| x.iter().map(|&x| Dual64::from(x)).collect::<Vec<_>>();
+        for dof in 0..3 {
+            let mut qd = lift(&q);
+            qd[dof].eps = 1.0;
+            transmissions(&dual_tree, &mut data, (&qd, &lift(&v)));
+            let [relative, motor] = [0, 1].map(|i| &data.actuator[i]);
+            let slope = relative.length.eps;
+            assert!((relative.moment[dof].re - slope).abs() < 1e-14, "dof {dof}");
+            assert_eq!(motor.length.re, 0.0);
+            let speed: f64 = relative.moment.iter().zip(&v).map(|(m, v)| m.re * v).sum();
+            assert!((relative.velocity.re - speed).abs() < 1e-14);
+        }
+        assert_eq!(data.actuator[0].moment[0].re, 0.0);
     }
 }

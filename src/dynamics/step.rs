@@ -90,11 +90,13 @@ pub enum StepError {
     NoActuatorDerivatives,
     /// Derivatives in an actuator's gain or bias where every block comes
     /// from dual numbers (RK4 or the implicit integrators with actuators
-    /// whose force reads the state or an activation).
+    /// whose force reads the state or an activation; any integrator with
+    /// actuators on sites or spatial tendons).
     #[error(
         "derivatives in an actuator's gain or bias are not supported yet under the {0:?} \
          integrator with actuators whose force reads the joint or an activation (servos, \
-         filters); use Euler"
+         filters), nor with actuators on sites or spatial tendons; use Euler with actuators \
+         on joints or fixed tendons"
     )]
     NoActuatorParamDerivatives(crate::model::Integrator),
     /// The same for models with gravity compensation.
