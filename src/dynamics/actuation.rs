@@ -545,9 +545,11 @@ mod tests {
         assert!((diagonal[1] - (-0.7 * early - 0.3)).abs() < 1e-14);
     }
 
-    /// A site transmission relative to a reference site on an ancestor: its
-    /// moment is dl/dq (the dofs both share cleared, where l is constant),
-    /// its velocity moment v; a Cartesian motor's length is 0.
+    /// A translational site transmission relative to a reference site on an
+    /// ancestor: its moment is dl/dq (the dofs both share cleared, where l
+    /// is constant), its velocity moment v; a Cartesian motor's length is 0.
+    /// (A rotational gear's moment is MuJoCo's angular Jacobian, not the
+    /// slope of its rotation vector; the harness checks it against MuJoCo.)
     #[test]
     fn site_moment_is_the_lengths_slope() {
         let xml = r#"<mujoco><worldbody><body><joint axis="0 0 1"/><geom size="0.1"/>
@@ -556,7 +558,7 @@ mod tests {
             <body pos="0.3 0 0"><joint axis="1 0 0"/><geom size="0.1"/>
               <site name="s" pos="0.1 0.05 0" euler="-0.4 0.1 0.2"/></body></body></body>
           </worldbody><actuator>
-            <motor site="s" refsite="r" gear="0.6 -0.8 0.3 0.4 0.2 -0.5"/>
+            <motor site="s" refsite="r" gear="0.6 -0.8 0.3 0 0 0"/>
             <motor site="s" gear="1 2 3 4 5 6"/></actuator></mujoco>"#;
         let model = Model::from_mjcf(xml, "t.xml").unwrap();
         let dual_tree = Tree::build_with(&model, |_, _, x| Dual64::from(x));
