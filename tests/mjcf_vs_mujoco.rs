@@ -281,7 +281,7 @@ fn compare(model: &Model, g: &Value) -> [(&'static str, Worst); 5] {
             a.name
         );
         let at = |what: &str| format!("actuator {} {what}", a.name);
-        actuators.scalar(&at("gear"), a.gear, f(&e["gear"]), f64::MIN_POSITIVE);
+        actuators.scalar(&at("gear"), a.gear[0], f(&e["gear"]), f64::MIN_POSITIVE);
         let gain = match a.gain {
             Gain::Fixed(g) | Gain::Affine([g, _, _]) => g,
         };

@@ -333,7 +333,9 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
             (&b.gain, &b.bias, &b.dynamics, &b.act_early),
             "{model}"
         );
-        worst.number(|| format!("actuator '{name}' gear"), *gear, b.gear);
+        for (k, (g, h)) in gear.iter().zip(&b.gear).enumerate() {
+            worst.number(|| format!("actuator '{name}' gear[{k}]"), *g, *h);
+        }
         worst.number(|| format!("actuator '{name}' damping"), *damping, b.damping);
         worst.number(
             || format!("actuator '{name}' armature"),

@@ -186,7 +186,7 @@ fn assert_finite_model(model: &Model) {
         let range = a.ctrl_range.map_or([0.0, 0.0], |(lo, hi)| [lo, hi]);
         finite(
             &format!("actuator '{}'", a.name),
-            &mut [a.gear].into_iter().chain(range),
+            &mut a.gear.into_iter().chain(range),
         );
     }
     for g in &model.geoms {

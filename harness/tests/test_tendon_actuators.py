@@ -89,9 +89,9 @@ def test_sensors_read_as_mj_forward(tmp_path):
 BAD = [
     ('<motor tendon="nowhere"/>', r"bad.xml:4: <motor>: unknown tendon 'nowhere'"),
     ('<motor joint="h" tendon="t"/>', r"bad.xml:4: <motor>: an actuator has one transmission target"),
-    ('<motor site="s"/>', r"bad.xml:4: <motor>: actuators on a site are not supported"),
+    ('<motor site="nowhere"/>', r"bad.xml:4: <motor>: unknown site 'nowhere'"),
     ('<position tendon="t" kp="1" inheritrange="1"/>', r"bad.xml:4: <position>: inheritrange needs"),
-    ('<motor tendon="t" damping="1"/>', r"actuator 'bad'.*tendon are not supported"),
+    ('<motor tendon="t" damping="1"/>', r"actuator 'bad'.*tendon or site are not supported"),
 ]
 
 

@@ -100,13 +100,6 @@ def test_bad_spatial_tendons_name_the_line(tmp_path, tendon, message):
 
 
 
-def test_an_actuator_on_a_spatial_tendon_is_refused(tmp_path):
-    path = tmp_path / "bad.xml"
-    text = BODY.format('<spatial name="t"><site site="w"/><site site="s"/></spatial>')
-    path.write_text(text.replace("</mujoco>", '<actuator><motor tendon="t"/></actuator></mujoco>'))
-    with pytest.raises(ValueError, match="actuators on a spatial tendon are not supported"):
-        diffosi.Model.load(str(path))
-
 SIDES = {
     # The sphere without its sidesite (the shorter way round), the cylinder
     # held by one below it.

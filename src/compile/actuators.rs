@@ -1,6 +1,7 @@
 //! Actuator constants MuJoCo's compiler derives: a position servo's damping
 //! from its damping ratio (`dampratio`).
 
+use crate::dynamics::actuation::transmissions;
 use crate::dynamics::{crba, ltdl_factor, ltdl_solve, Data, Tree};
 use crate::model::{Bias, Gain, Spec};
 
@@ -9,7 +10,7 @@ use crate::model::{Bias, Gain, Spec};
 /// MuJoCo's compiler does: kv = ratio 2 sqrt(kp m), m = 1 / (r^T M^-1 r)
 /// the mass the actuator sees, r its moment and M the mass matrix (armature
 /// included) at the reference configuration (for a joint, r = gear on its
-/// dof).
+/// dof; [`transmissions`]).
 /// Returns whether any changed.
 pub(super) fn resolve_damp_ratios(spec: &mut Spec, tree: &Tree<f64>) -> bool {
     let has_ratio = |gain: Gain, bias: Bias| match (gain, bias) {
@@ -26,7 +27,9 @@ pub(super) fn resolve_damp_ratios(spec: &mut Spec, tree: &Tree<f64>) -> bool {
         return false;
     }
     let mut data = Data::new(tree);
-    crba(tree, &mut data, &spec.reference_q());
+    let q0 = spec.reference_q();
+    crba(tree, &mut data, &q0);
+    transmissions(tree, &mut data, (&q0, &vec![0.0; tree.nv()]));
     let mut factor = data.mass_matrix.clone();
     ltdl_factor(tree, &mut factor);
     for i in 0..spec.actuators.len() {
@@ -34,7 +37,7 @@ pub(super) fn resolve_damp_ratios(spec: &mut Spec, tree: &Tree<f64>) -> bool {
         let Some((kp, ratio)) = has_ratio(a.gain, a.bias) else {
             continue;
         };
-        let moment = tree.actuators[i].moment(&tree.tendons, tree.nv());
+        let moment = &data.actuator[i].moment;
         let mut column = moment.clone();
         ltdl_solve(tree, &factor, &mut column);
         let seen: f64 = moment.iter().zip(&column).map(|(r, x)| r * x).sum();

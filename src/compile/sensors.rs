@@ -16,10 +16,11 @@ use nalgebra::{DVector, Matrix3, Quaternion, UnitQuaternion, Vector3};
 
 use super::ray::{ray_mesh, ray_shape};
 use super::Model;
+use crate::dynamics::actuation::transmissions;
 use crate::dynamics::constraint::{contact_forces, ConstraintKind, Origin};
 use crate::dynamics::{
     acceleration, check_actuation, check_colliders, crba, rnea_with_transforms, world_frames,
-    Constrained, Contact, Data, StepError,
+    Constrained, Contact, Data, StepError, TendonState,
 };
 use crate::model::MINVAL;
 use crate::model::{
@@ -92,10 +93,12 @@ impl Model {
         self.place(data, x, u)?;
         let (q, v, tau) = (&x.q[..], &x.v[..], &u.tau[..]);
         check_colliders(tree, data, (q, v))?;
-        let actuator_force = self.scalar_actuator_forces(x, u);
+        transmissions(tree, data, (q, v));
+        let transmission = data.actuator.clone();
+        let actuator_force = self.scalar_actuator_forces(&transmission, x, u);
         let mut applied = tau.to_vec();
-        for (a, f) in tree.actuators.iter().zip(&actuator_force) {
-            a.add_moment(&tree.tendons, *f, &mut applied);
+        for (s, f) in transmission.iter().zip(&actuator_force) {
+            s.add_dense(*f, &mut applied);
         }
         let mut qdd = vec![0.0; self.nv()];
         let mode = (PassiveMode::Explicit, self.opt.timestep);
@@ -118,6 +121,7 @@ impl Model {
                 bodies: &bodies,
                 constrained: data.constrained.as_ref(),
                 actuator_force: &actuator_force,
+                transmission: &transmission,
                 contacts: &contacts,
                 kinetic,
             };
@@ -133,15 +137,21 @@ impl Model {
 
     /// Each actuator's scalar force (MuJoCo's actuator_force) at x under
     /// u's controls (an empty ctrl or act is zero).
-    fn scalar_actuator_forces(&self, x: &State, u: &Inputs) -> Vec<f64> {
+    fn scalar_actuator_forces(
+        &self,
+        transmission: &[TendonState<f64>],
+        x: &State,
+        u: &Inputs,
+    ) -> Vec<f64> {
         let h = self.opt.timestep;
         let entry = |xs: &[f64], i: Option<usize>| i.and_then(|i| xs.get(i)).map_or(0.0, |&y| y);
         let tree = self.tree();
         tree.actuators
             .iter()
+            .zip(transmission)
             .enumerate()
-            .map(|(i, a)| {
-                let at = a.length(&tree.tendons, (&x.q, &x.v));
+            .map(|(i, (a, s))| {
+                let at = (s.length, s.velocity);
                 a.scalar_force(h, at, (entry(&u.ctrl, Some(i)), entry(&x.act, a.act)))
             })
             .collect()
@@ -341,8 +351,8 @@ impl Model {
                 out.extend(frame.rot.tr_mul(&world).iter());
             }
             SensorKind::Actuator(quantity, i) => {
-                let a = &self.tree().actuators[*i];
-                let (l, ld) = a.length(&self.tree().tendons, (q, v));
+                let s = &inputs.transmission[*i];
+                let (l, ld) = (s.length, s.velocity);
                 out.push(match quantity {
                     ActuatorQuantity::Pos => l,
                     ActuatorQuantity::Vel => ld,
@@ -351,10 +361,9 @@ impl Model {
             }
             SensorKind::JointActuatorForce(j) => {
                 let dof = self.joint_address(*j).1;
-                let tree = self.tree();
                 let mut on_dof = vec![0.0; self.nv()];
-                for (a, f) in tree.actuators.iter().zip(inputs.actuator_force) {
-                    a.add_moment(&tree.tendons, *f, &mut on_dof);
+                for (s, f) in inputs.transmission.iter().zip(inputs.actuator_force) {
+                    s.add_dense(*f, &mut on_dof);
                 }
                 out.push(on_dof[dof]);
             }
@@ -460,6 +469,8 @@ struct Readings<'a> {
     bodies: &'a Bodies,
     constrained: Option<&'a Constrained<f64>>,
     actuator_force: &'a [f64],
+    /// The actuators' transmissions ([`transmissions`]).
+    transmission: &'a [TendonState<f64>],
     contacts: &'a [Contact<f64>],
     kinetic: f64,
 }

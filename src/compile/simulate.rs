@@ -17,14 +17,25 @@ pub struct RolloutError {
 impl Model {
     /// Generalized forces from motor controls: tau = sum moment gain u
     /// (moment = gear on a joint's dof), for models whose actuators are all
-    /// motor-like ([`crate::model::Actuator::force_per_control`]; others add
-    /// nothing here: step them with ctrl, [`Model::step`]).
+    /// motor-like ([`crate::model::Actuator::force_per_control`]) on joints
+    /// or fixed tendons, whose moments are the same at every state (others
+    /// add nothing here: step them with ctrl, [`Model::step`]).
     pub fn actuator_forces(&self, u: &[f64]) -> Vec<f64> {
         let mut tau = vec![0.0; self.nv()];
         let tree = self.tree();
-        for ((a, term), &ui) in self.actuators.iter().zip(&tree.actuators).zip(u) {
+        let mut data = self.data();
+        let q0 = self.reference_q();
+        dynamics::actuation::transmissions(tree, &mut data, (&q0, &tau));
+        let terms = self
+            .actuators
+            .iter()
+            .zip(&tree.actuators)
+            .zip(&data.actuator);
+        for (((a, term), s), &ui) in terms.zip(u) {
             if let (Some(_), Gain::Fixed(g)) = (a.force_per_control(), a.gain) {
-                term.add_moment(&tree.tendons, g * ui, &mut tau);
+                if !term.reads_frames(tree) {
+                    s.add_dense(g * ui, &mut tau);
+                }
             }
         }
         tau
@@ -54,7 +65,9 @@ impl Model {
         act_rates(actuators, (ctrl, &x.act), &mut rates);
         let mut force = vec![0.0; self.nv()];
         let (h, state) = (self.opt.timestep, (&x.q[..], &x.v[..]));
-        add_actuator_forces(&self.tree, h, state, (ctrl, &x.act, &rates), &mut force);
+        let mut data = self.data();
+        let inputs = (ctrl, &x.act[..], &rates[..]);
+        add_actuator_forces(&self.tree, h, &mut data, state, inputs, &mut force);
         force
     }
 

@@ -16,7 +16,7 @@ use super::gravcomp::gravcomp_bodies;
 use super::invweight::invweight0;
 use super::pairs::{collision_pairs, contact_pairs, lawless_pairs};
 use super::tendon::tendon_consts;
-use crate::dynamics::actuation::{ActuatorTerm, Target};
+use crate::dynamics::actuation::{ActuatorTerm, SiteFrame, Target};
 use crate::dynamics::collision::{Assets, CollisionPair, GeomFrame, Sweep};
 use crate::dynamics::configuration::Coordinates;
 use crate::dynamics::constraint::Limit;
@@ -306,7 +306,7 @@ pub fn mass_properties<T: Real>(
 }
 
 /// The actuators with their targets (a joint's addresses, a tendon's
-/// index) and their activations' indices (in actuator order).
+/// index, a site's frame) and their activations' indices (in actuator order).
 pub(super) fn actuator_terms(model: &Spec) -> Vec<ActuatorTerm> {
     let mut next_act = 0;
     model
@@ -319,6 +319,20 @@ pub(super) fn actuator_terms(model: &Spec) -> Vec<ActuatorTerm> {
                     Target::Joint { q_at, dof }
                 }
                 Transmission::Tendon(t) => Target::Tendon(t),
+                Transmission::Site { site, refsite } => {
+                    let frame = |s: usize| {
+                        let s = &model.sites[s];
+                        SiteFrame {
+                            body: s.body,
+                            pos: s.pos,
+                            rot: *s.rot.matrix(),
+                        }
+                    };
+                    Target::Site {
+                        site: frame(site),
+                        refsite: refsite.map(frame),
+                    }
+                }
             };
             let act = a.has_act().then(|| {
                 next_act += 1;

@@ -11,7 +11,8 @@
 //! Phi_tau F_(ctrl, act). F = r f(l, l', ctrl, act) with r the actuator's
 //! moment, constant in q for joint and fixed-tendon transmissions, and
 //! (l, l') = (r q, r v) (in the tangent space), so F_q = r f_l r^T and F_v
-//! = r f_l' r^T. f's partials and act' = next(ctrl, act)'s come from dual
+//! = r f_l' r^T. A site or spatial-tendon moment moves with q: such
+//! actuators take the dual path below. f's partials and act' = next(ctrl, act)'s come from dual
 //! numbers through the generic actuation code (one actuator at a time: it
 //! reads its length and velocity, its ctrl and its act). The same holds
 //! under RK4 when F is the same at every stage (no activation, no length
@@ -28,6 +29,7 @@ use num_dual::Dual64;
 
 use super::constrained::{tangent_point, tangent_slope, DualTrees};
 use super::step::{applied_jacobians, StepJacobians, Workspace, Wrt};
+use crate::dynamics::actuation::transmissions;
 use crate::dynamics::integrator::tableau;
 use crate::dynamics::{check_actuation, check_inputs, step_actuated, StepError};
 use crate::model::Param;
@@ -68,8 +70,11 @@ pub fn input_jacobians(
     check_actuation(tree, (ctrl, act))?;
     // Under RK4 F changes between stages; under the implicit integrators
     // its velocity slope joins the matrix solved: no chain rule through tau.
+    // A moment that moves with q (a site, a spatial tendon) has F_q beyond
+    // r f_l r^T: the dual path too.
     let staged = tableau(model.opt.integrator).is_some() || model.opt.integrator.is_implicit();
-    if staged && !tree.actuators.iter().all(|a| a.state_independent()) {
+    let moving = tree.actuators.iter().any(|a| a.reads_frames(tree));
+    if moving || staged && !tree.actuators.iter().all(|a| a.state_independent()) {
         if wrt.params.iter().any(|p| p.is_actuator()) {
             return Err(StepError::NoActuatorParamDerivatives(model.opt.integrator));
         }
@@ -100,10 +105,11 @@ pub fn input_jacobians(
     let mut partials = Vec::with_capacity(nu);
     let mut law_slopes = Vec::with_capacity(nu);
     let mut moments = Vec::with_capacity(nu);
-    for (i, a) in tree.actuators.iter().enumerate() {
+    transmissions(tree, &mut ws.data, (q, v));
+    for (i, (a, s)) in tree.actuators.iter().zip(&ws.data.actuator).enumerate() {
         let c = ctrl.get(i).copied().unwrap_or(0.0);
         let current = a.act.and_then(|k| act.get(k).copied()).unwrap_or(0.0);
-        let (l, ld) = a.length(&tree.tendons, (q, v));
+        let (l, ld) = (s.length, s.velocity);
         let point = [l, ld, c, current];
         let seeded = |s: usize| {
             let x: [Dual64; 4] = std::array::from_fn(|j| Dual64::new(point[j], f64::from(j == s)));
@@ -111,13 +117,13 @@ pub fn input_jacobians(
         };
         let outputs: [(Dual64, Dual64); 4] = std::array::from_fn(seeded);
         let (force, next) = outputs[0];
-        a.add_moment(&tree.tendons, force.re, &mut total);
+        s.add_dense(force.re, &mut total);
         if let Some(k) = a.act {
             act_next[k] = next.re;
         }
         partials.push((outputs.map(|(f, _)| f.eps), outputs.map(|(_, x)| x.eps)));
         law_slopes.push(a.law_slopes(h, (l, ld), (c, current)));
-        moments.push(a.moment(&tree.tendons, n));
+        moments.push(s.moment.clone());
     }
     let inner = Wrt {
         control: true,

@@ -1,8 +1,8 @@
 //! Actuation as MuJoCo's mj_transmission and mj_fwdActuation compute it,
-//! for actuators on a hinge or slide joint or on a tendon
+//! for actuators on a hinge or slide joint, a tendon or a site
 //! ([`crate::model::Actuator`] states the law and its conventions): each
-//! actuator's length l, velocity l' and moment ([`ActuatorTerm::length`],
-//! [`ActuatorTerm::add_moment`], the one place they are computed), controls
+//! actuator's length l, velocity l' and moment ([`transmissions`], the one
+//! place they are computed, into [`Data::actuator`]), controls
 //! clamped to their ranges, activation rates, the actuators' scalar forces
 //! clamped to their force ranges, and the generalized force moment f. The
 //! activation integrates as MuJoCo's
@@ -12,12 +12,14 @@
 //! Inputs may be empty: an empty ctrl is zero controls, an empty act zero
 //! activations (so a step without them is MuJoCo's with ctrl = 0, act = 0).
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, Matrix3, Rotation3, UnitQuaternion, Vector3};
 
-use super::tendon::TendonConsts;
-use super::Tree;
+use super::configuration::difference;
+use super::kinematics::body_pose;
+use super::tendon::{Path, TendonState};
+use super::{tendon_states, update_transforms, world_frames, Data, Tree};
 use crate::model::{ActDynamics, Actuator, Bias, Gain};
-use crate::spatial::{lift, Real};
+use crate::spatial::{lift, lift_vector, Real};
 
 /// MuJoCo's mjMINVAL: the smallest filter time constant used.
 const MIN_TIME_CONSTANT: f64 = crate::model::MINVAL;
@@ -32,42 +34,87 @@ pub struct ActuatorTerm {
 }
 
 /// An actuator's transmission in the compiled tree: a joint's coordinate
-/// address and dof, or a tendon's index into [`Tree::tendons`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// address and dof, a tendon's index into [`Tree::tendons`], or a site
+/// with its reference site.
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Target {
-    Joint { q_at: usize, dof: usize },
+    Joint {
+        q_at: usize,
+        dof: usize,
+    },
     Tendon(usize),
+    Site {
+        site: SiteFrame,
+        refsite: Option<SiteFrame>,
+    },
+}
+
+/// A site as a transmission reads it: its body (model index), and its
+/// position and axes (columns) in the body's frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SiteFrame {
+    pub body: usize,
+    pub pos: Vector3<f64>,
+    pub rot: Matrix3<f64>,
 }
 
 impl ActuatorTerm {
-    /// Its length and velocity (l, l') = gear (x, x') at (q, v): x the
-    /// joint's coordinate or the tendon's length.
-    pub fn length<T: Real>(&self, tendons: &[TendonConsts<T>], (q, v): (&[T], &[T])) -> (T, T) {
-        let gear: T = lift(self.law.gear);
-        let (x, xd) = match self.target {
-            Target::Joint { q_at, dof } => (q[q_at], v[dof]),
-            // Actuators sit on fixed tendons only (Spec::check).
-            Target::Tendon(t) => tendons[t]
-                .fixed_length((q, v))
-                .unwrap_or((T::zero(), T::zero())),
-        };
-        (gear * x, gear * xd)
-    }
-
-    /// Adds s times its moment gear dx/dq (nv) to `out`.
-    pub fn add_moment<T: Real>(&self, tendons: &[TendonConsts<T>], s: T, out: &mut [T]) {
-        let gs = s * lift(self.law.gear);
+    /// Whether its length and moment read the world frames (a site, a
+    /// spatial tendon); otherwise they need (q, v) alone and its moment is
+    /// the same at every q.
+    pub fn reads_frames<T: Real>(&self, tree: &Tree<T>) -> bool {
         match self.target {
-            Target::Joint { dof, .. } => out[dof] += gs,
-            Target::Tendon(t) => tendons[t].add_fixed_moment(gs, out),
+            Target::Joint { .. } => false,
+            Target::Tendon(t) => matches!(tree.tendons[t].path, Path::Spatial(_)),
+            Target::Site { .. } => true,
         }
     }
 
-    /// Its moment as a vector (nv).
-    pub fn moment<T: Real>(&self, tendons: &[TendonConsts<T>], nv: usize) -> Vec<T> {
-        let mut m = vec![T::zero(); nv];
-        self.add_moment(tendons, T::one(), &mut m);
-        m
+    /// Its length l, velocity l' and moment (nv) into `out` at (q, v), the
+    /// frames (and the tendons' states) in `data` being those at (q, v)
+    /// when it [reads them](Self::reads_frames).
+    fn transmission<T: Real>(
+        &self,
+        tree: &Tree<T>,
+        data: &Data<T>,
+        (q, v): (&[T], &[T]),
+        out: &mut TendonState<T>,
+    ) {
+        let gear: T = lift(self.law.gear[0]);
+        out.moment.fill(T::zero());
+        let (x, xd) = match self.target {
+            Target::Joint { q_at, dof } => {
+                out.moment[dof] = gear;
+                (q[q_at], v[dof])
+            }
+            Target::Tendon(t) => match tree.tendons[t].fixed_length((q, v)) {
+                Some(length) => {
+                    tree.tendons[t].add_fixed_moment(gear, &mut out.moment);
+                    length
+                }
+                None => {
+                    let s = &data.tendon[t];
+                    s.add_moment(gear, &tree.tendons[t].support, &mut out.moment);
+                    (s.length, s.velocity)
+                }
+            },
+            Target::Site { site, refsite } => {
+                out.length = site_transmission(
+                    tree,
+                    data,
+                    (&site, refsite.as_ref()),
+                    self.law.gear,
+                    &mut out.moment,
+                );
+                out.velocity = out
+                    .moment
+                    .iter()
+                    .zip(v)
+                    .fold(T::zero(), |s, (m, v)| s + *m * *v);
+                return;
+            }
+        };
+        (out.length, out.velocity) = (gear * x, gear * xd);
     }
 
     /// The clamped control (0 for an empty ctrl).
@@ -225,24 +272,26 @@ impl ActuatorTerm {
     }
 }
 
-/// Adds the derivative of the actuators' generalized forces in v at (q, v,
-/// ctrl, act) to `qderiv` (nv x nv): an actuator's adds moment^T moment
-/// (gain_v w + bias_v) (gain_v, bias_v the velocity coefficients of an
-/// affine gain and bias, w its control or activation), nothing while its
-/// force range clamps it. This is MuJoCo's actuator term of qDeriv
-/// (mjd_actuator_vel), which its implicit and implicitfast integrators take
-/// implicitly (Euler does not); `rates` as in [`add_actuator_forces`].
+/// Adds the derivative of the actuators' generalized forces in v at the
+/// transmissions `states` ([`transmissions`]) and (ctrl, act) to `qderiv`
+/// (nv x nv): an actuator's adds moment^T moment (gain_v w + bias_v)
+/// (gain_v, bias_v the velocity coefficients of an affine gain and bias, w
+/// its control or activation), nothing while its force range clamps it.
+/// This is MuJoCo's actuator term of qDeriv (mjd_actuator_vel), which its
+/// implicit and implicitfast integrators take implicitly (Euler does not);
+/// `rates` as in [`add_actuator_forces`].
 pub fn add_force_velocity_derivatives<T: Real>(
     tree: &Tree<T>,
     h: f64,
-    (q, v): (&[T], &[T]),
+    states: &[TendonState<T>],
     (ctrl, act, rates): (&[T], &[T], &[T]),
     qderiv: &mut DMatrix<T>,
 ) {
-    for (a, inputs) in with_inputs(&tree.actuators, (ctrl, act, rates)) {
-        let (force, slope) = a.raw_force(a.length(&tree.tendons, (q, v)), inputs, h);
+    let actuated = with_inputs(&tree.actuators, (ctrl, act, rates)).zip(states);
+    for ((a, inputs), s) in actuated {
+        let (force, slope) = a.raw_force((s.length, s.velocity), inputs, h);
         if clamp(force, a.law.force_range) == force && slope != T::zero() {
-            let m = a.moment(&tree.tendons, tree.nv());
+            let m = &s.moment;
             let on: Vec<usize> = (0..m.len()).filter(|&i| m[i] != T::zero()).collect();
             for &i in &on {
                 for &j in &on {
@@ -287,20 +336,139 @@ pub fn act_rates<T: Real>(actuators: &[ActuatorTerm], (ctrl, act): (&[T], &[T]),
     }
 }
 
+/// Each actuator's length, velocity and moment at (q, v) into
+/// `data.actuator` (in actuator order), the world frames and the tendons'
+/// states computed first when an actuator reads them
+/// ([`ActuatorTerm::reads_frames`]).
+pub fn transmissions<T: Real>(tree: &Tree<T>, data: &mut Data<T>, (q, v): (&[T], &[T])) {
+    if tree.actuators.iter().any(|a| a.reads_frames(tree)) {
+        update_transforms(tree, data, q);
+        world_frames(tree, data, v);
+        tendon_states(tree, data, (q, v));
+    }
+    let mut states = std::mem::take(&mut data.actuator);
+    states.resize_with(tree.actuators.len(), || TendonState::zero(tree.nv()));
+    for (a, out) in tree.actuators.iter().zip(&mut states) {
+        a.transmission(tree, data, (q, v), out);
+    }
+    data.actuator = states;
+}
+
 /// Adds the actuators' generalized forces moment f at (q, v, ctrl, act)
-/// to `force` (nv); `rates` are the activation rates at (ctrl, act)
+/// to `force` (nv), their transmissions left in `data.actuator`
+/// ([`transmissions`]); `rates` are the activation rates at (ctrl, act)
 /// ([`act_rates`]), which actearly actuators read.
 pub fn add_actuator_forces<T: Real>(
     tree: &Tree<T>,
     h: f64,
+    data: &mut Data<T>,
     (q, v): (&[T], &[T]),
     (ctrl, act, rates): (&[T], &[T], &[T]),
     force: &mut [T],
 ) {
-    for (a, inputs) in with_inputs(&tree.actuators, (ctrl, act, rates)) {
-        let f = a.force(a.length(&tree.tendons, (q, v)), inputs, h);
-        a.add_moment(&tree.tendons, f, force);
+    transmissions(tree, data, (q, v));
+    let actuated = with_inputs(&tree.actuators, (ctrl, act, rates)).zip(&data.actuator);
+    for ((a, inputs), s) in actuated {
+        let f = a.force((s.length, s.velocity), inputs, h);
+        s.add_dense(f, force);
     }
+}
+
+/// A site transmission's length (its moment into `moment`), as MuJoCo's
+/// mj_transmission computes it ([`crate::model::Actuator`]): without a
+/// reference site, the length is 0 and the moment J^T (R g_f, R g_t) (J the
+/// site's translation and rotation Jacobians, R its axes); with one (axes
+/// R_r), the length is g_f . R_r^T (p - p_r) + g_t . r, r the rotation
+/// vector of the site relative to the reference site (MuJoCo's mju_subQuat
+/// of their world quaternions), and the moment
+/// (J - J_r)^T (R_r g_f, R_r g_t) with the dofs both share cleared.
+fn site_transmission<T: Real>(
+    tree: &Tree<T>,
+    data: &Data<T>,
+    (site, refsite): (&SiteFrame, Option<&SiteFrame>),
+    gear: [f64; 6],
+    moment: &mut [T],
+) -> T {
+    let (force, torque) = (
+        Vector3::new(gear[0], gear[1], gear[2]).map(lift::<T>),
+        Vector3::new(gear[3], gear[4], gear[5]).map(lift::<T>),
+    );
+    let at = site_pose(tree, data, site);
+    let Some(refsite) = refsite else {
+        let wrench = (at.axes * force, at.axes * torque);
+        add_jacobian(tree, data, (at.node, &at.pos), wrench, T::one(), moment);
+        return T::zero();
+    };
+    let reference = site_pose(tree, data, refsite);
+    let offset = reference.axes.tr_mul(&(at.pos - reference.pos));
+    let turn = difference(&quaternion(&at.axes), &quaternion(&reference.axes));
+    let wrench = (reference.axes * force, reference.axes * torque);
+    add_jacobian(tree, data, (at.node, &at.pos), wrench, T::one(), moment);
+    let back = (reference.node, &reference.pos);
+    add_jacobian(tree, data, back, wrench, -T::one(), moment);
+    let mut shared = common_ancestor(tree, at.node, reference.node);
+    while let Some(k) = shared {
+        moment[k] = T::zero();
+        shared = tree.parent[k];
+    }
+    offset.dot(&force) + turn.dot(&torque)
+}
+
+/// A site's world pose at the frames `data` holds.
+struct SitePose<T: Real> {
+    pos: Vector3<T>,
+    axes: Matrix3<T>,
+    node: Option<usize>,
+}
+
+fn site_pose<T: Real>(tree: &Tree<T>, data: &Data<T>, site: &SiteFrame) -> SitePose<T> {
+    let x = body_pose(tree, data, site.body);
+    SitePose {
+        pos: x.trans + x.axes() * lift_vector(&site.pos),
+        axes: x.axes() * site.rot.map(lift::<T>),
+        node: tree.body[site.body].node,
+    }
+}
+
+/// The quaternion (w, x, y, z) of the rotation with axes `axes`.
+fn quaternion<T: Real>(axes: &Matrix3<T>) -> [T; 4] {
+    let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(*axes));
+    [q.w, q.i, q.j, q.k]
+}
+
+/// Adds s J^T (f, t) to `moment`, J the translation and rotation Jacobians
+/// of the world point p fixed to `node`'s frame.
+fn add_jacobian<T: Real>(
+    tree: &Tree<T>,
+    data: &Data<T>,
+    (node, p): (Option<usize>, &Vector3<T>),
+    (f, t): (Vector3<T>, Vector3<T>),
+    s: T,
+    moment: &mut [T],
+) {
+    let mut k = node;
+    while let Some(i) = k {
+        let axis = &data.world_axis[i];
+        moment[i] += s * (f.dot(&(axis.lin + axis.ang.cross(p))) + t.dot(&axis.ang));
+        k = tree.parent[i];
+    }
+}
+
+/// The deepest node both chains to the root pass through (parents precede
+/// their children).
+fn common_ancestor<T: Real>(
+    tree: &Tree<T>,
+    mut a: Option<usize>,
+    mut b: Option<usize>,
+) -> Option<usize> {
+    while let (Some(i), Some(j)) = (a, b) {
+        match i.cmp(&j) {
+            std::cmp::Ordering::Equal => return a,
+            std::cmp::Ordering::Less => b = tree.parent[j],
+            std::cmp::Ordering::Greater => a = tree.parent[i],
+        }
+    }
+    None
 }
 
 /// The activations after a step h from act at `rates` (MuJoCo's
@@ -347,9 +515,12 @@ mod tests {
         act_rates(&tree.actuators, (&ctrl[..], &act[..]), &mut rates);
         let mut qderiv = DMatrix::zeros(2, 2);
         let inputs = (&ctrl[..], &act[..], &rates[..]);
-        add_force_velocity_derivatives(tree, 0.01, (&q, &v), inputs, &mut qderiv);
+        let mut data = Data::new(tree);
+        transmissions(tree, &mut data, (&q, &v));
+        add_force_velocity_derivatives(tree, 0.01, &data.actuator, inputs, &mut qderiv);
         let diagonal = qderiv.diagonal();
         let dual_tree = Tree::build_with(&model, |_, _, x| Dual64::from(x));
+        let mut dual_data = Data::new(&dual_tree);
         assert_eq!((qderiv[(0, 1)], qderiv[(1, 0)]), (0.0, 0.0));
         for dof in 0..2 {
             let lift = |x: &[f64]| x.iter().map(|&x| Dual64::from(x)).collect::<Vec<_>>();
@@ -360,6 +531,7 @@ mod tests {
             add_actuator_forces(
                 &dual_tree,
                 0.01,
+                &mut dual_data,
                 (&lift(&q), &vd),
                 (&cd, &ad, &rd),
                 &mut force,
@@ -371,5 +543,39 @@ mod tests {
         assert!((diagonal[0] + 2.0 * 1.5 * 1.5).abs() < 1e-14);
         let early = 0.25 + 0.01 * (0.9 - 0.25) / 0.2;
         assert!((diagonal[1] - (-0.7 * early - 0.3)).abs() < 1e-14);
+    }
+
+    /// A translational site transmission relative to a reference site on an
+    /// ancestor: its moment is dl/dq (the dofs both share cleared, where l
+    /// is constant), its velocity moment v; a Cartesian motor's length is 0.
+    /// (A rotational gear's moment is MuJoCo's angular Jacobian, not the
+    /// slope of its rotation vector; the harness checks it against MuJoCo.)
+    #[test]
+    fn site_moment_is_the_lengths_slope() {
+        let xml = r#"<mujoco><worldbody><body><joint axis="0 0 1"/><geom size="0.1"/>
+          <site name="r" pos="0.1 0 0.05" euler="0.3 -0.2 0.5"/>
+          <body pos="0.2 0 0"><joint axis="0 1 0"/><geom size="0.1"/>
+            <body pos="0.3 0 0"><joint axis="1 0 0"/><geom size="0.1"/>
+              <site name="s" pos="0.1 0.05 0" euler="-0.4 0.1 0.2"/></body></body></body>
+          </worldbody><actuator>
+            <motor site="s" refsite="r" gear="0.6 -0.8 0.3 0 0 0"/>
+            <motor site="s" gear="1 2 3 4 5 6"/></actuator></mujoco>"#;
+        let model = Model::from_mjcf(xml, "t.xml").unwrap();
+        let dual_tree = Tree::build_with(&model, |_, _, x| Dual64::from(x));
+        let mut data = Data::new(&dual_tree);
+        let (q, v) = ([0.4, -0.7, 1.1], [0.3, -0.5, 0.9]);
+        let lift = |x: &[f64]| x.iter().map(|&x| Dual64::from(x)).collect::<Vec<_>>();
+        for dof in 0..3 {
+            let mut qd = lift(&q);
+            qd[dof].eps = 1.0;
+            transmissions(&dual_tree, &mut data, (&qd, &lift(&v)));
+            let [relative, motor] = [0, 1].map(|i| &data.actuator[i]);
+            let slope = relative.length.eps;
+            assert!((relative.moment[dof].re - slope).abs() < 1e-14, "dof {dof}");
+            assert_eq!(motor.length.re, 0.0);
+            let speed: f64 = relative.moment.iter().zip(&v).map(|(m, v)| m.re * v).sum();
+            assert!((relative.velocity.re - speed).abs() < 1e-14);
+        }
+        assert_eq!(data.actuator[0].moment[0].re, 0.0);
     }
 }

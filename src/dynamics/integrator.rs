@@ -349,7 +349,7 @@ pub(super) fn runge_kutta<T: Real>(
             act_rates(actuators, (ctrl, &act_stage[..]), &mut act_rate[k]);
             tau_stage.copy_from_slice(tau);
             let inputs = (ctrl, &act_stage[..], &act_rate[k][..]);
-            add_actuator_forces(tree, timestep, (q_stage, v_stage), inputs, tau_stage);
+            add_actuator_forces(tree, timestep, data, (q_stage, v_stage), inputs, tau_stage);
             if let Some(b) = tableau.b[k].times(T::one()) {
                 for (sum, r) in act_sum.iter_mut().zip(&act_rate[k]) {
                     *sum += b * *r;

@@ -93,6 +93,9 @@ pub struct Data<T: Real> {
     /// ([`tendon_states`]), in model order: what every consumer of a
     /// tendon's length, velocity and moment reads.
     pub tendon: Vec<TendonState<T>>,
+    /// The actuators' transmissions (length, velocity, moment) at the last
+    /// evaluation's state ([`actuation::transmissions`]), in actuator order.
+    pub actuator: Vec<TendonState<T>>,
     /// Scratch vectors: the acceleration's (nv each), and the integrator's.
     scratch: [Vec<T>; 3],
     /// The step's applied forces with the actuators' (nv) and the
@@ -139,6 +142,7 @@ impl<T: Real> Data<T> {
             constrained: None,
             mocap: mocap::poses(&tree.mocap_pos, &tree.mocap_quat),
             tendon: vec![],
+            actuator: vec![],
             scratch: std::array::from_fn(|_| vec![T::zero(); n]),
             actuated: vec![T::zero(); n],
             act_rate: vec![T::zero(); tree.na],

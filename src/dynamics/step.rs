@@ -90,11 +90,13 @@ pub enum StepError {
     NoActuatorDerivatives,
     /// Derivatives in an actuator's gain or bias where every block comes
     /// from dual numbers (RK4 or the implicit integrators with actuators
-    /// whose force reads the state or an activation).
+    /// whose force reads the state or an activation; any integrator with
+    /// actuators on sites or spatial tendons).
     #[error(
         "derivatives in an actuator's gain or bias are not supported yet under the {0:?} \
          integrator with actuators whose force reads the joint or an activation (servos, \
-         filters); use Euler"
+         filters), nor with actuators on sites or spatial tendons; use Euler with actuators \
+         on joints or fixed tendons"
     )]
     NoActuatorParamDerivatives(crate::model::Integrator),
     /// The same for models with gravity compensation.
@@ -199,10 +201,10 @@ pub fn step_actuated<T: Real>(
             act_rates(&tree.actuators, (ctrl, act), &mut rate);
             total.copy_from_slice(tau);
             let inputs = (ctrl, act, &rate[..]);
-            add_actuator_forces(tree, h, (q, v), inputs, &mut total);
+            add_actuator_forces(tree, h, data, (q, v), inputs, &mut total);
             if opt.integrator.is_implicit() {
                 let slope = data.implicit.actuator_slope();
-                add_force_velocity_derivatives(tree, h, (q, v), inputs, slope);
+                add_force_velocity_derivatives(tree, h, &data.actuator, inputs, slope);
                 implicit_step(tree, data, (q, v, &total), next);
                 data.implicit.actuator_slope();
             } else {

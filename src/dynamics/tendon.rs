@@ -74,7 +74,8 @@ pub enum Element<T: Real> {
     Pulley(T),
 }
 
-/// A tendon's kinematics at one state.
+/// A tendon's kinematics at one state (also an actuator's transmission,
+/// [`super::actuation::transmissions`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct TendonState<T: Real> {
     /// L (metres, or radians for a fixed tendon of hinges).
@@ -86,32 +87,62 @@ pub struct TendonState<T: Real> {
 }
 
 impl<T: Real> TendonState<T> {
+    /// Zero length, velocity and moment (nv).
+    pub fn zero(nv: usize) -> Self {
+        TendonState {
+            length: T::zero(),
+            velocity: T::zero(),
+            moment: vec![T::zero(); nv],
+        }
+    }
+
     /// Adds s J to `out` (nv) over the support `dofs`.
     pub fn add_moment(&self, s: T, dofs: &[usize], out: &mut [T]) {
         for &d in dofs {
             out[d] += s * self.moment[d];
         }
     }
+
+    /// Adds s J to `out` (nv) over every dof.
+    pub fn add_dense(&self, s: T, out: &mut [T]) {
+        for (o, m) in out.iter_mut().zip(&self.moment) {
+            *o += s * *m;
+        }
+    }
 }
 
 impl<T: Real> TendonConsts<T> {
     /// The dofs it moves, descending and distinct.
-    pub fn dofs(&self) -> Vec<usize> {
-        self.support.clone()
+    pub fn dofs(&self) -> &[usize] {
+        &self.support
     }
 
     /// Its length, velocity and moment at the state whose frames `data`
     /// holds (`x_up` at q; for a spatial tendon also
     /// [`world_frames`](super::world_frames)).
     pub fn state(&self, tree: &Tree<T>, data: &Data<T>, (q, v): (&[T], &[T])) -> TendonState<T> {
-        let mut moment = vec![T::zero(); tree.nv()];
-        let (length, velocity) = match &self.path {
+        let mut out = TendonState::zero(tree.nv());
+        self.fill_state(tree, data, (q, v), &mut out);
+        out
+    }
+
+    /// [`Self::state`] into `out` (its moment nv long).
+    fn fill_state(
+        &self,
+        tree: &Tree<T>,
+        data: &Data<T>,
+        (q, v): (&[T], &[T]),
+        out: &mut TendonState<T>,
+    ) {
+        let moment = &mut out.moment;
+        moment.fill(T::zero());
+        (out.length, out.velocity) = match &self.path {
             Path::Fixed(terms) => {
-                self.add_fixed_moment(T::one(), &mut moment);
+                self.add_fixed_moment(T::one(), moment);
                 fixed_length(terms, (q, v))
             }
             Path::Spatial(elements) => {
-                let length = spatial(tree, data, elements, &mut moment);
+                let length = spatial(tree, data, elements, moment);
                 let velocity = self
                     .support
                     .iter()
@@ -120,11 +151,6 @@ impl<T: Real> TendonConsts<T> {
                 (length, velocity)
             }
         };
-        TendonState {
-            length,
-            velocity,
-            moment,
-        }
     }
 
     /// A fixed tendon's length and velocity at (q, v), which need no
@@ -167,13 +193,14 @@ fn fixed_length<T: Real>(terms: &[(usize, usize, T)], (q, v): (&[T], &[T])) -> (
     (sum(q, |t| t.0), sum(v, |t| t.1))
 }
 
-/// Every tendon's state into `data.tendon` (frames as [`TendonConsts::state`]).
+/// Every tendon's state into `data.tendon` (frames as [`TendonConsts::state`]),
+/// reusing its buffers.
 pub fn tendon_states<T: Real>(tree: &Tree<T>, data: &mut Data<T>, (q, v): (&[T], &[T])) {
-    let states = tree
-        .tendons
-        .iter()
-        .map(|t| t.state(tree, data, (q, v)))
-        .collect();
+    let mut states = std::mem::take(&mut data.tendon);
+    states.resize_with(tree.tendons.len(), || TendonState::zero(tree.nv()));
+    for (t, out) in tree.tendons.iter().zip(&mut states) {
+        t.fill_state(tree, data, (q, v), out);
+    }
     data.tendon = states;
 }
 

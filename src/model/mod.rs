@@ -233,10 +233,15 @@ impl Joint {
     }
 }
 
-/// MuJoCo's actuator on a hinge or slide joint or on a tendon
-/// ([`Transmission`]): its length is l = gear x and its velocity l' = gear
-/// x' (x the joint's coordinate or the tendon's length L(q), x' = dx/dt);
-/// its moment (the generalized force per unit force, nv) is gear dx/dq;
+/// MuJoCo's actuator on a hinge or slide joint, a tendon or a site
+/// ([`Transmission`]): on a joint or tendon its length is l = gear[0] x and
+/// its velocity l' = gear[0] x' (x the joint's coordinate or the tendon's
+/// length L(q), x' = dx/dt), its moment (the generalized force per unit
+/// force, nv) gear[0] dx/dq; on a site, gear is a wrench (force, torque) in
+/// the site's frame, or in the reference site's (mj_transmission's
+/// mjTRN_SITE: the length the site's position and rotation vector relative
+/// to the reference site, dotted with gear; the moment the relative
+/// Jacobian projected on the wrench, l' = moment v);
 /// its scalar force is f = gain(l, l') w + bias(l, l'), w = ctrl without
 /// activation dynamics, else the activation act, clamped to `force_range`;
 /// its generalized force is moment f. ctrl is clamped to `ctrl_range` first.
@@ -245,7 +250,7 @@ impl Joint {
 pub struct Actuator {
     pub name: String,
     pub target: Transmission,
-    pub gear: f64,
+    pub gear: [f64; 6],
     pub ctrl_range: Option<(f64, f64)>,
     pub force_range: Option<(f64, f64)>,
     pub act_range: Option<(f64, f64)>,
@@ -263,11 +268,13 @@ pub struct Actuator {
 }
 
 /// What an actuator drives (MuJoCo's trntype and trnid): a hinge or slide
-/// joint, or a tendon ([`Spec::tendons`]), by index.
+/// joint, a tendon ([`Spec::tendons`]), or a site with an optional
+/// reference site ([`Spec::sites`]), by index.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Transmission {
     Joint(usize),
     Tendon(usize),
+    Site { site: usize, refsite: Option<usize> },
 }
 
 /// MuJoCo's gain types: fixed `gainprm[0]`, or affine
@@ -306,7 +313,7 @@ impl Actuator {
         Actuator {
             name,
             target: Transmission::Joint(joint),
-            gear,
+            gear: [gear, 0.0, 0.0, 0.0, 0.0, 0.0],
             ctrl_range,
             force_range: None,
             act_range: None,
@@ -319,12 +326,12 @@ impl Actuator {
         }
     }
 
-    /// The generalized force per unit control, gear times a fixed gain, for
+    /// The generalized force per unit control, gear\[0] times a fixed gain, for
     /// an actuator whose force is that alone (no bias, activation or force
     /// limit); None for any other.
     pub fn force_per_control(&self) -> Option<f64> {
         match (self.gain, self.bias, self.dynamics, self.force_range) {
-            (Gain::Fixed(g), Bias::None, ActDynamics::None, None) => Some(self.gear * g),
+            (Gain::Fixed(g), Bias::None, ActDynamics::None, None) => Some(self.gear[0] * g),
             _ => None,
         }
     }
@@ -333,7 +340,7 @@ impl Actuator {
     pub fn joint(&self) -> Option<usize> {
         match self.target {
             Transmission::Joint(j) => Some(j),
-            Transmission::Tendon(_) => None,
+            Transmission::Tendon(_) | Transmission::Site { .. } => None,
         }
     }
 
@@ -722,7 +729,7 @@ impl Spec {
     pub fn actuator_passive(&self, joint: usize) -> (f64, f64) {
         let on = self.actuators.iter().filter(|a| a.joint() == Some(joint));
         on.fold((0.0, 0.0), |(d, r), a| {
-            let gear2 = a.gear * a.gear;
+            let gear2 = a.gear[0] * a.gear[0];
             (d + a.damping * gear2, r + a.armature * gear2)
         })
     }
@@ -969,9 +976,9 @@ impl Spec {
 impl Spec {
     /// An actuator's target exists: a hinge or slide joint, or a tendon
     /// without actuator damping or armature (MuJoCo 4 adds those to the
-    /// tendon's, not reproduced here); a finite gear.
+    /// tendon's, not reproduced here) or a site; a finite gear.
     fn check_transmission(&self, a: &Actuator) -> Result<(), String> {
-        if !a.gear.is_finite() {
+        if !a.gear.iter().all(|g| g.is_finite()) {
             return Err("gear must be finite".into());
         }
         match a.target {
@@ -984,12 +991,24 @@ impl Spec {
                 Some(_) => Ok(()),
             },
             Transmission::Tendon(t) if t >= self.tendons.len() => Err(format!("no tendon {t}")),
-            Transmission::Tendon(_) if a.damping != 0.0 || a.armature != 0.0 => {
-                Err("damping and armature of an actuator on a tendon are not supported".into())
+            Transmission::Tendon(_) | Transmission::Site { .. }
+                if a.damping != 0.0 || a.armature != 0.0 =>
+            {
+                Err(
+                    "damping and armature of an actuator on a tendon or site are not supported"
+                        .into(),
+                )
             }
-            Transmission::Tendon(t) if !self.tendons[t].spatial.is_empty() => Err(
-                "actuators on a spatial tendon are not supported yet: only on fixed ones".into(),
-            ),
+            Transmission::Site { site, refsite } => {
+                match [Some(site), refsite]
+                    .into_iter()
+                    .flatten()
+                    .find(|&s| s >= self.sites.len())
+                {
+                    Some(s) => Err(format!("no site {s}")),
+                    None => Ok(()),
+                }
+            }
             Transmission::Tendon(_) => Ok(()),
         }
     }

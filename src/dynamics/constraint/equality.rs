@@ -329,14 +329,14 @@ fn tendons<T: Real>(
     let mut row = vec![T::zero(); tree.nv()];
     s1.add_moment(T::one(), &t1.support, &mut row);
     let mut diag = t1.invweight;
-    let mut dofs = t1.dofs();
+    let mut dofs = t1.dofs().to_vec();
     if let Some(k) = second {
         let (t2, s2) = (&tree.tendons[k], &at.data.tendon[k]);
         let (value, slope) = poly(c, s2.length - t2.length0);
         error -= value;
         s2.add_moment(-slope, &t2.support, &mut row);
         diag += t2.invweight;
-        dofs.extend(t2.dofs());
+        dofs.extend_from_slice(t2.dofs());
         dofs.sort_unstable_by(|a, b| b.cmp(a));
         dofs.dedup();
     }

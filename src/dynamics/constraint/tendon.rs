@@ -21,7 +21,7 @@ fn push_moment<T: Real>(rows: &mut Rows<T>, (t, s): (&TendonConsts<T>, &TendonSt
     let start = rows.j.len();
     rows.j.resize(start + rows.nv, T::zero());
     s.add_moment(sign, &t.support, &mut rows.j[start..]);
-    rows.moving(1, t.dofs());
+    rows.moving(1, t.dofs().iter().copied());
 }
 
 /// Appends the tendons' dry friction rows, tendon by tendon.

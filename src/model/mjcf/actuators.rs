@@ -1,7 +1,8 @@
 //! `<actuator>`: `<motor>`, `<position>`, `<velocity>`, `<intvelocity>`,
-//! `<damper>` and `<general>` on hinge and slide joints and on tendons
-//! (`joint=`, `tendon=`), as MuJoCo 4's compiler sets their gain, bias and
-//! dynamics ([`Actuator`]). Site, body and crank transmissions are refused.
+//! `<damper>` and `<general>` on hinge and slide joints, on tendons and on
+//! sites (`joint=`, `tendon=`, `site=` with an optional `refsite=`), as
+//! MuJoCo 4's compiler sets their gain, bias and dynamics ([`Actuator`]).
+//! Body and crank transmissions are refused.
 //!
 //! Defaults: the attributes every kind shares (`gear`, `ctrlrange`,
 //! `forcerange`, ...) come from the class's actuator elements of any kind;
@@ -79,7 +80,7 @@ impl<'a> Reader<'a> {
         let autolimits = self.compiler.autolimits;
         check_unsupported(&a)?;
         let law = self.law(&a)?;
-        let gear = a.leading::<6>("gear", [1.0, 0.0, 0.0, 0.0, 0.0, 0.0])?[0];
+        let gear = a.leading::<6>("gear", [1.0, 0.0, 0.0, 0.0, 0.0, 0.0])?;
         let pair = |r: Option<[f64; 2]>| r.map(|[lo, hi]| (lo, hi));
         let kind = tag(node);
         let mut ctrl_range = pair(a.limits("ctrllimited", "ctrlrange", autolimits)?);
@@ -105,6 +106,7 @@ impl<'a> Reader<'a> {
             let range = match transmission {
                 Transmission::Joint(j) => tree.joints[j].range,
                 Transmission::Tendon(t) => tendons[t].range.map(|[lo, hi]| (lo, hi)),
+                Transmission::Site { .. } => None,
             };
             let Some((lo, hi)) = range else {
                 let msg = "inheritrange needs a joint or tendon with a range";
@@ -162,27 +164,46 @@ impl<'a> Reader<'a> {
         }
     }
 
-    /// What the actuator drives: exactly one of `joint` and `tendon`.
+    /// What the actuator drives: exactly one of `joint`, `tendon` and
+    /// `site` (with `refsite` only beside `site`).
     fn target(&self, tree: &Tree<'a>, tendons: &[Tendon], node: Node<'a>) -> Result<Transmission> {
-        for target in ["site", "body", "jointinparent", "cranksite"] {
+        for target in ["body", "jointinparent", "cranksite"] {
             if value(node, target).is_some() {
                 let msg = format!(
-                    "actuators on a {target} are not supported: only on joints and tendons"
+                    "actuators on a {target} are not supported: only on joints, tendons and sites"
                 );
                 return Err(self.error(node, msg));
             }
         }
-        match (value(node, "joint"), value(node, "tendon")) {
-            (Some(_), Some(_)) => Err(self.error(node, "an actuator has one transmission target")),
-            (None, Some(name)) => tendons
+        let named = ["joint", "tendon", "site"].map(|k| value(node, k));
+        if named.iter().flatten().count() > 1 {
+            return Err(self.error(node, "an actuator has one transmission target"));
+        }
+        let refsite = value(node, "refsite");
+        match named {
+            [_, _, Some(site)] => Ok(Transmission::Site {
+                site: self.target_site(tree, node, site)?,
+                refsite: match refsite {
+                    Some(name) => Some(self.target_site(tree, node, name)?),
+                    None => None,
+                },
+            }),
+            _ if refsite.is_some() => Err(self.error(node, "refsite needs a site")),
+            [None, Some(name), _] => tendons
                 .iter()
                 .position(|t| t.name == name)
                 .map(Transmission::Tendon)
                 .ok_or_else(|| self.error(node, format!("unknown tendon '{name}'"))),
-            (joint, None) => self
+            [joint, ..] => self
                 .target_joint(tree, node, joint)
                 .map(Transmission::Joint),
         }
+    }
+
+    /// The index of the site named `name`.
+    fn target_site(&self, tree: &Tree<'a>, node: Node<'a>, name: &str) -> Result<usize> {
+        let site = tree.sites.iter().position(|s| s.name == name);
+        site.ok_or_else(|| self.error(node, format!("unknown site '{name}'")))
     }
 
     /// The index of the joint named `joint_name`.
@@ -192,8 +213,9 @@ impl<'a> Reader<'a> {
         node: Node<'a>,
         joint_name: Option<&str>,
     ) -> Result<usize> {
-        let joint_name = joint_name
-            .ok_or_else(|| self.error(node, "an actuator needs a joint or tendon to act on"))?;
+        let joint_name = joint_name.ok_or_else(|| {
+            self.error(node, "an actuator needs a joint, tendon or site to act on")
+        })?;
         let joint = tree
             .joints
             .iter()

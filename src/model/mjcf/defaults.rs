@@ -162,6 +162,6 @@ mod tests {
         // A short size overwrites only the leading entries of the class's size.
         let boxes = [[0.5, 0.2, 0.3], [0.1, 0.2, 0.3]].map(|s| Shape::Box { half: s.into() });
         assert_eq!([m.geoms[0].shape, m.geoms[1].shape], boxes);
-        assert_eq!([m.actuators[0].gear, m.actuators[1].gear], [2.0, 3.0]);
+        assert_eq!([m.actuators[0].gear[0], m.actuators[1].gear[0]], [2.0, 3.0]);
     }
 }

@@ -83,11 +83,20 @@ fn document(spec: &Spec) -> Result<String, ModelError> {
     write_equalities(&mut doc, spec);
     doc.open(1, Tag::new("actuator"));
     for a in &spec.actuators {
+        let site = |s: usize| spec.sites[s].name.as_str();
         let target = match a.target {
             Transmission::Joint(j) => ("joint", spec.joints[j].name.as_str()),
             Transmission::Tendon(t) => ("tendon", spec.tendons[t].name.as_str()),
+            Transmission::Site { site: s, .. } => ("site", site(s)),
         };
-        doc.empty(2, actuator(a, target));
+        let mut tag = actuator(a, target);
+        if let Transmission::Site {
+            refsite: Some(r), ..
+        } = a.target
+        {
+            tag = tag.text("refsite", site(r));
+        }
+        doc.empty(2, tag);
     }
     doc.close(1, "actuator");
     write_sensors(&mut doc, spec)?;
@@ -652,7 +661,7 @@ fn actuator(a: &Actuator, (kind, target): (&str, &str)) -> Tag {
     let tag = Tag::new(if general { "general" } else { "motor" })
         .text("name", &a.name)
         .text(kind, target)
-        .number("gear", a.gear)
+        .numbers("gear", &a.gear)
         .limits("ctrllimited", "ctrlrange", a.ctrl_range)
         .limits("forcelimited", "forcerange", a.force_range);
     if !general {

@@ -135,7 +135,7 @@ mod tests {
         let actuators: Vec<_> = m
             .actuators
             .iter()
-            .map(|a| (a.name.as_str(), a.joint(), a.gear))
+            .map(|a| (a.name.as_str(), a.joint(), a.gear[0]))
             .collect();
         assert_eq!(actuators, [("m_ok", Some(0), 20.0)]);
         let why: Vec<&str> = m

@@ -123,7 +123,7 @@ mod tests {
         assert_eq!(passive, (0.5, 0.2, 3.0, -0.1, 0.1));
         let a = &m.actuators[0];
         assert_eq!(
-            (a.name.as_str(), a.joint(), a.gear, a.ctrl_range),
+            (a.name.as_str(), a.joint(), a.gear[0], a.ctrl_range),
             ("motor", Some(0), 50.0, Some((-2.0, 2.0)))
         );
         let o = &m.opt;
