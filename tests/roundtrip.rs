@@ -355,10 +355,20 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
             conaffinity,
             friction,
             contact,
+            fluid,
         } = a;
         let at = |what: &str| format!("geom '{name}' {what}");
         assert_eq!(
-            (name, body, shape, contype, conaffinity, friction, contact),
+            (
+                name,
+                body,
+                shape,
+                contype,
+                conaffinity,
+                friction,
+                contact,
+                fluid
+            ),
             (
                 &b.name,
                 &b.body,
@@ -366,7 +376,8 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
                 &b.contype,
                 &b.conaffinity,
                 &b.friction,
-                &b.contact
+                &b.contact,
+                &b.fluid
             ),
             "{model}"
         );
@@ -448,6 +459,28 @@ fn random_trees_round_trip() {
             .unwrap();
         assert_round_trips(&format!("random{seed}"), &model);
     }
+}
+
+/// A geom's ellipsoid fluid model is written as `fluidshape` and `fluidcoef`.
+#[test]
+fn ellipsoid_fluid_round_trips() {
+    let text = r#"<mujoco><option density="1.2" viscosity="0.1"/><worldbody>
+        <body><joint/><geom type="capsule" size="0.1 0.2" fluidshape="ellipsoid"/>
+          <geom type="box" size="0.1 0.2 0.3" pos="0.2 0 0" fluidshape="ellipsoid"
+                fluidcoef="0.1 0.2 0.3 0.4 0.5"/><geom size="0.1"/></body>
+        </worldbody></mujoco>"#;
+    let model = Model::from_mjcf(text, "fluid.xml").unwrap();
+    let fluid: Vec<_> = model
+        .geoms
+        .iter()
+        .map(|g| g.fluid.map(|c| c.to_array()))
+        .collect();
+    let given = [0.1, 0.2, 0.3, 0.4, 0.5];
+    assert_eq!(fluid, [Some([0.5, 0.25, 1.5, 1.0, 1.0]), Some(given), None]);
+    assert!(mjcf::write(&model)
+        .unwrap()
+        .contains("fluidshape=\"ellipsoid\""));
+    assert_round_trips("ellipsoid_fluid", &model);
 }
 
 /// `implicitfast` and `implicit` are their MuJoCo names, gravcomp a body attribute.

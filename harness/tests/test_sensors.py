@@ -55,6 +55,8 @@ def test_sensors_not_computed_raise_value_error(tmp_path):
     assert m.sensor_names == ["foot"] and list(m.sensor_dim) == [1]
     with pytest.raises(ValueError, match="'foot'.*<clock>"):
         m.sensors(np.zeros(1), np.zeros(1), np.zeros(1))
+    with pytest.raises(ValueError, match="simulation time"):  # the state (q, v, act) has none
+        m.sensors(np.zeros(1), np.zeros(1), np.zeros(1))
     with pytest.raises(ValueError, match="tau"):
         m.sensors(np.zeros(1), np.zeros(1), np.zeros(2))
 
@@ -261,3 +263,54 @@ def test_primitives_fitted_to_a_mesh_are_mujocos(tmp_path, aabb):
     zero = (np.zeros(mm.nq), np.zeros(mm.nv), np.zeros(mm.nv))
     theirs = assert_sensors_match(path, [zero], tol=1e-11)
     assert (theirs[0, 45::4].reshape(6, 7) > 0).any(axis=1).all()  # each geom is hit
+
+
+INSIDE = """<mujoco><compiler autolimits="true"/><worldbody>
+  <site name="ball" type="sphere" pos="0.3 0 1" size="0.25"/>
+  <site name="pill" type="capsule" pos="0 0.3 1" euler="30 60 0" size="0.1 0.2"/>
+  <site name="egg" type="ellipsoid" pos="-0.3 0 1" euler="10 -20 40" size="0.3 0.15 0.2"/>
+  <site name="can" type="cylinder" pos="0 -0.3 1" euler="-40 20 0" size="0.2 0.15"/>
+  <site name="crate" type="box" pos="0 0 1.3" euler="0 30 70" size="0.25 0.1 0.2"/>
+  <body name="arm" pos="0 0 1"><joint name="yaw" axis="0 0 1"/><joint name="pitch" axis="0 1 0"/>
+    <geom name="rod" type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/>
+    <body name="tip" pos="0.3 0 0"><joint name="reach" type="slide" axis="1 0 0" range="-0.2 0.2"/>
+      <geom name="knob" size="0.03" pos="0 0.05 0"/><site name="probe" pos="0.02 0 0.04"/>
+      <body name="ghost" pos="0 0 0.1"><body name="weight" pos="0.05 0 0">
+        <geom size="0.01" mass="0.1"/></body></body></body></body>
+</worldbody>
+<tendon><fixed name="t"><joint joint="yaw" coef="1"/><joint joint="reach" coef="-0.5"/></fixed>
+  <fixed name="idle"><joint joint="pitch" coef="1"/></fixed></tendon>
+<actuator><motor name="m1" tendon="t" gear="2"/><position name="p" tendon="t" kp="3" kv="0.5"/>
+  <motor joint="pitch"/><velocity tendon="idle" kv="2" forcerange="-0.4 0.4"/></actuator>
+<sensor>{sensors}
+  <tendonactuatorfrc tendon="t"/><tendonactuatorfrc tendon="idle" cutoff="0.3"/>
+</sensor></mujoco>"""
+
+
+def test_insidesite_and_tendon_actuator_force_match_mujoco_forward(tmp_path):
+    """insidesite on every site shape, for a body (its COM; a massless body with a heavy child:
+    its subtree's COM), an xbody, a geom and a site; tendonactuatorfrc summing two actuators on
+    a tendon, a clamped one, a cutoff, under random ctrl."""
+    objects = [("body", "tip"), ("xbody", "tip"), ("geom", "knob"), ("site", "probe"),
+               ("body", "ghost"), ("geom", "rod")]
+    sites = ["ball", "pill", "egg", "can", "crate"]
+    sensors = "".join(f'<insidesite site="{s}" objtype="{t}" objname="{n}"/>' for s in sites for t, n in objects)
+    path = tmp_path / "inside.xml"
+    path.write_text(INSIDE.format(sensors=sensors))
+    m, mm = diffosi.Model.load(str(path)), mujoco.MjModel.from_xml_path(str(path))
+    assert list(m.sensor_dim) == mm.sensor_dim.tolist()
+    rng = np.random.default_rng(13)
+    readings = []
+    for _ in range(300):
+        q = np.array([rng.uniform(-np.pi, np.pi), rng.uniform(-1.2, 1.2), rng.uniform(-0.2, 0.2)])
+        v, tau = rng.standard_normal(3), rng.standard_normal(3)
+        ctrl, act = rng.standard_normal(mm.nu), np.zeros(0)
+        ours = m.sensors(q, v, tau, ctrl=ctrl, act=act)
+        theirs = mujoco_sensordata(mm, q, v, tau, ctrl, act)
+        np.testing.assert_array_less(np.abs(ours - theirs) / np.maximum(1, np.abs(theirs)), 1e-12)
+        readings.append(theirs)
+    readings = np.array(readings)
+    inside = readings[:, :-2]
+    assert ((inside == 0) | (inside == 1)).all()
+    assert (inside.mean(axis=0) > 0).sum() >= 20  # most (site, object) pairs are met
+    assert (np.abs(readings[:, -2]) > 1).any() and (np.abs(readings[:, -1]) == 0.3).any()

@@ -26,6 +26,7 @@ use crate::model::MINVAL;
 use crate::model::{
     ActuatorQuantity, ContactModel, FrameObject, FrameQuantity, Inputs, JointKind, JointQuantity,
     PassiveMode, RayField, Sensor, SensorKind, Shape, SiteQuantity, State, TendonQuantity,
+    Transmission,
 };
 use crate::spatial::{Force, Inertia, Motion, Transform};
 
@@ -251,6 +252,36 @@ impl Model {
             .sum()
     }
 
+    /// Whether `object`'s origin lies strictly inside the site's `zone`
+    /// (MuJoCo's mju_insideGeom; see [`SensorKind::InsideSite`]).
+    fn inside_site(&self, b: &Bodies, site: usize, zone: &Shape, object: FrameObject) -> bool {
+        let point = match object {
+            // A massless subtree's centre is the body's own.
+            FrameObject::Body(i) if self.bodies[i].mass < MINVAL && i > 0 => b.subtree(self, i).0,
+            _ => self.frame(b, object).pos,
+        };
+        let frame = self.frame(b, FrameObject::Site(site));
+        let p = frame.rot.tr_mul(&(point - frame.pos));
+        let within = |x: f64, half: f64| x.abs() < half;
+        match *zone {
+            Shape::Sphere { radius } => p.norm_squared() < radius * radius,
+            Shape::Capsule {
+                radius,
+                half_length,
+            } => {
+                let z = p.z - p.z.clamp(-half_length, half_length);
+                p.x * p.x + p.y * p.y + z * z < radius * radius
+            }
+            Shape::Ellipsoid { radii } => p.component_div(&radii).norm_squared() < 1.0,
+            Shape::Cylinder {
+                radius,
+                half_length,
+            } => within(p.z, half_length) && p.x * p.x + p.y * p.y < radius * radius,
+            Shape::Box { half } => (0..3).all(|k| within(p[k], half[k])),
+            _ => false,
+        }
+    }
+
     /// A rangefinder's readings (see [`RayField`]): the ray from the site
     /// along its z axis against the nearest of `targets`.
     fn rangefinder(
@@ -366,6 +397,17 @@ impl Model {
                     s.add_dense(*f, &mut on_dof);
                 }
                 out.push(on_dof[dof]);
+            }
+            SensorKind::TendonActuatorForce(t) => {
+                let on_tendon = (self.actuators.iter().zip(inputs.actuator_force))
+                    .filter(|(a, _)| a.target == Transmission::Tendon(*t))
+                    .map(|(_, f)| f)
+                    .sum();
+                out.push(on_tendon);
+            }
+            SensorKind::InsideSite { site, zone, object } => {
+                let inside = self.inside_site(b, *site, zone, *object);
+                out.push(if inside { 1.0 } else { 0.0 });
             }
             SensorKind::SubtreeCom(body) => out.extend(b.subtree(self, *body).0.iter()),
             SensorKind::SubtreeLinVel(body) => out.extend(b.subtree(self, *body).1.iter()),

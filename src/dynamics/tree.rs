@@ -18,7 +18,7 @@ use super::collision::GeomFrame;
 use super::configuration::{rotation_matrix, Coordinates};
 use super::constraint::ConstraintConsts;
 use super::contact::{Pair, Soft};
-use super::fluid::FluidBody;
+use super::fluid::FluidTerms;
 use super::gravcomp::GravcompBody;
 use super::tendon::TendonConsts;
 use crate::model::{JointKind, Options, SoftOptions};
@@ -170,8 +170,8 @@ pub struct Tree<T: Real> {
     pub soft: Soft<T>,
     /// The constraint model's constants (empty under the smooth model).
     pub constraint: ConstraintConsts<T>,
-    /// The bodies the medium (`opt.fluid`) acts on (none without one).
-    pub fluid: Vec<FluidBody<T>>,
+    /// What the medium (`opt.fluid`) acts on (nothing without one).
+    pub fluid: FluidTerms<T>,
     /// The actuators ([`super::actuation`]) and the number of activations.
     pub actuators: Vec<ActuatorTerm>,
     pub na: usize,
@@ -214,7 +214,7 @@ impl<T: Real> Tree<T> {
             limits: vec![],
             soft: Soft::new(&SoftOptions::default(), [T::zero(); 3]),
             constraint: ConstraintConsts::empty(),
-            fluid: vec![],
+            fluid: FluidTerms::none(),
             actuators: vec![],
             na: 0,
             gravcomp: vec![],

@@ -14,7 +14,7 @@ use super::Shape;
 /// MuJoCo's `mjEPS`: the smallest volume an explicit mass is spread over; in
 /// the MJCF compiler also the smallest squared norm it normalises, smallest
 /// geom mass it counts and smallest principal moment of a full inertia tensor.
-pub(super) const MJ_EPS: f64 = 1e-14;
+pub(crate) const MJ_EPS: f64 = 1e-14;
 
 /// Volume of a solid primitive (zero for a plane) or of a mesh of `meshes`
 /// (its area for a shell mesh); a height field's is its box's.

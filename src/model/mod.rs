@@ -441,6 +441,9 @@ pub struct Geom {
     pub friction: [f64; 3],
     /// How the constraint model makes and solves this geom's contacts.
     pub contact: GeomContact,
+    /// MuJoCo's ellipsoid fluid model on this geom (MJCF
+    /// `fluidshape="ellipsoid"`); None: `fluidshape="none"`.
+    pub fluid: Option<FluidCoefs>,
 }
 
 /// A site: a frame fixed to a body, where sensors sit (MJCF `<site>`). Its
@@ -548,6 +551,57 @@ pub struct Fluid {
     pub density: f64,
     pub viscosity: f64,
     pub wind: Vector3<f64>,
+}
+
+/// The coefficients of MuJoCo's ellipsoid fluid model on a geom (MJCF
+/// `fluidcoef`, in its order; see [`crate::dynamics::fluid`]): a body with
+/// such a geom feels the ellipsoid model on each of them, and not the
+/// inertia-box model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FluidCoefs {
+    pub blunt_drag: f64,
+    pub slender_drag: f64,
+    pub angular_drag: f64,
+    pub kutta_lift: f64,
+    pub magnus_lift: f64,
+}
+
+impl Default for FluidCoefs {
+    /// MuJoCo's defaults (0.5 0.25 1.5 1 1).
+    fn default() -> Self {
+        FluidCoefs {
+            blunt_drag: 0.5,
+            slender_drag: 0.25,
+            angular_drag: 1.5,
+            kutta_lift: 1.0,
+            magnus_lift: 1.0,
+        }
+    }
+}
+
+impl FluidCoefs {
+    /// The coefficients in MJCF's `fluidcoef` order, and back.
+    pub fn to_array(&self) -> [f64; 5] {
+        [
+            self.blunt_drag,
+            self.slender_drag,
+            self.angular_drag,
+            self.kutta_lift,
+            self.magnus_lift,
+        ]
+    }
+
+    pub fn from_array(
+        [blunt_drag, slender_drag, angular_drag, kutta_lift, magnus_lift]: [f64; 5],
+    ) -> Self {
+        FluidCoefs {
+            blunt_drag,
+            slender_drag,
+            angular_drag,
+            kutta_lift,
+            magnus_lift,
+        }
+    }
 }
 
 impl Fluid {
@@ -696,6 +750,37 @@ pub enum InertiaRule {
 fn quaternion(rot: &Rotation3<f64>) -> [f64; 4] {
     let u = nalgebra::UnitQuaternion::from_rotation_matrix(rot);
     [u.w, u.i, u.j, u.k]
+}
+
+/// Checks geom `owner`'s ellipsoid fluid model: finite coefficients, a
+/// primitive solid (its semi-axes are MuJoCo's mju_geomSemiAxes) and an
+/// explicit integrator (the implicit integrators' qDeriv would need the
+/// model's velocity derivative, MuJoCo's mjd_ellipsoidFluid, not written).
+fn check_ellipsoid_fluid(
+    c: &FluidCoefs,
+    shape: &Shape,
+    integrator: Integrator,
+    owner: &str,
+) -> Result<(), ModelError> {
+    let coefs = c.to_array();
+    if !coefs.iter().all(|x| x.is_finite()) {
+        let msg = format!("{owner}: fluidcoef must be finite, got {coefs:?}");
+        return Err(ModelError::NotPhysical(msg));
+    }
+    let unsupported = |what: &str| {
+        let msg = format!("{owner}: the ellipsoid fluid model (fluidshape) {what}");
+        Err(ModelError::Unsupported(msg))
+    };
+    if matches!(
+        shape,
+        Shape::Plane | Shape::Mesh { .. } | Shape::HField { .. }
+    ) {
+        return unsupported("on a plane, mesh or height field");
+    }
+    if integrator.is_implicit() {
+        return unsupported("under the implicit integrators (implicitfast, implicit)");
+    }
+    Ok(())
 }
 
 /// MuJoCo's mjMINVAL: the size below which it takes a mass or an inertia
@@ -923,6 +1008,9 @@ impl Spec {
             constraint::check_friction(&g.friction, &owner)
                 .and_then(|()| g.contact.check(&owner))
                 .map_err(ModelError::NotPhysical)?;
+            if let Some(c) = &g.fluid {
+                check_ellipsoid_fluid(c, &g.shape, o.integrator, &owner)?;
+            }
         }
         for p in &self.pairs {
             p.check(self.geoms.len()).map_err(ModelError::NotPhysical)?;

@@ -22,8 +22,9 @@
 //!   (for a joint transmission: gear times the joint's coordinate and
 //!   velocity), actuatorfrc its scalar force (MuJoCo's actuator_force), and
 //!   jointactuatorfrc the generalized force all actuators exert on a hinge
-//!   or slide (MuJoCo's qfrc_actuator); all at ctrl = 0 and act = 0, as the
-//!   readings' inputs are (q, v, tau);
+//!   or slide (MuJoCo's qfrc_actuator), tendonactuatorfrc the sum of the
+//!   scalar forces of the actuators on a tendon; all at the inputs' ctrl
+//!   and the state's act (zero when empty);
 //! - force and torque read the force and moment (about the site) that the
 //!   site's body receives from its parent, in the site's axes: everything
 //!   that moves the body's subtree (inertia and gravity) less the contact
@@ -41,6 +42,8 @@
 //!   hits the site's volume ([`SensorKind::Touch`]);
 //! - rangefinder casts a ray from the site along its z axis and reads the
 //!   nearest geom it hits ([`SensorKind::Rangefinder`]); -1 for no hit;
+//! - insidesite reads 1 when an object's frame origin lies strictly inside
+//!   the site's volume, else 0 ([`SensorKind::InsideSite`]);
 //! - `cutoff` > 0 clips each real-valued reading to [-cutoff, cutoff]
 //!   (quaternions and axes are not clipped; touch, positive, only above);
 //!   `noise` is never applied (mj_forward does not).
@@ -162,6 +165,17 @@ pub enum SensorKind {
     Actuator(ActuatorQuantity, usize),
     /// The actuators' generalized force on a hinge or slide (1).
     JointActuatorForce(usize),
+    /// The summed scalar forces of the actuators on a tendon (1).
+    TendonActuatorForce(usize),
+    /// Whether `object`'s origin is inside `zone`, the site's volume (its
+    /// MJCF type and size, in the site's frame): 1 or 0 (1). A body's
+    /// origin (MJCF "body": its centre of mass) is its subtree's centre of
+    /// mass when the body is massless but its subtree is not, as MuJoCo's.
+    InsideSite {
+        site: usize,
+        zone: Shape,
+        object: FrameObject,
+    },
     /// The centre of mass of a body's subtree (3), and its linear velocity
     /// (total momentum over total mass, 3).
     SubtreeCom(usize),
@@ -225,7 +239,9 @@ impl SensorKind {
             | SensorKind::Tendon(..)
             | SensorKind::Energy { .. }
             | SensorKind::Touch { .. }
-            | SensorKind::JointActuatorForce(_) => 1,
+            | SensorKind::JointActuatorForce(_)
+            | SensorKind::TendonActuatorForce(_)
+            | SensorKind::InsideSite { .. } => 1,
             SensorKind::Rangefinder { fields, .. } => fields.iter().map(|f| f.dim()).sum(),
             SensorKind::Joint(JointQuantity::BallQuat, _) => 4,
             SensorKind::Frame {
@@ -295,6 +311,10 @@ impl Sensor {
             }),
             SensorKind::Energy { .. } => true,
             SensorKind::Touch { site, .. } => *site < spec.sites.len(),
+            SensorKind::TendonActuatorForce(t) => *t < spec.tendons.len(),
+            SensorKind::InsideSite { site, object, .. } => {
+                *site < spec.sites.len() && frame_ok(object)
+            }
             SensorKind::Rangefinder { site, targets, .. } => {
                 *site < spec.sites.len() && targets.iter().all(|(g, _)| *g < spec.geoms.len())
             }

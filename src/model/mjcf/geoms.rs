@@ -14,7 +14,7 @@ use super::tree::{Kind, Looks, Tree};
 use super::{Node, Reader, Result};
 use crate::model::geom_inertia::{self, MJ_EPS};
 use crate::model::mesh::fit::{fit, Fitted};
-use crate::model::{Geom, GeomContact, Shape};
+use crate::model::{FluidCoefs, Geom, GeomContact, Shape};
 
 impl<'a> Reader<'a> {
     /// The geoms among `members`, attached to `body`; returns the inertial
@@ -69,6 +69,11 @@ impl<'a> Reader<'a> {
             "hfield" => self.hfield_shape(&a)?,
             _ => self.shape(node, kind, size)?,
         };
+        if ["plane", "mesh", "hfield"].contains(&kind) && fluid_coefs(&a)?.is_some() {
+            let msg =
+                format!("the ellipsoid fluid model (fluidshape) on a {kind} is not supported");
+            return Err(self.error(node, msg));
+        }
         if kind == "plane" && !is_static {
             return Err(self.error(node, "planes are only allowed in static bodies"));
         }
@@ -82,6 +87,7 @@ impl<'a> Reader<'a> {
             conaffinity: bitmask(&a, "conaffinity")?,
             friction: a.leading::<3>("friction", [1.0, 0.005, 0.0001])?,
             contact: contact_settings(&a)?,
+            fluid: fluid_coefs(&a)?,
         };
         let owner = format!("geom '{}'", geom.name);
         crate::model::constraint::check_friction(&geom.friction, &owner)
@@ -294,10 +300,16 @@ fn geom_type(a: &Attrs) -> Result<&'static str> {
     if a.flag("shellinertia")? == Some(true) {
         return Err(a.error(a.element, "shellinertia is not supported"));
     }
-    if a.keyword("fluidshape", &["none", "ellipsoid"])? == Some("ellipsoid") {
-        return Err(a.error(a.element, "fluid forces (fluidshape) are not supported"));
-    }
     Ok(kind)
+}
+
+/// The geom's ellipsoid fluid model (`fluidshape`, `fluidcoef`), if any.
+fn fluid_coefs(a: &Attrs) -> Result<Option<FluidCoefs>> {
+    if a.keyword("fluidshape", &["none", "ellipsoid"])? != Some("ellipsoid") {
+        return Ok(None);
+    }
+    let coefs = a.leading::<5>("fluidcoef", FluidCoefs::default().to_array())?;
+    Ok(Some(FluidCoefs::from_array(coefs)))
 }
 
 /// The constraint model's settings of a geom (MuJoCo's defaults where unset).

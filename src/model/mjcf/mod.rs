@@ -19,8 +19,9 @@
 //! out, the common ones computed), `<tendon>` (fixed and spatial tendons: `tendons.rs`),
 //! `<equality>` (connect, weld, joint, tendon: `equality.rs`), `<keyframe>` (`keyframes.rs`), and
 //! `<custom>`'s `diffosi:` settings (the contact model, the smooth model's
-//! constants). The medium's forces are MuJoCo's inertia-box model
-//! (`dynamics/fluid.rs`).
+//! constants). The medium's forces are MuJoCo's inertia-box model and its
+//! ellipsoid model (geom `fluidshape`, `fluidcoef`; refused by the model's
+//! check under the implicit integrators, naming the geom): `dynamics/fluid.rs`.
 //!
 //! Composition, as MuJoCo's XML reader does it: `<include>` (`include.rs`),
 //! `<frame>`, `<replicate>` and `childclass` (`frames.rs`).
@@ -33,11 +34,12 @@
 //!
 //! Rejected with [`ModelError::Invalid`] naming the element and its line:
 //! - what changes the dynamics beyond a tree of joints with linear passive
-//!   forces, actuators, contacts, limits, dry friction and the inertia-box
-//!   fluid: limits and dry friction on ball and free joints, a free joint
+//!   forces, actuators, contacts, limits, dry friction and fluid forces:
+//!   limits and dry friction on ball and free joints, a free joint
 //!   that is not the only joint of a child of the world,
 //!   tendon armature (fixed tendons: `tendons.rs`), flex equalities,
-//!   flexes and skins, the ellipsoid fluid model (fluidshape),
+//!   flexes and skins, the ellipsoid fluid model (fluidshape) on a plane,
+//!   mesh or height field,
 //!   gravcomp routed through actuators (`actuatorgravcomp`), bodies inside
 //!   a mocap body, noslip iterations, the `override`
 //!   flag, disabling springs, dampers, actuation or control clamping,
@@ -365,7 +367,8 @@ mod tests {
              "unknown joint 'nowhere'"),
             ("", "", r#"<equality><tendon tendon1="t"/></equality>"#, "tendon1 't' is not a tendon"),
             (r#"<option density="-1"/>"#, "", "", "density must be finite and >= 0"),
-            ("", r#"<geom size="1" fluidshape="ellipsoid"/>"#, "", "fluidshape"),
+            ("", r#"<geom type="plane" size="1 1 1" fluidshape="ellipsoid"/>"#, "",
+             "the ellipsoid fluid model (fluidshape) on a plane"),
             (r#"<option integrator="Verlet"/>"#, "", "", "must be one of"),
             (r#"<option><flag damper="disable"/></option>"#, "", "", "damper=\"disable\""),
             ("", r#"<composite type="grid"/>"#, "", "<composite> is not supported"),

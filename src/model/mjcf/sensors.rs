@@ -2,11 +2,11 @@
 //! compiler checks it (known objects of the right kind, non-negative cutoff
 //! and noise) and laid out with MuJoCo's size. Those [`crate::model::sensor`]
 //! computes become their [`SensorKind`]; the others (camera rangefinders,
-//! rangefinders that may meet a height field, tendon actuator force,
-//! contact, distance, normal, fromto, insidesite, camprojection, clock (the
-//! state has no time), user sensors, the potential energy of a model with
-//! springs on ball or free joints, frame sensors on cameras, and any sensor
-//! whose readings are delayed or sampled at an interval) are kept as
+//! rangefinders that may meet a height field, contact, distance, normal,
+//! fromto, camprojection, clock (the state has no time), user sensors,
+//! the potential energy of a model with springs on ball or free joints,
+//! frame and insidesite sensors on cameras, and any sensor whose readings
+//! are delayed or sampled at an interval) are kept as
 //! [`SensorKind::Unsupported`], so that a model using them loads and only
 //! evaluating its sensors fails, naming the sensor (a sensor never changes
 //! the dynamics); so are all sensors of a model that disables them
@@ -32,8 +32,6 @@ use crate::model::{
 const OTHERS: &[(&str, &[&str], usize)] = &[
     ("camprojection", &["site", "camera"], 2),
     ("rangefinder", &["site", "camera", "data"], 0),
-    ("tendonactuatorfrc", &["tendon"], 1),
-    ("insidesite", &["site", "objtype", "objname"], 1),
     ("distance", &["body1", "geom1", "body2", "geom2"], 1),
     ("normal", &["body1", "geom1", "body2", "geom2"], 3),
     ("fromto", &["body1", "geom1", "body2", "geom2"], 6),
@@ -275,15 +273,24 @@ impl<'a> Reader<'a> {
                 reference,
             }));
         }
+        if element == "insidesite" {
+            check_attributes(self.file, node, &attrs(&["site", "objtype", "objname"]))?;
+            let site = self.named(tree, node, "site", "site")?;
+            let Some(object) = self.frame_object(tree, node, "objtype", "objname")? else {
+                let why = "insidesite on a camera is not computed (cameras are not read)";
+                return Ok(Some(other(element, why)));
+            };
+            let zone = tree.site_zones[site];
+            return Ok(Some(SensorKind::InsideSite { site, zone, object }));
+        }
+        if element == "tendonactuatorfrc" {
+            check_attributes(self.file, node, &attrs(&["tendon"]))?;
+            let t = self.tendon(named, node)?;
+            return Ok(Some(SensorKind::TendonActuatorForce(t)));
+        }
         if let Some((_, quantity)) = TENDONS.iter().find(|(t, _)| *t == element) {
             check_attributes(self.file, node, &attrs(&["tendon"]))?;
-            let name = value(node, "tendon").filter(|n| !n.is_empty());
-            let Some(name) = name else {
-                return Err(self.error(node, "the sensor needs 'tendon'"));
-            };
-            let Some(t) = named.tendons.iter().position(|t| t == name) else {
-                return Err(self.error(node, format!("unknown tendon '{name}'")));
-            };
+            let t = self.tendon(named, node)?;
             let limit = !matches!(quantity, TendonQuantity::Pos | TendonQuantity::Vel);
             if limit && !named.limited[t] {
                 return Err(self.error(node, "tendon must be limited in sensor"));
@@ -320,6 +327,16 @@ impl<'a> Reader<'a> {
         };
         check_attributes(self.file, node, &attrs(&["body"]))?;
         Ok(Some(subtree(self.named(tree, node, "body", "body")?)))
+    }
+
+    /// The tendon a sensor's `tendon` names.
+    fn tendon(&self, named: &Named, node: Node<'a>) -> Result<usize> {
+        let name = value(node, "tendon").filter(|n| !n.is_empty());
+        let Some(name) = name else {
+            return Err(self.error(node, "the sensor needs 'tendon'"));
+        };
+        let found = named.tendons.iter().position(|t| t == name);
+        found.ok_or_else(|| self.error(node, format!("unknown tendon '{name}'")))
     }
 
     /// A rangefinder on a site: its fields, and the geoms its ray may hit
@@ -466,7 +483,13 @@ impl<'a> Reader<'a> {
                 self.named(tree, node, attr, kind)?;
             }
         }
-        Ok(other(element, "this sensor type is not computed yet"))
+        let why = match element {
+            "clock" => "it reads the simulation time, which the state (q, v, act) does not hold",
+            "camprojection" | "rangefinder" => "cameras are not read",
+            "user" => "user sensors are computed by the user's callback",
+            _ => "this sensor type is not computed yet",
+        };
+        Ok(other(element, why))
     }
 
     /// The size MuJoCo gives a sensor that is not computed.

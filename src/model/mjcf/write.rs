@@ -433,7 +433,12 @@ fn write_sensors(doc: &mut Document, spec: &Spec) -> Result<(), ModelError> {
             }
             SensorKind::Energy { potential: true } => Tag::new("e_potential"),
             SensorKind::Energy { potential: false } => Tag::new("e_kinetic"),
-            SensorKind::Touch { .. } | SensorKind::Rangefinder { .. } => {
+            SensorKind::TendonActuatorForce(t) => {
+                Tag::new("tendonactuatorfrc").text("tendon", &spec.tendons[*t].name)
+            }
+            SensorKind::Touch { .. }
+            | SensorKind::Rangefinder { .. }
+            | SensorKind::InsideSite { .. } => {
                 let why = format!(
                     "sensor '{}' reads a site's shape or geoms' colours, which are not kept \
                      to be written",
@@ -489,7 +494,7 @@ fn geom_tag(g: &Geom) -> Tag {
         Shape::Mesh { .. } => unreachable!("models with meshes are refused first"),
         Shape::HField { .. } => unreachable!("models with height fields are refused first"),
     };
-    Tag::new("geom")
+    let tag = Tag::new("geom")
         .text("name", &g.name)
         .text("type", kind)
         .numbers("size", &size)
@@ -503,7 +508,13 @@ fn geom_tag(g: &Geom) -> Tag {
         .number("solmix", g.contact.solmix)
         .sol("solref", "solimp", &g.contact.sol)
         .number("margin", g.contact.margin)
-        .number("gap", g.contact.gap)
+        .number("gap", g.contact.gap);
+    match &g.fluid {
+        Some(c) => tag
+            .text("fluidshape", "ellipsoid")
+            .numbers("fluidcoef", &c.to_array()),
+        None => tag,
+    }
 }
 
 /// `<contact>`: explicit pairs with every attribute, and excluded body pairs.

@@ -52,6 +52,7 @@ impl Reader<'_> {
             conaffinity: self.bitmask(collision, "diffosi:conaffinity")?,
             friction,
             contact: Default::default(),
+            fluid: None,
         }))
     }
 

@@ -86,6 +86,7 @@ fn floor() -> Geom {
         conaffinity: 1,
         friction: [1.0, 0.005, 0.0001],
         contact: GeomContact::default(),
+        fluid: None,
     }
 }
 
