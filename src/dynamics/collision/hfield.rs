@@ -125,7 +125,7 @@ fn extent<T: Real>(body: &Body<T>) -> [f64; 6] {
     for (k, o) in out.iter_mut().enumerate() {
         let mut dir = Vector3::zeros();
         dir[k / 2] = if k % 2 == 0 { -T::one() } else { T::one() };
-        *o = convert_ref_unchecked(&body.support(&dir)[k / 2]);
+        *o = convert_ref_unchecked(&body.support(&dir).0[k / 2]);
     }
     out
 }
