@@ -4,7 +4,7 @@
 
 use nalgebra::{Rotation3, Vector3};
 
-use super::{child, xml, Node, Reader, Result, NAMESPACE};
+use super::{child, pybullet_numbers, Node, Reader, Result, NAMESPACE};
 
 /// A frame in its parent: translation and rotation.
 pub(super) type Pose = (Vector3<f64>, Rotation3<f64>);
@@ -93,24 +93,32 @@ impl Reader<'_> {
     }
 
     /// Exactly `K` finite numbers separated by whitespace; `what` names them in
-    /// errors.
+    /// errors. The forms PyBullet reads with an evident meaning
+    /// (`pybullet_numbers.rs`) are accepted with a warning, except in our
+    /// extension attributes.
     pub(super) fn parse_numbers<const K: usize>(
         &self,
         node: Node,
         what: &str,
         text: &str,
     ) -> Result<[f64; K]> {
-        let bad = || {
+        if let Some(v) = pybullet_numbers::strict(text) {
+            return Ok(v);
+        }
+        let lenient = match what.starts_with("diffosi:") {
+            true => None,
+            false => pybullet_numbers::read::<K>(text),
+        };
+        let Some((v, how)) = lenient else {
             let expected = if K == 1 {
                 "a finite number".to_string()
             } else {
                 format!("{K} finite numbers")
             };
-            self.error(node, format!("{what}: expected {expected}, got '{text}'"))
+            return Err(self.error(node, format!("{what}: expected {expected}, got '{text}'")));
         };
-        xml::numbers(text)
-            .and_then(|v| v.try_into().ok())
-            .ok_or_else(bad)
+        self.warn(node, format!("{what}=\"{text}\": {how}: {v:?}"));
+        Ok(v)
     }
 
     /// The value paired with the keyword that attribute `name` holds, if set.

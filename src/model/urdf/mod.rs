@@ -89,6 +89,7 @@ mod joints;
 mod links;
 mod package;
 mod pybullet_inertia;
+mod pybullet_numbers;
 #[cfg(test)]
 mod test_util;
 mod tree;
@@ -160,7 +161,8 @@ pub struct Loaded {
 /// Parses URDF text; `file` names it in errors (and is where relative and
 /// `package://` paths start).
 pub fn parse(text: &str, file: &str, options: &LoadOptions) -> Result<Loaded> {
-    let doc = xml::document(text, file)?;
+    let (text, notes) = xml::as_tinyxml2_reads(text);
+    let doc = xml::document(&text, file)?;
     let robot = doc.root_element();
     let reader = Reader {
         file,
@@ -168,6 +170,12 @@ pub fn parse(text: &str, file: &str, options: &LoadOptions) -> Result<Loaded> {
         warnings: Default::default(),
         meshes: Default::default(),
     };
+    for (line, note) in notes {
+        reader
+            .warnings
+            .borrow_mut()
+            .push(format!("{file}:{line}: {note}"));
+    }
     if !is(robot, "robot") {
         return Err(reader.error(robot, "the root element must be <robot>"));
     }
