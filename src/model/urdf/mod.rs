@@ -373,6 +373,25 @@ mod tests {
     }
 
     #[test]
+    fn a_late_declaration_and_trailing_nuls_load_with_warnings_naming_their_lines() {
+        let text = format!("\n\n<?xml version=\"1.0\"?>\n{}\0\r\n", urdf(&link("a")));
+        let loaded = parse(&text, "late.urdf", &Default::default()).unwrap();
+        let lines: Vec<&str> = loaded
+            .warnings
+            .iter()
+            .map(|w| w.split(": ").next().unwrap())
+            .collect();
+        assert_eq!(
+            lines,
+            ["late.urdf:6", "late.urdf:3"],
+            "{:?}",
+            loaded.warnings
+        );
+        let error = parse(&format!("{text}<link/>"), "late.urdf", &Default::default());
+        assert!(matches!(error, Err(ModelError::Xml { .. })), "{error:?}");
+    }
+
+    #[test]
     fn truncated_files_never_panic() {
         let text = include_str!("../../../reference_models/cartpole.urdf");
         for end in (0..text.len()).filter(|&i| text.is_char_boundary(i)) {

@@ -7,8 +7,8 @@
 //! garbage into zeros silently.
 
 /// `text` as `K` numbers, and how it was read, where it is one of:
-/// - numbers each followed by a comma (`0.07, 0, -0.69`), which PyBullet's
-///   `atof` reads as the numbers;
+/// - numbers followed by a stray comma or full stop (`0.07, 0, -0.69`,
+///   `-1.57.`), which `atof` reads as the numbers;
 /// - more than three numbers for a 3-vector (`0 1.57 0 0`): the first three,
 ///   as PyBullet takes them;
 /// - an unexpanded xacro `$(optenv NAME default)`: the default, the value
@@ -28,21 +28,23 @@ pub(super) fn read<const K: usize>(text: &str) -> Option<([f64; K], String)> {
         ));
     }
     let words: Vec<&str> = text.split_whitespace().collect();
-    let commas = words.iter().any(|w| w.ends_with(','));
+    let strays = words
+        .iter()
+        .any(|w| finite(w).is_none() && stray(w).is_some());
     let numbers: Vec<f64> = words
         .iter()
-        .map(|w| finite(w.strip_suffix(',').unwrap_or(w)))
+        .map(|w| finite(w).or_else(|| stray(w)))
         .collect::<Option<_>>()?;
     let extra = numbers.len() > K;
     if extra && K != 3 {
         return None;
     }
-    let how = match (commas, extra) {
-        (true, false) => "numbers separated by commas, read as PyBullet reads them",
+    let how = match (strays, extra) {
+        (true, false) => "a stray ',' or '.' after a number, ignored as atof ignores it",
         (false, true) => "more than three numbers: the first three, as PyBullet takes them",
         (true, true) => {
-            "numbers separated by commas, more than three: the first three, as PyBullet \
-             takes them"
+            "a stray ',' or '.' after a number, and more than three numbers: the first \
+             three, as PyBullet reads them"
         }
         (false, false) => return None,
     };
@@ -62,6 +64,11 @@ fn optenv(text: &str) -> Option<(&str, &str)> {
     Some((name, default.trim()))
 }
 
+/// The number before a stray ',' or '.' ending `word`.
+fn stray(word: &str) -> Option<f64> {
+    finite(word.strip_suffix([',', '.'])?)
+}
+
 fn finite(word: &str) -> Option<f64> {
     word.parse::<f64>().ok().filter(|x| x.is_finite())
 }
@@ -73,7 +80,7 @@ mod tests {
     #[test]
     fn commas_extra_numbers_and_optenv_are_read_as_meant() {
         let (v, how) = read::<3>("0.07, 0, -0.69").unwrap();
-        assert_eq!((v, how.contains("commas")), ([0.07, 0.0, -0.69], true));
+        assert_eq!((v, how.contains("stray")), ([0.07, 0.0, -0.69], true));
         let (v, how) = read::<3>("0 1.57079 0 0").unwrap();
         assert_eq!(
             (v, how.contains("first three")),
@@ -83,6 +90,7 @@ mod tests {
         assert_eq!(v, [0.19, 0.0, 0.149]);
         assert!(how.contains("HUSKY_IMU_XYZ"), "{how}");
         assert_eq!(read::<1>("2.5,").unwrap().0, [2.5]);
+        assert_eq!(read::<1>("-1.57.").unwrap().0, [-1.57]);
     }
 
     #[test]
@@ -95,6 +103,10 @@ mod tests {
             "1 2 3",
             "1 2 3 y",
             "1 nan 3,",
+            "1 2 3,,",
+            "1 2 .",
+            ",",
+            "1 2 3;",
             "$(optenv X 1 2)",
             "$(env X)",
             "",
