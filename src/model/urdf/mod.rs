@@ -24,7 +24,9 @@
 //! - Joint types: revolute and continuous are hinges, prismatic is a slide,
 //!   fixed welds the child to its parent (a body with no joint), floating is a
 //!   free joint (its child's parent must be the world; the `<origin>` is the
-//!   reference configuration); planar is rejected. A root link other than
+//!   reference configuration); spherical (PyBullet's) is an unlimited ball
+//!   joint, as PyBullet and MuJoCo's importer read it (PyBullet's swing-twist
+//!   limit is ignored with a warning); planar is rejected. A root link other than
 //!   `world` is welded to the world by default, as MuJoCo's importer and
 //!   Pinocchio's `buildModelFromUrdf` read it (PyBullet's useFixedBase=1);
 //!   [`LoadOptions::floating_base`] gives it a free joint named `root_joint`
@@ -74,6 +76,13 @@
 //!
 //! Anything else in that namespace is an error, so a typo is never dropped.
 //! Errors name the file, the 1-based line and the element.
+//!
+//! Files are read as PyBullet reads them where it finds an evident meaning in
+//! what a strict reader refuses, each with a warning naming the line: an XML
+//! declaration after blank lines and NUL bytes ending the file (tinyxml2's
+//! reading, `xml.rs`); a stray ',' or '.' after a number, more than three
+//! numbers for a 3-vector, an unexpanded xacro `$(optenv NAME default)`
+//! (`pybullet_numbers.rs`). Other malformed numbers are errors.
 //!
 //! Where each part is read: the link tree in `tree.rs`, links and their
 //! inertia in `links.rs`, joints in `joints.rs`, collisions in `geoms.rs`,
