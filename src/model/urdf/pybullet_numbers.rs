@@ -81,11 +81,8 @@ mod tests {
     fn commas_extra_numbers_and_optenv_are_read_as_meant() {
         let (v, how) = read::<3>("0.07, 0, -0.69").unwrap();
         assert_eq!((v, how.contains("stray")), ([0.07, 0.0, -0.69], true));
-        let (v, how) = read::<3>("0 1.57079 0 0").unwrap();
-        assert_eq!(
-            (v, how.contains("first three")),
-            ([0.0, 1.57079, 0.0], true)
-        );
+        let (v, how) = read::<3>("0 1.25 0 0").unwrap();
+        assert_eq!((v, how.contains("first three")), ([0.0, 1.25, 0.0], true));
         let (v, how) = read::<3>("$(optenv HUSKY_IMU_XYZ 0.19 0 0.149)").unwrap();
         assert_eq!(v, [0.19, 0.0, 0.149]);
         assert!(how.contains("HUSKY_IMU_XYZ"), "{how}");
