@@ -4,7 +4,7 @@
 
 use nalgebra::{Rotation3, Vector3};
 
-use super::{child, xml, Node, Reader, Result, NAMESPACE};
+use super::{child, pybullet_numbers, Node, Reader, Result, NAMESPACE};
 
 /// A frame in its parent: translation and rotation.
 pub(super) type Pose = (Vector3<f64>, Rotation3<f64>);
@@ -93,24 +93,32 @@ impl Reader<'_> {
     }
 
     /// Exactly `K` finite numbers separated by whitespace; `what` names them in
-    /// errors.
+    /// errors. The forms PyBullet reads with an evident meaning
+    /// (`pybullet_numbers.rs`) are accepted with a warning, except in our
+    /// extension attributes.
     pub(super) fn parse_numbers<const K: usize>(
         &self,
         node: Node,
         what: &str,
         text: &str,
     ) -> Result<[f64; K]> {
-        let bad = || {
+        if let Some(v) = pybullet_numbers::strict(text) {
+            return Ok(v);
+        }
+        let lenient = match what.starts_with("diffosi:") {
+            true => None,
+            false => pybullet_numbers::read::<K>(text),
+        };
+        let Some((v, how)) = lenient else {
             let expected = if K == 1 {
                 "a finite number".to_string()
             } else {
                 format!("{K} finite numbers")
             };
-            self.error(node, format!("{what}: expected {expected}, got '{text}'"))
+            return Err(self.error(node, format!("{what}: expected {expected}, got '{text}'")));
         };
-        xml::numbers(text)
-            .and_then(|v| v.try_into().ok())
-            .ok_or_else(bad)
+        self.warn(node, format!("{what}=\"{text}\": {how}: {v:?}"));
+        Ok(v)
     }
 
     /// The value paired with the keyword that attribute `name` holds, if set.
@@ -140,6 +148,7 @@ mod tests {
     use nalgebra::{Rotation3, Vector3};
 
     use super::super::test_util::*;
+    use crate::model::ModelError;
 
     #[test]
     fn rpy_is_fixed_axis_roll_then_pitch_then_yaw() {
@@ -167,5 +176,91 @@ mod tests {
         );
         let m = load(&text).unwrap();
         assert!((m.bodies[1].rot * Vector3::y() - Vector3::z()).norm() < 1e-15);
+    }
+
+    /// A fixed joint world -> a with `origin`, and a box of `size` on a.
+    fn welded(origin: &str, size: &str) -> String {
+        let a = link("a").replace(
+            "</link>",
+            &format!("<collision><geometry><box size=\"{size}\"/></geometry></collision></link>"),
+        );
+        format!(
+            "<link name=\"world\"/>\n{a}\n{}",
+            joint("j", "fixed", "world", "a", origin)
+        )
+    }
+
+    #[test]
+    fn numbers_pybullet_reads_with_a_meaning_are_accepted_with_a_warning() {
+        let cases = [
+            (
+                r#"<origin xyz="0.07, 0, -0.69"/>"#,
+                "1 1 1",
+                [0.07, 0.0, -0.69],
+                0.0,
+            ),
+            (r#"<origin rpy="0 1.5 0 0"/>"#, "1 1 1", [0.0; 3], 1.5),
+            (
+                r#"<origin xyz="$(optenv HUSKY_IMU_XYZ 0.19 0 0.149)"/>"#,
+                "1 1 1",
+                [0.19, 0.0, 0.149],
+                0.0,
+            ),
+            ("", "1 1 1 1", [0.0; 3], 0.0),
+        ];
+        for (origin, size, xyz, pitch) in cases {
+            let m = load(&welded(origin, size)).unwrap();
+            assert_eq!(m.bodies[1].pos, Vector3::from(xyz), "{origin}");
+            assert!((m.bodies[1].rot.euler_angles().1 - pitch).abs() < 1e-15);
+            let [warning] = m.warnings() else {
+                panic!("one warning expected: {:?}", m.warnings())
+            };
+            let line = if size == "1 1 1" { 4 } else { 3 };
+            assert!(
+                warning.starts_with(&format!("test.urdf:{line}: <")),
+                "{warning}"
+            );
+        }
+        let m = load(&welded("", "1 2 3 4")).unwrap();
+        assert!(
+            m.warnings()[0].contains("the first three"),
+            "{:?}",
+            m.warnings()
+        );
+        assert!(
+            m.warnings()[0].contains("[1.0, 2.0, 3.0]"),
+            "{:?}",
+            m.warnings()
+        );
+    }
+
+    #[test]
+    fn garbage_numbers_are_still_refused_with_the_line() {
+        for (origin, size) in [
+            (r#"<origin xyz="a b c"/>"#, "1 1 1"),
+            (r#"<origin xyz="1,2,3"/>"#, "1 1 1"),
+            (r#"<origin rpy="0 1"/>"#, "1 1 1"),
+            (r#"<origin rpy="$(optenv R 0 1)"/>"#, "1 1 1"),
+            (r#"<origin xyz="$(arg x)"/>"#, "1 1 1"),
+            ("", "1 1 1 x"),
+        ] {
+            let (line, element) = if size == "1 1 1" {
+                (4, "origin")
+            } else {
+                (3, "box")
+            };
+            match load(&welded(origin, size)) {
+                Err(ModelError::Invalid {
+                    line: l,
+                    element: e,
+                    message,
+                    ..
+                }) => {
+                    assert_eq!((l, e.as_str()), (line, element), "{message}");
+                    assert!(message.contains("expected 3 finite numbers"), "{message}");
+                }
+                other => panic!("{origin} {size}: expected an error, got {other:?}"),
+            }
+        }
     }
 }

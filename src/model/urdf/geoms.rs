@@ -4,7 +4,10 @@
 //! A `<mesh filename scale>` becomes a mesh geom as MuJoCo's URDF importer
 //! makes it: the mesh compiled with MuJoCo's defaults (legacy inertia) and
 //! `scale`, its convex hull built (the geom collides), the geom's pose
-//! moved to the mesh's inertial frame. One mesh per file and scale.
+//! moved to the mesh's inertial frame. One mesh per file and scale. A mesh
+//! whose volume MuJoCo finds too small (an open surface), which its importer
+//! refuses and PyBullet loads, is compiled with its hull's inertia instead,
+//! with a warning: the mesh only places the geom's frame.
 //! Where the file is: [`mesh_path`].
 
 use std::path::{Path, PathBuf};
@@ -13,7 +16,7 @@ use nalgebra::Vector3;
 
 use super::attributes::value;
 use super::{child, children, resolve, Node, Reader, Result};
-use crate::model::mesh::{self, Mesh, MeshSettings};
+use crate::model::mesh::{self, Mesh, MeshInertia, MeshSettings};
 use crate::model::{Geom, Shape};
 
 /// A mesh of a collision geom: its file and scale, and the compiled mesh.
@@ -107,9 +110,28 @@ impl Reader<'_> {
         let name = path
             .file_stem()
             .map_or(String::new(), |s| s.to_string_lossy().into_owned());
-        let compiled = mesh::read_file(&path, mesh::URDF_FORMATS)
-            .and_then(|raw| mesh::compile(&name, &raw, &settings))
-            .map_err(|e| self.error(node, format!("mesh file '{}': {e}", path.display())))?;
+        let error = |e| self.error(node, format!("mesh file '{}': {e}", path.display()));
+        let raw = mesh::read_file(&path, mesh::URDF_FORMATS).map_err(error)?;
+        let compiled = match mesh::compile(&name, &raw, &settings) {
+            Err(e) if e.starts_with("mesh volume is too small") => {
+                let convex = MeshSettings {
+                    inertia: MeshInertia::Convex,
+                    ..settings
+                };
+                let compiled = mesh::compile(&name, &raw, &convex).map_err(error)?;
+                self.warn(
+                    node,
+                    format!(
+                        "mesh file '{}': {e} (MuJoCo's importer refuses it); compiled with \
+                         inertia=\"convex\", its hull's, as PyBullet loads it: the mesh \
+                         gives the geom its frame, never the link its inertia",
+                        path.display()
+                    ),
+                );
+                compiled
+            }
+            compiled => compiled.map_err(error)?,
+        };
         meshes.push(UrdfMesh {
             path,
             scale,
@@ -264,5 +286,43 @@ mod tests {
             err.contains("<mesh>") && err.contains("missing.stl"),
             "{err}"
         );
+    }
+
+    /// Three crossed squares: every face's plane holds the surface's
+    /// centroid, so MuJoCo 4.0.0 refuses the mesh as legacy ("mesh volume is
+    /// too small") and compiles it as convex: a cuboctahedron of volume 20/3.
+    const CROSS: &str = "v 1 1 0\nv -1 1 0\nv -1 -1 0\nv 1 -1 0\nv 1 0 1\nv -1 0 1\n\
+        v -1 0 -1\nv 1 0 -1\nv 0 1 1\nv 0 -1 1\nv 0 -1 -1\nv 0 1 -1\n\
+        f 1 2 3\nf 1 3 4\nf 5 6 7\nf 5 7 8\nf 9 10 11\nf 9 11 12\n";
+
+    #[test]
+    fn a_mesh_without_volume_gets_its_hulls_inertia_with_a_warning() {
+        let dir = std::env::temp_dir().join(format!("diffosi-urdf-cross-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("cross.obj"), CROSS).unwrap();
+        let text = urdf(
+            "<link name=\"base\"><collision><geometry>\n\
+             <mesh filename=\"cross.obj\"/></geometry></collision></link>",
+        );
+        let path = dir.join("r.urdf");
+        let loaded = super::super::parse(&text, path.to_str().unwrap(), &Default::default());
+        let loaded = loaded.unwrap();
+        assert!((loaded.spec.meshes[0].volume - 20.0 / 3.0).abs() < 1e-12);
+        assert!(
+            loaded.spec.geoms[0].pos.norm() < 1e-15,
+            "{}",
+            loaded.spec.geoms[0].pos
+        );
+        let warnings: Vec<_> = loaded
+            .warnings
+            .iter()
+            .filter(|w| w.contains("<mesh>"))
+            .collect();
+        let [warning] = warnings[..] else {
+            panic!("one warning on the mesh expected: {:?}", loaded.warnings)
+        };
+        assert!(warning.contains(":3: <mesh>: mesh file"), "{warning}");
+        assert!(warning.contains("volume is too small"), "{warning}");
+        assert!(warning.contains("inertia=\"convex\""), "{warning}");
     }
 }

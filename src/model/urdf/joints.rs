@@ -18,6 +18,7 @@ impl Reader<'_> {
         let axis = self.axis(node)?;
         let range = match ty {
             "continuous" | "floating" => None,
+            "spherical" => self.spherical_limit(node)?,
             _ => self.limit(node)?,
         };
         let [damping, frictionloss, stiffness, springref, armature] = self.dynamics(node)?;
@@ -47,6 +48,7 @@ impl Reader<'_> {
             "prismatic" => Ok(Some(JointKind::Slide)),
             "fixed" => Ok(None),
             "floating" => Ok(Some(JointKind::Free)),
+            "spherical" => Ok(Some(JointKind::Ball)),
             "planar" => Err(self.error(
                 node,
                 "planar joints are not supported: write them as two prismatic joints and a \
@@ -75,6 +77,31 @@ impl Reader<'_> {
         let lower = self.number(limit, "lower")?.unwrap_or(0.0);
         let upper = self.number(limit, "upper")?.unwrap_or(0.0);
         Ok((lower < upper).then_some((lower, upper)))
+    }
+
+    /// No range: PyBullet limits a spherical joint only where `<limit>` has
+    /// lower, upper, twist and effort all positive, as swing angles about x
+    /// and y and a twist (btMultiBodySphericalJointLimit), which a ball joint
+    /// cannot express; such a limit is ignored with a warning.
+    fn spherical_limit(&self, joint: Node) -> Result<Option<(f64, f64)>> {
+        let Some(limit) = child(joint, "limit") else {
+            return Ok(None);
+        };
+        let mut values = vec![];
+        for name in ["lower", "upper", "twist", "effort"] {
+            values.push(self.number(limit, name)?.unwrap_or(0.0));
+        }
+        if values.iter().all(|&v| v > 0.0) {
+            self.warn(
+                limit,
+                format!(
+                    "PyBullet's spherical joint limit (swing {} about x, {} about y, twist {}) \
+                     is not supported: the ball joint is unlimited",
+                    values[0], values[1], values[2]
+                ),
+            );
+        }
+        Ok(None)
     }
 
     /// `<dynamics>`: damping, frictionloss, stiffness, springref, armature.
@@ -133,6 +160,33 @@ mod tests {
             ]
         );
         assert_eq!(m.joints[0].axis, Vector3::x());
+    }
+
+    #[test]
+    fn a_spherical_joint_is_an_unlimited_ball_joint_with_a_warning_for_its_limit() {
+        let limit =
+            r#"<origin xyz="0 0 1"/><limit effort="1000" lower="0.2" upper=".8" twist=".3"/>"#;
+        let text = format!(
+            "<link name=\"world\"/>{}{}",
+            link("neck"),
+            joint("neck", "spherical", "world", "neck", limit)
+        );
+        let m = load(&text).unwrap();
+        let j = &m.joints[0];
+        assert_eq!(
+            (j.kind, j.range, m.nq(), m.nv()),
+            (JointKind::Ball, None, 4, 3)
+        );
+        assert_eq!(m.reference_q(), [1.0, 0.0, 0.0, 0.0]);
+        assert_eq!(m.bodies[1].pos, Vector3::new(0.0, 0.0, 1.0));
+        let [warning] = m.warnings() else {
+            panic!("one warning expected: {:?}", m.warnings())
+        };
+        assert!(warning.contains("test.urdf:2: <limit>: PyBullet's spherical joint limit (swing 0.2 about x, 0.8 about y, twist 0.3)"), "{warning}");
+
+        // PyBullet applies no limit without an effort: nothing is ignored.
+        let text = text.replace("effort=\"1000\"", "");
+        assert!(load(&text).unwrap().warnings().is_empty());
     }
 
     #[test]

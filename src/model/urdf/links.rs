@@ -116,7 +116,8 @@ impl Reader<'_> {
                 let msg = format!(
                     "link '{}' moves (joint '{joint}') but neither it nor any link below it has \
                      mass or inertia, so that joint has no inertia (Pinocchio's ABA gives NaN, \
-                     MuJoCo refuses it); give the link an <inertial>",
+                     MuJoCo refuses it, PyBullet gives the joint no acceleration); give the link an \
+                     <inertial>",
                     link.name
                 );
                 return Err(self.error(link.node, msg));

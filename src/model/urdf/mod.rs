@@ -24,7 +24,9 @@
 //! - Joint types: revolute and continuous are hinges, prismatic is a slide,
 //!   fixed welds the child to its parent (a body with no joint), floating is a
 //!   free joint (its child's parent must be the world; the `<origin>` is the
-//!   reference configuration); planar is rejected. A root link other than
+//!   reference configuration); spherical (PyBullet's) is an unlimited ball
+//!   joint, as PyBullet and MuJoCo's importer read it (PyBullet's swing-twist
+//!   limit is ignored with a warning); planar is rejected. A root link other than
 //!   `world` is welded to the world by default, as MuJoCo's importer and
 //!   Pinocchio's `buildModelFromUrdf` read it (PyBullet's useFixedBase=1);
 //!   [`LoadOptions::floating_base`] gives it a free joint named `root_joint`
@@ -75,6 +77,13 @@
 //! Anything else in that namespace is an error, so a typo is never dropped.
 //! Errors name the file, the 1-based line and the element.
 //!
+//! Files are read as PyBullet reads them where it finds an evident meaning in
+//! what a strict reader refuses, each with a warning naming the line: an XML
+//! declaration after blank lines and NUL bytes ending the file (tinyxml2's
+//! reading, `xml.rs`); a stray ',' or '.' after a number, more than three
+//! numbers for a 3-vector, an unexpanded xacro `$(optenv NAME default)`
+//! (`pybullet_numbers.rs`). Other malformed numbers are errors.
+//!
 //! Where each part is read: the link tree in `tree.rs`, links and their
 //! inertia in `links.rs`, joints in `joints.rs`, collisions in `geoms.rs`,
 //! transmissions in `actuators.rs`, the extension namespace and the options in
@@ -89,6 +98,7 @@ mod joints;
 mod links;
 mod package;
 mod pybullet_inertia;
+mod pybullet_numbers;
 #[cfg(test)]
 mod test_util;
 mod tree;
@@ -160,7 +170,8 @@ pub struct Loaded {
 /// Parses URDF text; `file` names it in errors (and is where relative and
 /// `package://` paths start).
 pub fn parse(text: &str, file: &str, options: &LoadOptions) -> Result<Loaded> {
-    let doc = xml::document(text, file)?;
+    let (text, notes) = xml::as_tinyxml2_reads(text);
+    let doc = xml::document(&text, file)?;
     let robot = doc.root_element();
     let reader = Reader {
         file,
@@ -168,6 +179,12 @@ pub fn parse(text: &str, file: &str, options: &LoadOptions) -> Result<Loaded> {
         warnings: Default::default(),
         meshes: Default::default(),
     };
+    for (line, note) in notes {
+        reader
+            .warnings
+            .borrow_mut()
+            .push(format!("{file}:{line}: {note}"));
+    }
     if !is(robot, "robot") {
         return Err(reader.error(robot, "the root element must be <robot>"));
     }
@@ -362,6 +379,25 @@ mod tests {
             load("<link name=\"a\">"),
             Err(ModelError::Xml { .. })
         ));
+    }
+
+    #[test]
+    fn a_late_declaration_and_trailing_nuls_load_with_warnings_naming_their_lines() {
+        let text = format!("\n\n<?xml version=\"1.0\"?>\n{}\0\r\n", urdf(&link("a")));
+        let loaded = parse(&text, "late.urdf", &Default::default()).unwrap();
+        let lines: Vec<&str> = loaded
+            .warnings
+            .iter()
+            .map(|w| w.split(": ").next().unwrap())
+            .collect();
+        assert_eq!(
+            lines,
+            ["late.urdf:6", "late.urdf:3"],
+            "{:?}",
+            loaded.warnings
+        );
+        let error = parse(&format!("{text}<link/>"), "late.urdf", &Default::default());
+        assert!(matches!(error, Err(ModelError::Xml { .. })), "{error:?}");
     }
 
     #[test]
