@@ -143,6 +143,14 @@ def test_dm_control_dog_in_contact_steps_as_mujoco(cone, drop, bound):
         m, mj = diffosi.Model.load(str(path)), mujoco.MjModel.from_xml_path(str(path))
     finally:
         path.unlink()
+    # The springdamper joints' stiffness and damping, as MuJoCo's compiler sets them.
+    for j in range(mj.njnt):
+        name = mujoco.mj_id2name(mj, mujoco.mjtObj.mjOBJ_JOINT, j)
+        if name and mj.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE:
+            stiffness = m.get_param(f"joint/{name}/stiffness")[0]
+            damping = m.get_param(f"joint/{name}/damping")[0]
+            assert stiffness == pytest.approx(mj.jnt_stiffness[j], rel=1e-12)
+            assert damping == pytest.approx(mj.dof_damping[mj.jnt_dofadr[j]], rel=1e-12)
     d = mujoco.MjData(mj)
     mujoco.mj_resetDataKeyframe(mj, d, 0)
     d.qpos[2] -= drop

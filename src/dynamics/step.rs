@@ -577,7 +577,8 @@ fn constrained<T: Real>(
     let factor = &r.factor;
     noslip(
         &c.rows,
-        (&r.a0, &|x: &mut [T]| ltdl_solve(tree, factor, x)),
+        &r.a0,
+        |x: &mut [T]| ltdl_solve(tree, factor, x),
         (&tree.parent, tree.constraint.mean_inertia),
         tree.opt.solver.noslip,
         (&mut c.solution, &mut r.noslip),

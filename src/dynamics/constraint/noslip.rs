@@ -70,7 +70,8 @@ enum Sweep {
 /// `out` stay the main solver's; `out.noslip` says whether any row was swept.
 pub fn noslip<T: Real>(
     rows: &Rows<T>,
-    (a0, minv): (&[T], &dyn Fn(&mut [T])),
+    a0: &[T],
+    minv: impl Fn(&mut [T]),
     (parent, mean_inertia): (&[Option<usize>], T),
     settings: NoSlip,
     (out, s): (&mut Solution<T>, &mut Scratch<T>),
@@ -444,7 +445,8 @@ mod tests {
         };
         noslip(
             &rows,
-            (&[a0], &|x: &mut [f64]| x[0] /= mass),
+            &[a0],
+            |x: &mut [f64]| x[0] /= mass,
             (&[None], mass),
             settings,
             (&mut out, &mut Scratch::default()),
