@@ -262,7 +262,9 @@ fn compare(model: &str, ours: &Spec, theirs: &Spec) -> (Worst, Worst) {
             margin,
             limit_sol,
             friction_sol,
+            springdamper,
         } = a;
+        assert_eq!(springdamper, &b.springdamper, "{model}");
         let at = |what: &str| format!("joint '{name}' {what}");
         assert_eq!(
             (name, kind, body, range.is_some()),

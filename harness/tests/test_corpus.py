@@ -20,8 +20,6 @@ SEED = 0
 # mass 1 where a link has no <inertial>, Bullet's principal axes, unphysical tensors zeroed);
 # the Pinocchio check the default reading, the file as written.
 KNOWN_FAILURES = {
-    "dm_control:dog.xml":
-        "load: <option>: noslip_iterations is not supported",
     "example-robot-data:alex_description/urdf/alex_nub_hands.urdf":
         "load: <mesh>: mesh file '<example-robot-data>/alex_description/meshes/cycloidal_arm/nub.obj': mesh volume is too small: nub . Try setting inertia to shell",
     "example-robot-data:human_description/robots/human.urdf":

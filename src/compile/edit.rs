@@ -374,11 +374,9 @@ impl Model {
         tree.free_bodies = free_bodies(&self.spec, &tree.body_frames());
         if tree.opt.contact_model == ContactModel::Constraint {
             // MuJoCo's mj_setConst after an edit of inertial values.
-            let (body, dof) = invweight0(tree, &self.spec, &|_, _, x| x);
-            (
-                tree.constraint.body_invweight,
-                tree.constraint.dof_invweight,
-            ) = (body, dof);
+            let constants = invweight0(tree, &self.spec, &|_, _, x| x);
+            let c = &mut tree.constraint;
+            (c.body_invweight, c.dof_invweight, c.mean_inertia) = constants;
         }
     }
 }

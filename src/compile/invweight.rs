@@ -3,7 +3,9 @@
 //! Jacobians (body_invweight0), per dof the diagonal of M^-1
 //! (dof_invweight0), at the reference configuration; 1 / mass for MuJoCo's
 //! "simple" bodies (`slides_only`). They stand for A_ii in the rows' R
-//! ([`crate::dynamics::constraint::impedance`]).
+//! ([`crate::dynamics::constraint::impedance`]). With them, MuJoCo's
+//! stat.meaninertia: the mean of M's diagonal there, which scales the noslip
+//! sweeps' cost improvement ([`crate::dynamics::constraint::noslip`]).
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -15,16 +17,18 @@ use crate::spatial::{lift, Real};
 /// at the reference configuration (mj_setConst), with the body masses and
 /// COMs lifted as the tree's were (`lift_param`, see [`Tree::build_with`]).
 /// A value that is not finite (inertia so large the mass matrix overflows) is 0.
+/// Third, the mean inertia (1 without dofs, MuJoCo's default).
 pub fn invweight0<T: Real>(
     tree: &Tree<T>,
     spec: &Spec,
     lift_param: &impl Fn(Param, usize, f64) -> T,
-) -> (Vec<[T; 2]>, Vec<T>) {
-    let (bodies, dofs) = invweight0_raw(tree, spec, lift_param);
+) -> (Vec<[T; 2]>, Vec<T>, T) {
+    let (bodies, dofs, mean_inertia) = invweight0_raw(tree, spec, lift_param);
     let finite = |x: T| if x.is_finite() { x } else { T::zero() };
     (
         bodies.into_iter().map(|b| b.map(finite)).collect(),
         dofs.into_iter().map(finite).collect(),
+        mean_inertia,
     )
 }
 
@@ -32,11 +36,16 @@ fn invweight0_raw<T: Real>(
     tree: &Tree<T>,
     spec: &Spec,
     lift_param: &impl Fn(Param, usize, f64) -> T,
-) -> (Vec<[T; 2]>, Vec<T>) {
+) -> (Vec<[T; 2]>, Vec<T>, T) {
     let n = tree.nv();
     let mut data = Data::new(tree);
     let q: Vec<T> = spec.reference_q().into_iter().map(lift).collect();
     crba(tree, &mut data, &q);
+    let mean_inertia = if n == 0 {
+        T::one()
+    } else {
+        data.mass_matrix.diagonal().sum() / lift(n as f64)
+    };
     let mut factored = data.mass_matrix.clone();
     ltdl_factor(tree, &mut factored);
     world_frames(tree, &mut data, &vec![T::zero(); n]);
@@ -80,7 +89,7 @@ fn invweight0_raw<T: Real>(
             e[i]
         })
         .collect();
-    (bodies, dofs)
+    (bodies, dofs, mean_inertia)
 }
 
 /// MuJoCo's "simple" bodies of level 2, whose invweight0 is 1 / mass: only

@@ -18,6 +18,7 @@ mod pairs;
 mod ray;
 mod sensors;
 mod simulate;
+mod springdamper;
 mod tendon;
 mod tree;
 
@@ -94,6 +95,9 @@ impl Model {
         spec.validate()?;
         let mut tree = Tree::build(&spec);
         check_tree_inertia(&spec, &tree, 1..spec.bodies.len())?;
+        if springdamper::resolve_spring_dampers(&mut spec, &tree) {
+            tree = Tree::build(&spec);
+        }
         if actuators::resolve_damp_ratios(&mut spec, &tree) {
             tree.actuators = tree::actuator_terms(&spec);
         }

@@ -174,9 +174,10 @@ impl<T: Real> Tree<T> {
         let reach = self.constraint.pairs.iter();
         let reach = reach.map(|p| (p.geoms, p.params.margin + p.params.gap));
         self.constraint.sweep = Sweep::new(&self.geoms, reach);
-        let (bodies, dofs) = invweight0(self, model, lift_param);
+        let (bodies, dofs, mean_inertia) = invweight0(self, model, lift_param);
         self.constraint.body_invweight = bodies;
         self.constraint.dof_invweight = dofs;
+        self.constraint.mean_inertia = mean_inertia;
         self.constraint.equalities = equality_consts(self, model, lift_param);
     }
 

@@ -8,6 +8,7 @@ use super::actuation::{
     act_rates, add_actuator_forces, add_force_velocity_derivatives, idle_without_inputs, next_acts,
 };
 use super::collision::{ConstraintContact, Pre};
+use super::constraint::noslip::{self, noslip};
 use super::constraint::solver::{solve, Scratch, Solution, Start};
 use super::constraint::{rows, unreachable_pair, Rows};
 use super::contact::lawless_within_reach;
@@ -507,6 +508,7 @@ pub struct Reuse<T: Real> {
     spare: Option<Constrained<T>>,
     pre: Vec<Pre<T>>,
     solver: Scratch<T>,
+    noslip: noslip::Scratch<T>,
     factor: DMatrix<T>,
     a0: Vec<T>,
 }
@@ -523,6 +525,7 @@ impl<T: Real> Reuse<T> {
             spare: None,
             pre: vec![],
             solver: Scratch::default(),
+            noslip: noslip::Scratch::default(),
             factor: DMatrix::zeros(nv, nv),
             a0: vec![T::zero(); nv],
         }
@@ -534,7 +537,9 @@ impl<T: Real> Reuse<T> {
 /// 1. collision and constraint rows at (q, v) ([`super::constraint`]; with
 ///    none, the step is the plain articulated dynamics, bit for bit);
 /// 2. a0 = M^-1 (tau + tau_passive - c), M from CRBA (armature included);
-/// 3. the constrained acceleration and forces f ([`super::constraint::solver`]);
+/// 3. the constrained acceleration and forces f ([`super::constraint::solver`]),
+///    then MuJoCo's noslip sweeps where the model asks for them
+///    ([`super::constraint::noslip`]);
 /// 4. with implicit passive terms (MuJoCo's Euler), the acceleration is
 ///    solved again with them, (M + diag(extra)) qdd = tau + tau_passive - c
 ///    plus J^T f, and under the implicit integrators with M - h qDeriv
@@ -570,6 +575,15 @@ fn constrained<T: Real>(
         &c.rows,
         (iterations, start),
         (&mut c.solution, &mut r.solver),
+    );
+    let factor = &r.factor;
+    noslip(
+        &c.rows,
+        &r.a0,
+        |x: &mut [T]| ltdl_solve(tree, factor, x),
+        (&tree.parent, tree.constraint.mean_inertia),
+        tree.opt.solver.noslip,
+        (&mut c.solution, &mut r.noslip),
     );
     let Some(lhs) = lhs else {
         qdd.copy_from_slice(&c.solution.qacc);

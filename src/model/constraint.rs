@@ -250,6 +250,27 @@ pub struct SolverOptions {
     /// MuJoCo's defaults only; under any other setting its pairs have no
     /// collider ([`Ccd::is_default`]).
     pub ccd: Ccd,
+    /// MuJoCo's noslip post-processing (`noslip_iterations`,
+    /// `noslip_tolerance`), [`crate::dynamics::constraint::noslip`].
+    pub noslip: NoSlip,
+}
+
+/// See [`SolverOptions::noslip`]: at most `iterations` sweeps (0, MuJoCo's
+/// default, none), stopping once a sweep's scaled cost improvement falls
+/// below `tolerance` (default 1e-6).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NoSlip {
+    pub iterations: usize,
+    pub tolerance: f64,
+}
+
+impl Default for NoSlip {
+    fn default() -> Self {
+        NoSlip {
+            iterations: 0,
+            tolerance: 1e-6,
+        }
+    }
 }
 
 /// See [`SolverOptions::ccd`].
@@ -292,6 +313,7 @@ impl Default for SolverOptions {
             refsafe: true,
             filterparent: true,
             ccd: Ccd::default(),
+            noslip: NoSlip::default(),
         }
     }
 }
@@ -303,6 +325,9 @@ impl SolverOptions {
                 "impratio must be positive and iterations at least 1, got {} and {}",
                 self.impratio, self.iterations
             ));
+        }
+        if self.noslip.tolerance.is_nan() {
+            return Err("noslip_tolerance must be a number".into());
         }
         Ok(())
     }

@@ -46,7 +46,7 @@ mod xml;
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
 pub use constraint::{
-    Ccd, Cone, ContactModel, ContactPair, GeomContact, PairParams, SolParams, SolverOptions,
+    Ccd, Cone, ContactModel, ContactPair, GeomContact, NoSlip, PairParams, SolParams, SolverOptions,
 };
 pub use equality::{Equality, EqualityKind, Objects};
 pub use keyframe::Keyframe;
@@ -206,6 +206,11 @@ pub struct Joint {
     pub margin: f64,
     pub limit_sol: SolParams,
     pub friction_sol: SolParams,
+    /// MuJoCo's `springdamper` (time constant, damping ratio), both
+    /// positive: the compiler replaces `stiffness` and `damping` from them
+    /// and the dof's invweight0 ([`crate::compile`], module `springdamper`),
+    /// then clears it.
+    pub springdamper: Option<[f64; 2]>,
 }
 
 impl Joint {
@@ -229,6 +234,7 @@ impl Joint {
             margin: 0.0,
             limit_sol: SolParams::default(),
             friction_sol: SolParams::default(),
+            springdamper: None,
         }
     }
 }

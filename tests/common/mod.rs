@@ -76,6 +76,7 @@ pub fn random_model(seed: u64, n: usize, passive: PassiveMode, integrator: Integ
                 margin: 0.0,
                 limit_sol: Default::default(),
                 friction_sol: Default::default(),
+                springdamper: None,
             });
         }
         bodies.push(Body {

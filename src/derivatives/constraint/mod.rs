@@ -37,9 +37,12 @@ use slopes::{find_slopes, Slopes};
 
 /// Whether the derivative of this module applies: every row of a kind with
 /// analytic partials ([`analytic`]), no elliptic cone in its middle zone
-/// (that zone's Hessian is not linear in the rows).
+/// (that zone's Hessian is not linear in the rows), no noslip sweep after
+/// the solver (its forces are not the optimum's; dual numbers carry the
+/// derivative through the sweeps).
 pub(super) fn differentiable(c: &Constrained<f64>) -> bool {
-    !c.solution.zone.contains(&Zone::Cone) && c.rows.origin.iter().all(|o| analytic(o.kind))
+    let s = &c.solution;
+    !s.noslip && !s.zone.contains(&Zone::Cone) && c.rows.origin.iter().all(|o| analytic(o.kind))
 }
 
 /// Whether rows of `kind` have their partials here (in q and in the

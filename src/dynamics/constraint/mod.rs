@@ -57,6 +57,7 @@ pub mod equality;
 pub mod friction;
 pub mod impedance;
 pub mod limit;
+pub mod noslip;
 pub mod solver;
 pub mod tendon;
 
@@ -77,6 +78,9 @@ pub struct ConstraintConsts<T: Real> {
     pub body_invweight: Vec<[T; 2]>,
     /// Per node (dof): dof_invweight0.
     pub dof_invweight: Vec<T>,
+    /// MuJoCo's stat.meaninertia: the mean of M's diagonal at the
+    /// reference configuration.
+    pub mean_inertia: T,
     /// Per node: the limit, if the joint is limited and limits are on.
     pub limits: Vec<Option<Limit<T>>>,
     /// Per node: dry friction and its solver parameters (0 when off).
@@ -93,6 +97,7 @@ impl<T: Real> ConstraintConsts<T> {
             sweep: Sweep::default(),
             body_invweight: vec![],
             dof_invweight: vec![],
+            mean_inertia: T::one(),
             limits: vec![],
             frictionloss: vec![],
             equalities: vec![],

@@ -62,6 +62,9 @@ pub struct Solution<T: Real> {
     /// the solver's last factor was on the final zones, no cone in its middle.
     pub hessian: Vec<T>,
     pub factored: bool,
+    /// Whether the noslip sweeps ([`super::noslip`]) then moved frictional
+    /// forces: `force` and `qacc` are theirs, `zone` the solver's.
+    pub noslip: bool,
 }
 
 impl<T: Real> Default for Solution<T> {
@@ -74,6 +77,7 @@ impl<T: Real> Default for Solution<T> {
             converged: false,
             hessian: vec![],
             factored: false,
+            noslip: false,
         }
     }
 }
@@ -295,6 +299,7 @@ pub fn solve<T: Real>(
     }
     out.hessian.resize(n * n, T::zero());
     out.converged = false;
+    out.noslip = false;
     let mut factored = false;
     let mut iteration = 0;
     while iteration < iterations {

@@ -67,6 +67,7 @@ impl<'a> Reader<'a> {
             margin: a.number("margin")?.unwrap_or(0.0),
             limit_sol: a.sol_params("solreflimit", "solimplimit")?,
             friction_sol: a.sol_params("solreffriction", "solimpfriction")?,
+            springdamper: springdamper(&a)?,
         };
         let owner = format!("joint '{}'", joint.name);
         for sol in [&joint.limit_sol, &joint.friction_sol] {
@@ -129,15 +130,24 @@ fn joint_kind(a: &Attrs) -> Result<JointKind> {
         .1)
 }
 
-/// The linear damping and stiffness coefficients; `springdamper` and the
-/// polynomial terms of `damping` and `stiffness` are rejected.
-fn damping_and_stiffness(a: &Attrs) -> Result<(f64, f64)> {
-    if a.exact::<2>("springdamper")?.is_some_and(|s| s != [0.0; 2]) {
-        return Err(a.error(
-            a.element,
-            "springdamper is not supported: give stiffness and damping",
-        ));
+/// `springdamper`, unless absent or zero: both values positive, as MuJoCo
+/// requires.
+fn springdamper(a: &Attrs) -> Result<Option<[f64; 2]>> {
+    match a.exact::<2>("springdamper")? {
+        Some(s) if s != [0.0; 2] => {
+            if !(s[0] > 0.0 && s[1] > 0.0) {
+                let msg = "when defined, springdamper values must be positive";
+                return Err(a.error(a.element, msg));
+            }
+            Ok(Some(s))
+        }
+        _ => Ok(None),
     }
+}
+
+/// The linear damping and stiffness coefficients; the polynomial terms of
+/// `damping` and `stiffness` are rejected.
+fn damping_and_stiffness(a: &Attrs) -> Result<(f64, f64)> {
     let damping = a.leading::<3>("damping", [0.0; 3])?;
     let stiffness = a.leading::<3>("stiffness", [0.0; 3])?;
     if damping[1..] != [0.0; 2] || stiffness[1..] != [0.0; 2] {

@@ -41,9 +41,9 @@
 //!   flexes and skins, the ellipsoid fluid model (fluidshape) on a plane,
 //!   mesh or height field,
 //!   gravcomp routed through actuators (`actuatorgravcomp`), bodies inside
-//!   a mocap body, noslip iterations, the `override`
+//!   a mocap body, the `override`
 //!   flag, disabling springs, dampers, actuation or control clamping,
-//!   polynomial or springdamper joint parameters, joint actuator-force
+//!   polynomial joint parameters, joint actuator-force
 //!   limits, and the actuators `actuators.rs` lists (muscles, cylinders,
 //!   adhesion, PID and DC motors; tendon, site, body, ball and free-joint
 //!   transmissions; actuator damping's polynomial terms and delay);

@@ -15,12 +15,13 @@
 //!
 //! An MJCF model runs the constraint contact model ([`ContactModel`]) unless
 //! `<custom><text name="diffosi:contact" data="smooth"/></custom>` names the
-//! smooth one. The solver's `cone`, `impratio` and `iterations` are read;
+//! smooth one. The solver's `cone`, `impratio`, `iterations`,
+//! `noslip_iterations` and `noslip_tolerance` are read;
 //! `solver`, `tolerance`, `jacobian` and the line-search settings only tune
 //! how MuJoCo approaches the same answer and are ignored (ours converges).
 //! The flags `constraint`, `equality`, `frictionloss`, `refsafe` and `filterparent` are
-//! read into [`SolverOptions`]; `noslip_iterations` and the `override` flag
-//! change the answer and are rejected.
+//! read into [`SolverOptions`]; the `override` flag changes the answer and
+//! is rejected.
 //!
 //! The soft-contact constants ([`SoftOptions`]) are read from `<custom>`
 //! numerics named `diffosi:<setting>` ([`SoftOptions::NAMES`]), one number
@@ -174,9 +175,13 @@ fn read_solver(a: &Attrs, solver: &mut SolverOptions) -> Result<()> {
         solver.iterations = usize::try_from(n).unwrap_or(0);
     }
     a.keyword("solver", &["PGS", "CG", "Newton"])?;
-    if a.int("noslip_iterations")?.unwrap_or(0) != 0 {
-        return Err(a.error(a.element, "noslip_iterations is not supported"));
+    if let Some(n) = a.int("noslip_iterations")? {
+        solver.noslip.iterations = usize::try_from(n)
+            .map_err(|_| a.error(a.element, "noslip_iterations must be non-negative"))?;
     }
+    solver.noslip.tolerance = a
+        .number("noslip_tolerance")?
+        .unwrap_or(solver.noslip.tolerance);
     solver.check().map_err(|e| a.error(a.element, e))
 }
 
@@ -375,6 +380,15 @@ mod tests {
             (Cone::Elliptic, 10.0, 7)
         );
         assert!(!s.frictionloss && !s.refsafe && !s.filterparent);
+        let noslip = r#"<option noslip_iterations="10" noslip_tolerance="1e-9"/>"#;
+        let expected = crate::model::NoSlip {
+            iterations: 10,
+            tolerance: 1e-9,
+        };
+        let xml = model(noslip, &body(""), "");
+        assert_eq!(load(&xml).opt.solver.noslip, expected);
+        let written = super::super::write(&super::super::parse(&xml, "t.xml").unwrap()).unwrap();
+        assert_eq!(load(&written).opt.solver.noslip, expected);
         assert_eq!(m.opt.contact_model, ContactModel::Smooth);
         let off = load(&model(
             r#"<option><flag constraint="disable"/></option>"#,
@@ -384,9 +398,9 @@ mod tests {
         assert!(!off.opt.contact && !off.opt.limits && !off.opt.solver.frictionloss);
         for (head, tail, expected) in [
             (
-                r#"<option noslip_iterations="3"/>"#,
+                r#"<option noslip_iterations="-3"/>"#,
                 "",
-                "noslip_iterations",
+                "noslip_iterations must be non-negative",
             ),
             (
                 r#"<option><flag override="enable"/></option>"#,

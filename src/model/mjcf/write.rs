@@ -24,7 +24,8 @@
 //!   and so on ([`SoftOptions::NAMES`]), which MuJoCo keeps and ignores.
 //!   The contact model is the custom text `diffosi:contact`; the constraint
 //!   model's settings are MuJoCo's own attributes (geom and joint solver
-//!   parameters, `cone`, `impratio`, `iterations`, flags, `<contact>`).
+//!   parameters, `cone`, `impratio`, `iterations`, the noslip settings, flags,
+//!   `<contact>`).
 //!
 //! - Sites are written with their pose, sensors that are computed with
 //!   their objects' names and cutoff.
@@ -43,8 +44,9 @@ use crate::model::params::inertia_to_six;
 use crate::model::{
     ActDynamics, Actuator, ActuatorQuantity, Bias, Body, Cone, ContactModel, EqualityKind,
     FrameObject, FrameQuantity, Gain, Geom, Integrator, Joint, JointKind, JointQuantity,
-    ModelError, Objects, Options, PassiveMode, SensorKind, Shape, SiteQuantity, SoftOptions,
-    SolParams, Spec, TendonQuantity, Transmission, Wrap, CCD_ITERATIONS, CCD_TOLERANCE,
+    ModelError, NoSlip, Objects, Options, PassiveMode, SensorKind, Shape, SiteQuantity,
+    SoftOptions, SolParams, Spec, TendonQuantity, Transmission, Wrap, CCD_ITERATIONS,
+    CCD_TOLERANCE,
 };
 
 /// Writes `spec` as an MJCF document, checked by reading and validating it.
@@ -184,6 +186,14 @@ fn write_options(doc: &mut Document, opt: &Options) -> Result<(), ModelError> {
             .text("ccd_iterations", &ccd.iterations.to_string())
             .number("ccd_tolerance", ccd.tolerance)
     };
+    let noslip = opt.solver.noslip;
+    let option = if noslip == NoSlip::default() {
+        option
+    } else {
+        option
+            .text("noslip_iterations", &noslip.iterations.to_string())
+            .number("noslip_tolerance", noslip.tolerance)
+    };
     if (opt.integrator, opt.passive) == (Integrator::Euler, PassiveMode::ImplicitDampingStiffness) {
         return Err(unwritable(
             "MuJoCo has no implicit joint stiffness (passive mode ImplicitDampingStiffness, \
@@ -287,7 +297,7 @@ fn joint_tag(j: &Joint) -> Tag {
         JointKind::Ball => "ball",
         JointKind::Free => "free",
     };
-    Tag::new("joint")
+    let tag = Tag::new("joint")
         .text("name", &j.name)
         .text("type", kind)
         .numbers("axis", j.axis.as_slice())
@@ -301,7 +311,11 @@ fn joint_tag(j: &Joint) -> Tag {
         .limits("limited", "range", j.range)
         .number("margin", j.margin)
         .sol("solreflimit", "solimplimit", &j.limit_sol)
-        .sol("solreffriction", "solimpfriction", &j.friction_sol)
+        .sol("solreffriction", "solimpfriction", &j.friction_sol);
+    match j.springdamper {
+        Some(s) => tag.numbers("springdamper", &s),
+        None => tag,
+    }
 }
 
 /// `diaginertia` for a diagonal tensor (it reads back exactly), else

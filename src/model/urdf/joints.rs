@@ -38,6 +38,7 @@ impl Reader<'_> {
             margin: 0.0,
             limit_sol: Default::default(),
             friction_sol: Default::default(),
+            springdamper: None,
         }))
     }
 
