@@ -382,7 +382,7 @@ mod tests {
             ("", r#"<joint name="j"/>"#, r#"<actuator><motor tendon="t"/></actuator>"#,
              "unknown tendon 't'"),
             ("", r#"<joint name="j"/>"#, r#"<actuator><motor site="s"/></actuator>"#,
-             "on a site"),
+             "unknown site 's'"),
             ("", r#"<joint name="j"/>"#,
              r#"<actuator><general joint="j" biastype="muscle"/></actuator>"#,
              "biastype \"muscle\""),
