@@ -208,7 +208,7 @@ pub fn idle_without_inputs(actuators: &[ActuatorTerm]) -> bool {
 
 impl ActuatorTerm {
     /// Its scalar force (MuJoCo's actuator_force) at length l, velocity
-    /// ld ([`Self::length`]), control c (before clamping) and activation a.
+    /// ld (the transmission's, [`transmissions`]), control c (before clamping) and activation a.
     pub fn scalar_force<T: Real>(&self, h: f64, (l, ld): (T, T), (c, a): (T, T)) -> T {
         let c = clamp(c, self.law.ctrl_range);
         self.force((l, ld), (c, a, self.rate(c, a)), h)

@@ -240,10 +240,10 @@ impl Joint {
 }
 
 /// MuJoCo's actuator on a hinge or slide joint, a tendon or a site
-/// ([`Transmission`]): on a joint or tendon its length is l = gear[0] x and
-/// its velocity l' = gear[0] x' (x the joint's coordinate or the tendon's
+/// ([`Transmission`]): on a joint or tendon its length is l = gear\[0\] x and
+/// its velocity l' = gear\[0\] x' (x the joint's coordinate or the tendon's
 /// length L(q), x' = dx/dt), its moment (the generalized force per unit
-/// force, nv) gear[0] dx/dq; on a site, gear is a wrench (force, torque) in
+/// force, nv) gear\[0\] dx/dq; on a site, gear is a wrench (force, torque) in
 /// the site's frame, or in the reference site's (mj_transmission's
 /// mjTRN_SITE: the length the site's position and rotation vector relative
 /// to the reference site, dotted with gear; the moment the relative
