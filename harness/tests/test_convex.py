@@ -16,12 +16,13 @@ import pytest
 import diffosi
 
 # The pairs, the worst difference from MuJoCo allowed (twice the one measured) and the
-# number of states that match to 1e-9 (measured, seed 7). A sphere or capsule against an
+# number of states that match to 1e-9 (measured, seed 7; the lower count where two machines
+# differ, as on capsule-ellipsoid, 23 and 22: rounding decides GJK's stopping test). A sphere or capsule against an
 # ellipsoid is GJK's distance of its centre or segment (GJK's 1e-6 tolerance); the others
 # are EPA's, ended by its 35-expansion budget.
 PAIRS = [
     (("sphere", "0.2", "ellipsoid", "0.1 0.2 0.3"), 5e-5, 38),
-    (("capsule", "0.1 0.3", "ellipsoid", "0.1 0.2 0.3"), 5e-5, 23),
+    (("capsule", "0.1 0.3", "ellipsoid", "0.1 0.2 0.3"), 5e-5, 22),
     (("ellipsoid", "0.2 0.1 0.3", "ellipsoid", "0.1 0.2 0.3"), 1.2e-2, 27),
     (("ellipsoid", "0.2 0.1 0.3", "cylinder", "0.1 0.2"), 2.5e-2, 30),
     (("ellipsoid", "0.2 0.1 0.3", "box", "0.1 0.2 0.15"), 1e-2, 34),

@@ -178,20 +178,26 @@ CONVEX = [
 ]
 
 
+def both_contacts(other, mesh, rng, tmp_path):
+    """A random near-touching state of the pair (near_touch), MuJoCo's mj_forward data there
+    and our contacts."""
+    xml, q = near_touch(other, mesh, rng)
+    m = mujoco.MjModel.from_xml_string(xml)
+    d = mujoco.MjData(m)
+    d.qpos[:] = q
+    mujoco.mj_forward(m, d)
+    path = tmp_path / "pair.xml"
+    path.write_text(xml)
+    return q, d, diffosi.Model.load(str(path)).contacts(q, np.zeros(m.nv))
+
+
 @pytest.mark.parametrize("other, mesh, bound, matched", CONVEX,
                          ids=[f"{o[0]}-{m}" for o, m, _, _ in CONVEX])
 def test_convex_mesh_contacts_are_mujocos(other, mesh, bound, matched, tmp_path):
     rng = np.random.default_rng(7)
     exact, worst = 0, 0.0
     for _ in range(STATES):
-        xml, q = near_touch(other, mesh, rng)
-        m = mujoco.MjModel.from_xml_string(xml)
-        d = mujoco.MjData(m)
-        d.qpos[:] = q
-        mujoco.mj_forward(m, d)
-        path = tmp_path / "pair.xml"
-        path.write_text(xml)
-        ours = diffosi.Model.load(str(path)).contacts(q, np.zeros(m.nv))
+        q, d, ours = both_contacts(other, mesh, rng, tmp_path)
         assert len(ours) == d.ncon == 1, (other, mesh, q)
         theirs, c = d.contact[0], ours[0]
         err = contact_error(c, theirs)
@@ -242,14 +248,7 @@ def test_multi_contact_mesh_pairs_are_mujocos(other, mesh, counted, matched, tmp
     rng = np.random.default_rng(7)
     same, exact = 0, 0
     for _ in range(STATES):
-        xml, q = near_touch(other, mesh, rng)
-        m = mujoco.MjModel.from_xml_string(xml)
-        d = mujoco.MjData(m)
-        d.qpos[:] = q
-        mujoco.mj_forward(m, d)
-        path = tmp_path / "pair.xml"
-        path.write_text(xml)
-        ours = diffosi.Model.load(str(path)).contacts(q, np.zeros(m.nv))
+        q, d, ours = both_contacts(other, mesh, rng, tmp_path)
         assert 1 <= len(ours) <= 4 and 1 <= d.ncon <= 4, (other, mesh, q)
         if len(ours) != d.ncon:
             continue

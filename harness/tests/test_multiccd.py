@@ -22,10 +22,12 @@ from harness.tests.test_convex import contact_error, forward, scene, unit
 
 # The pairs, the worst difference allowed (about twice the one measured: 0.12, 0.25, 0.27; a
 # pair of clipped contacts listed in the other order differs by the distance between them),
-# the number of states of 40 that match to 1e-9 (measured, seed 7: generic, then aligned) and
-# the number of generic states whose contact count differs from MuJoCo's.
+# the number of states of 40 that match to 1e-9 (measured, seed 7: generic, then aligned; the
+# lower count where two machines differ, as on cylinder-cylinder's aligned states, 29 and 28:
+# rounding decides which states take EPA's other path) and the number of generic states whose
+# contact count differs from MuJoCo's.
 PAIRS = [
-    (("cylinder", "0.1 0.2", "cylinder", "0.15 0.1"), 0.5, (34, 29), 0),
+    (("cylinder", "0.1 0.2", "cylinder", "0.15 0.1"), 0.5, (34, 28), 0),
     (("capsule", "0.1 0.3", "cylinder", "0.15 0.1"), 0.5, (27, 33), 0),
     (("cylinder", "0.1 0.2", "box", "0.1 0.2 0.15"), 0.5, (33, 34), 1),
 ]

@@ -93,6 +93,17 @@ struct Edges<T: Real> {
     ends: Vec<(Vector3<T>, Vector3<T>)>,
 }
 
+impl<T: Real> Edges<T> {
+    /// The edges from `start` to each of `ends`, with their unit directions.
+    fn from_ends(start: Vector3<T>, ends: Vec<Vector3<T>>) -> Self {
+        let ends = ends
+            .into_iter()
+            .map(|e| (normalize(e - start).0, e))
+            .collect();
+        Edges { start, ends }
+    }
+}
+
 /// The extra contacts of the pair (see the module documentation) from the
 /// simplex face and the witness points x1, x2; empty when the features are
 /// not aligned or the clipping leaves nothing (one contact stays).
@@ -359,11 +370,7 @@ fn edges<T: Real>(g: &Body<T>, f: &Feature<T>, w: Vector3<T>) -> Option<Edges<T>
                 1 => (0..3).map(|k| box_corner(g, f.index[0], Some(k))).collect(),
                 _ => return None,
             };
-            let ends = ends
-                .into_iter()
-                .map(|e| (normalize(e - start).0, e))
-                .collect();
-            Some(Edges { start, ends })
+            Some(Edges::from_ends(start, ends))
         }
         Shape::Cylinder { .. } if f.dim < 3 => {
             let bottom = f.index[0] != 0;
@@ -412,11 +419,7 @@ fn mesh_edges<T: Real>(g: &Body<T>, f: &Feature<T>) -> Option<Edges<T>> {
             .collect(),
         _ => return None,
     };
-    let ends = ends
-        .into_iter()
-        .map(|e| (normalize(e - start).0, e))
-        .collect();
-    Some(Edges { start, ends })
+    Some(Edges::from_ends(start, ends))
 }
 
 /// The corners of face k of a geom (MuJoCo's `box_face`, `cylinder_face`).
